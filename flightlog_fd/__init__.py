@@ -1,0 +1,17 @@
+"""flightlog-fd: offline propeller-fault diagnosis for multirotor flight logs.
+
+Data flows one way: log file -> :func:`load_flight` -> :class:`Flight` -> NIF/CF windows
+(:mod:`flightlog_fd.features`) -> ONNX model (:mod:`flightlog_fd.model`) -> per-window timeline
+-> verdict (:mod:`flightlog_fd.verdict`) -> report (:mod:`flightlog_fd.report`).
+"""
+__version__ = "0.1.0"
+
+from .flight import Flight, Frame, Rotor, Series  # noqa: E402,F401
+from .errors import FlightLogError  # noqa: E402,F401
+
+
+def load_flight(path):
+    """Read a PX4 ULog or ArduPilot DataFlash log (chosen by content) into a :class:`Flight`."""
+    from .logs import load_flight as _load
+
+    return _load(path)

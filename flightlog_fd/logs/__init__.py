@@ -1,0 +1,53 @@
+"""Log readers: one module per format; :func:`load_flight` picks one by the file's content.
+
+The extension is never trusted: a ULog starts with the magic bytes ``ULog\\x01\\x12\\x35``; a
+DataFlash binary log starts with a message header ``0xA3 0x95`` followed by the ``FMT`` message
+id 128 (0x80).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..errors import NotALogError
+from ..flight import Flight
+
+ULOG_MAGIC = b"ULog\x01\x12\x35"
+DATAFLASH_HEAD = b"\xa3\x95"
+DATAFLASH_FMT_ID = 0x80
+
+
+def sniff_format(path) -> str:
+    """Return ``"ulog"`` or ``"dataflash"`` from the file's first bytes, else raise NotALogError."""
+    p = Path(path)
+    if not p.exists():
+        raise NotALogError(path, "no such file")
+    if p.is_dir():
+        raise NotALogError(path, "is a folder, not a log file")
+    try:
+        size = os.path.getsize(p)
+        with open(p, "rb") as f:
+            head = f.read(16)
+    except OSError as e:
+        raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
+    if size == 0:
+        raise NotALogError(path, "empty file (0 bytes)")
+    if head.startswith(ULOG_MAGIC):
+        return "ulog"
+    if len(head) >= 3 and head[:2] == DATAFLASH_HEAD and head[2] == DATAFLASH_FMT_ID:
+        return "dataflash"
+    if head.startswith(b"ULog"):
+        return "ulog"  # unknown ULog version: let the reader say what is wrong
+    raise NotALogError(path, "not a PX4 ULog or ArduPilot DataFlash log (unrecognised header)")
+
+
+def load_flight(path) -> Flight:
+    """Read a log into a :class:`Flight`, choosing the parser by content, not extension."""
+    kind = sniff_format(path)
+    if kind == "ulog":
+        from .ulog import read_ulog
+
+        return read_ulog(path)
+    from .dataflash import read_dataflash
+
+    return read_dataflash(path)

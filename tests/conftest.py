@@ -1,0 +1,23 @@
+"""Shared test fixtures. Tests that read ../shared skip cleanly when it is absent."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+
+
+def shared_path(*parts: str) -> Path:
+    """Path inside ../shared; skips the calling test when it does not exist."""
+    p = SHARED.joinpath(*parts)
+    if not p.exists():
+        pytest.skip(f"../shared not available ({p})")
+    return p
+
+
+@pytest.fixture
+def shared():
+    """Callable fixture: ``shared('real_logs', 'px4', 'sample.ulg')``."""
+    return shared_path
