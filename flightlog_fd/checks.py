@@ -1,0 +1,131 @@
+"""Can this log be diagnosed? One plain verdict with the reasons when not.
+
+Inputs: a :class:`~flightlog_fd.flight.Flight` and optionally the model's feature spec (its rate
+and window length decide how much airborne time is needed).
+
+Rules (each failing rule adds one reason, in the order a pilot would fix them):
+- the vehicle is a quadrotor with a known 4-rotor layout (hexa, octo, fixed-wing, VTOL are named);
+- per-motor commands for 4 motors and body angular rates are present;
+- the rate streams are fast enough: angular rates >= ``MIN_RATES_HZ`` (the angular acceleration is a
+  derivative of them), motor commands >= ``MIN_MOTORS_HZ`` (PX4's default 10 Hz logging passes);
+- the log has at least ``MIN_AIRBORNE_S`` of airborne time and enough for ``MIN_WINDOWS`` windows.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .flight import Flight
+
+#: Below this the derivative of the gyro no longer resolves a quad's attitude dynamics (a few Hz).
+MIN_RATES_HZ = 15.0
+#: PX4's default logging profile writes actuator_motors at 10 Hz and ArduCopter RCOU at 10 Hz: both pass.
+MIN_MOTORS_HZ = 5.0
+#: A verdict from less than this is too easily swayed by one manoeuvre.
+MIN_AIRBORNE_S = 8.0
+#: The verdict needs several windows to smooth over (see verdict.py).
+MIN_WINDOWS = 3
+
+DEFAULT_RATE_HZ = 50.0
+DEFAULT_WINDOW = 80
+
+
+@dataclass
+class Diagnosability:
+    ok: bool
+    reasons: list[str] = field(default_factory=list)
+    facts: dict = field(default_factory=dict)
+
+    @property
+    def reason(self) -> str:
+        return "; ".join(self.reasons)
+
+
+def describe_vehicle(flight: Flight) -> str:
+    """Plain words for the vehicle: "quadrotor (quad_x)", "VTOL", "hexarotor"..."""
+    vt = (flight.vehicle_type or "unknown").replace("_", " ")
+    if flight.frame is not None and flight.frame.name:
+        return f"{vt} ({flight.frame.name}, {flight.frame.rotor_count} rotors)"
+    return vt
+
+
+def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
+    """Check everything the diagnosis needs; never raises for a loaded Flight."""
+    spec = spec or {}
+    rate_hz = float(spec.get("rate_hz", DEFAULT_RATE_HZ))
+    window = int(spec.get("window", DEFAULT_WINDOW))
+    reasons: list[str] = []
+    frame = flight.frame
+    is_quad = frame is not None and frame.is_quad
+    vtype = (flight.vehicle_type or "unknown").lower()
+    if vtype not in ("quadrotor", "unknown", "multirotor") or not is_quad:
+        if vtype in ("quadrotor", "unknown", "multirotor") and frame is not None and frame.rotor_count and frame.rotor_count != 4:
+            reasons.append(f"not a quadrotor: {frame.rotor_count}-rotor frame ({frame.name}); fdlog diagnoses quadrotors only")
+        elif vtype not in ("quadrotor", "unknown", "multirotor"):
+            reasons.append(f"not a quadrotor: vehicle is a {describe_vehicle(flight)}; fdlog diagnoses quadrotors only")
+        elif frame is None:
+            reasons.append("unknown frame: the log has no rotor geometry or frame parameters")
+        else:
+            reasons.append(f"unsupported frame {frame.name!r}; fdlog diagnoses quad-X and quad-+ frames")
+    if flight.motors is None:
+        reasons.append("no per-motor outputs in the log (actuator_motors / actuator_outputs / RCOU)")
+    elif flight.motors.values.shape[1] < 4:
+        reasons.append(f"only {flight.motors.values.shape[1]} motor outputs in the log, need 4")
+    elif flight.motors.rate_hz < MIN_MOTORS_HZ:
+        reasons.append(f"motor outputs logged at {flight.motors.rate_hz:.1f} Hz, need >= {MIN_MOTORS_HZ:.0f} Hz")
+    if flight.rates is None:
+        reasons.append("no angular rates in the log (gyro / vehicle_angular_velocity / RATE)")
+    elif flight.rates.rate_hz < MIN_RATES_HZ:
+        reasons.append(f"angular rates logged at {flight.rates.rate_hz:.1f} Hz, need >= {MIN_RATES_HZ:.0f} Hz")
+    need_s = max(MIN_AIRBORNE_S, (window + (MIN_WINDOWS - 1) * window / 2) / rate_hz)
+    airborne = flight.airborne_s
+    if not flight.airborne:
+        reasons.append("the vehicle never flew in this log (no airborne time)")
+    elif airborne < need_s:
+        reasons.append(f"only {airborne:.1f} s airborne, need at least {need_s:.0f} s")
+    facts = {
+        "vehicle": describe_vehicle(flight),
+        "airborne_s": round(airborne, 2),
+        "needed_airborne_s": round(need_s, 1),
+        "rates_hz": round(flight.rates.rate_hz, 1) if flight.rates is not None else None,
+        "motors_hz": round(flight.motors.rate_hz, 1) if flight.motors is not None else None,
+    }
+    return Diagnosability(not reasons, reasons, facts)
+
+
+def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
+    """Everything `fdlog info` shows, as a JSON-safe dict."""
+    d = diagnosability(flight, spec)
+    frame = flight.frame
+    return {
+        "log": flight.path,
+        "autopilot": flight.autopilot,
+        "firmware": flight.firmware,
+        "vehicle_type": flight.vehicle_type,
+        "vehicle_id": flight.vehicle_id,
+        "frame": None if frame is None else {
+            "name": frame.name,
+            "rotor_count": frame.rotor_count,
+            "source": frame.source,
+            "motors": [
+                {"motor": i + 1, "position": frame.position(i + 1), "x": r.x, "y": r.y,
+                 "spin": "CCW" if r.spin > 0 else "CW"}
+                for i, r in enumerate(frame.rotors)
+            ],
+        },
+        "t_start": round(flight.t_start, 6),
+        "t_end": round(flight.t_end, 6),
+        "duration_s": round(flight.duration_s, 3),
+        "armed": [[round(a, 3), round(b, 3)] for a, b in flight.armed],
+        "airborne": [[round(a, 3), round(b, 3)] for a, b in flight.airborne],
+        "airborne_s": round(flight.airborne_s, 3),
+        "airborne_source": flight.airborne_source,
+        "motor_kind": flight.motor_kind,
+        "thrust_curve": flight.thrust_curve,
+        "streams": [
+            {"name": s.name, "source": s.source, "rate_hz": round(s.rate_hz, 2), "samples": s.samples}
+            for s in flight.streams()
+        ],
+        "diagnosable": d.ok,
+        "reasons": d.reasons,
+        "warnings": list(flight.warnings),
+    }

@@ -1,0 +1,41 @@
+"""Terminal text for `fdlog info` (input: the dict from :func:`flightlog_fd.checks.describe_flight`)."""
+from __future__ import annotations
+
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+
+def print_info(console: Console, d: dict) -> None:
+    """Print one log's description; every string from the log is escaped for rich markup."""
+    verdict = "[green]diagnosable[/green]" if d["diagnosable"] else (
+        "[red]not diagnosable[/red]: " + escape("; ".join(d["reasons"])))
+    console.print(f"[bold]{escape(str(d['log']))}[/bold]")
+    frame = d.get("frame") or {}
+    console.print(f"  autopilot  {escape(d['autopilot'])}  firmware {escape(d['firmware'] or '?')}")
+    console.print(f"  vehicle    {escape(str(d['vehicle_type']))}"
+                  + (f"  id {escape(str(d['vehicle_id']))}" if d.get("vehicle_id") else ""))
+    if frame:
+        motors = ", ".join(f"{m['motor']} {m['position']} {m['spin']}" for m in frame.get("motors", []))
+        console.print(f"  frame      {escape(frame['name'])} ({frame['rotor_count']} rotors; {escape(motors)})"
+                      f"  [dim]from {escape(frame.get('source') or '?')}[/dim]")
+    else:
+        console.print("  frame      unknown")
+    console.print(f"  duration   {d['duration_s']:.1f} s  (t={d['t_start']:.2f}..{d['t_end']:.2f} s on the log clock)")
+    console.print(f"  airborne   {d['airborne_s']:.1f} s in {len(d['airborne'])} interval(s)"
+                  f"  [dim]from {escape(d.get('airborne_source') or '?')}[/dim]")
+    tc = d.get("thrust_curve")
+    console.print(f"  motors are {escape(d['motor_kind'])} commands"
+                  + (f", thrust curve {tc:g}" if tc is not None else ""))
+    t = Table(show_header=True, header_style="bold", box=None, pad_edge=False)
+    t.add_column("stream")
+    t.add_column("source")
+    t.add_column("rate", justify="right")
+    t.add_column("samples", justify="right")
+    for s in d["streams"]:
+        t.add_row(escape(s["name"]), escape(s["source"]), f"{s['rate_hz']:.1f} Hz", str(s["samples"]))
+    console.print(t)
+    for w in d.get("warnings", []):
+        console.print(f"  [yellow]warning[/yellow] {escape(w)}")
+    console.print(f"  verdict    {verdict}")
+    console.print()
