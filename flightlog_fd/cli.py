@@ -26,6 +26,14 @@ app = typer.Typer(
 EXIT_OK, EXIT_DAMAGE, EXIT_INVALID = 0, 1, 2
 
 
+@app.callback()
+def _root() -> None:
+    """Offline propeller-fault diagnosis for multirotor flight logs (PX4 ULog, ArduPilot DataFlash).
+
+    Exit codes: 0 healthy, 1 damage found or uncertain, 2 invalid input or not diagnosable.
+    """
+
+
 def _console(stderr: bool = False) -> Console:
     return Console(stderr=stderr, highlight=False, soft_wrap=True)
 
