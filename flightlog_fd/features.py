@@ -1,0 +1,610 @@
+"""NIF / CF input windows from a :class:`~flightlog_fd.flight.Flight` - one code path for
+simulated flights and parsed logs.
+
+Pipeline (every step documented where it is implemented):
+
+1. :func:`resample` puts the needed streams on ONE uniform time grid at the model rate
+   (``FeatureSpec.rate_hz``, default 50 Hz), only inside the airborne intervals, trimmed by
+   ``trim_s`` (default 1 s) after take-off and before landing (ground effect, spin-up and
+   touchdown transients are not what the model was trained on). Grid points are integer
+   multiples of ``1 / rate_hz`` on the log's clock, so the same log always gives the same grid.
+   - **Gaps**: a stream has a gap between two consecutive samples when they are further apart
+     than ``min(max_gap_s, GAP_FACTOR x its median sample interval)``. No value is ever
+     interpolated across a gap in ANY needed stream: the airborne interval is split there into
+     separate :class:`Segment` s, and no window crosses a segment boundary. NaN samples count as
+     missing (they create gaps).
+   - **Slow streams** (PX4's default ``actuator_motors`` at 10 Hz, ArduPilot ``RCOU`` at 10 Hz)
+     are interpolated linearly onto the faster grid. Consequence: the motor channels are a
+     piecewise-linear curve through the logged points; nothing above the stream's Nyquist
+     frequency (5 Hz at 10 Hz) survives, a motor step appears as a ramp lasting one logging
+     interval, and an 80-sample window holds only 16 independent motor samples. A model meant
+     for such logs must be trained on simulated flights logged at the same rate (the logger
+     emulation does this); the damage signature (a persistent offset of one motor's share) is
+     slow and survives.
+2. **Angular acceleration** (p_dot, q_dot, r_dot, rad/s^2): a Savitzky-Golay derivative
+   (``scipy.signal.savgol_filter``, ``polyorder`` 2, ``deriv=1``) over ``savgol_window_s``
+   (default 0.1 s). Why: a plain finite difference multiplies gyro noise by ~sqrt(2)/dt
+   (at 250 Hz, 6 deg/s of noise becomes ~37 rad/s^2); a local least-squares slope over 0.1 s
+   cuts the noise gain by ~1/sqrt(N^3) while keeping amplitude and phase of the slow dynamics
+   (< 1 % amplitude error at 1 Hz, ~3.5 % at 2 Hz, zero phase: the filter is symmetric).
+   Because the window is fixed in SECONDS, a 50 Hz log and a 250 Hz log see almost the same
+   frequency response. Where the gyro is logged faster than the grid, the derivative is taken
+   on a fine uniform grid at ``k x rate_hz`` (k = round(gyro rate / grid rate), <= 8) before
+   decimation, so the extra samples reduce noise instead of aliasing into the windows; the
+   rates themselves are smoothed by the same filter with ``deriv=0`` (an anti-alias filter
+   with the same window). When the gyro is not faster, k = 1 and the same code runs on the
+   grid itself.
+3. **Thrust proxy** (:func:`thrust_proxy`): the paper's w^2 "stands for thrust"; the commanded
+   speed replaces the measured speed. ``motor_kind == "thrust"``: the setpoint is linear in
+   thrust and used as it is. ``"signal"`` (PWM after the autopilot's thrust curve) is mapped
+   back through the curve (sources in :func:`thrust_proxy`). ``FeatureSpec.speed_source``
+   chooses ``"command"`` (default: every log has it, and the simulator makes the same thing, so
+   training and diagnosis agree), ``"esc_rpm"`` or ``"auto"`` (ESC rpm^2 / max rpm^2 where the log
+   has rpm at >= rate_hz / 2 for all four motors). :attr:`Windows.speed_source` says which was used.
+4. **Scale-free transform** (``FeatureSpec.transform == "scale_free"``, the default) so that a
+   30 g and a 5 kg quadrotor look alike: the motor channels are divided by the window's mean
+   over all four motors and all samples (each becomes a thrust share ~1; the damaged motor's
+   share is > 1), and the angular accelerations (CF: the angular rates) by a per-flight robust
+   scale, 1.4826 x MAD over all the flight's airborne grid samples of that axis, floored at
+   ``ANG_ACC_SCALE_FLOOR`` (``RATE_SCALE_FLOOR``) so that a near-noiseless simulated hover does
+   not blow up. Attitude angles are already scale-free. ``"raw"`` keeps the paper's units
+   (rad/s^2, thrust 0..1). The per-channel standardisation (mean/std fitted on training windows)
+   is applied afterwards by :meth:`FeatureSpec.normalise`.
+5. :func:`make_windows` cuts each segment into windows of ``window`` samples (T = 80, 1.6 s at
+   50 Hz) every ``stride`` samples (default 40) with ``numpy.lib.stride_tricks.sliding_window_view``.
+
+Channel order: NIF ``p_dot, q_dot, r_dot, w1_sq, w2_sq, w3_sq, w4_sq``; CF ``roll, pitch, p, q,
+r, w1, w2, w3, w4`` (w = sqrt of the thrust proxy). Motor k is column k-1 (autopilot numbering).
+
+Limits: quadrotors only (4 motor columns). Windows carry no label; :func:`window_labels` gives
+them from ``Flight.truth``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from scipy.signal import savgol_filter
+
+from .errors import MissingDataError, NotDiagnosableError, UnsupportedVehicleError
+from .flight import Flight, Series
+
+#: Version of the feature definition; bump when a change alters the numbers a model sees.
+FEATURE_VERSION = 1
+
+#: Model grid rate (Hz), window length (samples) and stride (samples) - the paper's T = 80.
+DEFAULT_RATE_HZ = 50.0
+DEFAULT_WINDOW = 80
+DEFAULT_STRIDE = 40
+
+#: Seconds cut after take-off and before landing: ground effect and spin-up / touchdown transients.
+DEFAULT_TRIM_S = 1.0
+#: A gap is a sample interval longer than GAP_FACTOR x the stream's median interval (i.e. at
+#: least ~2-3 samples lost) or longer than max_gap_s, whichever is shorter.
+GAP_FACTOR = 3.5
+DEFAULT_MAX_GAP_S = 0.5
+
+#: Savitzky-Golay window (seconds) and polynomial order for the derivative and rate smoothing.
+DEFAULT_SAVGOL_WINDOW_S = 0.1
+SAVGOL_POLYORDER = 2
+#: Fewest points a Savitzky-Golay window may have (polyorder 2 needs 3; 5 gives some smoothing).
+SAVGOL_MIN_POINTS = 5
+#: The fine derivative grid is at most this many times the model rate (1 kHz gyro -> 400 Hz).
+MAX_FINE_FACTOR = 8
+
+#: Robust-scale floors (rad/s^2 and rad/s): a noiseless simulated flight must not divide by ~0.
+ANG_ACC_SCALE_FLOOR = 0.05
+RATE_SCALE_FLOOR = 0.01
+#: 1.4826 x MAD estimates the standard deviation of Gaussian data.
+MAD_TO_STD = 1.4826
+#: Standard-deviation floor in FeatureSpec.fit (a constant channel must not divide by 0).
+STD_FLOOR = 1e-6
+#: Window mean thrust below which the share is not defined (motors stopped).
+MIN_MEAN_THRUST = 1e-6
+
+#: ArduPilot defaults used when a log lacks the parameter (AP_Motors_Thrust_Linearization.cpp).
+ARDUPILOT_DEFAULT_SPIN_MIN = 0.15
+ARDUPILOT_DEFAULT_SPIN_MAX = 0.95
+ARDUPILOT_DEFAULT_THST_EXPO = 0.65
+#: ESC rpm is used ("auto") only when at least this fraction of airborne samples is non-zero.
+ESC_RPM_MIN_VALID_FRACTION = 0.9
+
+NIF_CHANNELS = ("p_dot", "q_dot", "r_dot", "w1_sq", "w2_sq", "w3_sq", "w4_sq")
+CF_CHANNELS = ("roll", "pitch", "p", "q", "r", "w1", "w2", "w3", "w4")
+TRANSFORMS = ("scale_free", "raw")
+SPEED_SOURCES = ("command", "esc_rpm", "auto")
+
+
+@dataclass
+class FeatureSpec:
+    """How windows are built: everything a model file needs to rebuild its input.
+
+    ``mean`` / ``std`` are per-channel standardisation statistics, ``None`` until :meth:`fit`.
+    """
+
+    features: str = "nif"  # "nif" | "cf"
+    rate_hz: float = DEFAULT_RATE_HZ
+    window: int = DEFAULT_WINDOW
+    stride: int = DEFAULT_STRIDE
+    channels: tuple[str, ...] = ()
+    transform: str = "scale_free"  # "scale_free" | "raw"
+    speed_source: str = "command"  # "command" | "esc_rpm" | "auto"
+    trim_s: float = DEFAULT_TRIM_S
+    max_gap_s: float = DEFAULT_MAX_GAP_S
+    savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S
+    mean: Optional[np.ndarray] = None
+    std: Optional[np.ndarray] = None
+    version: int = FEATURE_VERSION
+
+    def __post_init__(self) -> None:
+        if self.features not in ("nif", "cf"):
+            raise ValueError(f"features must be 'nif' or 'cf', not {self.features!r}")
+        expected = NIF_CHANNELS if self.features == "nif" else CF_CHANNELS
+        if not self.channels:
+            self.channels = expected
+        self.channels = tuple(self.channels)
+        if self.channels != expected:
+            raise ValueError(f"{self.features} channels must be {expected}, not {self.channels}")
+        if self.transform not in TRANSFORMS:
+            raise ValueError(f"transform must be one of {TRANSFORMS}, not {self.transform!r}")
+        if self.speed_source not in SPEED_SOURCES:
+            raise ValueError(f"speed_source must be one of {SPEED_SOURCES}, not {self.speed_source!r}")
+        if not (self.rate_hz > 0 and self.window >= 2 and self.stride >= 1):
+            raise ValueError(f"bad rate/window/stride: {self.rate_hz}, {self.window}, {self.stride}")
+        if self.version != FEATURE_VERSION:
+            raise ValueError(f"feature version {self.version} is not supported (this is {FEATURE_VERSION})")
+        self.rate_hz = float(self.rate_hz)
+        self.window = int(self.window)
+        self.stride = int(self.stride)
+        for name in ("mean", "std"):
+            v = getattr(self, name)
+            if v is not None:
+                v = np.asarray(v, dtype=np.float64).reshape(-1)
+                if v.shape[0] != len(self.channels) or not np.all(np.isfinite(v)):
+                    raise ValueError(f"{name} must be {len(self.channels)} finite numbers")
+                setattr(self, name, v)
+        if self.std is not None and np.any(self.std <= 0):
+            raise ValueError("std must be positive")
+        if (self.mean is None) != (self.std is None):
+            raise ValueError("mean and std must both be set or both be None")
+
+    @property
+    def n_channels(self) -> int:
+        return len(self.channels)
+
+    @property
+    def fitted(self) -> bool:
+        return self.mean is not None and self.std is not None
+
+    @property
+    def window_s(self) -> float:
+        """Duration covered by one window's samples (seconds)."""
+        return (self.window - 1) / self.rate_hz
+
+    def fit(self, X: np.ndarray) -> "FeatureSpec":
+        """Fit per-channel mean/std on windows ``X`` (N, C, T); returns self."""
+        X = np.asarray(X, dtype=np.float64)
+        if X.ndim != 3 or X.shape[1] != self.n_channels or X.shape[0] == 0:
+            raise ValueError(f"fit needs windows (N>0, {self.n_channels}, T), got {X.shape}")
+        self.mean = X.mean(axis=(0, 2))
+        self.std = np.maximum(X.std(axis=(0, 2)), STD_FLOOR)
+        return self
+
+    def normalise(self, X: np.ndarray) -> np.ndarray:
+        """Standardise windows ``X`` (N, C, T) with the fitted statistics (float32)."""
+        if not self.fitted:
+            raise ValueError("FeatureSpec is not fitted: call fit() on training windows first")
+        X = np.asarray(X)
+        if X.ndim != 3 or X.shape[1] != self.n_channels:
+            raise ValueError(f"normalise needs windows (N, {self.n_channels}, T), got {X.shape}")
+        out = (X - self.mean[None, :, None]) / self.std[None, :, None]
+        return out.astype(np.float32)
+
+    def to_dict(self) -> dict:
+        """JSON-safe dict (stored in ONNX metadata and profiles)."""
+        return {
+            "features": self.features,
+            "rate_hz": self.rate_hz,
+            "window": self.window,
+            "stride": self.stride,
+            "channels": list(self.channels),
+            "transform": self.transform,
+            "speed_source": self.speed_source,
+            "trim_s": self.trim_s,
+            "max_gap_s": self.max_gap_s,
+            "savgol_window_s": self.savgol_window_s,
+            "mean": None if self.mean is None else [float(x) for x in self.mean],
+            "std": None if self.std is None else [float(x) for x in self.std],
+            "version": self.version,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "FeatureSpec":
+        """Inverse of :meth:`to_dict`; raises ValueError on a malformed dict."""
+        if not isinstance(d, dict):
+            raise ValueError(f"feature spec must be a dict, not {type(d).__name__}")
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"unknown feature spec keys: {sorted(unknown)}")
+        kw = dict(d)
+        if "channels" in kw and kw["channels"] is not None:
+            kw["channels"] = tuple(kw["channels"])
+        try:
+            return cls(**kw)
+        except TypeError as e:  # wrong value types
+            raise ValueError(f"bad feature spec: {e}") from None
+
+
+@dataclass
+class Segment:
+    """A gap-free stretch of airborne flight on the model grid (n samples)."""
+
+    t: np.ndarray  # (n,) s, log clock
+    rates: np.ndarray  # (n, 3) p, q, r rad/s (Savitzky-Golay smoothed)
+    attitude: np.ndarray  # (n, 2) roll, pitch rad (NaN when the log has no attitude)
+    motors: np.ndarray  # (n, 4) commands 0..1 as logged
+    w_sq: np.ndarray  # (n, 4) thrust proxy (see thrust_proxy)
+    ang_acc: np.ndarray  # (n, 3) rad/s^2
+    speed_source: str = "command"
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0]) if len(self) else 0.0
+
+
+@dataclass
+class Windows:
+    """Input windows of one flight, before standardisation.
+
+    ``X`` (N, C, T) float32; ``t_start`` / ``t_end`` (N,) times of the first and last sample of
+    each window on the log's clock; ``segment`` (N,) index of the segment it came from.
+    ``reason`` says why there are none when N == 0.
+    """
+
+    X: np.ndarray
+    t_start: np.ndarray
+    t_end: np.ndarray
+    segment: np.ndarray
+    spec: FeatureSpec
+    speed_source: str = "command"
+    n_segments: int = 0
+    segment_s: float = 0.0  # total duration of usable segments
+    reason: str = ""
+    scales: dict = field(default_factory=dict)  # per-flight robust scales used (scale_free)
+
+    def __len__(self) -> int:
+        return int(self.X.shape[0])
+
+
+# ----------------------------------------------------------------------------- thrust proxy
+
+def thrust_proxy(motors: np.ndarray, motor_kind: str, thrust_curve: Optional[float] = None,
+                 autopilot: str = "px4", spin_min: Optional[float] = None,
+                 spin_max: Optional[float] = None) -> np.ndarray:
+    """Relative thrust (0..1, linear in thrust, i.e. ~ w^2) from normalised motor commands.
+
+    - ``motor_kind == "thrust"``: a thrust setpoint (PX4 ``actuator_motors``, ArduPilot mixer
+      reconstruction, simulator) is already linear in thrust: returned as it is (clipped >= 0).
+    - ``motor_kind == "signal"``, PX4 (``actuator_outputs`` normalised between PWM min and max):
+      PX4 ``FunctionMotors`` / ``THR_MDL_FAC`` (src/lib/mixer_module/motor_params.c) models
+      ``rel_thrust = f * u^2 + (1 - f) * u`` with u the relative signal; applied as is.
+    - ``motor_kind == "signal"``, ArduPilot (``RCOU`` normalised between MOT_PWM_MIN and MAX):
+      ``Thrust_Linearization::thrust_to_actuator`` (AP_Motors_Thrust_Linearization.cpp) outputs
+      ``u = spin_min + (spin_max - spin_min) * x`` where x solves ``e x^2 + (1-e) x = thrust``
+      (e = MOT_THST_EXPO), so ``x = (u - spin_min) / (spin_max - spin_min)`` clipped to 0..1 and
+      ``thrust = e x^2 + (1 - e) x``. ArduPilot's battery-voltage scaling (lift_max) is not undone:
+      it scales all four motors alike, which the scale-free transform cancels.
+    ``thrust_curve`` None means 0 for PX4 (its default) and 0.65 for ArduPilot (its default).
+    """
+    u = np.asarray(motors, dtype=np.float64)
+    if motor_kind == "thrust":
+        return np.clip(u, 0.0, None)
+    if motor_kind != "signal":
+        raise ValueError(f"motor_kind must be 'thrust' or 'signal', not {motor_kind!r}")
+    if autopilot == "ardupilot":
+        e = ARDUPILOT_DEFAULT_THST_EXPO if thrust_curve is None else float(thrust_curve)
+        lo = ARDUPILOT_DEFAULT_SPIN_MIN if spin_min is None else float(spin_min)
+        hi = ARDUPILOT_DEFAULT_SPIN_MAX if spin_max is None else float(spin_max)
+        x = np.clip((u - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
+    else:
+        e = 0.0 if thrust_curve is None else float(thrust_curve)
+        x = np.clip(u, 0.0, 1.0)
+    e = float(np.clip(e, -1.0, 1.0))
+    return e * x * x + (1.0 - e) * x
+
+
+def flight_thrust_proxy(flight: Flight, values: Optional[np.ndarray] = None) -> np.ndarray:
+    """:func:`thrust_proxy` of ``values`` (default ``flight.motors.values``) with the flight's
+    motor kind, thrust curve and (ArduPilot) MOT_SPIN_MIN / MOT_SPIN_MAX parameters."""
+    if values is None:
+        if flight.motors is None:
+            raise MissingDataError(flight.path, "no motor outputs in this log")
+        values = flight.motors.values
+    return thrust_proxy(values, flight.motor_kind, flight.thrust_curve, flight.autopilot,
+                        flight.params.get("MOT_SPIN_MIN"), flight.params.get("MOT_SPIN_MAX"))
+
+
+# ----------------------------------------------------------------------------- resampling
+
+@dataclass
+class _Stream:
+    """A cleaned stream: sorted, unique, NaN-free times with its gap threshold."""
+
+    t: np.ndarray
+    v: np.ndarray
+    gap_s: float
+
+    @property
+    def rate_hz(self) -> float:
+        return 0.0 if len(self.t) < 2 else float(1.0 / np.median(np.diff(self.t)))
+
+    def valid_at(self, tg: np.ndarray) -> np.ndarray:
+        """True where ``tg`` lies between two samples that are not separated by a gap."""
+        if len(self.t) < 2:
+            return np.zeros(tg.shape, dtype=bool)
+        i = np.searchsorted(self.t, tg, side="right") - 1
+        inside = (i >= 0) & (tg <= self.t[-1])
+        i = np.clip(i, 0, len(self.t) - 2)
+        ok = np.diff(self.t)[i] <= self.gap_s
+        return inside & ok
+
+    def interp(self, tg: np.ndarray) -> np.ndarray:
+        out = np.empty((tg.shape[0], self.v.shape[1]))
+        for k in range(self.v.shape[1]):
+            out[:, k] = np.interp(tg, self.t, self.v[:, k])
+        return out
+
+
+def _clean(series: Series, max_gap_s: float, columns: int) -> _Stream:
+    t = series.t
+    v = series.values[:, :columns]
+    keep = np.isfinite(t) & np.all(np.isfinite(v), axis=1)
+    t, v = t[keep], v[keep]
+    if t.size > 1 and np.any(np.diff(t) <= 0):
+        order = np.argsort(t, kind="stable")
+        t, v = t[order], v[order]
+        t, first = np.unique(t, return_index=True)
+        v = v[first]
+    if t.size > 1:
+        gap = min(max_gap_s, GAP_FACTOR * float(np.median(np.diff(t))))
+    else:
+        gap = 0.0
+    return _Stream(t, v, gap)
+
+
+def _odd_window(seconds: float, rate_hz: float) -> int:
+    n = int(round(seconds * rate_hz))
+    if n % 2 == 0:
+        n += 1
+    return max(n, SAVGOL_MIN_POINTS)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) index pairs of the True runs of a boolean array."""
+    if mask.size == 0:
+        return []
+    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts = np.flatnonzero(d == 1)
+    stops = np.flatnonzero(d == -1)
+    return list(zip(starts.tolist(), stops.tolist()))
+
+
+def _speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: float) -> tuple[_Stream, str]:
+    """The thrust-proxy stream (n, 4) and which source it came from."""
+    use_rpm = False
+    if speed_source in ("esc_rpm", "auto") and flight.esc_rpm is not None and flight.esc_rpm.values.shape[1] >= 4:
+        rpm = flight.esc_rpm
+        airborne = np.zeros(len(rpm), dtype=bool)
+        for a, b in flight.airborne:
+            airborne |= (rpm.t >= a) & (rpm.t <= b)
+        vals = rpm.values[airborne, :4]
+        valid_fraction = float(np.mean(np.all(vals > 0, axis=1))) if vals.size else 0.0
+        use_rpm = rpm.rate_hz >= rate_hz / 2.0 and valid_fraction >= ESC_RPM_MIN_VALID_FRACTION
+    if speed_source == "esc_rpm" and not use_rpm:
+        raise MissingDataError(flight.path, "speed_source 'esc_rpm' asked for, but the log has no usable ESC rpm "
+                                            f"(needs 4 motors at >= {rate_hz / 2:g} Hz, non-zero in flight)")
+    if use_rpm:
+        rpm = flight.esc_rpm.values[:, :4].astype(np.float64)
+        rpm = np.where(rpm > 0, rpm, np.nan)  # telemetry dropouts read as 0: treat as missing
+        top = np.nanmax(rpm) if np.any(np.isfinite(rpm)) else 1.0
+        s = _clean(Series(flight.esc_rpm.t, (rpm / top) ** 2, flight.esc_rpm.source), max_gap_s, 4)
+        return s, "esc_rpm"
+    m = flight.motors
+    s = _clean(Series(m.t, flight_thrust_proxy(flight, m.values[:, :4]), m.source), max_gap_s, 4)
+    return s, "command"
+
+
+def _check_streams(flight: Flight, need_attitude: bool) -> None:
+    if flight.frame is not None and flight.frame.rotor_count and not flight.frame.is_quad:
+        raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; this log is a {flight.frame.name} "
+                                                   f"with {flight.frame.rotor_count} rotors")
+    if flight.rates is None or len(flight.rates) < 2:
+        raise MissingDataError(flight.path, "no angular-rate stream in this log")
+    if flight.motors is None or len(flight.motors) < 2:
+        raise MissingDataError(flight.path, "no motor output stream in this log")
+    if flight.motors.values.shape[1] != 4:
+        raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; the log has "
+                                                   f"{flight.motors.values.shape[1]} motor outputs")
+    if need_attitude and (flight.attitude is None or len(flight.attitude) < 2):
+        raise MissingDataError(flight.path, "no attitude stream in this log (the CF features need roll and pitch)")
+
+
+def resample(flight: Flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float = DEFAULT_MAX_GAP_S,
+             trim_s: float = DEFAULT_TRIM_S, savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S,
+             need_attitude: bool = False, speed_source: str = "command") -> list[Segment]:
+    """Gap-free airborne :class:`Segment` s on a uniform grid at ``rate_hz`` (see module docstring).
+
+    Needed streams: rates, motors (or ESC rpm) and, if ``need_attitude``, attitude; a gap in any
+    of them splits the segment. Raises MissingDataError / UnsupportedVehicleError when a needed
+    stream is absent or the vehicle is not a quadrotor; returns [] when nothing is airborne.
+    """
+    _check_streams(flight, need_attitude)
+    rates = _clean(flight.rates, max_gap_s, 3)
+    speed, source = _speed_stream(flight, speed_source, rate_hz, max_gap_s)
+    motors = _clean(flight.motors, max_gap_s, 4)
+    attitude = None
+    if flight.attitude is not None and len(flight.attitude) >= 2:
+        attitude = _clean(flight.attitude, max_gap_s, 2)
+        # Unwrap (after NaNs are gone) so interpolation between +179 and -179 deg avoids 0.
+        attitude.v = np.unwrap(attitude.v, axis=0)
+    needed = [rates, speed, motors] + ([attitude] if need_attitude else [])
+
+    # Fine grid for the derivative: an integer multiple of the model rate, so that every model
+    # grid point is a fine grid point (index divisible by k).
+    k = int(min(MAX_FINE_FACTOR, max(1, round(rates.rate_hz / rate_hz)))) if rates.rate_hz > 0 else 1
+    fine_hz = rate_hz * k
+    n_sg = _odd_window(savgol_window_s, fine_hz)
+
+    segments: list[Segment] = []
+    for a, b in sorted(flight.airborne):
+        t0, t1 = a + trim_s, b - trim_s
+        if t1 <= t0:
+            continue
+        j = np.arange(math.ceil(t0 * fine_hz - 1e-6), math.floor(t1 * fine_hz + 1e-6) + 1)
+        if j.size == 0:
+            continue
+        tf = j / fine_hz
+        ok = np.ones(tf.shape, dtype=bool)
+        for s in needed:
+            ok &= s.valid_at(tf)
+        for lo, hi in _runs(ok):
+            if hi - lo < n_sg:
+                continue
+            tf_run, j_run = tf[lo:hi], j[lo:hi]
+            w_fine = rates.interp(tf_run)
+            dt = 1.0 / fine_hz
+            smooth = savgol_filter(w_fine, n_sg, SAVGOL_POLYORDER, deriv=0, axis=0)
+            dwdt = savgol_filter(w_fine, n_sg, SAVGOL_POLYORDER, deriv=1, delta=dt, axis=0)
+            on_grid = (j_run % k) == 0
+            if np.count_nonzero(on_grid) < 2:
+                continue
+            tg = j_run[on_grid] / fine_hz
+            att = (attitude.interp(tg) if attitude is not None else np.full((tg.size, 2), np.nan))
+            att = (att + np.pi) % (2 * np.pi) - np.pi
+            segments.append(Segment(t=tg, rates=smooth[on_grid], attitude=att, motors=motors.interp(tg),
+                                    w_sq=speed.interp(tg), ang_acc=dwdt[on_grid], speed_source=source))
+    return segments
+
+
+# ----------------------------------------------------------------------------- windows
+
+def robust_scale(x: np.ndarray, floor: float) -> np.ndarray:
+    """Per-column 1.4826 x median absolute deviation, floored."""
+    x = np.asarray(x, dtype=np.float64)
+    if x.shape[0] == 0:
+        return np.full(x.shape[1], floor)
+    med = np.median(x, axis=0)
+    return np.maximum(MAD_TO_STD * np.median(np.abs(x - med), axis=0), floor)
+
+
+def _segment_matrix(seg: Segment, spec: FeatureSpec, scales: dict) -> np.ndarray:
+    """(n, C) channel matrix of one segment, with the per-flight part of the transform."""
+    if spec.features == "nif":
+        acc = seg.ang_acc / scales["ang_acc"] if spec.transform == "scale_free" else seg.ang_acc
+        return np.concatenate([acc, seg.w_sq], axis=1)
+    rates = seg.rates / scales["rates"] if spec.transform == "scale_free" else seg.rates
+    return np.concatenate([seg.attitude, rates, np.sqrt(np.clip(seg.w_sq, 0.0, None))], axis=1)
+
+
+def _empty_windows(spec: FeatureSpec, source: str, reason: str, n_segments: int = 0,
+                   segment_s: float = 0.0) -> Windows:
+    return Windows(X=np.zeros((0, spec.n_channels, spec.window), np.float32), t_start=np.zeros(0),
+                   t_end=np.zeros(0), segment=np.zeros(0, dtype=int), spec=spec, speed_source=source,
+                   n_segments=n_segments, segment_s=segment_s, reason=reason)
+
+
+def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: bool = False) -> Windows:
+    """Windows (before standardisation) of one flight, following ``spec``.
+
+    Returns an empty :class:`Windows` with ``reason`` set when the flight yields none, or raises
+    NotDiagnosableError with that reason when ``strict``. Raises MissingDataError /
+    UnsupportedVehicleError when a needed stream is absent or the vehicle is not a quadrotor.
+    """
+    spec = spec or FeatureSpec()
+    segments = resample(flight, spec.rate_hz, spec.max_gap_s, spec.trim_s, spec.savgol_window_s,
+                        need_attitude=(spec.features == "cf"), speed_source=spec.speed_source)
+    source = segments[0].speed_source if segments else spec.speed_source
+    seg_s = float(sum(len(s) for s in segments) / spec.rate_hz)
+    usable = [i for i, s in enumerate(segments) if len(s) >= spec.window]
+    if not usable:
+        if not flight.airborne:
+            reason = "the vehicle is never airborne in this log"
+        else:
+            longest = max((len(s) / spec.rate_hz for s in segments), default=0.0)
+            reason = (f"airborne {flight.airborne_s:.1f} s in all; after trimming {spec.trim_s:g} s at take-off and "
+                      f"landing and splitting at data gaps, the longest usable stretch is {longest:.1f} s and a "
+                      f"window needs {spec.window / spec.rate_hz:.1f} s")
+        if strict:
+            raise NotDiagnosableError(flight.path, reason)
+        return _empty_windows(spec, source, reason, len(segments), seg_s)
+
+    scales = {}
+    if spec.transform == "scale_free":
+        scales["ang_acc"] = robust_scale(np.concatenate([s.ang_acc for s in segments]), ANG_ACC_SCALE_FLOOR)
+        scales["rates"] = robust_scale(np.concatenate([s.rates for s in segments]), RATE_SCALE_FLOOR)
+    motor_ch = slice(3, 7) if spec.features == "nif" else slice(5, 9)
+
+    xs, t0s, t1s, segidx = [], [], [], []
+    T, S = spec.window, spec.stride
+    for i in usable:
+        seg = segments[i]
+        F = _segment_matrix(seg, spec, scales)  # (n, C)
+        W = sliding_window_view(F, T, axis=0)[::S]  # (N, C, T) view
+        starts = np.arange(0, len(seg) - T + 1, S)
+        xs.append(W)
+        t0s.append(seg.t[starts])
+        t1s.append(seg.t[starts + T - 1])
+        segidx.append(np.full(starts.size, i, dtype=int))
+    X = np.concatenate(xs, axis=0).astype(np.float32)
+    if spec.transform == "scale_free":
+        share = X[:, motor_ch, :].mean(axis=(1, 2), dtype=np.float64)
+        X[:, motor_ch, :] /= np.maximum(share, MIN_MEAN_THRUST)[:, None, None].astype(np.float32)
+    return Windows(X=X, t_start=np.concatenate(t0s), t_end=np.concatenate(t1s), segment=np.concatenate(segidx),
+                   spec=spec, speed_source=source, n_segments=len(segments), segment_s=seg_s, reason="",
+                   scales={k: v.tolist() for k, v in scales.items()})
+
+
+def nif_windows(flight: Flight, **spec_kwargs) -> Windows:
+    """NIF windows (p_dot, q_dot, r_dot, w1_sq..w4_sq) with a default spec updated by ``spec_kwargs``."""
+    return make_windows(flight, FeatureSpec(features="nif", **spec_kwargs))
+
+
+def cf_windows(flight: Flight, **spec_kwargs) -> Windows:
+    """CF windows (roll, pitch, p, q, r, w1..w4) with a default spec updated by ``spec_kwargs``."""
+    return make_windows(flight, FeatureSpec(features="cf", **spec_kwargs))
+
+
+#: Label of a window that straddles a mid-flight fault onset (dropped in training).
+AMBIGUOUS_LABEL = -1
+
+
+def window_labels(flight: Flight, windows: Windows) -> np.ndarray:
+    """(N,) class per window from ``flight.truth``: 0 healthy, k = motor k damaged, -1 ambiguous.
+
+    ``truth["label"]`` (0..4, falling back on ``truth["motor"]``) applies from ``truth["onset_s"]``
+    (log-clock seconds; None or absent = from the start). Windows ending before the onset are
+    healthy (0); windows straddling it are -1.
+    """
+    truth = flight.truth
+    if not truth:
+        raise ValueError(f"{flight.path}: flight has no truth (only simulated flights carry labels)")
+    label = truth.get("label", truth.get("motor"))
+    if label is None or int(label) not in range(5):
+        raise ValueError(f"{flight.path}: truth label must be 0..4, not {label!r}")
+    label = int(label)
+    n = len(windows)
+    out = np.full(n, label, dtype=int)
+    onset = truth.get("onset_s")
+    if label == 0 or onset is None:
+        return out
+    onset = float(onset)
+    out[windows.t_end < onset] = 0
+    out[(windows.t_start < onset) & (windows.t_end >= onset)] = AMBIGUOUS_LABEL
+    return out
