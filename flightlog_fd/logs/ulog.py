@@ -1,0 +1,750 @@
+"""PX4 ULog reader: a ``.ulg`` file -> :class:`~flightlog_fd.flight.Flight`.
+
+Input: a PX4 ULog file (any PX4 version that writes ULog, 2016 onwards; appended data, several
+topic instances, tagged logging and default-parameter messages are all handled by ``pyulog``).
+Only the topics listed in ``ULOG_TOPICS`` are decoded (``message_name_filter_list``), so a large
+log loads in about the time it takes to scan its bytes.
+
+What is read (times are ``timestamp`` in µs since boot / 1e6 for every stream, the clock every
+PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one time base):
+
+- ``rates`` (rad/s, FRD): ``vehicle_angular_velocity.xyz`` (filtered gyro the rate controller
+  uses), else ``sensor_combined.gyro_rad`` (raw gyro), else the old
+  ``vehicle_attitude.rollspeed/pitchspeed/yawspeed``. ``Series.source`` names the one used.
+- ``attitude`` (rad): roll, pitch, yaw from ``vehicle_attitude.q`` (w, x, y, z; body to NED),
+  else the very old ``vehicle_attitude.roll/pitch/yaw``.
+- ``motors`` (0..1, column k = motor k+1):
+
+  * ``actuator_motors.control[]`` -> ``motor_kind = "thrust"``. PX4 source
+    (``src/lib/mixer_module/functions/FunctionMotors.hpp``, ``updateValues``): the control
+    allocator publishes ``actuator_motors`` as normalised *thrust* setpoints and the mixer
+    module applies ``THR_MDL_FAC`` afterwards (``rel_thrust = f*x^2 + (1-f)*x`` solved for the
+    signal ``x``), then maps 0..1 to -1..1 and on to the output's min..max. So
+    ``actuator_motors`` is **before** the thrust model (linear in thrust) and
+    ``actuator_outputs`` is **after** it. PX4 publishes NaN for unused motor slots (and, on some
+    versions, while disarmed): NaN becomes 0 (motor stopped) and slots beyond the rotor count are
+    dropped.
+  * else ``actuator_outputs.output[]`` -> ``motor_kind = "signal"``, normalised
+    ``(out - min) / (max - min)`` and clipped to 0..1 (the disarmed value, e.g. 900 µs, maps to
+    0). Motor k is the output channel whose ``<driver>_FUNCn`` parameter is ``100 + k`` when the
+    log has output-function parameters (PX4 >= 1.13), else channel k. min/max per channel from
+    ``<driver>_MINn/_MAXn``, else ``PWM_MAIN_MIN/MAX``, else ``PWM_MIN/PWM_MAX``, else
+    1000/2000 µs. Of several instances, the one whose motor channels sit in the output range
+    and move most is used.
+  * when both exist the other one goes to ``Flight.alt_motors["actuator_outputs"]``.
+- ``esc_rpm``: ``esc_status.esc[i].esc_rpm`` (mapped to motors by ``actuator_function`` where
+  logged), only when the ESCs report something non-zero.
+- ``velocity`` (NED m/s): ``vehicle_local_position.vx/vy/vz``.
+- ``thrust_curve``: ``THR_MDL_FAC``; ``params``: every initial parameter as float.
+- ``frame``: ``CA_ROTOR_COUNT`` and ``CA_ROTOR{i}_PX/PY/KM`` (i 0-based = motor i+1) when the
+  control allocator is in use (no ``SYS_CTRL_ALLOC = 0``), else the ``SYS_AUTOSTART`` airframe
+  range (4xxx/10xxx quad-X, 5xxx quad-+, 6xxx/7xxx/11xxx hexa, 8xxx/9xxx/12xxx octo, 13xxx VTOL,
+  2xxx/3xxx fixed wing), else quad-X assumed for ``MAV_TYPE`` 2, with a warning. A 4-rotor
+  layout is ``quad_x``/``quad_plus`` only when its positions match PX4's motor numbering,
+  otherwise ``quad_other``; spin directions that differ from the convention give a warning.
+- ``vehicle_type`` from ``MAV_TYPE`` (else ``vehicle_status.system_type``/``vehicle_type``);
+  any ``vehicle_status.is_vtol`` makes it ``"vtol"``. VTOL, fixed-wing and hexa logs load; the
+  diagnosability check rejects them.
+- ``armed``: ``vehicle_status.arming_state == 2`` (ARMED in every PX4 version), else
+  ``actuator_armed.armed``. ``airborne``: ``vehicle_land_detected.landed == False`` intersected
+  with armed; a segment in which the estimator's altitude (``vehicle_local_position.z`` with
+  ``z_valid``) never rises ``MIN_CLIMB_FOR_AIRBORNE_M`` above its start is dropped with a warning
+  (PX4's land detector reports "not landed" as soon as the pilot raises the throttle on the
+  ground). Without a land detector: mean motor command above ``THROTTLE_AIRBORNE_LEVEL`` for at
+  least ``THROTTLE_AIRBORNE_MIN_S``, said in ``airborne_source`` and a warning.
+
+Errors: a file pyulog cannot parse at all (bad header, unknown incompatible flags, no
+definitions) raises :class:`CorruptLogError`; a file that is not a ULog raises
+:class:`NotALogError`. A log cut short loads what was read, with a warning; logging dropouts and
+skipped corrupt messages are warnings too. A log without motor topics loads with ``motors=None``.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..errors import CorruptLogError, NotALogError
+from ..flight import Flight, Frame, Rotor, Series
+
+#: Topics decoded (everything else in the file is skipped by pyulog's filter).
+ULOG_TOPICS = [
+    "vehicle_angular_velocity", "sensor_combined", "vehicle_attitude", "actuator_motors",
+    "actuator_outputs", "esc_status", "vehicle_local_position", "vehicle_status",
+    "vehicle_land_detected", "actuator_armed",
+]
+ULOG_MAGIC = b"ULog\x01\x12\x35"
+US_PER_S = 1e6
+
+#: vehicle_status.arming_state ARMED (same value in the old INIT/STANDBY/ARMED enum and the new one).
+ARMING_STATE_ARMED = 2
+#: PX4 output functions Motor1..Motor12 are 101..112 (``<driver>_FUNCn`` parameters).
+OUTPUT_FUNCTION_MOTOR1 = 101
+MAX_MOTOR_FUNCTIONS = 12
+#: Output range when the log has no min/max parameter (PX4 defaults, µs).
+PWM_DEFAULT_MIN = 1000.0
+PWM_DEFAULT_MAX = 2000.0
+#: An actuator_outputs channel is a plausible motor when its values stay within the output range
+#: widened by these fractions of it (the disarmed value 900 µs sits 10-20 % below a 1000-1075 min).
+OUTPUT_RANGE_SLACK_BELOW = 0.5
+OUTPUT_RANGE_SLACK_ABOVE = 0.1
+#: Fraction of samples that must be in that widened range.
+OUTPUT_IN_RANGE_FRACTION = 0.95
+#: Land-detector "airborne" segments in which the altitude never rises this much are ground runs.
+MIN_CLIMB_FOR_AIRBORNE_M = 0.3
+#: Throttle fallback (no vehicle_land_detected): mean motor command above this level...
+THROTTLE_AIRBORNE_LEVEL = 0.25
+#: ...for at least this long counts as airborne.
+THROTTLE_AIRBORNE_MIN_S = 1.0
+#: PX4 MAV_TYPE values -> Flight.vehicle_type.
+MAV_TYPE_NAMES = {
+    1: "fixed_wing", 2: "quadrotor", 3: "coaxial", 4: "helicopter", 7: "airship",
+    10: "ground_rover", 11: "surface_boat", 12: "submarine", 13: "hexarotor", 14: "octorotor",
+    15: "tricopter", 19: "vtol", 20: "vtol", 21: "vtol", 22: "vtol", 23: "vtol", 24: "vtol", 25: "vtol",
+}
+#: vehicle_status.vehicle_type (PX4 enum) -> Flight.vehicle_type, used only without MAV_TYPE.
+STATUS_VEHICLE_TYPE_NAMES = {1: "multirotor", 2: "fixed_wing", 3: "ground_rover", 4: "airship"}
+#: SYS_AUTOSTART ranges (thousands) -> frame name (PX4 ROMFS airframe numbering).
+AUTOSTART_FRAMES = {
+    4: "quad_x", 10: "quad_x", 5: "quad_plus", 6: "hexa", 7: "hexa", 11: "hexa", 8: "octo", 9: "octo",
+    12: "octo", 13: "vtol", 2: "fixed_wing", 3: "fixed_wing", 14: "tri", 15: "tri", 16: "helicopter",
+}
+#: SIH/HIL airframes in the 1xxx range that are quad-X (1001 HIL quad-X, 1100 SIH quad-X).
+AUTOSTART_QUAD_X_SIM = (1001, 1100)
+#: Frame names each vehicle_type is consistent with (to decide whether SYS_AUTOSTART is trusted).
+FRAMES_FOR_VEHICLE_TYPE = {
+    "quadrotor": ("quad_x", "quad_plus"), "hexarotor": ("hexa",), "octorotor": ("octo",),
+    "fixed_wing": ("fixed_wing",), "vtol": ("vtol",), "tricopter": ("tri",), "helicopter": ("helicopter",),
+}
+ROTOR_COUNT_NAMES = {3: "tri", 6: "hexa", 8: "octo"}
+ROTOR_COUNT_FOR_VEHICLE_TYPE = {"quadrotor": 4, "hexarotor": 6, "octorotor": 8, "tricopter": 3}
+#: A rotor is "on an axis" when its off-axis coordinate is below this fraction of its arm length.
+AXIS_TOLERANCE = 0.2
+#: Quad-X quadrant signs (sign x, sign y) per motor and quad-+ axis per motor, PX4 numbering.
+QUAD_X_QUADRANTS = ((1, 1), (-1, -1), (1, -1), (-1, 1))
+QUAD_PLUS_AXES = ((0, 1), (0, -1), (1, 0), (-1, 0))
+#: Spin of motors 1..4 in both quad layouts (+1 CCW seen from above).
+QUAD_SPINS = (1, 1, -1, -1)
+#: Info key under which fdlog's own writer stores the simulator's truth (never used for diagnosis).
+TRUTH_INFO_KEY = "fdlog_truth"
+
+
+@dataclass
+class _Topic:
+    """One decoded topic instance: times (s, sorted) and its fields, rows in time order."""
+
+    name: str
+    instance: int
+    t: np.ndarray
+    fields: dict[str, np.ndarray]
+
+    def has(self, field_name: str) -> bool:
+        return field_name in self.fields
+
+    def get(self, field_name: str) -> np.ndarray:
+        return self.fields[field_name]
+
+    def array(self, prefix: str, count: int) -> Optional[np.ndarray]:
+        """Columns ``prefix[0] .. prefix[count-1]`` as an (n, count) float64 array, or None."""
+        names = [f"{prefix}[{i}]" for i in range(count)]
+        if not all(n in self.fields for n in names):
+            return None
+        return np.column_stack([self.fields[n].astype(np.float64) for n in names])
+
+    def array_length(self, prefix: str) -> int:
+        n = 0
+        while f"{prefix}[{n}]" in self.fields:
+            n += 1
+        return n
+
+
+class _EndTrackingReader(io.BufferedReader):
+    """File object for pyulog that remembers whether its last read came back short.
+
+    pyulog stops silently when the last message is cut; a short read (some bytes, fewer than
+    asked) at the end is how a truncated file shows.
+    """
+
+    last_read_short = False
+
+    def read(self, size=-1):  # noqa: D102 - io signature
+        data = super().read(size)
+        if size is not None and size > 0:
+            self.last_read_short = 0 < len(data) < size
+        return data
+
+
+def _parse(path: Path):
+    """Run pyulog on ``path``; returns (ULog, truncated, pyulog's printed messages)."""
+    from pyulog import ULog
+    from pyulog.exceptions import ULogException
+
+    printed = io.StringIO()
+    try:
+        raw = io.FileIO(str(path), "rb")
+    except OSError as e:
+        raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
+    reader = _EndTrackingReader(raw)
+    try:
+        with contextlib.redirect_stdout(printed):
+            ulog = ULog(reader, message_name_filter_list=ULOG_TOPICS, disable_str_exceptions=True)
+    except ULogException as e:
+        raise CorruptLogError(path, f"not a readable ULog: {e}") from None
+    except MemoryError:
+        raise CorruptLogError(path, "ULog too large or corrupt (out of memory while decoding)") from None
+    except Exception as e:  # pyulog has no error type for malformed definitions: never leak a traceback
+        raise CorruptLogError(path, f"corrupt ULog ({type(e).__name__}: {e})") from None
+    finally:
+        if not reader.closed:
+            reader.close()
+    return ulog, reader.last_read_short, printed.getvalue()
+
+
+def _topics(ulog, name: str) -> list[_Topic]:
+    """All instances of a topic, each sorted by time with zero timestamps dropped."""
+    out = []
+    for d in ulog.data_list:
+        if d.name != name:
+            continue
+        ts = d.data["timestamp"].astype(np.uint64)
+        keep = ts > 0
+        order = np.argsort(ts[keep], kind="stable")
+        fields = {k: np.asarray(v)[keep][order] for k, v in d.data.items()}
+        t = ts[keep][order].astype(np.float64) / US_PER_S
+        if len(t):
+            out.append(_Topic(name, int(d.multi_id), t, fields))
+    out.sort(key=lambda tp: tp.instance)
+    return out
+
+
+def _first(ulog, name: str) -> Optional[_Topic]:
+    tops = _topics(ulog, name)
+    return tops[0] if tops else None
+
+
+# ---------------------------------------------------------------- metadata
+
+
+def _release_string(value) -> Optional[str]:
+    """ver_sw_release (0xMMmmppTT) -> "v1.14.0" (with the pre-release tag), None if unusable."""
+    try:
+        v = int(value)
+    except (TypeError, ValueError):
+        return None
+    major, minor, patch, kind = (v >> 24) & 0xFF, (v >> 16) & 0xFF, (v >> 8) & 0xFF, v & 0xFF
+    if v == 0 or (major == 0 and minor == 0 and patch == 0):
+        return None
+    # last byte: 255 release, >=192 rc, >=128 beta, >=64 alpha, below: a development build
+    tag = "" if kind == 255 else ("-rc" if kind >= 192 else ("-beta" if kind >= 128 else ("-alpha" if kind >= 64 else "-dev")))
+    return f"v{major}.{minor}.{patch}{tag}"
+
+
+def _firmware(info: dict) -> str:
+    """PX4 version from the info fields: release + git hash, or ``ver_sw`` verbatim when it is text."""
+    ver_sw = str(info.get("ver_sw", "") or "").strip()
+    release = _release_string(info.get("ver_sw_release"))
+    if ver_sw and not re.fullmatch(r"[0-9a-fA-F]{7,40}", ver_sw):
+        return ver_sw  # a descriptive string (converted or simulated logs): keep it as written
+    parts = ["PX4"]
+    if release:
+        parts.append(release)
+    if ver_sw:
+        parts.append(f"(git {ver_sw[:10]})")
+    branch = str(info.get("ver_sw_branch", "") or "").strip()
+    if branch:
+        parts.append(f"[{branch}]")
+    return " ".join(parts) if len(parts) > 1 else ""
+
+
+def _vehicle_id(info: dict) -> Optional[str]:
+    uuid = str(info.get("sys_uuid", "") or "").strip()
+    if uuid:
+        return uuid
+    hw = str(info.get("ver_hw", "") or "").strip()
+    return hw or None
+
+
+def _vehicle_type(params: dict, status: Optional[_Topic]) -> tuple[str, str]:
+    """(vehicle_type, how it was found)."""
+    vtype, source = "unknown", ""
+    if "MAV_TYPE" in params:
+        vtype = MAV_TYPE_NAMES.get(int(params["MAV_TYPE"]), "unknown")
+        source = f"MAV_TYPE {int(params['MAV_TYPE'])}"
+    elif status is not None and status.has("system_type"):
+        mt = int(status.get("system_type")[-1])
+        vtype, source = MAV_TYPE_NAMES.get(mt, "unknown"), f"vehicle_status.system_type {mt}"
+    elif status is not None and status.has("vehicle_type"):
+        vt = int(status.get("vehicle_type")[-1])
+        vtype, source = STATUS_VEHICLE_TYPE_NAMES.get(vt, "unknown"), f"vehicle_status.vehicle_type {vt}"
+    elif status is not None and status.has("is_rotary_wing") and bool(status.get("is_rotary_wing").any()):
+        vtype, source = "multirotor", "vehicle_status.is_rotary_wing"
+    if status is not None and status.has("is_vtol") and bool(np.any(status.get("is_vtol") != 0)):
+        vtype, source = "vtol", "vehicle_status.is_vtol"
+    return vtype, source
+
+
+def _classify_quad(rotors: tuple[Rotor, ...], source: str, warnings: list[str]) -> Frame:
+    """quad_x / quad_plus when the positions match PX4's numbering, else quad_other."""
+    xs = np.array([r.x for r in rotors])
+    ys = np.array([r.y for r in rotors])
+    arm = np.hypot(xs, ys)
+    if np.any(arm <= 0):
+        warnings.append("frame: a rotor sits at the centre in CA_ROTORn_PX/PY; layout not recognised")
+        return Frame("quad_other", rotors, source)
+    on_x_axis = np.abs(ys) < AXIS_TOLERANCE * arm
+    on_y_axis = np.abs(xs) < AXIS_TOLERANCE * arm
+    diagonal = ~on_x_axis & ~on_y_axis
+    spins = tuple(r.spin for r in rotors)
+    if diagonal.all():
+        quadrants = tuple((int(np.sign(x)), int(np.sign(y))) for x, y in zip(xs, ys))
+        name = "quad_x" if quadrants == QUAD_X_QUADRANTS else "quad_other"
+        if name == "quad_other":
+            warnings.append("frame: X layout but motor numbering differs from PX4 quad-X "
+                            "(1 front-right, 2 rear-left, 3 front-left, 4 rear-right)")
+    elif (on_x_axis | on_y_axis).all():
+        axes = tuple((int(np.sign(x)) if a else 0, int(np.sign(y)) if b else 0)
+                     for x, y, a, b in zip(xs, ys, on_x_axis, on_y_axis))
+        name = "quad_plus" if axes == QUAD_PLUS_AXES else "quad_other"
+        if name == "quad_other":
+            warnings.append("frame: + layout but motor numbering differs from PX4 quad-+ "
+                            "(1 right, 2 left, 3 front, 4 rear)")
+    else:
+        name = "quad_other"
+        warnings.append("frame: 4 rotors neither in an X nor a + layout")
+    if name != "quad_other" and spins != QUAD_SPINS:
+        warnings.append(f"frame: rotor spin directions {spins} differ from the PX4 quad convention "
+                        f"{QUAD_SPINS} (+1 = CCW seen from above, motors 1..4)")
+    return Frame(name, rotors, source)
+
+
+def _frame_from_ca(params: dict, vehicle_type: str, warnings: list[str]) -> Optional[Frame]:
+    """Frame from the control-allocation geometry parameters, None when not usable."""
+    if "CA_ROTOR_COUNT" not in params:
+        return None
+    if int(params.get("SYS_CTRL_ALLOC", 1)) == 0:
+        return None  # PX4 1.13 with the legacy mixer: CA_* parameters exist but are not in use
+    n = int(params["CA_ROTOR_COUNT"])
+    rotors = []
+    for i in range(n):
+        px, py = params.get(f"CA_ROTOR{i}_PX"), params.get(f"CA_ROTOR{i}_PY")
+        if px is None or py is None:
+            warnings.append(f"frame: CA_ROTOR_COUNT={n} but CA_ROTOR{i}_PX/PY missing")
+            return None
+        km = float(params.get(f"CA_ROTOR{i}_KM", 0.0))
+        rotors.append(Rotor(float(px), float(py), 1 if km >= 0 else -1))
+    rotors_t = tuple(rotors)
+    source = f"CA_ROTOR_COUNT={n}, CA_ROTORn_PX/PY/KM"
+    if vehicle_type == "vtol":
+        return Frame("vtol", rotors_t, source)
+    if vehicle_type == "fixed_wing":
+        return Frame("fixed_wing", rotors_t, source)
+    if n == 4:
+        return _classify_quad(rotors_t, source, warnings)
+    return Frame(ROTOR_COUNT_NAMES.get(n, f"{n}_rotor"), rotors_t, source)
+
+
+def _autostart_frame_name(autostart: int) -> Optional[str]:
+    if autostart in AUTOSTART_QUAD_X_SIM:
+        return "quad_x"
+    return AUTOSTART_FRAMES.get(autostart // 1000)
+
+
+def _frame(params: dict, vehicle_type: str, warnings: list[str]) -> Optional[Frame]:
+    frame = _frame_from_ca(params, vehicle_type, warnings)
+    if frame is not None:
+        return frame
+    autostart = int(params["SYS_AUTOSTART"]) if "SYS_AUTOSTART" in params else None
+    by_autostart = _autostart_frame_name(autostart) if autostart else None
+    consistent = FRAMES_FOR_VEHICLE_TYPE.get(vehicle_type)
+    if by_autostart and (consistent is None or by_autostart in consistent):
+        src = f"SYS_AUTOSTART {autostart} airframe range"
+        if by_autostart == "quad_x":
+            return Frame("quad_x", Frame.quad_x().rotors, src)
+        if by_autostart == "quad_plus":
+            return Frame("quad_plus", Frame.quad_plus().rotors, src)
+        return Frame(by_autostart, (), src)
+    if vehicle_type == "quadrotor":
+        why = (f"SYS_AUTOSTART {autostart} is not a quadrotor airframe" if autostart
+               else "no SYS_AUTOSTART or CA_ROTOR parameters")
+        warnings.append(f"frame: MAV_TYPE says quadrotor but {why}: PX4 quad-X numbering assumed")
+        return Frame("quad_x", Frame.quad_x().rotors, "MAV_TYPE 2 (quad-X assumed)")
+    if vehicle_type in ("hexarotor", "octorotor", "fixed_wing", "vtol", "tricopter", "helicopter"):
+        name = {"hexarotor": "hexa", "octorotor": "octo", "tricopter": "tri"}.get(vehicle_type, vehicle_type)
+        return Frame(name, (), "MAV_TYPE")
+    return None
+
+
+# ---------------------------------------------------------------- streams
+
+
+def _rates(ulog) -> Optional[Series]:
+    for tp in _topics(ulog, "vehicle_angular_velocity")[:1]:
+        xyz = tp.array("xyz", 3)
+        if xyz is not None:
+            return Series(tp.t, xyz, "vehicle_angular_velocity.xyz")
+    for tp in _topics(ulog, "sensor_combined")[:1]:
+        g = tp.array("gyro_rad", 3)
+        if g is not None:
+            return Series(tp.t, g, "sensor_combined.gyro_rad")
+    att = _first(ulog, "vehicle_attitude")
+    if att is not None and all(att.has(f) for f in ("rollspeed", "pitchspeed", "yawspeed")):
+        v = np.column_stack([att.get(f).astype(np.float64) for f in ("rollspeed", "pitchspeed", "yawspeed")])
+        return Series(att.t, v, "vehicle_attitude.rollspeed/pitchspeed/yawspeed")
+    return None
+
+
+def quaternion_to_euler(q: np.ndarray) -> np.ndarray:
+    """(n, 4) quaternions w, x, y, z (body to NED, PX4) -> (n, 3) roll, pitch, yaw in rad (ZYX)."""
+    w, x, y, z = (q[:, i] for i in range(4))
+    roll = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2.0 * (w * y - z * x), -1.0, 1.0))
+    yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return np.column_stack([roll, pitch, yaw])
+
+
+def _attitude(ulog) -> Optional[Series]:
+    att = _first(ulog, "vehicle_attitude")
+    if att is None:
+        return None
+    q = att.array("q", 4)
+    if q is not None:
+        norm = np.linalg.norm(q, axis=1)
+        good = np.isfinite(norm) & (norm > 0.5)  # an all-zero q is "not initialised yet"
+        if good.any():
+            return Series(att.t[good], quaternion_to_euler(q[good] / norm[good, None]), "vehicle_attitude.q")
+    if all(att.has(f) for f in ("roll", "pitch", "yaw")):
+        v = np.column_stack([att.get(f).astype(np.float64) for f in ("roll", "pitch", "yaw")])
+        return Series(att.t, v, "vehicle_attitude.roll/pitch/yaw")
+    return None
+
+
+def _actuator_motors(ulog, rotor_count: Optional[int]) -> Optional[Series]:
+    best, best_score = None, -1.0
+    for tp in _topics(ulog, "actuator_motors"):
+        width = tp.array_length("control")
+        if width == 0:
+            continue
+        c = tp.array("control", width)
+        used = np.isfinite(c).any(axis=0)
+        n = rotor_count if rotor_count else int(np.flatnonzero(used).max() + 1) if used.any() else 0
+        if n == 0 or n > width:
+            continue
+        v = np.nan_to_num(c[:, :n], nan=0.0)  # NaN = motor not driven (disarmed / unused): stopped
+        score = float(np.nanstd(v, axis=0).sum())
+        if score > best_score:
+            best, best_score = Series(tp.t, v, f"actuator_motors.control[0..{n - 1}]"
+                                      + (f" (instance {tp.instance})" if tp.instance else "")), score
+    return best
+
+
+def _output_function_channels(params: dict, rotor_count: int) -> tuple[list[int], str]:
+    """0-based output channels of motors 1..rotor_count and the driver prefix ("PWM_MAIN"...)."""
+    groups: dict[str, dict[int, int]] = {}
+    for name, value in params.items():
+        m = re.fullmatch(r"(\w+?)_FUNC(\d+)", name)
+        if not m:
+            continue
+        func = int(value)
+        if OUTPUT_FUNCTION_MOTOR1 <= func < OUTPUT_FUNCTION_MOTOR1 + MAX_MOTOR_FUNCTIONS:
+            groups.setdefault(m.group(1), {})[func - OUTPUT_FUNCTION_MOTOR1] = int(m.group(2)) - 1
+    complete = {p: g for p, g in groups.items() if all(k in g for k in range(rotor_count))}
+    if complete:
+        prefix = "PWM_MAIN" if "PWM_MAIN" in complete else sorted(complete)[0]
+        return [complete[prefix][k] for k in range(rotor_count)], prefix
+    return list(range(rotor_count)), "PWM_MAIN"
+
+
+def _output_range(params: dict, prefix: str, channel: int) -> tuple[float, float]:
+    """(min, max) output of 0-based ``channel``: per-channel, then per-driver, then legacy, then default."""
+    def pick(kind: str, default: float) -> float:
+        for key in (f"{prefix}_{kind}{channel + 1}", f"{prefix}_{kind}", f"PWM_{kind}"):
+            if key in params and float(params[key]) >= 0:  # -1 = "unset" in PX4 1.11-1.12
+                return float(params[key])
+        return default
+
+    return pick("MIN", PWM_DEFAULT_MIN), pick("MAX", PWM_DEFAULT_MAX)
+
+
+def _actuator_outputs(ulog, params: dict, rotor_count: Optional[int], warnings: list[str]) -> Optional[Series]:
+    instances = _topics(ulog, "actuator_outputs")
+    if not instances:
+        return None
+    width = max(tp.array_length("output") for tp in instances)
+    n = rotor_count
+    if not n:
+        # no geometry anywhere: the leading channels that move in a PWM-like range are motors
+        n = 0
+        for k in range(width):
+            col = instances[0].get(f"output[{k}]") if instances[0].has(f"output[{k}]") else None
+            if col is None or np.nanstd(col) == 0 or not (500 < np.nanmedian(col) < 2500):
+                break
+            n += 1
+        if n == 0:
+            return None
+    channels, prefix = _output_function_channels(params, n)
+    ranges = [_output_range(params, prefix, ch) for ch in channels]
+    best, best_score = None, -1.0
+    for tp in instances:
+        out = tp.array("output", tp.array_length("output"))
+        if out is None or max(channels) >= out.shape[1]:
+            continue
+        cols = out[:, channels]
+        lo = np.array([r[0] for r in ranges])
+        hi = np.array([r[1] for r in ranges])
+        span = np.where(hi > lo, hi - lo, 1.0)
+        norm = (cols - lo) / span
+        in_range = (norm >= -OUTPUT_RANGE_SLACK_BELOW) & (norm <= 1.0 + OUTPUT_RANGE_SLACK_ABOVE)
+        if np.mean(in_range) < OUTPUT_IN_RANGE_FRACTION:
+            continue
+        score = float(np.nanstd(np.clip(norm, 0, 1), axis=0).sum())
+        if score > best_score:
+            chan_txt = ",".join(str(c) for c in channels)
+            src = f"actuator_outputs.output[{chan_txt}]" + (f" (instance {tp.instance})" if tp.instance else "")
+            src += f" {prefix} {ranges[0][0]:.0f}..{ranges[0][1]:.0f}"
+            best, best_score = Series(tp.t, np.clip(np.nan_to_num(norm, nan=0.0), 0.0, 1.0), src), score
+    if best is None:
+        warnings.append("actuator_outputs present but no instance has motor channels in the output range")
+    return best
+
+
+def _esc_rpm(ulog, rotor_count: Optional[int]) -> Optional[Series]:
+    esc = _first(ulog, "esc_status")
+    if esc is None or not rotor_count:
+        return None
+    slots = []
+    for k in range(rotor_count):
+        slot = k
+        for i in range(esc.array_length("esc") or 8):
+            key = f"esc[{i}].actuator_function"
+            if esc.has(key) and int(np.max(esc.get(key))) == OUTPUT_FUNCTION_MOTOR1 + k:
+                slot = i
+                break
+        if not esc.has(f"esc[{slot}].esc_rpm"):
+            return None
+        slots.append(esc.get(f"esc[{slot}].esc_rpm").astype(np.float64))
+    rpm = np.column_stack(slots)
+    if not np.any(rpm != 0):
+        return None  # no ESC telemetry (the topic is published with zeros)
+    return Series(esc.t, rpm, "esc_status.esc[].esc_rpm")
+
+
+def _velocity(ulog) -> Optional[Series]:
+    lp = _first(ulog, "vehicle_local_position")
+    if lp is None or not all(lp.has(f) for f in ("vx", "vy", "vz")):
+        return None
+    v = np.column_stack([lp.get(f).astype(np.float64) for f in ("vx", "vy", "vz")])
+    return Series(lp.t, v, "vehicle_local_position.vx/vy/vz")
+
+
+# ---------------------------------------------------------------- intervals
+
+
+def state_intervals(t: np.ndarray, state: np.ndarray, t_end: float) -> list[tuple[float, float]]:
+    """Intervals where a sampled boolean state is True: from the first True sample to the next
+    False sample (or ``t_end`` when still True at the end)."""
+    out = []
+    start = None
+    for ti, s in zip(t, state):
+        if s and start is None:
+            start = float(ti)
+        elif not s and start is not None:
+            out.append((start, float(ti)))
+            start = None
+    if start is not None:
+        out.append((start, max(float(t_end), start)))
+    return [(a, b) for a, b in out if b > a]
+
+
+def intersect_intervals(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    out = []
+    for a0, a1 in a:
+        for b0, b1 in b:
+            lo, hi = max(a0, b0), min(a1, b1)
+            if hi > lo:
+                out.append((lo, hi))
+    return sorted(out)
+
+
+def _armed(ulog, t_end: float) -> tuple[Optional[list[tuple[float, float]]], str]:
+    status = _first(ulog, "vehicle_status")
+    if status is not None and status.has("arming_state"):
+        return state_intervals(status.t, status.get("arming_state") == ARMING_STATE_ARMED, t_end), \
+            "vehicle_status.arming_state"
+    armed = _first(ulog, "actuator_armed")
+    if armed is not None and armed.has("armed"):
+        return state_intervals(armed.t, armed.get("armed") != 0, t_end), "actuator_armed.armed"
+    return None, ""
+
+
+def _climbed(lp: Optional[_Topic], a: float, b: float) -> Optional[float]:
+    """Largest rise (m) of the estimated altitude during [a, b] above its value at a, None if unknown."""
+    if lp is None or not lp.has("z"):
+        return None
+    m = (lp.t >= a) & (lp.t <= b)
+    if lp.has("z_valid"):
+        m &= lp.get("z_valid") != 0
+    z = lp.get("z")[m].astype(np.float64)
+    z = z[np.isfinite(z)]
+    if z.size < 2:
+        return None
+    return float(z[0] - z.min())  # NED: up is -z
+
+
+def _throttle_airborne(motors: Optional[Series]) -> list[tuple[float, float]]:
+    if motors is None or len(motors) < 2:
+        return []
+    level = motors.values.mean(axis=1) > THROTTLE_AIRBORNE_LEVEL
+    segs = state_intervals(motors.t, level, float(motors.t[-1]))
+    return [(a, b) for a, b in segs if b - a >= THROTTLE_AIRBORNE_MIN_S]
+
+
+def _airborne(ulog, armed, motors, t_end, warnings) -> tuple[list[tuple[float, float]], str]:
+    land = _first(ulog, "vehicle_land_detected")
+    if land is not None and land.has("landed"):
+        segs = state_intervals(land.t, land.get("landed") == 0, t_end)
+        if armed is not None:
+            segs = intersect_intervals(segs, armed)
+        lp = _first(ulog, "vehicle_local_position")
+        kept = []
+        for a, b in segs:
+            climb = _climbed(lp, a, b)
+            if climb is not None and climb < MIN_CLIMB_FOR_AIRBORNE_M:
+                warnings.append(f"land detector said airborne for {b - a:.1f} s at t={a:.1f} s but the altitude "
+                                f"rose only {climb:.2f} m: treated as on the ground")
+                continue
+            kept.append((a, b))
+        return kept, "vehicle_land_detected.landed"
+    segs = _throttle_airborne(motors)
+    if armed is not None:
+        segs = intersect_intervals(segs, armed)
+    warnings.append(f"no vehicle_land_detected: airborne time estimated from throttle (mean motor command "
+                    f"> {THROTTLE_AIRBORNE_LEVEL} for > {THROTTLE_AIRBORNE_MIN_S:.0f} s)")
+    return segs, "throttle fallback"
+
+
+# ---------------------------------------------------------------- entry points
+
+
+def _params(ulog) -> dict[str, float]:
+    out = {}
+    for k, v in ulog.initial_parameters.items():
+        try:
+            out[str(k)] = float(v)
+        except (TypeError, ValueError):
+            continue
+    return out
+
+
+def read_ulog(path) -> Flight:
+    """Read a PX4 ULog into a :class:`Flight` (see the module docstring for every field)."""
+    p = Path(path)
+    if not p.exists():
+        raise NotALogError(path, "no such file")
+    with open(p, "rb") as f:
+        head = f.read(len(ULOG_MAGIC))
+    if not head.startswith(b"ULog"):
+        raise NotALogError(path, "not a PX4 ULog (missing 'ULog' magic bytes)")
+    if head != ULOG_MAGIC:
+        raise CorruptLogError(path, "ULog magic bytes damaged or unknown ULog variant")
+    ulog, truncated, printed = _parse(p)
+    if not ulog.message_formats:
+        raise CorruptLogError(path, "ULog header only: no message definitions (file cut right after the header?)")
+
+    warnings: list[str] = []
+    info = ulog.msg_info_dict
+    params = _params(ulog)
+    t_start = ulog.start_timestamp / US_PER_S
+    t_end = max(ulog.last_timestamp / US_PER_S, t_start)
+    if truncated:
+        warnings.append(f"file is truncated (last message cut): data read up to t={t_end:.2f} s")
+    if ulog.file_corruption:
+        first = printed.strip().splitlines()[0] if printed.strip() else "corrupt messages skipped"
+        warnings.append(f"file corruption detected: {first}")
+    if ulog.dropouts:
+        total_ms = sum(int(d.duration) for d in ulog.dropouts)
+        warnings.append(f"{len(ulog.dropouts)} logging dropouts ({total_ms} ms of data lost in total)")
+    if not ulog.data_list:
+        warnings.append("the log holds none of the topics fdlog reads")
+
+    status = _first(ulog, "vehicle_status")
+    vehicle_type, _ = _vehicle_type(params, status)
+    frame = _frame(params, vehicle_type, warnings)
+    rotor_count = frame.rotor_count if frame is not None and frame.rotor_count else \
+        ROTOR_COUNT_FOR_VEHICLE_TYPE.get(vehicle_type)
+
+    motors_thrust = _actuator_motors(ulog, rotor_count)
+    motors_signal = _actuator_outputs(ulog, params, rotor_count or (motors_thrust.values.shape[1]
+                                      if motors_thrust is not None else None), warnings)
+    alt_motors: dict[str, Series] = {}
+    if motors_thrust is not None:
+        motors, motor_kind = motors_thrust, "thrust"
+        if motors_signal is not None:
+            alt_motors["actuator_outputs"] = motors_signal
+    elif motors_signal is not None:
+        motors, motor_kind = motors_signal, "signal"
+    else:
+        motors, motor_kind = None, "thrust"
+        warnings.append("no motor topic (actuator_motors / actuator_outputs) in the log")
+    n_motors = motors.values.shape[1] if motors is not None else rotor_count
+
+    rates = _rates(ulog)
+    if rates is not None and rates.source != "vehicle_angular_velocity.xyz":
+        warnings.append(f"angular rates from {rates.source} (no vehicle_angular_velocity)")
+    armed, armed_source = _armed(ulog, t_end)
+    if armed is None:
+        warnings.append("no arming state (vehicle_status / actuator_armed): armed intervals unknown")
+    airborne, airborne_source = _airborne(ulog, armed, motors, t_end, warnings)
+
+    return Flight(
+        path=str(path),
+        autopilot="px4",
+        firmware=_firmware(info),
+        vehicle_type=vehicle_type,
+        vehicle_id=_vehicle_id(info),
+        frame=frame,
+        rates=rates,
+        attitude=_attitude(ulog),
+        motors=motors,
+        motor_kind=motor_kind,
+        thrust_curve=params.get("THR_MDL_FAC"),
+        esc_rpm=_esc_rpm(ulog, n_motors),
+        velocity=_velocity(ulog),
+        alt_motors=alt_motors,
+        armed=armed or [],
+        airborne=airborne,
+        airborne_source=airborne_source,
+        t_start=t_start,
+        t_end=t_end,
+        params=params,
+        warnings=warnings,
+    )
+
+
+def read_ulog_truth(path) -> Optional[dict]:
+    """The simulator's truth stored by :func:`~flightlog_fd.logs.ulog_writer.write_ulog` (info key
+    ``fdlog_truth``), or None. For evaluation scripts only: :func:`read_ulog` never sets it."""
+    from pyulog import ULog
+    from pyulog.exceptions import ULogException
+
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            ulog = ULog(str(path), message_name_filter_list=[], parse_header_only=True)
+    except (ULogException, OSError, ValueError) as e:
+        raise CorruptLogError(path, f"not a readable ULog: {e}") from None
+    raw = ulog.msg_info_dict.get(TRUTH_INFO_KEY)
+    if not raw:
+        return None
+    try:
+        return json.loads(raw)
+    except (TypeError, ValueError):
+        return None
+
+
+__all__ = ["read_ulog", "read_ulog_truth", "quaternion_to_euler", "state_intervals", "intersect_intervals",
+           "ULOG_TOPICS", "TRUTH_INFO_KEY"]
