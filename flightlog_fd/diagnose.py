@@ -1,0 +1,247 @@
+"""The diagnose pipeline: a Flight (or a log path) and a model -> a :class:`Diagnosis`.
+
+Steps (pure: nothing is printed, nothing imports torch):
+
+1. Is the log diagnosable? (:func:`flightlog_fd.checks.diagnosability` with the model's feature
+   spec: quadrotor, 4 motor outputs, fast enough rates, enough airborne time.)
+2. Is the calibration profile, if any, made for this airframe? (``profile.check_compatible``.)
+3. Windows with the model's own feature spec (:func:`flightlog_fd.features.make_windows`),
+   standardised with the model's statistics, then class probabilities from the ONNX model.
+4. A flight phase per window (:mod:`flightlog_fd.phases`) and the flight's verdict from all
+   windows (:mod:`flightlog_fd.verdict`).
+
+Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
+``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
+never stops on one bad file. Exit codes: 0 healthy, 1 damaged or uncertain, 2 not diagnosable
+or invalid input.
+
+Limits: windows come from airborne time only (features.py decides); a model whose class list
+is not healthy + 4 motors is refused (:class:`~flightlog_fd.errors.ModelError`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+
+from .checks import diagnosability
+from .errors import FlightLogError, ModelError
+from .flight import Flight
+from .phases import window_phases
+from .verdict import N_CLASSES, Verdict, VerdictSettings, decide, not_diagnosable
+
+EXIT_HEALTHY = 0
+EXIT_DAMAGED_OR_UNCERTAIN = 1
+EXIT_NOT_DIAGNOSABLE = 2
+
+NO_PROFILE_WARNING = ("no calibration profile: using the shipped model; a profile made with "
+                      "`fdlog calibrate` on a healthy flight of this airframe is more accurate")
+#: If more than this share of windows are manoeuvres, say so: the model is most reliable in
+#: steady flight, and a verdict resting on manoeuvres deserves a second look.
+MANOEUVRE_WARNING_SHARE = 0.5
+
+
+@dataclass
+class FlightFacts:
+    """What the report says about the log itself (times in seconds on the log's clock)."""
+
+    path: Optional[str]
+    autopilot: str
+    firmware: str
+    vehicle_type: str
+    frame: Optional[str]
+    frame_source: str
+    duration_s: float
+    airborne_s: float
+    t_start: float
+    t_end: float
+    airborne: list[tuple[float, float]] = field(default_factory=list)
+
+    @staticmethod
+    def from_flight(flight: Flight) -> "FlightFacts":
+        return FlightFacts(
+            path=flight.path, autopilot=flight.autopilot, firmware=flight.firmware or "",
+            vehicle_type=flight.vehicle_type, frame=flight.frame.name if flight.frame else None,
+            frame_source=flight.frame.source if flight.frame else "",
+            duration_s=flight.duration_s, airborne_s=flight.airborne_s,
+            t_start=flight.t_start, t_end=flight.t_end,
+            airborne=[(float(a), float(b)) for a, b in flight.airborne])
+
+
+@dataclass
+class ModelInfo:
+    """Which model judged the flight; ``calibrated`` when it is the profile's own model."""
+
+    path: Optional[str]
+    version: str
+    sha256: str
+    classes: list[str]
+    calibrated: bool
+
+
+@dataclass
+class ProfileInfo:
+    """Which calibration profile was used (None in the Diagnosis when there was none)."""
+
+    path: Optional[str]
+    model_path: Optional[str]
+    model_sha256: Optional[str]
+
+
+@dataclass
+class WindowResult:
+    """One window: its bounds (s), the model's class (argmax), probabilities, phase, and the
+    smoothed label the verdict used (-1 uncertain, 0 healthy, k motor k)."""
+
+    t_start: float
+    t_end: float
+    cls: int
+    probabilities: list[float]
+    phase: str
+    label: int
+
+
+@dataclass
+class Diagnosis:
+    """Everything a report needs about one log. ``flight`` is kept for plots (never serialised)."""
+
+    log: str
+    verdict: Verdict
+    facts: Optional[FlightFacts] = None
+    model: Optional[ModelInfo] = None
+    profile: Optional[ProfileInfo] = None
+    windows: list[WindowResult] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    diagnosability_facts: dict = field(default_factory=dict)
+    flight: Optional[Flight] = field(default=None, repr=False)
+
+    @property
+    def exit_code(self) -> int:
+        status = self.verdict.status
+        if status == "healthy":
+            return EXIT_HEALTHY
+        if status in ("damaged", "uncertain"):
+            return EXIT_DAMAGED_OR_UNCERTAIN
+        return EXIT_NOT_DIAGNOSABLE
+
+
+def _profile_file(profile: Any) -> Optional[Path]:
+    p = getattr(profile, "path", None)
+    return Path(p) if p else None
+
+
+def profile_info(profile: Any) -> Optional[ProfileInfo]:
+    """The profile's path and the model it names (path resolved against the profile's folder)."""
+    if profile is None:
+        return None
+    pfile = _profile_file(profile)
+    ref = getattr(profile, "model", None) or {}
+    model_path = ref.get("path")
+    if model_path and pfile is not None and not Path(model_path).is_absolute():
+        model_path = str(pfile.parent / model_path)
+    return ProfileInfo(path=str(pfile) if pfile else None, model_path=model_path,
+                       model_sha256=ref.get("sha256"))
+
+
+def model_info(model: Any, profile: Any = None) -> ModelInfo:
+    """Describe ``model``; it is "calibrated" when the profile names a model with its sha256."""
+    info = profile_info(profile)
+    sha = str(getattr(model, "sha256", "") or "")
+    calibrated = bool(info and info.model_sha256 and sha and info.model_sha256 == sha)
+    path = getattr(model, "path", None)
+    return ModelInfo(path=str(path) if path else None, version=str(getattr(model, "version", "") or ""),
+                     sha256=sha, classes=[str(c) for c in getattr(model, "classes", [])], calibrated=calibrated)
+
+
+def resolve_model(model_path=None, profile: Any = None):
+    """The model to use: an explicit ``--model`` path, else the profile's model, else the shipped one.
+
+    A profile's model path is relative to the profile file; when the profile records the model's
+    sha256, a different file at that path is refused (the profile was calibrated for another model).
+    """
+    from .model import FaultModel, default_model_path
+
+    if model_path is not None:
+        return FaultModel(model_path)
+    info = profile_info(profile)
+    if info is not None and info.model_path:
+        model = FaultModel(info.model_path)
+        if info.model_sha256 and model.sha256 != info.model_sha256:
+            raise ModelError(info.model_path, f"sha256 {model.sha256[:12]}... differs from the profile's "
+                                              f"{info.model_sha256[:12]}... (profile {info.path})")
+        return model
+    return FaultModel(default_model_path())
+
+
+def _check_model_classes(model: Any) -> None:
+    classes = list(getattr(model, "classes", []))
+    if classes and len(classes) != N_CLASSES:
+        raise ModelError(getattr(model, "path", None),
+                         f"model has {len(classes)} classes, fdlog needs {N_CLASSES} (healthy + 4 motors)")
+
+
+def _not_diagnosable(log: str, reason: str, **kw) -> Diagnosis:
+    return Diagnosis(log=log, verdict=not_diagnosable(reason), **kw)
+
+
+def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
+                    settings: VerdictSettings = VerdictSettings()) -> Diagnosis:
+    """Diagnose one loaded flight with ``model`` (a FaultModel or any object with the same
+    ``feature_spec``, ``standardise`` and ``predict_proba``) and an optional calibration profile."""
+    from .features import FeatureSpec, make_windows
+
+    log = str(flight.path) if flight.path else "<flight>"
+    facts = FlightFacts.from_flight(flight)
+    warnings = list(flight.warnings)
+    if profile is None:
+        warnings.append(NO_PROFILE_WARNING)
+    common = dict(facts=facts, model=model_info(model, profile), profile=profile_info(profile),
+                  warnings=warnings, flight=flight)
+
+    check = diagnosability(flight, model.feature_spec)
+    if not check.ok:
+        return _not_diagnosable(log, check.reason, diagnosability_facts=dict(check.facts), **common)
+    try:
+        _check_model_classes(model)
+        if profile is not None:
+            profile.check_compatible(flight)
+        try:
+            spec = FeatureSpec.from_dict(model.feature_spec)
+        except ValueError as e:
+            raise ModelError(getattr(model, "path", None), f"bad feature spec in the model: {e}") from None
+        win = make_windows(flight, spec)
+        if len(win.t_start) == 0:
+            return _not_diagnosable(log, win.reason or "no complete window of airborne data",
+                                    diagnosability_facts=dict(check.facts), **common)
+        probs = np.asarray(model.predict_proba(model.standardise(win.X)), dtype=np.float64)
+    except FlightLogError as e:
+        return _not_diagnosable(log, e.message, diagnosability_facts=dict(check.facts), **common)
+
+    t_start = np.asarray(win.t_start, dtype=np.float64)
+    t_end = np.asarray(win.t_end, dtype=np.float64)
+    phases = window_phases(flight, t_start, t_end)
+    verdict = decide(t_start, t_end, probs, settings=settings, frame=flight.frame)
+    order = np.argsort(t_start, kind="stable")
+    windows = [WindowResult(float(t_start[i]), float(t_end[i]), int(np.argmax(probs[i])),
+                            [float(x) for x in probs[i]], phases[i], int(verdict.window_labels[i]))
+               for i in order]
+    manoeuvre_share = sum(ph == "manoeuvre" for ph in phases) / len(phases)
+    if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
+        warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
+                        f"reliable in steady flight, so treat this verdict with care")
+    return Diagnosis(log=log, verdict=verdict, windows=windows,
+                     diagnosability_facts=dict(check.facts), **common)
+
+
+def diagnose_path(path, model: Any, profile: Any = None, *,
+                  settings: VerdictSettings = VerdictSettings()) -> Diagnosis:
+    """Load ``path`` and diagnose it; a bad file gives a not_diagnosable Diagnosis (exit 2)."""
+    from . import load_flight
+
+    try:
+        flight = load_flight(path)
+    except FlightLogError as e:
+        return _not_diagnosable(str(path), e.message)
+    return diagnose_flight(flight, model, profile, settings=settings)

@@ -1,0 +1,293 @@
+"""HTML report (``fdlog diagnose --html F``): ONE self-contained page, no scripts, no CDN.
+
+Inputs: one or more :class:`~flightlog_fd.diagnose.Diagnosis` (with their ``flight`` for the
+plots). For each log the page shows the verdict sentence first, the log's facts (autopilot,
+firmware, frame, durations, model, profile, warnings) and three inline SVG plots drawn here:
+
+- angular rates p, q, r in deg/s,
+- motor commands 1-4 (0..1, autopilot numbering),
+- class probabilities per window (plotted at the window's centre),
+
+all over the same time axis (seconds on the log's clock), with the background shaded by the
+verdict's smoothed window labels (green healthy, red damaged, amber uncertain, white no window).
+Several logs get a summary table at the top. A window table sits in a closed ``<details>``.
+
+Every text that comes from the log or the user (file names, firmware strings, frame sources,
+warnings, reasons) is HTML-escaped; nothing is ever inserted raw. Lines are decimated to at most
+``MAX_POINTS_PER_LINE`` points (min/max per bucket, so spikes survive) to keep the page small.
+"""
+from __future__ import annotations
+
+import html
+import math
+from pathlib import Path
+from typing import Optional, Sequence, Union
+
+import numpy as np
+
+from .. import __version__
+from ..diagnose import Diagnosis
+from ..flight import Series
+from ..verdict import UNCERTAIN_LABEL, timeline_labels
+from .terminal import CLASS_NAMES, verdict_sentence
+
+#: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
+MAX_POINTS_PER_LINE = 1600
+PLOT_WIDTH = 900
+PLOT_HEIGHT = 200
+MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, MARGIN_BOTTOM = 60, 110, 12, 30
+#: Time slots used to shade the plots' background by window label.
+SHADING_SLOTS = 400
+RAD_TO_DEG = 180.0 / math.pi
+
+LINE_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
+CLASS_COLOURS = ("#2e7d32", "#d62728", "#9467bd", "#ff7f0e", "#1f77b4")  # healthy, motors 1-4
+SHADE_COLOURS = {0: "#e8f5e9", 1: "#ffebee", 2: "#ffebee", 3: "#ffebee", 4: "#ffebee",
+                 UNCERTAIN_LABEL: "#fff8e1"}
+STATUS_COLOURS = {"healthy": "#2e7d32", "damaged": "#c62828", "uncertain": "#ef6c00",
+                  "not_diagnosable": "#6a1b9a"}
+
+CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:24px;color:#222;max-width:1100px}
+h1{font-size:1.4em} h2{font-size:1.15em;margin-top:2em;border-bottom:1px solid #ddd}
+.verdict{font-size:1.3em;font-weight:600;padding:10px 14px;border-left:6px solid;background:#fafafa}
+table{border-collapse:collapse;font-size:.9em} td,th{border:1px solid #ddd;padding:3px 8px;text-align:left}
+th{background:#f5f5f5} .warn{color:#8a5a00} .muted{color:#777;font-size:.85em}
+svg{display:block;margin:6px 0 14px 0} svg text{font-size:11px;fill:#333}
+"""
+
+
+def esc(value) -> str:
+    """HTML-escape any value's text (quotes too, so it is safe in attributes)."""
+    return html.escape("" if value is None else str(value), quote=True)
+
+
+def nice_ticks(lo: float, hi: float, target: int = 6) -> list[float]:
+    """Round tick values covering [lo, hi] (steps of 1, 2 or 5 times a power of ten)."""
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
+        return [lo] if math.isfinite(lo) else []
+    raw = (hi - lo) / max(target, 1)
+    mag = 10 ** math.floor(math.log10(raw))
+    step = next(m * mag for m in (1, 2, 5, 10) if m * mag >= raw)
+    first = math.ceil(lo / step) * step
+    return [round(first + i * step, 10) for i in range(int((hi - first) / step + 1e-9) + 1)]
+
+
+def decimate(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS_PER_LINE) -> tuple[np.ndarray, np.ndarray]:
+    """At most ``max_points`` points: each bucket keeps its minimum and maximum, in time order."""
+    n = t.shape[0]
+    if n <= max_points:
+        return t, y
+    buckets = max_points // 2
+    edges = np.linspace(0, n, buckets + 1).astype(int)
+    keep = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        if b <= a:
+            continue
+        seg = y[a:b]
+        finite = np.isfinite(seg)
+        if not finite.any():
+            continue
+        i_min = a + int(np.nanargmin(seg))
+        i_max = a + int(np.nanargmax(seg))
+        keep.extend(sorted({i_min, i_max}))
+    idx = np.asarray(keep, dtype=int)
+    return t[idx], y[idx]
+
+
+def _shading_rects(d: Diagnosis, t0: float, t1: float, x_of, y_top: float, height: float) -> list[str]:
+    w = d.windows
+    if not w:
+        return []
+    slots = timeline_labels([x.t_start for x in w], [x.t_end for x in w], [x.label for x in w],
+                            t0, t1, SHADING_SLOTS)
+    edges = np.linspace(t0, t1, len(slots) + 1)
+    rects, i = [], 0
+    while i < len(slots):
+        j = i
+        while j + 1 < len(slots) and slots[j + 1] == slots[i]:
+            j += 1
+        label = slots[i]
+        if label is not None:
+            xa, xb = x_of(edges[i]), x_of(edges[j + 1])
+            title = "uncertain" if label == UNCERTAIN_LABEL else CLASS_NAMES[label]
+            rects.append(f'<rect x="{xa:.1f}" y="{y_top:.1f}" width="{max(xb - xa, 0.5):.1f}" '
+                         f'height="{height:.1f}" fill="{SHADE_COLOURS[label]}"><title>{esc(title)}</title></rect>')
+        i = j + 1
+    return rects
+
+
+def svg_plot(title: str, y_label: str, lines: Sequence[tuple[str, np.ndarray, np.ndarray]],
+             t0: float, t1: float, diagnosis: Optional[Diagnosis] = None,
+             y_range: Optional[tuple[float, float]] = None) -> str:
+    """One time plot as an ``<svg>`` element: ``lines`` are (name, t seconds, values)."""
+    w, h = PLOT_WIDTH, PLOT_HEIGHT
+    left, right = MARGIN_LEFT, w - MARGIN_RIGHT
+    top, bottom = MARGIN_TOP, h - MARGIN_BOTTOM
+    finite = [v[np.isfinite(v)] for _, _, v in lines if v.size]
+    finite = [v for v in finite if v.size]
+    if y_range is not None:
+        ylo, yhi = y_range
+    elif finite:
+        ylo, yhi = float(min(v.min() for v in finite)), float(max(v.max() for v in finite))
+    else:
+        ylo, yhi = 0.0, 1.0
+    if yhi - ylo < 1e-9:
+        ylo, yhi = ylo - 1.0, yhi + 1.0
+    if t1 <= t0:
+        t1 = t0 + 1.0
+
+    def x_of(t):
+        return left + (t - t0) / (t1 - t0) * (right - left)
+
+    def y_of(v):
+        return bottom - (v - ylo) / (yhi - ylo) * (bottom - top)
+
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" '
+             f'role="img" aria-label="{esc(title)}">', f"<title>{esc(title)}</title>"]
+    if diagnosis is not None:
+        parts += _shading_rects(diagnosis, t0, t1, x_of, top, bottom - top)
+    parts.append(f'<rect x="{left}" y="{top}" width="{right - left}" height="{bottom - top}" '
+                 f'fill="none" stroke="#999"/>')
+    for tv in nice_ticks(t0, t1, 10):
+        x = x_of(tv)
+        parts.append(f'<line x1="{x:.1f}" y1="{bottom}" x2="{x:.1f}" y2="{bottom + 4}" stroke="#999"/>')
+        parts.append(f'<text x="{x:.1f}" y="{bottom + 16}" text-anchor="middle">{tv:g}</text>')
+    for yv in nice_ticks(ylo, yhi, 5):
+        y = y_of(yv)
+        parts.append(f'<line x1="{left}" y1="{y:.1f}" x2="{right}" y2="{y:.1f}" stroke="#eee"/>')
+        parts.append(f'<text x="{left - 5}" y="{y + 4:.1f}" text-anchor="end">{yv:g}</text>')
+    parts.append(f'<text x="12" y="{(top + bottom) / 2:.0f}" text-anchor="middle" '
+                 f'transform="rotate(-90 12 {(top + bottom) / 2:.0f})">{esc(y_label)}</text>')
+    parts.append(f'<text x="{right}" y="{h - 2}" text-anchor="end">t (s, log clock)</text>')
+    for i, (name, t, v) in enumerate(lines):
+        colour = LINE_COLOURS[i % len(LINE_COLOURS)] if len(lines) != 5 else CLASS_COLOURS[i]
+        m = (t >= t0) & (t <= t1) & np.isfinite(v)
+        td, vd = decimate(t[m], v[m])
+        if td.size:
+            pts = " ".join(f"{x_of(a):.1f},{y_of(b):.1f}" for a, b in zip(td, vd))
+            parts.append(f'<polyline fill="none" stroke="{colour}" stroke-width="1.2" points="{pts}">'
+                         f"<title>{esc(name)}</title></polyline>")
+        parts.append(f'<line x1="{right + 10}" y1="{top + 10 + 16 * i}" x2="{right + 28}" '
+                     f'y2="{top + 10 + 16 * i}" stroke="{colour}" stroke-width="3"/>')
+        parts.append(f'<text x="{right + 32}" y="{top + 14 + 16 * i}">{esc(name)}</text>')
+    parts.append("</svg>")
+    return "".join(parts)
+
+
+def _series_lines(series: Optional[Series], names: Sequence[str], scale: float = 1.0):
+    if series is None or len(series) == 0:
+        return []
+    return [(names[k] if k < len(names) else f"{k + 1}", series.t, series.values[:, k] * scale)
+            for k in range(series.values.shape[1])]
+
+
+def _time_span(d: Diagnosis) -> tuple[float, float]:
+    if d.facts is not None and d.facts.t_end > d.facts.t_start:
+        return d.facts.t_start, d.facts.t_end
+    if d.windows:
+        return min(w.t_start for w in d.windows), max(w.t_end for w in d.windows)
+    return 0.0, 1.0
+
+
+def _facts_table(d: Diagnosis) -> str:
+    rows: list[tuple[str, str]] = [("log", d.log)]
+    f = d.facts
+    if f is not None:
+        rows += [("autopilot", f.autopilot), ("firmware", f.firmware or "-"), ("vehicle", f.vehicle_type),
+                 ("frame", f"{f.frame or '-'}" + (f" ({f.frame_source})" if f.frame_source else "")),
+                 ("log duration", f"{f.duration_s:.1f} s (t={f.t_start:.1f} to {f.t_end:.1f} s)"),
+                 ("airborne", f"{f.airborne_s:.1f} s in {len(f.airborne)} segment(s)")]
+    if d.model is not None:
+        m = d.model
+        rows += [("model", f"{m.path or '-'} version {m.version or '-'}"),
+                 ("model sha256", m.sha256 or "-"),
+                 ("calibrated", "yes (profile's own model)" if m.calibrated else "no")]
+    rows.append(("profile", d.profile.path if d.profile is not None and d.profile.path else "none"))
+    v = d.verdict
+    rows.append(("reason", v.reason))
+    if v.evidence is not None and v.evidence.n_windows:
+        ev = v.evidence
+        share = ", ".join(f"{CLASS_NAMES[k]} {100 * s:.0f} %" for k, s in enumerate(ev.smoothed_share))
+        rows.append(("windows", f"{ev.n_windows} covering {ev.covered_s:.1f} s; votes: {share}; "
+                                f"abstained {100 * ev.abstained_share:.0f} %"))
+    rows.append(("exit code", str(d.exit_code)))
+    body = "".join(f"<tr><th>{esc(k)}</th><td>{esc(val)}</td></tr>" for k, val in rows)
+    return f"<table class=\"facts\">{body}</table>"
+
+
+def _window_table(d: Diagnosis) -> str:
+    head = "".join(f"<th>{esc(c)}</th>" for c in ("t_start s", "t_end s", "class", "p healthy", "p m1",
+                                                    "p m2", "p m3", "p m4", "phase", "verdict label"))
+    rows = []
+    for w in d.windows:
+        label = "uncertain" if w.label == UNCERTAIN_LABEL else CLASS_NAMES[w.label]
+        cells = [f"{w.t_start:.2f}", f"{w.t_end:.2f}", CLASS_NAMES[w.cls],
+                 *(f"{p:.3f}" for p in w.probabilities), w.phase, label]
+        rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
+    return (f"<details><summary>{len(d.windows)} windows</summary>"
+            f"<table><tr>{head}</tr>{''.join(rows)}</table></details>")
+
+
+def log_section(d: Diagnosis) -> str:
+    """The verdict, facts, plots and window table of one log."""
+    v = d.verdict
+    colour = STATUS_COLOURS.get(v.status, "#333")
+    out = [f"<section><h2>{esc(d.log)}</h2>",
+           f'<p class="verdict" style="border-color:{colour};color:{colour}">{esc(verdict_sentence(d))}</p>']
+    if d.warnings:
+        out.append("<ul>" + "".join(f'<li class="warn">{esc(w)}</li>' for w in d.warnings) + "</ul>")
+    out.append(_facts_table(d))
+    t0, t1 = _time_span(d)
+    fl = d.flight
+    if fl is not None:
+        if fl.rates is not None:
+            out.append(svg_plot("Angular rates", "deg/s", _series_lines(fl.rates, ("p (roll)", "q (pitch)", "r (yaw)"),
+                                                                       RAD_TO_DEG), t0, t1, d))
+        if fl.motors is not None:
+            names = [f"motor {k + 1}" + (f" {fl.frame.position(k + 1)}" if fl.frame else "")
+                     for k in range(fl.motors.values.shape[1])]
+            out.append(svg_plot(f"Motor commands ({fl.motor_kind})", "command 0..1",
+                                _series_lines(fl.motors, names), t0, t1, d, y_range=(0.0, 1.0)))
+    if d.windows:
+        centres = np.array([(w.t_start + w.t_end) / 2 for w in d.windows])
+        probs = np.array([w.probabilities for w in d.windows])
+        lines = [(CLASS_NAMES[k], centres, probs[:, k]) for k in range(probs.shape[1])]
+        out.append(svg_plot("Class probabilities per window", "probability", lines, t0, t1, d, y_range=(0.0, 1.0)))
+        out.append('<p class="muted">Background: green healthy, red propeller damaged, amber uncertain '
+                   "(the verdict's smoothed window labels); white: no window (on the ground or not used).</p>")
+        out.append(_window_table(d))
+    out.append("</section>")
+    return "".join(out)
+
+
+def _summary(diagnoses: Sequence[Diagnosis]) -> str:
+    head = "".join(f"<th>{c}</th>" for c in ("log", "verdict", "propeller", "confidence", "first seen", "exit"))
+    rows = []
+    for d in diagnoses:
+        v = d.verdict
+        prop = f"{v.motor} ({v.position})" if v.motor and v.position else (str(v.motor) if v.motor else "")
+        cells = [d.log, v.status, prop, f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "",
+                 f"t={v.first_seen:.1f} s" if v.first_seen is not None else "", str(d.exit_code)]
+        rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
+    return f"<h2>Summary</h2><table><tr>{head}</tr>{''.join(rows)}</table>"
+
+
+def render_html(diagnoses: Union[Diagnosis, Sequence[Diagnosis]]) -> str:
+    """The complete page for one or more diagnoses."""
+    if isinstance(diagnoses, Diagnosis):
+        diagnoses = [diagnoses]
+    title = ("fdlog diagnosis: " + diagnoses[0].log) if len(diagnoses) == 1 else f"fdlog diagnosis: {len(diagnoses)} logs"
+    body = [f"<h1>{esc(title)}</h1>"]
+    if len(diagnoses) > 1:
+        body.append(_summary(diagnoses))
+    body += [log_section(d) for d in diagnoses]
+    body.append(f'<p class="muted">flightlog-fd {esc(__version__)}. Motor numbering is the autopilot\'s own; '
+                "times are seconds on the log's clock.</p>")
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>{esc(title)}</title><style>{CSS}</style></head><body>{''.join(body)}</body></html>\n")
+
+
+def write_html(diagnoses: Union[Diagnosis, Sequence[Diagnosis]], path: Union[str, Path]) -> None:
+    """Write the page to ``path`` (UTF-8)."""
+    Path(path).write_text(render_html(diagnoses), encoding="utf-8")

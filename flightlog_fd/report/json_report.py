@@ -1,0 +1,202 @@
+"""JSON report, schema version 1 (``fdlog diagnose --json``).
+
+One log gives one object; several logs give an array of such objects (in the order given).
+Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals.
+
+.. code-block:: text
+
+    {
+      "schema": 1,
+      "tool": {"name": "flightlog-fd", "version": "0.1.0"},
+      "log": "flight.ulg",                       # the path as given
+      "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
+      "firmware": "v1.14.0" | null,
+      "vehicle_type": "quadrotor" | ... | null,
+      "frame": "quad_x" | "quad_plus" | ... | null,
+      "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
+      "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
+      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
+      "verdict": {"status": "healthy" | "damaged" | "uncertain" | "not_diagnosable",
+                  "motor": 1-4 | null,            # autopilot numbering
+                  "position": "front-right" | ... | null,
+                  "confidence": 0-1,
+                  "first_seen": seconds | null,   # start of the first window of the damaged run
+                  "reason": "motor 3 (front-left) damaged in 78 % of 120 windows from t=34.5 s"},
+      "evidence": {"n_windows": int, "covered_s": float,
+                   "share": [healthy, m1, m2, m3, m4],   # smoothed votes, 0..1
+                   "abstained": 0-1} | null,
+      "windows": [{"t_start": s, "t_end": s,
+                   "class": 0-4,                  # the model's most probable class
+                   "probabilities": [p0, p1, p2, p3, p4],
+                   "phase": "hover" | "climb" | "descent" | "manoeuvre" | "unknown",
+                   "smoothed_class": -1..4}],     # the verdict's label: -1 uncertain
+      "warnings": [str],
+      "exit_code": 0 | 1 | 2
+    }
+
+:data:`JSON_SCHEMA` is the same as a JSON Schema (draft 2020-12) dict; :func:`validate` checks a
+document against it without needing the ``jsonschema`` package (it implements exactly the
+keywords the schema uses). Adding a field is a compatible change; renaming or removing one
+bumps ``schema``.
+"""
+from __future__ import annotations
+
+import json
+from typing import Any, Sequence, Union
+
+from .. import __version__
+from ..diagnose import Diagnosis
+
+SCHEMA_VERSION = 1
+#: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
+PROB_DECIMALS = 4
+TIME_DECIMALS = 3
+
+_NUM = {"type": "number"}
+_STR_OR_NULL = {"type": ["string", "null"]}
+_NUM_OR_NULL = {"type": ["number", "null"]}
+_PROB = {"type": "number", "minimum": 0, "maximum": 1}
+
+JSON_SCHEMA: dict = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "fdlog diagnose report",
+    "type": "object",
+    "required": ["schema", "log", "autopilot", "frame", "model", "profile", "verdict", "windows",
+                 "warnings", "exit_code"],
+    "properties": {
+        "schema": {"const": SCHEMA_VERSION},
+        "tool": {"type": "object", "required": ["name", "version"],
+                 "properties": {"name": {"type": "string"}, "version": {"type": "string"}}},
+        "log": {"type": "string"},
+        "autopilot": _STR_OR_NULL,
+        "firmware": _STR_OR_NULL,
+        "vehicle_type": _STR_OR_NULL,
+        "frame": _STR_OR_NULL,
+        "duration_s": _NUM_OR_NULL,
+        "airborne_s": _NUM_OR_NULL,
+        "model": {"type": ["object", "null"], "required": ["path", "version", "sha256", "calibrated"],
+                  "properties": {"path": _STR_OR_NULL, "version": {"type": "string"},
+                                 "sha256": {"type": "string"}, "calibrated": {"type": "boolean"}}},
+        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256"],
+                    "properties": {"path": _STR_OR_NULL, "model_path": _STR_OR_NULL,
+                                   "model_sha256": _STR_OR_NULL}},
+        "verdict": {
+            "type": "object",
+            "required": ["status", "motor", "position", "confidence", "first_seen", "reason"],
+            "properties": {
+                "status": {"enum": ["healthy", "damaged", "uncertain", "not_diagnosable"]},
+                "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": 4},
+                "position": _STR_OR_NULL,
+                "confidence": _PROB,
+                "first_seen": _NUM_OR_NULL,
+                "reason": {"type": "string"},
+            },
+        },
+        "evidence": {"type": ["object", "null"], "required": ["n_windows", "covered_s", "share", "abstained"],
+                     "properties": {"n_windows": {"type": "integer", "minimum": 0}, "covered_s": _NUM,
+                                    "share": {"type": "array", "items": _PROB, "minItems": 5, "maxItems": 5},
+                                    "abstained": _PROB}},
+        "windows": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "required": ["t_start", "t_end", "class", "probabilities", "phase"],
+                "properties": {
+                    "t_start": _NUM,
+                    "t_end": _NUM,
+                    "class": {"type": "integer", "minimum": 0, "maximum": 4},
+                    "probabilities": {"type": "array", "items": _PROB, "minItems": 5, "maxItems": 5},
+                    "phase": {"enum": ["hover", "climb", "descent", "manoeuvre", "unknown"]},
+                    "smoothed_class": {"type": "integer", "minimum": -1, "maximum": 4},
+                },
+            },
+        },
+        "warnings": {"type": "array", "items": {"type": "string"}},
+        "exit_code": {"enum": [0, 1, 2]},
+    },
+}
+
+
+def to_dict(d: Diagnosis) -> dict:
+    """The schema-1 object for one diagnosis."""
+    f, m, p, v = d.facts, d.model, d.profile, d.verdict
+    ev = v.evidence
+    return {
+        "schema": SCHEMA_VERSION,
+        "tool": {"name": "flightlog-fd", "version": __version__},
+        "log": d.log,
+        "autopilot": f.autopilot if f else None,
+        "firmware": (f.firmware or None) if f else None,
+        "vehicle_type": f.vehicle_type if f else None,
+        "frame": f.frame if f else None,
+        "duration_s": round(f.duration_s, TIME_DECIMALS) if f else None,
+        "airborne_s": round(f.airborne_s, TIME_DECIMALS) if f else None,
+        "model": None if m is None else {"path": m.path, "version": m.version, "sha256": m.sha256,
+                                         "calibrated": m.calibrated},
+        "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
+                                           "model_sha256": p.model_sha256},
+        "verdict": v.as_dict(),
+        "evidence": None if ev is None or ev.n_windows == 0 else {
+            "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),
+            "share": [round(x, PROB_DECIMALS) for x in ev.smoothed_share],
+            "abstained": round(ev.abstained_share, PROB_DECIMALS)},
+        "windows": [{"t_start": round(w.t_start, TIME_DECIMALS), "t_end": round(w.t_end, TIME_DECIMALS),
+                     "class": w.cls, "probabilities": [round(x, PROB_DECIMALS) for x in w.probabilities],
+                     "phase": w.phase, "smoothed_class": w.label} for w in d.windows],
+        "warnings": list(d.warnings),
+        "exit_code": d.exit_code,
+    }
+
+
+def render_json(diagnoses: Union[Diagnosis, Sequence[Diagnosis]], *, indent: int | None = 2) -> str:
+    """One object for one diagnosis, an array for a sequence of them."""
+    if isinstance(diagnoses, Diagnosis):
+        doc: Any = to_dict(diagnoses)
+    else:
+        doc = [to_dict(d) for d in diagnoses]
+    return json.dumps(doc, indent=indent, ensure_ascii=False)
+
+
+_TYPES = {"object": dict, "array": list, "string": str, "boolean": bool, "null": type(None)}
+
+
+def _type_ok(value: Any, name: str) -> bool:
+    if name == "integer":
+        return isinstance(value, int) and not isinstance(value, bool)
+    if name == "number":
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return isinstance(value, _TYPES[name])
+
+
+def validate(doc: Any, schema: dict = JSON_SCHEMA, where: str = "$") -> list[str]:
+    """Errors of ``doc`` against ``schema`` (empty when valid). Supports the keywords used in
+    :data:`JSON_SCHEMA`: type, const, enum, required, properties, items, minItems, maxItems,
+    minimum, maximum."""
+    errors: list[str] = []
+    if "const" in schema and doc != schema["const"]:
+        errors.append(f"{where}: expected {schema['const']!r}, got {doc!r}")
+    if "enum" in schema and doc not in schema["enum"]:
+        errors.append(f"{where}: {doc!r} not one of {schema['enum']}")
+    if "type" in schema:
+        names = schema["type"] if isinstance(schema["type"], list) else [schema["type"]]
+        if not any(_type_ok(doc, n) for n in names):
+            return errors + [f"{where}: expected {'/'.join(names)}, got {type(doc).__name__}"]
+    if isinstance(doc, (int, float)) and not isinstance(doc, bool):
+        if "minimum" in schema and doc < schema["minimum"]:
+            errors.append(f"{where}: {doc} < minimum {schema['minimum']}")
+        if "maximum" in schema and doc > schema["maximum"]:
+            errors.append(f"{where}: {doc} > maximum {schema['maximum']}")
+    if isinstance(doc, dict):
+        errors += [f"{where}: missing {k!r}" for k in schema.get("required", []) if k not in doc]
+        for k, sub in schema.get("properties", {}).items():
+            if k in doc:
+                errors += validate(doc[k], sub, f"{where}.{k}")
+    if isinstance(doc, list):
+        if "minItems" in schema and len(doc) < schema["minItems"]:
+            errors.append(f"{where}: {len(doc)} items < {schema['minItems']}")
+        if "maxItems" in schema and len(doc) > schema["maxItems"]:
+            errors.append(f"{where}: {len(doc)} items > {schema['maxItems']}")
+        if "items" in schema:
+            for i, item in enumerate(doc):
+                errors += validate(item, schema["items"], f"{where}[{i}]")
+    return errors

@@ -1,0 +1,136 @@
+"""Terminal report (rich): the verdict first, in plain words, then a timeline strip over the flight.
+
+Inputs: :class:`~flightlog_fd.diagnose.Diagnosis` objects. Nothing here decides anything; it
+only words and draws what the verdict says.
+
+- :func:`verdict_sentence`: "Propeller 3 (front-left) damaged, confidence 0.93, first seen at
+  t=34.5 s" / "No propeller damage found ..." / "Uncertain: ..." / "Not diagnosable: ...".
+- :func:`timeline_strip`: ``TIMELINE_WIDTH`` characters spanning the first window's start to the
+  last window's end (seconds on the log's clock), one per equal time slot: ``.`` healthy, ``1``-``4``
+  the motor judged damaged, ``?`` uncertain, a space where there is no window (on the ground).
+  The characters are the verdict's smoothed window labels, so the strip shows what the verdict saw.
+- :func:`window_table` (``--windows``): every window with its times, class, probabilities, phase.
+- :func:`summary_table`: one row per log when several logs are diagnosed.
+- :func:`render`: all of the above for one log onto a rich Console.
+"""
+from __future__ import annotations
+
+from typing import Optional, Sequence
+
+from rich.console import Console, Group
+from rich.table import Table
+from rich.text import Text
+
+from ..diagnose import Diagnosis
+from ..verdict import UNCERTAIN_LABEL, timeline_labels
+
+#: Characters in the timeline strip (fits an 80-column terminal with its time labels).
+TIMELINE_WIDTH = 60
+#: Timeline characters and styles per smoothed label.
+LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", 1: "1", 2: "2", 3: "3", 4: "4"}
+LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", 1: "bold red", 2: "bold red",
+                3: "bold red", 4: "bold red"}
+STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "uncertain": "bold yellow",
+                 "not_diagnosable": "bold magenta"}
+CLASS_NAMES = ("healthy", "motor 1", "motor 2", "motor 3", "motor 4")
+
+
+def _motor_words(motor: int, position: Optional[str]) -> str:
+    return f"{motor} ({position})" if position else f"{motor}"
+
+
+def verdict_sentence(diagnosis: Diagnosis) -> str:
+    """The verdict in one plain sentence (also used as the HTML page's headline)."""
+    v = diagnosis.verdict
+    if v.status == "damaged":
+        first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
+        return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
+    if v.status == "healthy":
+        n = v.evidence.n_windows if v.evidence else len(diagnosis.windows)
+        covered = f", {v.evidence.covered_s:.0f} s of flight" if v.evidence else ""
+        return f"No propeller damage found, confidence {v.confidence:.2f} ({n} windows{covered})"
+    if v.status == "uncertain":
+        return f"Uncertain: {v.reason}"
+    return f"Not diagnosable: {v.reason}"
+
+
+def timeline_strip(diagnosis: Diagnosis, width: int = TIMELINE_WIDTH) -> Text:
+    """The coloured strip with the time at both ends; empty Text when there are no windows."""
+    w = diagnosis.windows
+    if not w:
+        return Text("")
+    t0, t1 = min(x.t_start for x in w), max(x.t_end for x in w)
+    slots = timeline_labels([x.t_start for x in w], [x.t_end for x in w], [x.label for x in w], t0, t1, width)
+    text = Text(f"t={t0:.1f} s ", style="dim")
+    for label in slots:
+        if label is None:
+            text.append(" ")
+        else:
+            text.append(LABEL_CHARS[label], style=LABEL_STYLES[label])
+    text.append(f" t={t1:.1f} s", style="dim")
+    return text
+
+
+def window_table(diagnosis: Diagnosis) -> Table:
+    """Every window: start, end (s), the model's class, its five probabilities, phase, verdict label."""
+    table = Table(title="Windows", show_lines=False)
+    for name in ("t_start s", "t_end s", "class", "p healthy", "p m1", "p m2", "p m3", "p m4", "phase", "label"):
+        table.add_column(name, justify="right" if name.startswith(("t_", "p ")) else "left")
+    for x in diagnosis.windows:
+        table.add_row(f"{x.t_start:.2f}", f"{x.t_end:.2f}", CLASS_NAMES[x.cls],
+                      *(f"{p:.2f}" for p in x.probabilities), x.phase,
+                      Text(LABEL_CHARS[x.label], style=LABEL_STYLES[x.label]))
+    return table
+
+
+def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
+    """One row per log: status, motor and position, confidence, first seen, exit code."""
+    table = Table(title="Diagnosis summary")
+    for name in ("log", "verdict", "propeller", "confidence", "first seen", "exit"):
+        table.add_column(name, justify="right" if name in ("confidence", "first seen", "exit") else "left")
+    for d in diagnoses:
+        v = d.verdict
+        prop = _motor_words(v.motor, v.position) if v.motor else ""
+        conf = f"{v.confidence:.2f}" if v.status != "not_diagnosable" else ""
+        first = f"t={v.first_seen:.1f} s" if v.first_seen is not None else ""
+        table.add_row(Text(d.log), Text(v.status, style=STATUS_STYLES.get(v.status, "")), Text(prop),
+                      conf, first, str(d.exit_code))
+    return table
+
+
+def facts_line(diagnosis: Diagnosis) -> str:
+    """Log facts in one line: autopilot, firmware, frame, duration, airborne time, model."""
+    f = diagnosis.facts
+    parts = []
+    if f is not None:
+        parts.append(f.autopilot + (f" {f.firmware}" if f.firmware else ""))
+        if f.frame:
+            parts.append(f.frame)
+        parts.append(f"{f.duration_s:.0f} s log, {f.airborne_s:.0f} s airborne")
+    if diagnosis.model is not None:
+        m = diagnosis.model
+        parts.append(f"model {m.version or '?'}" + (" (calibrated)" if m.calibrated else ""))
+    return " | ".join(parts)
+
+
+def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_windows: bool = False) -> Group:
+    """Print (when ``console`` is given) and return the report for one log."""
+    v = diagnosis.verdict
+    parts: list = [Text(diagnosis.log, style="bold"),
+                   Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
+    if v.status in ("damaged", "healthy") and v.reason:
+        parts.append(Text(f"  {v.reason}", style="dim"))
+    line = facts_line(diagnosis)
+    if line:
+        parts.append(Text(f"  {line}", style="dim"))
+    if diagnosis.windows:
+        parts.append(timeline_strip(diagnosis))
+        parts.append(Text("  . healthy   1-4 propeller damaged   ? uncertain", style="dim"))
+    if show_windows and diagnosis.windows:
+        parts.append(window_table(diagnosis))
+    for w in diagnosis.warnings:
+        parts.append(Text(f"warning: {w}", style="yellow"))
+    group = Group(*parts)
+    if console is not None:
+        console.print(group)
+    return group
