@@ -195,14 +195,14 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     log = str(flight.path) if flight.path else "<flight>"
     facts = FlightFacts.from_flight(flight)
     warnings = list(flight.warnings)
-    if profile is None:
-        warnings.append(NO_PROFILE_WARNING)
     common = dict(facts=facts, model=model_info(model, profile), profile=profile_info(profile),
                   warnings=warnings, flight=flight)
 
     check = diagnosability(flight, model.feature_spec)
     if not check.ok:
         return _not_diagnosable(log, check.reason, diagnosability_facts=dict(check.facts), **common)
+    if profile is None:  # only worth saying when a verdict follows
+        warnings.append(NO_PROFILE_WARNING)
     try:
         _check_model_classes(model)
         if profile is not None:

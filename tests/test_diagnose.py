@@ -1,0 +1,174 @@
+"""diagnose_flight / diagnose_path on synthetic Flights with a small fake model.
+
+The fake model reads the same NIF windows a real one would get (built by features.py from the
+model's feature spec) and calls a motor damaged when its scale-free thrust share stands out.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flightlog_fd.diagnose import (EXIT_DAMAGED_OR_UNCERTAIN, EXIT_HEALTHY, EXIT_NOT_DIAGNOSABLE,
+                                   NO_PROFILE_WARNING, Diagnosis, diagnose_flight, diagnose_path, model_info,
+                                   profile_info)
+from flightlog_fd.errors import ProfileError
+from flightlog_fd.features import FeatureSpec
+from flightlog_fd.flight import Flight, Frame, Series
+
+HOVER_COMMAND = 0.5
+#: A motor whose mean thrust share exceeds the window mean by this much is "damaged" for the fake.
+FAKE_SHARE_EXCESS = 0.04
+
+
+class ShareModel:
+    """Fake FaultModel: same attributes and methods, decides from the motor thrust shares."""
+
+    classes = ["healthy", "motor 1", "motor 2", "motor 3", "motor 4"]
+    version = "fake-share-1"
+    sha256 = "ab" * 32
+    path = "/models/fake.onnx"
+
+    def __init__(self):
+        self.feature_spec = FeatureSpec(features="nif").to_dict()
+        self.standardised = 0
+
+    def standardise(self, X):
+        self.standardised += 1
+        return np.asarray(X, dtype=np.float32)
+
+    def predict_proba(self, X):
+        shares = X[:, 3:7, :].mean(axis=2)  # scale-free: each motor's share of the mean thrust
+        excess = shares.max(axis=1) - 1.0
+        motor = shares.argmax(axis=1) + 1
+        p = np.full((X.shape[0], 5), 0.05)
+        cls = np.where(excess > FAKE_SHARE_EXCESS, motor, 0)
+        p[np.arange(X.shape[0]), cls] = 0.8
+        return p
+
+
+class FakeProfile:
+    def __init__(self, compatible=True, path="/profiles/e9.json", model=None):
+        self.path = path
+        self.model = model
+        self.compatible = compatible
+
+    def check_compatible(self, flight):
+        if not self.compatible:
+            raise ProfileError(self.path, "profile made for a quad_plus frame, this log is quad_x")
+
+
+def synthetic_flight(damaged_motor=None, onset_s=None, airborne=(2.0, 62.0), path="synthetic.ulg") -> Flight:
+    """Hover at 0.5 command with gyro noise; from ``onset_s`` one motor works 12 % harder."""
+    rng = np.random.default_rng(42)
+    t_end = airborne[1] + 2.0
+    t_rates = np.arange(0.0, t_end, 1 / 250)
+    rates = rng.normal(0.0, 0.05, (t_rates.size, 3))
+    t_mot = np.arange(0.0, t_end, 1 / 50)
+    motors = HOVER_COMMAND + rng.normal(0.0, 0.005, (t_mot.size, 4))
+    if damaged_motor is not None:
+        after = t_mot >= (onset_s if onset_s is not None else 0.0)
+        motors[after, damaged_motor - 1] *= 1.12
+    ground = (t_mot < airborne[0]) | (t_mot > airborne[1])
+    motors[ground] = 0.0
+    vel = np.zeros((t_mot.size, 3))
+    return Flight(path=path, autopilot="px4", firmware="v1.14.0", vehicle_type="quadrotor",
+                  frame=Frame.quad_x(), rates=Series(t_rates, rates, "vehicle_angular_velocity.xyz"),
+                  motors=Series(t_mot, motors, "actuator_motors.control"), motor_kind="thrust",
+                  velocity=Series(t_mot, vel, "vehicle_local_position.v"),
+                  armed=[(1.0, t_end - 1.0)], airborne=[airborne], t_start=0.0, t_end=t_end,
+                  warnings=["test: synthetic"])
+
+
+def test_healthy_flight_is_healthy_exit_0():
+    model = ShareModel()
+    d = diagnose_flight(synthetic_flight(), model)
+    assert isinstance(d, Diagnosis)
+    assert d.verdict.status == "healthy"
+    assert d.exit_code == EXIT_HEALTHY
+    assert model.standardised == 1
+    assert len(d.windows) > 50
+    assert all(w.cls == 0 and w.phase == "hover" for w in d.windows)
+    assert NO_PROFILE_WARNING in d.warnings and "test: synthetic" in d.warnings
+    assert d.facts.autopilot == "px4" and d.facts.frame == "quad_x" and d.facts.airborne_s == 60.0
+    assert d.model.version == "fake-share-1" and d.model.calibrated is False
+    # windows are in time order, inside the airborne interval (features trims 1 s each end)
+    starts = [w.t_start for w in d.windows]
+    assert starts == sorted(starts) and starts[0] >= 3.0 - 1e-9 and d.windows[-1].t_end <= 61.0 + 1e-9
+
+
+def test_damage_from_mid_flight_found_with_onset():
+    d = diagnose_flight(synthetic_flight(damaged_motor=3, onset_s=30.0), ShareModel())
+    v = d.verdict
+    assert v.status == "damaged", v.reason
+    assert v.motor == 3 and v.position == "front-left"
+    assert 28.0 <= v.first_seen <= 33.0
+    assert d.exit_code == EXIT_DAMAGED_OR_UNCERTAIN
+    assert "motor 3 (front-left)" in v.reason
+    late = [w for w in d.windows if w.t_start > 35.0]
+    assert late and all(w.cls == 3 and w.label == 3 for w in late)
+
+
+def test_never_airborne_is_not_diagnosable_exit_2():
+    f = synthetic_flight()
+    f.airborne = []
+    d = diagnose_flight(f, ShareModel())
+    assert d.verdict.status == "not_diagnosable"
+    assert d.exit_code == EXIT_NOT_DIAGNOSABLE
+    assert "never flew" in d.verdict.reason
+    assert d.windows == []
+
+
+def test_too_short_flight_is_not_diagnosable():
+    d = diagnose_flight(synthetic_flight(airborne=(2.0, 11.0)), ShareModel())
+    assert d.verdict.status == "not_diagnosable"
+    assert d.exit_code == EXIT_NOT_DIAGNOSABLE
+    assert d.verdict.reason
+
+
+def test_incompatible_profile_is_not_diagnosable_with_its_message():
+    d = diagnose_flight(synthetic_flight(), ShareModel(), FakeProfile(compatible=False))
+    assert d.verdict.status == "not_diagnosable"
+    assert "quad_plus" in d.verdict.reason
+    assert d.profile.path == "/profiles/e9.json"
+    assert NO_PROFILE_WARNING not in d.warnings
+
+
+def test_profile_model_marks_calibrated_and_resolves_relative_path():
+    model = ShareModel()
+    prof = FakeProfile(model={"path": "e9.onnx", "sha256": model.sha256})
+    info = profile_info(prof)
+    assert info.model_path == "/profiles/e9.onnx"
+    assert model_info(model, prof).calibrated is True
+    assert model_info(model, FakeProfile(model={"path": "e9.onnx", "sha256": "00" * 32})).calibrated is False
+    d = diagnose_flight(synthetic_flight(), model, prof)
+    assert d.verdict.status == "healthy" and d.model.calibrated
+
+
+def test_diagnose_path_bad_file_is_not_diagnosable(tmp_path):
+    bad = tmp_path / "notes.ulg"
+    bad.write_text("this is not a flight log")
+    d = diagnose_path(bad, ShareModel())
+    assert d.verdict.status == "not_diagnosable"
+    assert d.exit_code == EXIT_NOT_DIAGNOSABLE
+    assert d.log == str(bad)
+    assert "not a PX4 ULog or ArduPilot DataFlash log" in d.verdict.reason
+    missing = diagnose_path(tmp_path / "missing.bin", ShareModel())
+    assert missing.exit_code == EXIT_NOT_DIAGNOSABLE and "no such file" in missing.verdict.reason
+
+
+def test_model_with_wrong_class_count_is_refused():
+    model = ShareModel()
+    model.classes = ["healthy", "damaged"]
+    d = diagnose_flight(synthetic_flight(), model)
+    assert d.verdict.status == "not_diagnosable"
+    assert "2 classes" in d.verdict.reason
+
+
+@pytest.mark.shared
+def test_real_healthy_px4_log_runs_through(shared):
+    """A real third-party log goes through the whole pipeline without a traceback."""
+    path = shared("real_logs", "px4", "sample_px4_events.ulg")
+    d = diagnose_path(path, ShareModel())
+    assert d.verdict.status in ("healthy", "uncertain", "damaged", "not_diagnosable")
+    assert d.exit_code in (0, 1, 2)
+    assert d.log == str(path)

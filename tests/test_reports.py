@@ -1,0 +1,190 @@
+"""Reports: JSON against its schema, CSV columns, HTML structure and escaping, terminal words."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+from html.parser import HTMLParser
+
+import numpy as np
+import pytest
+from rich.console import Console
+
+from flightlog_fd.diagnose import Diagnosis, FlightFacts, ModelInfo, WindowResult
+from flightlog_fd.flight import Flight, Frame, Series
+from flightlog_fd.report.csv_report import CSV_COLUMNS, render_csv, write_csv
+from flightlog_fd.report.html_report import decimate, nice_ticks, render_html, write_html
+from flightlog_fd.report.json_report import JSON_SCHEMA, render_json, to_dict, validate
+from flightlog_fd.report.terminal import render, summary_table, timeline_strip, verdict_sentence
+from flightlog_fd.verdict import decide, not_diagnosable
+
+HOSTILE = '<script>alert("x")</script>'
+
+
+def make_diagnosis(onset_s=34.5, motor=3, path="flight.ulg", firmware="v1.14.0") -> Diagnosis:
+    """A 100 s flight, windows 1.6 s every 0.8 s from t=10 s; motor damaged from ``onset_s``."""
+    rng = np.random.default_rng(0)
+    ts = np.arange(10.0, 98.0, 0.8)
+    te = ts + 1.58
+    probs = np.full((ts.size, 5), 0.03)
+    cls = np.where(ts >= onset_s, motor, 0) if onset_s is not None else np.zeros(ts.size, int)
+    probs[np.arange(ts.size), cls] = 0.88
+    probs += rng.uniform(0, 0.01, probs.shape)
+    probs /= probs.sum(axis=1, keepdims=True)
+    frame = Frame.quad_x()
+    verdict = decide(ts, te, probs, frame=frame)
+    t = np.arange(0.0, 100.0, 0.02)
+    flight = Flight(path=path, autopilot="px4", firmware=firmware, vehicle_type="quadrotor", frame=frame,
+                    rates=Series(t, 0.1 * np.sin(np.outer(t, [1.0, 1.3, 0.7])), "rates"),
+                    motors=Series(t, np.full((t.size, 4), 0.5), "motors"),
+                    airborne=[(8.0, 99.0)], t_start=0.0, t_end=100.0)
+    windows = [WindowResult(float(a), float(b), int(c), [float(x) for x in p], "hover", int(lab))
+               for a, b, c, p, lab in zip(ts, te, probs.argmax(axis=1), probs, verdict.window_labels)]
+    return Diagnosis(log=path, verdict=verdict, facts=FlightFacts.from_flight(flight),
+                     model=ModelInfo("/m/default.onnx", "1.0.0", "cd" * 32, list("hABCD"), False),
+                     profile=None, windows=windows, warnings=["no calibration profile"], flight=flight)
+
+
+def bad_file_diagnosis() -> Diagnosis:
+    return Diagnosis(log="notes.txt", verdict=not_diagnosable("not a PX4 ULog or ArduPilot DataFlash log"))
+
+
+# ---------------------------------------------------------------- JSON
+
+def test_json_validates_and_holds_the_verdict():
+    d = make_diagnosis()
+    doc = json.loads(render_json(d))
+    assert validate(doc) == []
+    assert doc["schema"] == 1 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
+    assert doc["verdict"]["position"] == "front-left"
+    assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
+    assert doc["exit_code"] == 1
+    assert len(doc["windows"]) == len(d.windows)
+    w0 = doc["windows"][0]
+    assert w0["class"] == 0 and len(w0["probabilities"]) == 5 and abs(sum(w0["probabilities"]) - 1) < 1e-3
+    assert doc["model"]["sha256"] == "cd" * 32 and doc["profile"] is None
+
+
+def test_json_for_a_bad_file_and_for_many_logs():
+    many = json.loads(render_json([make_diagnosis(), bad_file_diagnosis()]))
+    assert isinstance(many, list) and len(many) == 2
+    for doc in many:
+        assert validate(doc) == []
+    bad = many[1]
+    assert bad["verdict"]["status"] == "not_diagnosable" and bad["exit_code"] == 2
+    assert bad["autopilot"] is None and bad["windows"] == [] and bad["verdict"]["confidence"] == 0
+
+
+def test_validator_catches_schema_violations():
+    doc = to_dict(make_diagnosis())
+    doc["verdict"]["status"] = "broken"
+    doc["windows"][0]["probabilities"] = [0.5, 0.5]
+    del doc["warnings"]
+    errors = validate(doc)
+    assert any("verdict.status" in e for e in errors)
+    assert any("windows[0].probabilities" in e for e in errors)
+    assert any("missing 'warnings'" in e for e in errors)
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 1
+
+
+# ---------------------------------------------------------------- CSV
+
+def test_csv_columns_and_rows(tmp_path):
+    d = make_diagnosis()
+    rows = list(csv.DictReader(io.StringIO(render_csv([d, bad_file_diagnosis()]))))
+    assert tuple(rows[0].keys()) == CSV_COLUMNS
+    assert len(rows) == len(d.windows)  # the bad file adds no rows
+    first, last = rows[0], rows[-1]
+    assert first["class"] == "0" and last["class"] == "3" and last["smoothed_class"] == "3"
+    assert float(first["t_start"]) == pytest.approx(10.0)
+    assert float(first["p_healthy"]) > 0.8 and last["verdict"] == "damaged"
+    out = tmp_path / "w.csv"
+    write_csv(d, out)
+    assert out.read_text(encoding="utf-8").splitlines()[0] == ",".join(CSV_COLUMNS)
+
+
+# ---------------------------------------------------------------- HTML
+
+class PageParser(HTMLParser):
+    """Collects tags, text, and any <script> element (there must be none)."""
+
+    def __init__(self):
+        super().__init__()
+        self.tags: list[str] = []
+        self.text: list[str] = []
+        self.attrs: list[tuple[str, str]] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        self.attrs += [(k, v or "") for k, v in attrs]
+
+    def handle_data(self, data):
+        self.text.append(data)
+
+
+def parse(page: str) -> PageParser:
+    p = PageParser()
+    p.feed(page)
+    p.close()
+    return p
+
+
+def test_html_has_verdict_plots_and_no_scripts(tmp_path):
+    d = make_diagnosis()
+    out = tmp_path / "r.html"
+    write_html(d, out)
+    page = out.read_text(encoding="utf-8")
+    p = parse(page)
+    text = " ".join(p.text)
+    assert verdict_sentence(d) in text
+    assert "Propeller 3 (front-left) damaged" in text
+    assert p.tags.count("svg") == 3  # rates, motor commands, class probabilities
+    assert p.tags.count("polyline") == 3 + 4 + 5
+    assert "rect" in p.tags  # window shading
+    assert "script" not in p.tags
+    assert not any(v.startswith("http") and k in ("src", "href") for k, v in p.attrs)  # nothing fetched
+
+
+def test_html_escapes_hostile_text_from_the_log():
+    d = make_diagnosis(path=f"{HOSTILE}.ulg", firmware=HOSTILE)
+    d.warnings.append(HOSTILE)
+    page = render_html([d, bad_file_diagnosis()])
+    assert HOSTILE not in page
+    assert "<script" not in page.lower()
+    p = parse(page)
+    assert "script" not in p.tags
+    assert HOSTILE in " ".join(p.text)  # shown to the reader as text, escaped in the source
+    assert "Summary" in " ".join(p.text)
+
+
+def test_html_helpers():
+    assert nice_ticks(0.0, 100.0, 5) == [0, 20, 40, 60, 80, 100]
+    t = np.arange(10000.0)
+    y = np.zeros(10000)
+    y[5000] = 9.0  # a spike must survive decimation
+    td, yd = decimate(t, y, 200)
+    assert td.size <= 200 and yd.max() == 9.0 and np.all(np.diff(td) > 0)
+
+
+# ---------------------------------------------------------------- terminal
+
+def test_terminal_words_timeline_and_summary():
+    d = make_diagnosis()
+    assert verdict_sentence(d).startswith("Propeller 3 (front-left) damaged, confidence 0.")
+    assert "first seen at t=34." in verdict_sentence(d)
+    strip = timeline_strip(d, width=40).plain
+    body = strip.split(" ")[2]  # "t=10.0 s <strip> t=... s"
+    assert len(body) == 40 and body.startswith("....") and body.endswith("3333")
+    healthy = make_diagnosis(onset_s=None)
+    assert verdict_sentence(healthy).startswith("No propeller damage found")
+    assert verdict_sentence(bad_file_diagnosis()).startswith("Not diagnosable: not a PX4 ULog")
+
+    console = Console(record=True, width=120, color_system=None)
+    render(d, console, show_windows=True)
+    console.print(summary_table([d, healthy, bad_file_diagnosis()]))
+    out = console.export_text()
+    assert "Propeller 3 (front-left) damaged" in out
+    assert "warning: no calibration profile" in out
+    assert "Windows" in out and "hover" in out
+    assert "not_diagnosable" in out and "3 (front-left)" in out
