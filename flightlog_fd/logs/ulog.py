@@ -165,18 +165,18 @@ class _Topic:
 
 
 class _EndTrackingReader(io.BufferedReader):
-    """File object for pyulog that remembers whether its last read came back short.
+    """File object for pyulog that remembers whether a read ever came back short.
 
     pyulog stops silently when the last message is cut; a short read (some bytes, fewer than
-    asked) at the end is how a truncated file shows.
+    asked) can only happen at the end of the file, and is how a cut message shows.
     """
 
-    last_read_short = False
+    short_read = False
 
     def read(self, size=-1):  # noqa: D102 - io signature
         data = super().read(size)
-        if size is not None and size > 0:
-            self.last_read_short = 0 < len(data) < size
+        if size is not None and 0 < len(data) < size:
+            self.short_read = True
         return data
 
 
@@ -203,7 +203,7 @@ def _parse(path: Path):
     finally:
         if not reader.closed:
             reader.close()
-    return ulog, reader.last_read_short, printed.getvalue()
+    return ulog, reader.short_read, printed.getvalue()
 
 
 def _topics(ulog, name: str) -> list[_Topic]:
@@ -655,6 +655,9 @@ def read_ulog(path) -> Flight:
     ulog, truncated, printed = _parse(p)
     if not ulog.message_formats:
         raise CorruptLogError(path, "ULog header only: no message definitions (file cut right after the header?)")
+    if truncated and not ulog.data_list:
+        raise CorruptLogError(path, "ULog is truncated before any flight data (cut in its definitions "
+                                    "or first data messages)")
 
     warnings: list[str] = []
     info = ulog.msg_info_dict
