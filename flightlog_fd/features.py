@@ -334,7 +334,7 @@ def flight_thrust_proxy(flight: Flight, values: Optional[np.ndarray] = None) -> 
 # ----------------------------------------------------------------------------- resampling
 
 @dataclass
-class _Stream:
+class Stream:
     """A cleaned stream: sorted, unique, NaN-free times with its gap threshold."""
 
     t: np.ndarray
@@ -362,7 +362,7 @@ class _Stream:
         return out
 
 
-def _clean(series: Series, max_gap_s: float, columns: int) -> _Stream:
+def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     t = series.t
     v = series.values[:, :columns]
     keep = np.isfinite(t) & np.all(np.isfinite(v), axis=1)
@@ -376,7 +376,7 @@ def _clean(series: Series, max_gap_s: float, columns: int) -> _Stream:
         gap = min(max_gap_s, GAP_FACTOR * float(np.median(np.diff(t))))
     else:
         gap = 0.0
-    return _Stream(t, v, gap)
+    return Stream(t, v, gap)
 
 
 def _odd_window(seconds: float, rate_hz: float) -> int:
@@ -396,7 +396,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), stops.tolist()))
 
 
-def _speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: float) -> tuple[_Stream, str]:
+def _speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: float) -> tuple[Stream, str]:
     """The thrust-proxy stream (n, 4) and which source it came from."""
     use_rpm = False
     if speed_source in ("esc_rpm", "auto") and flight.esc_rpm is not None and flight.esc_rpm.values.shape[1] >= 4:
@@ -414,10 +414,10 @@ def _speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: 
         rpm = flight.esc_rpm.values[:, :4].astype(np.float64)
         rpm = np.where(rpm > 0, rpm, np.nan)  # telemetry dropouts read as 0: treat as missing
         top = np.nanmax(rpm) if np.any(np.isfinite(rpm)) else 1.0
-        s = _clean(Series(flight.esc_rpm.t, (rpm / top) ** 2, flight.esc_rpm.source), max_gap_s, 4)
+        s = clean_stream(Series(flight.esc_rpm.t, (rpm / top) ** 2, flight.esc_rpm.source), max_gap_s, 4)
         return s, "esc_rpm"
     m = flight.motors
-    s = _clean(Series(m.t, flight_thrust_proxy(flight, m.values[:, :4]), m.source), max_gap_s, 4)
+    s = clean_stream(Series(m.t, flight_thrust_proxy(flight, m.values[:, :4]), m.source), max_gap_s, 4)
     return s, "command"
 
 
@@ -446,12 +446,12 @@ def resample(flight: Flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float 
     stream is absent or the vehicle is not a quadrotor; returns [] when nothing is airborne.
     """
     _check_streams(flight, need_attitude)
-    rates = _clean(flight.rates, max_gap_s, 3)
+    rates = clean_stream(flight.rates, max_gap_s, 3)
     speed, source = _speed_stream(flight, speed_source, rate_hz, max_gap_s)
-    motors = _clean(flight.motors, max_gap_s, 4)
+    motors = clean_stream(flight.motors, max_gap_s, 4)
     attitude = None
     if flight.attitude is not None and len(flight.attitude) >= 2:
-        attitude = _clean(flight.attitude, max_gap_s, 2)
+        attitude = clean_stream(flight.attitude, max_gap_s, 2)
         # Unwrap (after NaNs are gone) so interpolation between +179 and -179 deg avoids 0.
         attitude.v = np.unwrap(attitude.v, axis=0)
     needed = [rates, speed, motors] + ([attitude] if need_attitude else [])
