@@ -35,9 +35,9 @@ bars is ``uncertain``; a flight with no such run is ``healthy`` provided ``HEALT
 of its windows vote healthy (else ``uncertain``: the model could not decide). ``first_seen`` is
 the start time of the first window of the run that the raw model already gave to the motor.
 
-Confidence (0..1) is the mean smoothed probability of the chosen class over the windows the
-decision rests on (the run for ``damaged``, all windows for ``healthy``, the run or the flight
-for ``uncertain``); 0 for ``not_diagnosable``.
+Confidence (0..1) is the mean probability the model gave to the chosen class over the windows
+the decision rests on (the run for ``damaged``, all windows for ``healthy``; for ``uncertain``
+the leading class over the run, or over the flight); 0 for ``not_diagnosable``.
 
 Limits: one damaged propeller per flight (the model has no multi-fault class); damage present
 only in the last ``MIN_RUN_S`` seconds cannot be confirmed; the thresholds are tuned for windows
@@ -253,7 +253,8 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
     smoothed[c_order] = smooth_probabilities(centres[c_order], q[c_order], s.smooth_span_s)
     best = smoothed.argmax(axis=1)
     labels = np.where(smoothed.max(axis=1) >= s.window_min_prob, best, UNCERTAIN_LABEL)
-    raw_label = p[order].argmax(axis=1)
+    p_sorted = p[order]
+    raw_label = p_sorted.argmax(axis=1)
 
     raw_share = [float(np.mean(raw_label == k)) for k in range(N_CLASSES)]
     smoothed_share = [float(np.mean(labels == k)) for k in range(N_CLASSES)]
@@ -297,7 +298,7 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
             # (the onset model starts the run on such a window whenever one exists).
             hits = np.nonzero(raw_label[j:] == k)[0]
             first = float(ts_o[j + hits[0]]) if hits.size else run.t_start
-            return verdict("damaged", k, float(np.mean(smoothed[j:, k])), first,
+            return verdict("damaged", k, float(np.mean(p_sorted[j:, k])), first,
                            f"{_motor_words(frame, k)} damaged in {_pct(run.share)} of {run.n_windows} "
                            f"windows from t={first:.1f} s")
         if run.damage_prob >= s.uncertain_damage_prob:
@@ -313,7 +314,7 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
                 why = (f"weak evidence: {_motor_words(frame, k)} looks damaged in only {_pct(run.share)} of "
                        f"{run.n_windows} windows from t={run.t_start:.1f} s "
                        f"(a damaged verdict needs {_pct(s.damaged_min_share)})")
-            return verdict("uncertain", None, float(np.mean(smoothed[j:, top])), None, why)
+            return verdict("uncertain", None, float(np.mean(p_sorted[j:, top])), None, why)
 
     healthy_share = smoothed_share[HEALTHY]
     if healthy_share >= s.healthy_min_share:
@@ -321,7 +322,7 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
         if run is not None and not long_enough and run.share > 0:
             note = (f"; {_motor_words(frame, run.motor)} looked damaged in the last "
                     f"{run.covered_s:.1f} s only, too short to confirm")
-        return verdict("healthy", None, float(np.mean(smoothed[:, HEALTHY])), None,
+        return verdict("healthy", None, float(np.mean(p_sorted[:, HEALTHY])), None,
                        f"healthy in {_pct(healthy_share)} of {n} windows{note}")
     if abstained >= 1.0 - s.healthy_min_share:
         why = f"the model could not decide on {_pct(abstained)} of {n} windows"
@@ -329,7 +330,7 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
         top = int(np.argmax(smoothed_share[1:])) + 1
         why = (f"healthy in only {_pct(healthy_share)} of {n} windows, "
                f"{_motor_words(frame, top)} in {_pct(smoothed_share[top])} without a sustained run")
-    return verdict("uncertain", None, float(np.max(np.mean(smoothed, axis=0))), None, why)
+    return verdict("uncertain", None, float(np.max(np.mean(p_sorted, axis=0))), None, why)
 
 
 def timeline_labels(t_start: Sequence[float], t_end: Sequence[float], labels: Sequence[int],

@@ -34,8 +34,8 @@ from .terminal import CLASS_NAMES, verdict_sentence
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
 MAX_POINTS_PER_LINE = 1600
 PLOT_WIDTH = 900
-PLOT_HEIGHT = 200
-MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, MARGIN_BOTTOM = 60, 110, 12, 30
+PLOT_HEIGHT = 210
+MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, MARGIN_BOTTOM = 60, 150, 24, 30
 #: Time slots used to shade the plots' background by window label.
 SHADING_SLOTS = 400
 RAD_TO_DEG = 180.0 / math.pi
@@ -159,7 +159,8 @@ def svg_plot(title: str, y_label: str, lines: Sequence[tuple[str, np.ndarray, np
         parts.append(f'<text x="{left - 5}" y="{y + 4:.1f}" text-anchor="end">{yv:g}</text>')
     parts.append(f'<text x="12" y="{(top + bottom) / 2:.0f}" text-anchor="middle" '
                  f'transform="rotate(-90 12 {(top + bottom) / 2:.0f})">{esc(y_label)}</text>')
-    parts.append(f'<text x="{right}" y="{h - 2}" text-anchor="end">t (s, log clock)</text>')
+    parts.append(f'<text x="{left}" y="{top - 8}" font-weight="bold">{esc(title)}</text>')
+    parts.append(f'<text x="{right + 18}" y="{bottom + 16}">s (log clock)</text>')
     for i, (name, t, v) in enumerate(lines):
         colour = LINE_COLOURS[i % len(LINE_COLOURS)] if len(lines) != 5 else CLASS_COLOURS[i]
         m = (t >= t0) & (t <= t1) & np.isfinite(v)
@@ -245,7 +246,7 @@ def log_section(d: Diagnosis) -> str:
             out.append(svg_plot("Angular rates", "deg/s", _series_lines(fl.rates, ("p (roll)", "q (pitch)", "r (yaw)"),
                                                                        RAD_TO_DEG), t0, t1, d))
         if fl.motors is not None:
-            names = [f"motor {k + 1}" + (f" {fl.frame.position(k + 1)}" if fl.frame else "")
+            names = [f"{k + 1} {fl.frame.position(k + 1)}" if fl.frame else f"motor {k + 1}"
                      for k in range(fl.motors.values.shape[1])]
             out.append(svg_plot(f"Motor commands ({fl.motor_kind})", "command 0..1",
                                 _series_lines(fl.motors, names), t0, t1, d, y_range=(0.0, 1.0)))
