@@ -1,0 +1,382 @@
+"""Calibration profile of one airframe: motor-imbalance ratios rho, healthy-window statistics, model.
+
+The paper's "adjusted simulation model" needs, per motor, the unbalance ratio
+``rho_i = mean w_i / mean w_1`` measured in steady hover of a HEALTHY flight of the real vehicle
+(a real quad never runs its four motors alike: CG offset, motor/ESC/propeller spread, yaw trim).
+Here ``w`` is the motor SPEED proxy, ``sqrt`` of the thrust proxy of
+:func:`flightlog_fd.features.thrust_proxy` (thrust ~ w^2), averaged over the steady-hover segments
+of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
+
+- :func:`estimate_imbalance` (flights -> :class:`ImbalanceEstimate`) needs at least
+  ``MIN_HOVER_S`` (4 s) of steady hover in all; ``rho_spread`` is the standard deviation of the
+  per-segment ratios (0 with a single segment). Motor 1 is the reference (rho_1 = 1).
+- :class:`Profile` is a versioned JSON file (``"schema": 1``): airframe identity (autopilot,
+  frame name, firmware, vehicle_id, rotor count), the learned values (trailing underscore:
+  ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
+  ``n_windows_``), the streams' rates, the :class:`~flightlog_fd.features.FeatureSpec` with the
+  per-channel statistics of the healthy windows, the source logs (file name + sha256), creation
+  time (UTC), tool version and an optional ``model`` entry (path of an ONNX file RELATIVE to the
+  profile's folder + its sha256). Loading validates everything and raises
+  :class:`~flightlog_fd.errors.ProfileError` with a one-line message.
+- :func:`calibrate_profile` builds a profile from healthy logs (paths or Flights).
+
+Limits: quadrotors only; one airframe per profile (all calibration logs must share autopilot
+and frame). Battery sag and payload changes move the hover throttle, not rho.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import re
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path, PurePosixPath
+from typing import Iterable, Optional, Union
+
+import numpy as np
+
+from .errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
+from .features import FeatureSpec, make_windows
+from .flight import Flight
+from .hover import HOVER_MAX_RATE_RMS, HOVER_MAX_SPEED_M_S, HOVER_MIN_DURATION_S, HoverSegment, hover_segments
+
+#: Profile file format version; :meth:`Profile.load` refuses others.
+PROFILE_SCHEMA = 1
+#: Least total steady hover (s) for rho: 2 segments of the 2 s minimum, or one of 4 s. At 4 s a
+#: 100 Hz log has 400 samples per motor; the ratios then repeat within ~1 % across flights.
+MIN_HOVER_S = 4.0
+AUTOPILOTS = ("px4", "ardupilot", "sim")
+#: Plausible range of a ratio: beyond it the motors are not running the same airframe's job.
+RHO_MIN, RHO_MAX = 0.2, 5.0
+_SHA256_RE = re.compile(r"^[0-9a-f]{64}$")
+_REQUIRED_KEYS = ("schema", "autopilot", "frame", "rotor_count", "rho_", "rho_spread_", "hover_throttle_",
+                  "feature_spec")
+_OPTIONAL_KEYS = ("firmware", "vehicle_id", "hover_s_", "n_hover_segments_", "n_windows_", "stream_rates",
+                  "source_logs", "created", "tool_version", "model", "extra")
+
+PathLike = Union[str, os.PathLike]
+
+
+@dataclass
+class ImbalanceEstimate:
+    """rho (4,) = mean w_i / mean w_1 over hover; rho_spread (4,) = std of per-segment ratios."""
+
+    rho: np.ndarray
+    rho_spread: np.ndarray
+    hover_s: float
+    n_segments: int
+    hover_throttle: float
+    segments: list[HoverSegment] = field(default_factory=list)
+
+
+def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER_S,
+                       min_segment_s: float = HOVER_MIN_DURATION_S) -> ImbalanceEstimate:
+    """Motor-imbalance ratios from the steady hover of one or more healthy flights.
+
+    Raises NotDiagnosableError (naming the logs, what was found and what is needed) when the
+    flights hold less than ``min_hover_s`` of steady hover in segments of ``min_segment_s``.
+    """
+    flights = list(flights)
+    if not flights:
+        raise ValueError("estimate_imbalance needs at least one flight")
+    segments: list[HoverSegment] = []
+    for fl in flights:
+        segments += hover_segments(fl, min_duration_s=min_segment_s)
+    hover_s = float(sum(s.duration_s for s in segments))
+    if hover_s < min_hover_s:
+        names = ", ".join(Path(f.path).name if f.path else "<in-memory flight>" for f in flights)
+        where = flights[0].path if len(flights) == 1 else None
+        raise NotDiagnosableError(
+            where, f"found {hover_s:.1f} s of steady hover ({len(segments)} segments of >= {min_segment_s:g} s) in "
+                   f"{len(flights)} log(s) [{names}]; calibration needs at least {min_hover_s:g} s: fly a steady "
+                   f"hover (rates < {math.degrees(HOVER_MAX_RATE_RMS):.0f} deg/s, level, < {HOVER_MAX_SPEED_M_S:g} m/s)")
+    weights = np.array([s.duration_s for s in segments])
+    speeds = np.array([s.mean_speed for s in segments])  # (S, 4)
+    pooled = np.average(speeds, axis=0, weights=weights)
+    rho = pooled / pooled[0]
+    per_segment = speeds / speeds[:, :1]
+    spread = per_segment.std(axis=0, ddof=1) if len(segments) > 1 else np.zeros(rho.shape)
+    throttle = float(np.average([s.throttle for s in segments], weights=weights))
+    return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=hover_s, n_segments=len(segments),
+                             hover_throttle=throttle, segments=segments)
+
+
+def file_sha256(path: PathLike) -> str:
+    """Hex sha256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+@dataclass
+class Profile:
+    """One airframe's calibration (see module docstring). Learned values end with ``_``."""
+
+    autopilot: str
+    frame: str
+    rotor_count: int
+    rho_: np.ndarray
+    rho_spread_: np.ndarray
+    hover_throttle_: float
+    feature_spec: dict
+    firmware: str = ""
+    vehicle_id: Optional[str] = None
+    hover_s_: float = 0.0
+    n_hover_segments_: int = 0
+    n_windows_: int = 0
+    stream_rates: dict = field(default_factory=dict)
+    source_logs: list = field(default_factory=list)
+    created: str = ""
+    tool_version: str = ""
+    model: Optional[dict] = None
+    extra: dict = field(default_factory=dict)
+    schema: int = PROFILE_SCHEMA
+    path: Optional[str] = field(default=None, repr=False, compare=False)  # where it was loaded/saved
+
+    def __post_init__(self) -> None:
+        self.rho_ = np.asarray(self.rho_, dtype=np.float64).reshape(-1)
+        self.rho_spread_ = np.asarray(self.rho_spread_, dtype=np.float64).reshape(-1)
+
+    # ------------------------------------------------------------------ conversion
+    @property
+    def spec(self) -> FeatureSpec:
+        """The FeatureSpec (with the healthy windows' statistics)."""
+        return FeatureSpec.from_dict(self.feature_spec)
+
+    def to_dict(self) -> dict:
+        return {
+            "schema": self.schema,
+            "autopilot": self.autopilot,
+            "frame": self.frame,
+            "rotor_count": int(self.rotor_count),
+            "firmware": self.firmware,
+            "vehicle_id": self.vehicle_id,
+            "rho_": [float(x) for x in self.rho_],
+            "rho_spread_": [float(x) for x in self.rho_spread_],
+            "hover_throttle_": float(self.hover_throttle_),
+            "hover_s_": float(self.hover_s_),
+            "n_hover_segments_": int(self.n_hover_segments_),
+            "n_windows_": int(self.n_windows_),
+            "stream_rates": {k: float(v) for k, v in self.stream_rates.items()},
+            "feature_spec": self.feature_spec,
+            "source_logs": list(self.source_logs),
+            "created": self.created,
+            "tool_version": self.tool_version,
+            "model": self.model,
+            "extra": self.extra,
+        }
+
+    @classmethod
+    def from_dict(cls, d, path: Optional[PathLike] = None) -> "Profile":
+        """Validate a parsed profile; raises ProfileError(path, one-line reason)."""
+        def bad(msg: str) -> ProfileError:
+            return ProfileError(path, f"invalid profile: {msg}")
+
+        if not isinstance(d, dict):
+            raise bad("the file does not hold a JSON object")
+        if "schema" not in d:
+            raise bad('not an fdlog profile (no "schema" key)')
+        if d["schema"] != PROFILE_SCHEMA:
+            raise ProfileError(path, f"profile schema {d['schema']!r} is not supported (this fdlog reads schema "
+                                     f"{PROFILE_SCHEMA}); recalibrate with this version")
+        missing = [k for k in _REQUIRED_KEYS if k not in d]
+        if missing:
+            raise bad(f"missing key(s) {', '.join(missing)}")
+        unknown = sorted(set(d) - set(_REQUIRED_KEYS) - set(_OPTIONAL_KEYS))
+        if unknown:
+            raise bad(f"unknown key(s) {', '.join(unknown)}")
+        if d["autopilot"] not in AUTOPILOTS:
+            raise bad(f"autopilot must be one of {', '.join(AUTOPILOTS)}, not {d['autopilot']!r}")
+        if not isinstance(d["frame"], str) or not d["frame"]:
+            raise bad("frame must be a non-empty name such as 'quad_x'")
+        n = d["rotor_count"]
+        if not isinstance(n, int) or isinstance(n, bool) or n != 4:
+            raise bad(f"rotor_count must be 4 (quadrotors only), not {n!r}")
+        rho = _number_list(d["rho_"], n, "rho_", bad)
+        if not all(RHO_MIN <= x <= RHO_MAX for x in rho):
+            raise bad(f"rho_ values must be within {RHO_MIN}..{RHO_MAX}, got {rho}")
+        if abs(rho[0] - 1.0) > 1e-6:
+            raise bad(f"rho_[0] must be 1 (motor 1 is the reference), got {rho[0]}")
+        spread = _number_list(d["rho_spread_"], n, "rho_spread_", bad)
+        if any(x < 0 for x in spread):
+            raise bad("rho_spread_ values must be >= 0")
+        thr = d["hover_throttle_"]
+        if not _is_number(thr) or not 0.0 < thr <= 1.5:
+            raise bad(f"hover_throttle_ must be a number in (0, 1.5], not {thr!r}")
+        try:
+            FeatureSpec.from_dict(d["feature_spec"])
+        except ValueError as e:
+            raise bad(f"feature_spec: {e}") from None
+        model = d.get("model")
+        if model is not None:
+            if not isinstance(model, dict) or not isinstance(model.get("path"), str) or not model["path"]:
+                raise bad('model must be null or {"path": ..., "sha256": ...}')
+            mp = PurePosixPath(model["path"].replace("\\", "/"))
+            if mp.is_absolute() or ".." in mp.parts or re.match(r"^[A-Za-z]:", model["path"]):
+                raise bad(f"model path must be relative to the profile's folder, not {model['path']!r}")
+            if not isinstance(model.get("sha256"), str) or not _SHA256_RE.match(model["sha256"]):
+                raise bad("model sha256 must be 64 lowercase hex digits")
+        logs = d.get("source_logs", [])
+        if not isinstance(logs, list) or not all(isinstance(x, dict) and isinstance(x.get("name"), str)
+                                                 for x in logs):
+            raise bad('source_logs must be a list of {"name": ..., "sha256": ...}')
+        rates = d.get("stream_rates", {})
+        if not isinstance(rates, dict) or not all(_is_number(v) for v in rates.values()):
+            raise bad("stream_rates must map stream names to rates in Hz")
+        kw = {k: d[k] for k in _REQUIRED_KEYS + _OPTIONAL_KEYS if k in d}
+        kw["hover_throttle_"] = float(thr)
+        for k in ("hover_s_",):
+            if k in kw and not _is_number(kw[k]):
+                raise bad(f"{k} must be a number")
+        for k in ("n_hover_segments_", "n_windows_"):
+            if k in kw and (not isinstance(kw[k], int) or kw[k] < 0):
+                raise bad(f"{k} must be a non-negative integer")
+        if kw.get("extra") is None:
+            kw["extra"] = {}
+        if kw.get("stream_rates") is None:
+            kw["stream_rates"] = {}
+        if kw.get("source_logs") is None:
+            kw["source_logs"] = []
+        return cls(**kw, path=str(path) if path is not None else None)
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: PathLike, overwrite: bool = False) -> Path:
+        """Write the profile as JSON. Refuses to replace an existing file unless ``overwrite``."""
+        p = Path(path)
+        if p.exists() and not overwrite:
+            raise ProfileError(p, "already exists; not overwriting it (use --force / overwrite=True to replace it)")
+        if p.is_dir():
+            raise ProfileError(p, "is a folder; give a file name such as profile.json")
+        text = json.dumps(self.to_dict(), indent=2, sort_keys=False) + "\n"
+        try:
+            tmp = p.with_name(p.name + ".tmp")
+            tmp.write_text(text, encoding="utf-8")
+            os.replace(tmp, p)  # atomic: a crash never leaves half a profile
+        except OSError as e:
+            raise ProfileError(p, f"cannot write: {e.strerror or e}") from None
+        self.path = str(p)
+        return p
+
+    @classmethod
+    def load(cls, path: PathLike) -> "Profile":
+        """Read and validate a profile file (ProfileError on any problem)."""
+        p = Path(path)
+        if not p.exists():
+            raise ProfileError(p, "no such profile file")
+        try:
+            text = p.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise ProfileError(p, f"cannot read profile: {getattr(e, 'strerror', None) or e}") from None
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise ProfileError(p, f"not a JSON profile (line {e.lineno}: {e.msg})") from None
+        return cls.from_dict(d, path=p)
+
+    # ------------------------------------------------------------------ model entry
+    def set_model(self, model_file: PathLike, profile_path: Optional[PathLike] = None) -> None:
+        """Point ``model`` at ``model_file`` (must be in the profile's folder or below it)."""
+        base = Path(profile_path or self.path or ".").resolve().parent
+        mf = Path(model_file).resolve()
+        try:
+            rel = mf.relative_to(base)
+        except ValueError:
+            raise ProfileError(model_file, f"the model must be stored next to the profile (in {base})") from None
+        self.model = {"path": rel.as_posix(), "sha256": file_sha256(mf)}
+
+    def model_path(self, verify: bool = True) -> Optional[Path]:
+        """Absolute path of the profile's model (None if it has none); checks the sha256."""
+        if self.model is None:
+            return None
+        base = Path(self.path).resolve().parent if self.path else Path.cwd()
+        mp = base / self.model["path"]
+        if not mp.exists():
+            raise ProfileError(self.path, f"its model file {self.model['path']} is missing (looked in {base})")
+        if verify and file_sha256(mp) != self.model["sha256"]:
+            raise ProfileError(self.path, f"its model file {self.model['path']} has changed since calibration "
+                                          "(sha256 mismatch); recalibrate or restore the file")
+        return mp
+
+    # ------------------------------------------------------------------ checks
+    def check_compatible(self, flight: Flight) -> list[str]:
+        """Raise ProfileError if ``flight`` is from another kind of airframe; return warnings
+        (a different vehicle id or firmware) for the user."""
+        frame = flight.frame.name if flight.frame is not None else "unknown"
+        rotors = flight.frame.rotor_count if flight.frame is not None else (
+            flight.motors.values.shape[1] if flight.motors is not None else 0)
+        if flight.autopilot != self.autopilot or frame != self.frame or (rotors and rotors != self.rotor_count):
+            raise ProfileError(flight.path, f"profile was made for {self.autopilot} {self.frame}, this log is "
+                                            f"{flight.autopilot} {frame}" + (f" ({rotors} rotors)" if rotors != 4 else ""))
+        warnings = []
+        if self.vehicle_id and flight.vehicle_id and flight.vehicle_id != self.vehicle_id:
+            warnings.append(f"profile was made on vehicle {self.vehicle_id}, this log is from {flight.vehicle_id}")
+        if self.firmware and flight.firmware and flight.firmware != self.firmware:
+            warnings.append(f"profile was made with firmware {self.firmware}, this log has {flight.firmware}")
+        return warnings
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _number_list(v, n: int, name: str, bad) -> list[float]:
+    if not isinstance(v, list) or len(v) != n or not all(_is_number(x) for x in v):
+        raise bad(f"{name} must be a list of {n} finite numbers")
+    return [float(x) for x in v]
+
+
+def _source_entry(fl: Flight) -> dict:
+    if fl.path and Path(fl.path).is_file():
+        return {"name": Path(fl.path).name, "sha256": file_sha256(fl.path)}
+    return {"name": Path(fl.path).name if fl.path else "<in-memory flight>", "sha256": None}
+
+
+def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec: Optional[FeatureSpec] = None,
+                      min_hover_s: float = MIN_HOVER_S) -> Profile:
+    """A :class:`Profile` from HEALTHY flights of one airframe (paths are read with load_flight).
+
+    Raises UnsupportedVehicleError for a non-quad, ProfileError when the logs mix autopilots or
+    frames or one is labelled damaged, NotDiagnosableError when hover or windows are too few.
+    """
+    from . import __version__, load_flight
+
+    flights = [x if isinstance(x, Flight) else load_flight(x) for x in paths_or_flights]
+    if not flights:
+        raise ValueError("calibrate_profile needs at least one log")
+    first = flights[0]
+    for fl in flights:
+        if fl.frame is None or not fl.frame.is_quad:
+            what = fl.frame.name if fl.frame is not None else fl.vehicle_type
+            raise UnsupportedVehicleError(fl.path, f"calibration needs a quadrotor log; this one is {what}")
+        if (fl.autopilot, fl.frame.name) != (first.autopilot, first.frame.name):
+            raise ProfileError(fl.path, f"all calibration logs must come from one airframe: this log is "
+                                        f"{fl.autopilot} {fl.frame.name}, {Path(first.path or '').name or 'the first'} "
+                                        f"is {first.autopilot} {first.frame.name}")
+        if fl.truth and int(fl.truth.get("label", 0) or 0) != 0:
+            raise ProfileError(fl.path, "calibration logs must be healthy flights; this one is labelled damaged")
+    imbalance = estimate_imbalance(flights, min_hover_s=min_hover_s)
+
+    base = spec or FeatureSpec()
+    unfitted = FeatureSpec.from_dict({**base.to_dict(), "mean": None, "std": None})
+    X = np.concatenate([make_windows(fl, unfitted).X for fl in flights])
+    if len(X) == 0:
+        raise NotDiagnosableError(first.path if len(flights) == 1 else None,
+                                  "the calibration logs yield no input window (too little airborne time without gaps)")
+    fitted = unfitted.fit(X)
+
+    rates: dict[str, list[float]] = {}
+    for fl in flights:
+        for s in fl.streams():
+            rates.setdefault(s.name, []).append(s.rate_hz)
+    return Profile(
+        autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
+        firmware=first.firmware, vehicle_id=first.vehicle_id,
+        rho_=imbalance.rho, rho_spread_=imbalance.rho_spread, hover_throttle_=imbalance.hover_throttle,
+        hover_s_=imbalance.hover_s, n_hover_segments_=imbalance.n_segments, n_windows_=int(len(X)),
+        stream_rates={k: float(np.median(v)) for k, v in rates.items()},
+        feature_spec=fitted.to_dict(), source_logs=[_source_entry(fl) for fl in flights],
+        created=datetime.now(timezone.utc).isoformat(timespec="seconds"), tool_version=__version__)
