@@ -158,20 +158,17 @@ def model_info(model: Any, profile: Any = None) -> ModelInfo:
 def resolve_model(model_path=None, profile: Any = None):
     """The model to use: an explicit ``--model`` path, else the profile's model, else the shipped one.
 
-    A profile's model path is relative to the profile file; when the profile records the model's
-    sha256, a different file at that path is refused (the profile was calibrated for another model).
+    A profile's model path is relative to the profile file; a file whose sha256 differs from the
+    one the profile recorded is refused (ProfileError: the profile was calibrated for another model).
     """
     from .model import FaultModel, default_model_path
 
     if model_path is not None:
         return FaultModel(model_path)
-    info = profile_info(profile)
-    if info is not None and info.model_path:
-        model = FaultModel(info.model_path)
-        if info.model_sha256 and model.sha256 != info.model_sha256:
-            raise ModelError(info.model_path, f"sha256 {model.sha256[:12]}... differs from the profile's "
-                                              f"{info.model_sha256[:12]}... (profile {info.path})")
-        return model
+    if profile is not None and getattr(profile, "model", None):
+        # Profile.model_path() resolves against the profile's folder and raises ProfileError
+        # when the file is missing or its sha256 differs from the one recorded at calibration.
+        return FaultModel(profile.model_path(verify=True))
     return FaultModel(default_model_path())
 
 
@@ -206,7 +203,8 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     try:
         _check_model_classes(model)
         if profile is not None:
-            profile.check_compatible(flight)
+            # Raises ProfileError for another airframe; returns softer mismatches (vehicle id, firmware).
+            warnings.extend(profile.check_compatible(flight) or [])
         try:
             spec = FeatureSpec.from_dict(model.feature_spec)
         except ValueError as e:

@@ -11,9 +11,9 @@ import pytest
 from flightlog_fd.diagnose import (EXIT_DAMAGED_OR_UNCERTAIN, EXIT_HEALTHY, EXIT_NOT_DIAGNOSABLE,
                                    NO_PROFILE_WARNING, Diagnosis, diagnose_flight, diagnose_path, model_info,
                                    profile_info)
-from flightlog_fd.errors import ProfileError
 from flightlog_fd.features import FeatureSpec
 from flightlog_fd.flight import Flight, Frame, Series
+from flightlog_fd.profile import Profile
 
 HOVER_COMMAND = 0.5
 #: A motor whose mean thrust share exceeds the window mean by this much is "damaged" for the fake.
@@ -47,14 +47,14 @@ class ShareModel:
 
 
 class FakeProfile:
-    def __init__(self, compatible=True, path="/profiles/e9.json", model=None):
+    """Only what diagnose reads from a profile: its path, model entry and compatibility check."""
+
+    def __init__(self, path="/profiles/e9.json", model=None):
         self.path = path
         self.model = model
-        self.compatible = compatible
 
     def check_compatible(self, flight):
-        if not self.compatible:
-            raise ProfileError(self.path, "profile made for a quad_plus frame, this log is quad_x")
+        return []
 
 
 def synthetic_flight(damaged_motor=None, onset_s=None, airborne=(2.0, 62.0), path="synthetic.ulg") -> Flight:
@@ -125,11 +125,25 @@ def test_too_short_flight_is_not_diagnosable():
     assert d.verdict.reason
 
 
+def real_profile(frame="quad_x", firmware="v1.13.0", path="/profiles/e9.json") -> Profile:
+    return Profile(autopilot="px4", frame=frame, rotor_count=4, rho_=[1.0, 1.0, 1.0, 1.0],
+                   rho_spread_=[0.0] * 4, hover_throttle_=HOVER_COMMAND,
+                   feature_spec=FeatureSpec().to_dict(), firmware=firmware, path=path)
+
+
 def test_incompatible_profile_is_not_diagnosable_with_its_message():
-    d = diagnose_flight(synthetic_flight(), ShareModel(), FakeProfile(compatible=False))
+    d = diagnose_flight(synthetic_flight(), ShareModel(), real_profile(frame="quad_plus"))
     assert d.verdict.status == "not_diagnosable"
-    assert "quad_plus" in d.verdict.reason
+    assert d.exit_code == EXIT_NOT_DIAGNOSABLE
+    assert "profile was made for px4 quad_plus" in d.verdict.reason
     assert d.profile.path == "/profiles/e9.json"
+    assert NO_PROFILE_WARNING not in d.warnings
+
+
+def test_compatible_profile_passes_its_warnings_on():
+    d = diagnose_flight(synthetic_flight(), ShareModel(), real_profile(firmware="v1.13.0"))
+    assert d.verdict.status == "healthy"
+    assert any("firmware v1.13.0" in w and "v1.14.0" in w for w in d.warnings)
     assert NO_PROFILE_WARNING not in d.warnings
 
 
