@@ -240,7 +240,6 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
         v = not_diagnosable(
             f"only {n} window{'s' if n != 1 else ''} covering {covered:.1f} s of flight "
             f"(need at least {s.min_windows} windows and {s.min_covered_s:.0f} s)")
-        v.evidence = Evidence(n, covered, [0.0] * N_CLASSES, [0.0] * N_CLASSES, 0.0)
         v.window_labels = [UNCERTAIN_LABEL] * n
         return v
 
