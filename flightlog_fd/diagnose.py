@@ -184,16 +184,19 @@ def _not_diagnosable(log: str, reason: str, **kw) -> Diagnosis:
 
 
 def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
-                    settings: VerdictSettings = VerdictSettings()) -> Diagnosis:
+                    settings: VerdictSettings = VerdictSettings(), keep_flight: bool = True) -> Diagnosis:
     """Diagnose one loaded flight with ``model`` (a FaultModel or any object with the same
-    ``feature_spec``, ``standardise`` and ``predict_proba``) and an optional calibration profile."""
+    ``feature_spec``, ``standardise`` and ``predict_proba``) and an optional calibration profile.
+
+    ``keep_flight=False`` leaves ``Diagnosis.flight`` empty (no plots, but a small object to
+    send back from a worker process when many logs are diagnosed in parallel)."""
     from .features import FeatureSpec, make_windows
 
     log = str(flight.path) if flight.path else "<flight>"
     facts = FlightFacts.from_flight(flight)
     warnings = list(flight.warnings)
     common = dict(facts=facts, model=model_info(model, profile), profile=profile_info(profile),
-                  warnings=warnings, flight=flight)
+                  warnings=warnings, flight=flight if keep_flight else None)
 
     check = diagnosability(flight, model.feature_spec)
     if not check.ok:
@@ -234,7 +237,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
 
 
 def diagnose_path(path, model: Any, profile: Any = None, *,
-                  settings: VerdictSettings = VerdictSettings()) -> Diagnosis:
+                  settings: VerdictSettings = VerdictSettings(), keep_flight: bool = True) -> Diagnosis:
     """Load ``path`` and diagnose it; a bad file gives a not_diagnosable Diagnosis (exit 2)."""
     from . import load_flight
 
@@ -242,4 +245,4 @@ def diagnose_path(path, model: Any, profile: Any = None, *,
         flight = load_flight(path)
     except FlightLogError as e:
         return _not_diagnosable(str(path), e.message)
-    return diagnose_flight(flight, model, profile, settings=settings)
+    return diagnose_flight(flight, model, profile, settings=settings, keep_flight=keep_flight)

@@ -186,3 +186,13 @@ def test_real_healthy_px4_log_runs_through(shared):
     assert d.verdict.status in ("healthy", "uncertain", "damaged", "not_diagnosable")
     assert d.exit_code in (0, 1, 2)
     assert d.log == str(path)
+
+
+def test_keep_flight_false_drops_the_flight_but_keeps_the_result():
+    from flightlog_fd.report.html_report import render_html
+
+    d = diagnose_flight(synthetic_flight(damaged_motor=1, onset_s=0.0), ShareModel(), keep_flight=False)
+    assert d.flight is None
+    assert d.verdict.status == "damaged" and d.verdict.motor == 1 and d.verdict.position == "front-right"
+    page = render_html(d)
+    assert page.count("<svg") == 1  # only the probabilities plot without the flight's streams
