@@ -83,6 +83,7 @@ import io
 import math
 import os
 import re
+import sys
 from dataclasses import dataclass, field
 from typing import Iterable, Optional
 
@@ -241,6 +242,40 @@ class _Index:
     redefined: set[str] = field(default_factory=set)
 
 
+@contextlib.contextmanager
+def _silenced_output():
+    """Mute pymavlink's indexer: it prints one "bad header" line per damaged byte, from C
+    (libc stdout, buffered) and from Python. Redirects file descriptors 1 and 2 meanwhile."""
+    libc = _libc()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            yield
+    finally:
+        if libc is not None:
+            libc.fflush(None)  # drop C-buffered lines into /dev/null, not the restored stdout
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
+
+
+def _libc():
+    try:
+        import ctypes
+        import ctypes.util
+
+        name = ctypes.util.find_library("c")
+        return ctypes.CDLL(name) if name else None
+    except (OSError, ImportError):
+        return None
+
+
 def _index_file(path: str) -> _Index:
     """Index the file with pymavlink (FMT table + per-type offsets), without its clock search."""
     from pymavlink import DFReader
@@ -249,10 +284,9 @@ def _index_file(path: str) -> _Index:
         def init_clock(self):  # pymavlink would scan (worst case: decode) the whole log here
             self.init_clock_usec()
 
-    sink = io.StringIO()
     reader = None
     try:
-        with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+        with _silenced_output():
             reader = _IndexOnlyReader(path)
         formats = dict(reader.formats)
         name_to_id = dict(reader.name_to_id)
@@ -591,7 +625,8 @@ def _rate_candidates(tables, firmware) -> list[Series]:
         unit = "cdeg/s" if centi else "deg/s"
         out.append(_sorted_series(r.t, np.column_stack([r.columns[c] for c in ("R", "P", "Y")]) * scale,
                                   f"RATE.R/P/Y ({unit} -> rad/s)"))
-    return [s for s in out if len(s) > 0]
+    # a writer without gyro data fills RATE.R/P/Y with NaN: not a rate source
+    return [s for s in out if len(s) > 0 and np.isfinite(s.values).any()]
 
 
 def _choose_rates(cands: list[Series]) -> Optional[Series]:
