@@ -1,0 +1,137 @@
+"""The time loop: N vehicles flown together (dynamics + controller + mission + damage + sensors).
+
+One Python loop over time steps; every operation inside works on arrays of all vehicles (no
+per-vehicle loop). Time is seconds since arming (t = 0 is the first logged instant). Each step:
+
+1. every ``outer_every`` steps: estimator errors / gusts advance, the mission gives setpoints, the
+   position/velocity loops update the desired attitude and thrust;
+2. gyro (filtered, noisy, vibrating) and delayed attitude estimate;
+3. attitude + rate loops + mixer → thrust setpoints u (0..1), ``w_com = omega_max·sqrt(u)``;
+4. rotor effectiveness = damage η (after its onset) × unbalance (``"physical"`` ρ mode), or the
+   paper's speed gain (``"paper"`` mode); rigid-body step;
+5. recording: stream ``s`` stores its quantities every ``decimation[s]`` steps.
+
+Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``attitude``
+(estimated quaternion), ``motors`` (thrust setpoints u), ``velocity`` (estimated NED m/s),
+``w_com`` (commanded rotor speed rad/s), ``w`` (actual rotor speed), ``pos`` (true NED m),
+``thrust`` (per-rotor thrust N), ``omega`` (true body rates rad/s), ``eta`` (rotor efficiency).
+
+The loop stops when every vehicle has disarmed and ``tail_s`` more has passed, or at ``t_max``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from flightlog_fd.sim.airframe import Airframe
+from flightlog_fd.sim.controller import MODE_OFF, CascadeController
+from flightlog_fd.sim.damage import DamageArrays
+from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams, quat_to_rotmat, quat_yaw, rotor_forces
+from flightlog_fd.sim.missions import MissionPlan, MissionRunner
+from flightlog_fd.sim.sensors import SensorParams, Sensors
+from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_effectiveness
+
+STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "w_com": 4, "w": 4, "pos": 3,
+                 "thrust": 4, "omega": 3, "eta": 4}
+DEFAULT_TAIL_S = 0.5
+
+
+@dataclass
+class BatchResult:
+    """Recorded streams of a batch: ``times[s]`` (M,) s since arming, ``data[s]`` (M, N, k) float32."""
+
+    times: dict[str, np.ndarray]
+    data: dict[str, np.ndarray]
+    t_takeoff: np.ndarray  # (N,) s, NaN if never airborne
+    t_touchdown: np.ndarray  # (N,) s, NaN if never landed again
+    t_disarm: np.ndarray  # (N,) s, NaN if still flying at the end
+    t_end: float  # last simulated time, s
+    dt: float
+
+
+def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageArrays, rho: np.ndarray, rho_mode: str,
+              sensor_params: SensorParams, dt: float, decimation: dict[str, int], t_max: float,
+              rng: np.random.Generator, tail_s: float = DEFAULT_TAIL_S) -> BatchResult:
+    """Fly the batch; see the module docstring. ``decimation`` maps stream name → record every k steps."""
+    check_mode(rho_mode)
+    for name in decimation:
+        if name not in STREAM_FIELDS:
+            raise ValueError(f"unknown stream {name!r}; known: {sorted(STREAM_FIELDS)}")
+    vp = VehicleParams.from_airframes(airframes)
+    n = vp.n
+    dyn = QuadDynamics(vp, dt)
+    ctrl = CascadeController(airframes, vp, dt)
+    sens = Sensors(sensor_params, vp, dt, ctrl.dt_outer, rng)
+    runner = MissionRunner(plan)
+    state = RigidBodyState.on_ground(n, yaw=plan.home_yaw)
+    unbalance = physical_effectiveness(rho) if rho_mode == "physical" else np.ones((n, 4))
+    omega_max = vp.omega_max[:, None]
+
+    rec: dict[str, list] = {k: [] for k in decimation}
+    rec_t: dict[str, list] = {k: [] for k in decimation}
+    n_max = int(np.ceil(t_max / dt))
+    t_all_done = None
+    sp = None
+    mode = np.zeros(n, dtype=np.int64)
+    u = np.zeros((n, 4))
+    wind = sens.wind
+    for i in range(n_max + 1):
+        t = i * dt
+        if i % ctrl.outer_every == 0:
+            pos_est, vel_est, wind = sens.nav(state.pos, state.vel)
+            q_now = state.quat
+            sp = runner.update(t, ctrl.dt_outer, pos_est, quat_yaw(q_now), state.landed)
+            mode = sp.mode
+            ctrl.outer(pos_est, vel_est, sp.pos, sp.vel_ff, sp.speed_lim, sp.yaw, sp.yaw_rate_ff, mode,
+                       sp.man_acc_xy, sp.man_vz, state.landed)
+            if t_all_done is None and runner.all_done:
+                t_all_done = t
+        eta = damage.eta_at(t)
+        imbalance = damage.imbalance_base + (1.0 - eta)
+        gyro = sens.gyro(state.omega, state.w, imbalance)
+        q_est = sens.attitude(state.quat)
+        u = ctrl.inner(quat_to_rotmat(q_est), gyro, state.landed, mode)
+        w_com = vp.omega_max[:, None] * np.sqrt(u)
+        if rho_mode == "physical":
+            eff, gain = eta * unbalance, None
+        else:
+            eff, gain = eta, paper_speed_gain(rho, state.w, vp.omega_max)
+        for name, k in decimation.items():
+            if i % k:
+                continue
+            if name == "rates":
+                v = gyro
+            elif name == "attitude":
+                v = q_est
+            elif name == "motors":
+                v = u
+            elif name == "velocity":
+                v = state.vel + sens.vel_err
+            elif name == "w_com":
+                v = w_com
+            elif name == "w":
+                v = state.w
+            elif name == "pos":
+                v = state.pos
+            elif name == "omega":
+                v = state.omega
+            elif name == "eta":
+                v = eta
+            else:  # thrust
+                w_air = state.w if gain is None else state.w * gain
+                v = rotor_forces(vp, w_air, eff)[0]
+            rec[name].append(v.astype(np.float32))
+            rec_t[name].append(t)
+        dyn.step(state, w_com, eff, wind, sens.disturbance(), gain)
+        if t_all_done is not None and t >= t_all_done + tail_s:
+            break
+    del omega_max, mode
+    data = {k: (np.stack(v) if v else np.zeros((0, n, STREAM_FIELDS[k]), np.float32)) for k, v in rec.items()}
+    times = {k: np.asarray(v, dtype=np.float64) for k, v in rec_t.items()}
+    return BatchResult(times=times, data=data, t_takeoff=runner.t_takeoff, t_touchdown=runner.t_touchdown,
+                       t_disarm=runner.t_disarm, t_end=t, dt=dt)
+
+
+__all__ = ["run_batch", "BatchResult", "STREAM_FIELDS", "MODE_OFF"]

@@ -1,0 +1,194 @@
+"""Sensor, estimator and environment realism for N vehicles (numpy, vectorised).
+
+- Gyro: ``raw = ω + bias + white noise`` (noise density 0.04-0.25 °/s/√Hz, i.e. per-sample
+  σ = density·√(sim rate), so the filtered noise does not depend on the step size; bias
+  N(0, 0.3 °/s) per axis), then the autopilot's gyro low-pass (first order at the airframe's
+  ``gyro_cutoff_hz``, PX4 IMU_GYRO_CUTOFF-like), plus propeller vibration at each rotor's rotation
+  frequency, attenuated by a 2nd-order low-pass gain ``1/√(1 + (f/fc)⁴)`` evaluated at that
+  frequency (see damage.py for the amplitude). This filtered signal is what the rate controller
+  uses and what PX4 logs as ``vehicle_angular_velocity`` (ArduPilot ``RATE``).
+- Attitude estimate: the true attitude delayed by ``ATTITUDE_DELAY_S`` (estimator latency).
+- Position/velocity estimates: true + Ornstein-Uhlenbeck errors (velocity σ 0.02-0.1 m/s with
+  0.5 s correlation; position σ 0.05-0.3 m with 3 s correlation), as a GNSS/EKF solution wanders.
+- Wind: mean 0-5 m/s horizontal, gusts OU per axis σ 0.2-1.5 m/s (vertical half) with 2 s
+  correlation; acts through the linear drag.
+- Turbulence / prop-wash torque: OU angular-acceleration disturbance with 0.1 s correlation, sized
+  so that it alone shakes the hovering vehicle by about 1-6 °/s RMS on the gyro (the PX4 SIH dev
+  flights show 5-9 °/s in hover, a Crazyflie about 2 °/s): σ_α = level · rate-loop kp.
+
+``realism=False`` switches all of this off (exact measurements, no wind, no delay): used for
+physics unit tests.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from flightlog_fd.sim.airframe import Airframe
+from flightlog_fd.sim.dynamics import VehicleParams
+
+ATTITUDE_DELAY_S = 0.008
+GYRO_NOISE_DENSITY_DPS = (0.04, 0.25)  # °/s/√Hz
+GYRO_BIAS_STD_DPS = 0.3
+VEL_NOISE_STD = (0.02, 0.10)
+VEL_NOISE_TAU_S = 0.5
+POS_NOISE_STD = (0.05, 0.30)
+POS_NOISE_TAU_S = 3.0
+WIND_MEAN_MS = (0.0, 5.0)
+GUST_STD_MS = (0.2, 1.5)
+GUST_TAU_S = 2.0
+TURBULENCE_WOBBLE_DPS = (1.0, 6.0)
+TURBULENCE_TAU_S = 0.1
+#: Share of the roll/pitch vibration that appears on the yaw gyro (frame flex is mostly in-plane).
+VIBRATION_YAW_SHARE = 0.3
+
+
+@dataclass
+class SensorParams:
+    """Per-vehicle realism parameters (arrays, leading axis = vehicle)."""
+
+    gyro_noise_density: np.ndarray  # (N,) rad/s/√Hz
+    gyro_bias: np.ndarray  # (N, 3) rad/s
+    gyro_cutoff_hz: np.ndarray  # (N,)
+    vel_noise_std: np.ndarray  # (N,) m/s
+    pos_noise_std: np.ndarray  # (N,) m
+    wind_mean: np.ndarray  # (N, 3) m/s
+    gust_std: np.ndarray  # (N,) m/s
+    turbulence_std: np.ndarray  # (N, 3) rad/s²
+    attitude_delay_s: float
+    vibration_gain: float  # rad/s per unit imbalance at full speed (0 disables)
+    realism: bool
+
+    @classmethod
+    def draw(cls, airframes: Sequence[Airframe], rng: np.random.Generator, *, realism: bool = True,
+             vibration_gain: float = 1.2) -> "SensorParams":
+        n = len(airframes)
+        cutoff = np.array([a.gyro_cutoff_hz for a in airframes], dtype=np.float64)
+        if not realism:
+            z = np.zeros(n)
+            return cls(gyro_noise_density=z, gyro_bias=np.zeros((n, 3)), gyro_cutoff_hz=cutoff, vel_noise_std=z,
+                       pos_noise_std=z, wind_mean=np.zeros((n, 3)), gust_std=z, turbulence_std=np.zeros((n, 3)),
+                       attitude_delay_s=0.0, vibration_gain=0.0, realism=False)
+        kp = np.array([a.gains.rate_kp for a in airframes], dtype=np.float64)
+        wind_dir = rng.uniform(-np.pi, np.pi, size=n)
+        wind_speed = rng.uniform(*WIND_MEAN_MS, size=n)
+        wobble = np.radians(rng.uniform(*TURBULENCE_WOBBLE_DPS, size=n))
+        return cls(
+            gyro_noise_density=np.radians(rng.uniform(*GYRO_NOISE_DENSITY_DPS, size=n)),
+            gyro_bias=np.radians(rng.normal(0.0, GYRO_BIAS_STD_DPS, size=(n, 3))),
+            gyro_cutoff_hz=cutoff,
+            vel_noise_std=rng.uniform(*VEL_NOISE_STD, size=n),
+            pos_noise_std=rng.uniform(*POS_NOISE_STD, size=n),
+            wind_mean=np.stack([wind_speed * np.cos(wind_dir), wind_speed * np.sin(wind_dir), np.zeros(n)], axis=1),
+            gust_std=rng.uniform(*GUST_STD_MS, size=n),
+            # Yaw is shaken less than roll/pitch (no lever arm for most disturbances).
+            turbulence_std=wobble[:, None] * kp * np.array([1.0, 1.0, 0.4]),
+            attitude_delay_s=ATTITUDE_DELAY_S, vibration_gain=vibration_gain, realism=True,
+        )
+
+    def to_dict(self, i: int) -> dict:
+        """Vehicle ``i``'s realism parameters in plain units (for Flight.truth)."""
+        return {
+            "gyro_noise_density_dps_rthz": float(np.degrees(self.gyro_noise_density[i])),
+            "gyro_bias_dps": np.degrees(self.gyro_bias[i]).round(4).tolist(),
+            "wind_mean_ms": self.wind_mean[i].round(3).tolist(),
+            "gust_std_ms": float(self.gust_std[i]),
+            "turbulence_std_rads2": self.turbulence_std[i].round(4).tolist(),
+            "vibration_gain": self.vibration_gain,
+        }
+
+
+def _ou_coeffs(dt: float, tau: float) -> tuple[float, float]:
+    """Exact discretisation of an OU process with unit stationary σ: x ← a·x + b·N(0, 1)."""
+    a = float(np.exp(-dt / tau))
+    return a, float(np.sqrt(1.0 - a * a))
+
+
+class Sensors:
+    """Measurement and disturbance generator for one batch; call the methods once per step (or outer tick)."""
+
+    def __init__(self, sp: SensorParams, vp: VehicleParams, dt: float, dt_outer: float, rng: np.random.Generator):
+        self.sp, self.vp, self.rng, self.dt = sp, vp, rng, dt
+        n = vp.n
+        self.n = n
+        self.gyro_sigma = (sp.gyro_noise_density * np.sqrt(1.0 / dt))[:, None]
+        self.gyro_alpha = (1.0 - np.exp(-2 * np.pi * sp.gyro_cutoff_hz * dt))[:, None]
+        self.gyro_filt = np.zeros((n, 3))
+        self.phase = rng.uniform(0.0, 2 * np.pi, size=(n, 4))
+        self.delay_steps = int(round(sp.attitude_delay_s / dt))
+        self.q_buf = None  # ring buffer of past attitudes, created on first use
+        self.buf_i = 0
+        self.turb = np.zeros((n, 3))
+        self.turb_a, self.turb_b = _ou_coeffs(dt, TURBULENCE_TAU_S)
+        self.gust = np.zeros((n, 3))
+        self.gust_a, self.gust_b = _ou_coeffs(dt_outer, GUST_TAU_S)
+        self.vel_err = np.zeros((n, 3))
+        self.vel_a, self.vel_b = _ou_coeffs(dt_outer, VEL_NOISE_TAU_S)
+        self.pos_err = np.zeros((n, 3))
+        self.pos_a, self.pos_b = _ou_coeffs(dt_outer, POS_NOISE_TAU_S)
+        if sp.realism:
+            # Start the slow processes in their stationary distribution.
+            self.gust = rng.standard_normal((n, 3)) * sp.gust_std[:, None] * np.array([1.0, 1.0, 0.5])
+            self.vel_err = rng.standard_normal((n, 3)) * sp.vel_noise_std[:, None]
+            self.pos_err = rng.standard_normal((n, 3)) * sp.pos_noise_std[:, None]
+        self.wind = sp.wind_mean + self.gust
+        self.vib_gain = sp.vibration_gain
+
+    def disturbance(self) -> np.ndarray:
+        """Angular-acceleration disturbance (N, 3) for this step."""
+        if not self.sp.realism:
+            return self.turb
+        self.turb = self.turb_a * self.turb + self.turb_b * self.rng.standard_normal((self.n, 3)) * self.sp.turbulence_std
+        return self.turb
+
+    def nav(self, pos: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Outer-loop tick: (pos_est, vel_est, wind) with the estimator errors and gusts advanced."""
+        if not self.sp.realism:
+            return pos, vel, self.wind
+        r = self.rng.standard_normal((self.n, 9))
+        self.gust = self.gust_a * self.gust + self.gust_b * r[:, 0:3] * (self.sp.gust_std[:, None] * [1.0, 1.0, 0.5])
+        self.wind = self.sp.wind_mean + self.gust
+        self.vel_err = self.vel_a * self.vel_err + self.vel_b * r[:, 3:6] * self.sp.vel_noise_std[:, None]
+        self.pos_err = self.pos_a * self.pos_err + self.pos_b * r[:, 6:9] * self.sp.pos_noise_std[:, None]
+        return pos + self.pos_err, vel + self.vel_err, self.wind
+
+    def gyro(self, omega: np.ndarray, w: np.ndarray, imbalance: np.ndarray) -> np.ndarray:
+        """Filtered gyro (N, 3) rad/s as the controller and the logger see it.
+
+        ``w`` (N, 4) rotor speeds rad/s, ``imbalance`` (N, 4) per-propeller imbalance (damage.py).
+        """
+        sp = self.sp
+        if not sp.realism:
+            self.gyro_filt = omega.copy()
+            return self.gyro_filt
+        raw = omega + sp.gyro_bias + self.gyro_sigma * self.rng.standard_normal((self.n, 3))
+        self.gyro_filt += self.gyro_alpha * (raw - self.gyro_filt)
+        if self.vib_gain <= 0.0:
+            return self.gyro_filt
+        vp = self.vp
+        self.phase += w * self.dt
+        self.phase %= 2 * np.pi
+        f_rot = w * (1.0 / (2 * np.pi))
+        ratio = f_rot / sp.gyro_cutoff_hz[:, None]
+        w_rel = w / vp.omega_max[:, None]
+        amp = self.vib_gain * imbalance * w_rel * w_rel / np.sqrt(1.0 + ratio ** 4)
+        s, c = np.sin(self.phase) * amp, np.cos(self.phase) * amp
+        vib = np.empty((self.n, 3))
+        vib[:, 0] = s.sum(axis=1)
+        vib[:, 1] = -c.sum(axis=1)
+        arm = np.hypot(vp.rotor_x, vp.rotor_y)
+        vib[:, 2] = VIBRATION_YAW_SHARE * ((vp.rotor_x * s - vp.rotor_y * c) / arm).sum(axis=1)
+        return self.gyro_filt + vib
+
+    def attitude(self, q: np.ndarray) -> np.ndarray:
+        """Estimated attitude quaternion (N, 4): the true one ``attitude_delay_s`` ago."""
+        d = self.delay_steps
+        if d == 0:
+            return q
+        if self.q_buf is None:
+            self.q_buf = np.repeat(q[None], d + 1, axis=0)
+        self.q_buf[self.buf_i] = q
+        self.buf_i = (self.buf_i + 1) % (d + 1)
+        return self.q_buf[self.buf_i]
