@@ -422,9 +422,12 @@ def _speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: 
 
 
 def _check_streams(flight: Flight, need_attitude: bool) -> None:
-    if flight.frame is not None and flight.frame.rotor_count and not flight.frame.is_quad:
-        raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; this log is a {flight.frame.name} "
-                                                   f"with {flight.frame.rotor_count} rotors")
+    # "unknown": the parser could not tell; the motor column count decides below.
+    quad_names = ("quad_x", "quad_plus", "quad_other", "unknown")
+    frame = flight.frame
+    if frame is not None and (frame.name not in quad_names or frame.rotor_count not in (0, 4)):
+        rotors = f" with {frame.rotor_count} rotors" if frame.rotor_count else ""
+        raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; this log is a {frame.name}{rotors}")
     if flight.rates is None or len(flight.rates) < 2:
         raise MissingDataError(flight.path, "no angular-rate stream in this log")
     if flight.motors is None or len(flight.motors) < 2:

@@ -273,3 +273,36 @@ def test_bad_inputs_raise_flightlog_errors():
     assert len(F.make_windows(noatt, F.FeatureSpec("nif"))) > 0
     with pytest.raises(MissingDataError, match="attitude"):
         F.make_windows(noatt, F.FeatureSpec("cf"))
+
+
+# ----------------------------------------------------------------------------- real logs (../shared)
+
+def test_sih_logs_windows_and_damage_share(shared):
+    from flightlog_fd import load_flight
+
+    healthy = load_flight(shared("px4_sih_dev", "logs", "sih_004.ulg"))  # 250 Hz
+    w = F.make_windows(healthy, F.FeatureSpec("nif"))
+    assert len(w) >= 60 and w.X.shape[1:] == (7, 80) and np.all(np.isfinite(w.X))
+    (a, b), = healthy.airborne
+    assert w.t_start.min() >= a + 1.0 - 1e-9 and w.t_end.max() <= b - 1.0 + 1e-9
+    assert np.allclose(w.X[:, 3:].mean(axis=(0, 2)), 1.0, atol=0.02)  # balanced: equal thrust shares
+    default_profile = load_flight(shared("px4_sih_dev", "logs", "sih_008.ulg"))  # 10 Hz actuator_motors
+    assert default_profile.motors.rate_hz == pytest.approx(10.0, rel=0.05)
+    assert len(F.make_windows(default_profile, F.FeatureSpec("nif"))) >= 60
+    damaged = load_flight(shared("px4_sih_dev", "logs", "sih_035.ulg"))  # motor 2, eta 0.7, from take-off
+    shares = F.make_windows(damaged, F.FeatureSpec("nif")).X[:, 3:].mean(axis=(0, 2))
+    assert int(np.argmax(shares)) == 1 and shares[1] > 1.15
+
+
+def test_real_logs_give_windows_or_clear_reasons(shared):
+    from flightlog_fd import load_flight
+
+    erle = load_flight(shared("real_logs", "ardupilot", "erle_copter34_7.BIN"))  # 24 Hz gyro and mixer
+    w = F.make_windows(erle, F.FeatureSpec("nif"))
+    assert len(w) >= 50 and np.all(np.isfinite(w.X))
+    ground = load_flight(shared("real_logs", "px4", "robologs_f450_ground.ulg"))
+    g = F.make_windows(ground)
+    assert len(g) == 0 and "never airborne" in g.reason
+    vtol = load_flight(shared("real_logs", "px4", "sample_log_small.ulg"))
+    with pytest.raises(UnsupportedVehicleError, match="quadrotors"):
+        F.make_windows(vtol)
