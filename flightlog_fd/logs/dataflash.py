@@ -607,7 +607,8 @@ def _sorted_series(t: np.ndarray, values: np.ndarray, source: str) -> Series:
     return Series(t[order], np.asarray(values, dtype=np.float64)[order], source)
 
 
-def _rate_candidates(tables, firmware) -> list[Series]:
+def rate_sources(tables: dict[str, MessageTable], firmware: Optional[tuple[int, int, int]]) -> list[Series]:
+    """Every angular-rate stream of the log in rad/s (GYR, IMU, RATE), in preference order."""
     out = []
     if "GYR" in tables and tables["GYR"].has("GyrX", "GyrY", "GyrZ"):
         g = _instance(tables["GYR"])
@@ -907,7 +908,7 @@ def read_dataflash(path) -> Flight:
     frame, vehicle_type, fclass, ftype = _frame(params, msg_lines, firmware_line)
     n_motors = frame.rotor_count or 4
 
-    rates = _choose_rates(_rate_candidates(tables, firmware))
+    rates = _choose_rates(rate_sources(tables, firmware))
     attitude = None
     if "ATT" in tables and tables["ATT"].has("Roll", "Pitch"):
         att = tables["ATT"]
