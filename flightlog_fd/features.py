@@ -430,12 +430,14 @@ def _check_streams(flight: Flight, need_attitude: bool) -> None:
         raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; this log is a {frame.name}{rotors}")
     if flight.rates is None or len(flight.rates) < 2:
         raise MissingDataError(flight.path, "no angular-rate stream in this log")
+    if flight.rates.values.shape[1] < 3:
+        raise MissingDataError(flight.path, f"the angular-rate stream has {flight.rates.values.shape[1]} axes, not 3")
     if flight.motors is None or len(flight.motors) < 2:
         raise MissingDataError(flight.path, "no motor output stream in this log")
     if flight.motors.values.shape[1] != 4:
         raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; the log has "
                                                    f"{flight.motors.values.shape[1]} motor outputs")
-    if need_attitude and (flight.attitude is None or len(flight.attitude) < 2):
+    if need_attitude and (flight.attitude is None or len(flight.attitude) < 2 or flight.attitude.values.shape[1] < 2):
         raise MissingDataError(flight.path, "no attitude stream in this log (the CF features need roll and pitch)")
 
 
@@ -453,7 +455,7 @@ def resample(flight: Flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float 
     speed, source = _speed_stream(flight, speed_source, rate_hz, max_gap_s)
     motors = clean_stream(flight.motors, max_gap_s, 4)
     attitude = None
-    if flight.attitude is not None and len(flight.attitude) >= 2:
+    if flight.attitude is not None and len(flight.attitude) >= 2 and flight.attitude.values.shape[1] >= 2:
         attitude = clean_stream(flight.attitude, max_gap_s, 2)
         # Unwrap (after NaNs are gone) so interpolation between +179 and -179 deg avoids 0.
         attitude.v = np.unwrap(attitude.v, axis=0)

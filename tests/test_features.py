@@ -269,6 +269,9 @@ def test_bad_inputs_raise_flightlog_errors():
     hexa = synthetic_flight(frame=Frame("hexa", tuple(Rotor(1, 0, 1) for _ in range(6))))
     with pytest.raises(UnsupportedVehicleError, match="hexa"):
         F.make_windows(hexa)
+    two_axes = synthetic_flight(rates_fn=lambda t: np.zeros((t.size, 2)))
+    with pytest.raises(MissingDataError, match="2 axes"):
+        F.make_windows(two_axes)
     noatt = synthetic_flight(attitude=None)
     assert len(F.make_windows(noatt, F.FeatureSpec("nif"))) > 0
     with pytest.raises(MissingDataError, match="attitude"):
