@@ -52,6 +52,9 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
   (PX4's land detector reports "not landed" as soon as the pilot raises the throttle on the
   ground). Without a land detector: mean motor command above ``THROTTLE_AIRBORNE_LEVEL`` for at
   least ``THROTTLE_AIRBORNE_MIN_S``, said in ``airborne_source`` and a warning.
+- ``warnings``: truncation, corrupt messages, logging dropouts, fallback sources, an assumed frame,
+  and changes during the log of the parameters that decide how motors are read (initial values
+  are used).
 
 Errors: a file pyulog cannot parse at all (bad header, unknown incompatible flags, no
 definitions) raises :class:`CorruptLogError`; a file that is not a ULog raises
@@ -131,6 +134,8 @@ QUAD_X_QUADRANTS = ((1, 1), (-1, -1), (1, -1), (-1, 1))
 QUAD_PLUS_AXES = ((0, 1), (0, -1), (1, 0), (-1, 0))
 #: Spin of motors 1..4 in both quad layouts (+1 CCW seen from above).
 QUAD_SPINS = (1, 1, -1, -1)
+#: Parameters whose change during a log alters how motor outputs or geometry are read.
+CHANGED_PARAM_WATCH = re.compile(r"^(THR_MDL_FAC|CA_ROTOR\w*|PWM_(MAIN_)?(MIN|MAX)\d*|\w+_FUNC\d+|MAV_TYPE|SYS_AUTOSTART)$")
 #: Info key under which fdlog's own writer stores the simulator's truth (never used for diagnosis).
 TRUTH_INFO_KEY = "fdlog_truth"
 
@@ -674,6 +679,10 @@ def read_ulog(path) -> Flight:
         warnings.append(f"{len(ulog.dropouts)} logging dropouts ({total_ms} ms of data lost in total)")
     if not ulog.data_list:
         warnings.append("the log holds none of the topics fdlog reads")
+    changed = sorted({str(name) for _, name, _ in ulog.changed_parameters if CHANGED_PARAM_WATCH.match(str(name))})
+    if changed:
+        warnings.append(f"parameters changed during the log (initial values used): {', '.join(changed[:6])}"
+                        + (" ..." if len(changed) > 6 else ""))
 
     status = _first(ulog, "vehicle_status")
     vehicle_type, _ = _vehicle_type(params, status)

@@ -9,7 +9,8 @@ complete messages (3-byte header + msg_id + payload); rows of all topics are gat
 byte buffer with a single vectorised index, so a 100 s, 250 Hz flight writes in well under a second.
 
 Input: a Flight whose Series are already sampled at each stream's own rate (the simulator adds
-the jitter); times are seconds on the flight's clock and must be >= 0 (written as µs, rounded).
+the jitter); times are seconds on the flight's clock and must be > 0 (written as µs, rounded; a 0 timestamp means
+"not set" to PX4 tools and to the reader).
 Topics written (PX4 field names; float32 as PX4 logs them):
 
 - ``vehicle_angular_velocity`` (``xyz`` rad/s, ``timestamp_sample`` = ``timestamp``) from ``rates``;
@@ -216,8 +217,9 @@ class _TopicData:
 
 def _us(t: np.ndarray) -> np.ndarray:
     t = np.asarray(t, dtype=np.float64)
-    if t.size and (not np.all(np.isfinite(t)) or t.min() < 0):
-        raise ValueError("write_ulog: times must be finite and >= 0 s (ULog timestamps are unsigned µs)")
+    if t.size and (not np.all(np.isfinite(t)) or t.min() <= 0):
+        raise ValueError("write_ulog: times must be finite and > 0 s (ULog timestamps are unsigned µs "
+                         "since boot and 0 means 'not set': PX4 logs start seconds after boot)")
     return np.round(t * US_PER_S).astype(np.uint64)
 
 
@@ -280,11 +282,12 @@ def _topics(flight: Flight) -> list[_TopicData]:
     # vehicle_status and vehicle_land_detected: periodic plus every state change
     ts = _state_times(t0, t1, STATUS_RATE_HZ, flight.armed)
     armed = _in_intervals(ts, flight.armed)
-    first_arm = flight.armed[0][0] if flight.armed else 0.0
-    first_air = flight.airborne[0][0] if flight.airborne else 0.0
+    # armed_time / takeoff_time: µs of the first arming / take-off, 0 before it (PX4: "not set")
+    first_arm = flight.armed[0][0] if flight.armed else np.inf
+    first_air = flight.airborne[0][0] if flight.airborne else np.inf
     out.append(_TopicData("vehicle_status", _us(ts), {
-        "armed_time": np.where(armed, _us(np.full(len(ts), first_arm)), 0),
-        "takeoff_time": np.where(ts >= first_air, _us(np.full(len(ts), first_air)), 0) if flight.airborne else 0,
+        "armed_time": np.where(armed, round(first_arm * US_PER_S) if flight.armed else 0, 0),
+        "takeoff_time": np.where(ts >= first_air, round(first_air * US_PER_S) if flight.airborne else 0, 0),
         "arming_state": np.where(armed, ARMING_STATE_ARMED, ARMING_STATE_DISARMED),
         "vehicle_type": STATUS_FIXED_WING if vtype == "fixed_wing" else STATUS_ROTARY_WING,
         "is_vtol": 1 if vtype == "vtol" else 0,
