@@ -301,7 +301,9 @@ def thrust_proxy(motors: np.ndarray, motor_kind: str, thrust_curve: Optional[flo
       (e = MOT_THST_EXPO), so ``x = (u - spin_min) / (spin_max - spin_min)`` clipped to 0..1 and
       ``thrust = e x^2 + (1 - e) x``. ArduPilot's battery-voltage scaling (lift_max) is not undone:
       it scales all four motors alike, which the scale-free transform cancels.
-    ``thrust_curve`` None means 0 for PX4 (its default) and 0.65 for ArduPilot (its default).
+    ``thrust_curve`` None means 0 for PX4 (its default) and 0.65 for ArduPilot (its default);
+    ArduCopter <= 3.3 logs (older ``MOT_TCRV_*`` curve, no MOT_THST_EXPO) get these defaults too,
+    an approximation of their curve that is the same for all four motors.
     """
     u = np.asarray(motors, dtype=np.float64)
     if motor_kind == "thrust":
