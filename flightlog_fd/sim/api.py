@@ -1,0 +1,143 @@
+"""Public entry point of the simulator: ``simulate_flights(n, ...) -> list[Flight]``.
+
+Flies ``n`` quadrotors together (one vectorised batch) and returns one :class:`~flightlog_fd.flight.Flight`
+per vehicle exactly as a log parser would return it, plus ``Flight.truth``:
+``{"label": 0..4, "motor": 0..4, "eta": float, "onset_s": log-clock s or None, "airframe": {...},
+"rho": [4], "rho_mode": str, "mission": str, "seed": int, "index": i, "profile": str,
+"takeoff_s": log-clock s, "log_start_boot_s": s, "sensors": {...}}``.
+
+Arguments (all keyword except ``n``):
+
+- ``airframes``: None (random, :func:`~flightlog_fd.sim.airframe.random_airframes`), a preset name
+  or :class:`Airframe` for every vehicle, or a list of ``n`` of those;
+- ``damages``: None (random, :func:`~flightlog_fd.sim.damage.random_damages`), one
+  :class:`Damage` for every vehicle, or a list of ``n`` (None entries = healthy);
+- ``mission``: "waypoints" | "manual" | "hover"; ``duration_s``: planned arming-to-disarm time;
+- ``profile``: logging profile (logger.PROFILES); ``rho``: None | "random" | (4,) | (n, 4) unbalance
+  ratios, ``rho_mode`` "physical" | "paper" (unbalance.py);
+- ``seed``: everything (airframes, missions, damages, noise, log timing) is drawn from one
+  ``numpy.random.default_rng(seed)``, so the same arguments give the same flights;
+- ``realism``: False removes noise, wind, delays and vibration (physics checks);
+- ``vibration_gain``: rad/s of gyro vibration per unit propeller imbalance at full speed.
+
+Cost: one batch of N vehicles costs about as much as a handful of single flights (all array
+operations), so call it with a few hundred vehicles at a time for datasets (profile "training").
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence, Union
+
+import numpy as np
+
+from flightlog_fd.flight import Flight
+from flightlog_fd.sim.airframe import Airframe, preset, random_airframes
+from flightlog_fd.sim.damage import (ETA_RANGE, HEALTHY, HEALTHY_FRACTION, MIDFLIGHT_FRACTION, VIBRATION_GAIN_RADS,
+                                     Damage, DamageArrays, random_damages)
+from flightlog_fd.sim.engine import BatchResult, run_batch
+from flightlog_fd.sim.logger import LogProfile, build_flights, get_profile
+from flightlog_fd.sim.missions import MissionPlan, plan_missions
+from flightlog_fd.sim.sensors import SensorParams
+from flightlog_fd.sim.unbalance import RhoSpec, check_mode, resolve_rho
+
+#: Extra simulated time allowed beyond the longest planned flight before the batch is stopped.
+OVERTIME_FACTOR = 1.5
+OVERTIME_S = 20.0
+
+AirframeSpec = Union[None, str, Airframe, Sequence[Union[str, Airframe]]]
+DamageSpec = Union[None, Damage, Sequence[Optional[Damage]]]
+
+
+@dataclass
+class SimBatch:
+    """Everything a batch was made of and what it recorded (for tests and dataset builders)."""
+
+    airframes: list[Airframe]
+    damages: list[Damage]
+    rho: np.ndarray  # (n, 4)
+    rho_mode: str
+    plan: MissionPlan
+    sensors: SensorParams
+    profile: LogProfile
+    result: BatchResult
+    seed: int
+
+
+def _resolve_airframes(n: int, airframes: AirframeSpec, rng: np.random.Generator) -> list[Airframe]:
+    if airframes is None:
+        return random_airframes(n, rng)
+    if isinstance(airframes, (str, Airframe)):
+        airframes = [airframes] * n
+    out = [preset(a) if isinstance(a, str) else a for a in airframes]
+    if len(out) == 1 and n > 1:
+        out = out * n
+    if len(out) != n:
+        raise ValueError(f"got {len(out)} airframes for {n} vehicles")
+    return out
+
+
+def _resolve_damages(n: int, damages: DamageSpec, airframes: list[Airframe], plan: MissionPlan,
+                     rng: np.random.Generator, healthy_fraction: float, eta_range: tuple[float, float],
+                     midflight_fraction: float) -> list[Damage]:
+    if damages is None:
+        return random_damages(airframes, plan.estimated_s, rng, healthy_fraction=healthy_fraction,
+                              eta_range=eta_range, midflight_fraction=midflight_fraction)
+    if isinstance(damages, Damage):
+        return [damages] * n
+    out = [HEALTHY if d is None else d for d in damages]
+    if len(out) != n:
+        raise ValueError(f"got {len(out)} damages for {n} vehicles")
+    return out
+
+
+def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpec = None,
+                   mission: str = "waypoints", duration_s: float = 60.0, profile: str = "px4_high",
+                   rho: RhoSpec = None, rho_mode: str = "physical", seed: int = 0, realism: bool = True,
+                   vibration_gain: float = VIBRATION_GAIN_RADS, healthy_fraction: float = HEALTHY_FRACTION,
+                   eta_range: tuple[float, float] = ETA_RANGE, midflight_fraction: float = MIDFLIGHT_FRACTION,
+                   extra_streams: Optional[dict[str, int]] = None) -> SimBatch:
+    """Fly the batch and keep the raw recording (see :func:`simulate_flights` for the arguments).
+
+    ``extra_streams`` maps engine stream names (engine.STREAM_FIELDS, e.g. ``"w_com"``, ``"pos"``)
+    to a decimation (record every k simulation steps) for analysis.
+    """
+    if n < 1:
+        raise ValueError("n must be >= 1")
+    check_mode(rho_mode)
+    prof = get_profile(profile)
+    rng = np.random.default_rng(seed)
+    afs = _resolve_airframes(n, airframes, rng)
+    plan = plan_missions(n, mission, duration_s, rng)
+    dmg = _resolve_damages(n, damages, afs, plan, rng, healthy_fraction, eta_range, midflight_fraction)
+    rho_arr = resolve_rho(rho, n, rng)
+    sens = SensorParams.draw(afs, rng, realism=realism, vibration_gain=vibration_gain)
+    dmg_arr = DamageArrays.build(dmg, rng)
+    dec = prof.decimation()
+    if extra_streams:
+        dec.update(extra_streams)
+    t_max = float(plan.estimated_s.max()) * OVERTIME_FACTOR + OVERTIME_S
+    res = run_batch(afs, plan, dmg_arr, rho_arr, rho_mode, sens, 1.0 / prof.sim_rate_hz, dec, t_max, rng)
+    return SimBatch(airframes=afs, damages=dmg, rho=rho_arr, rho_mode=rho_mode, plan=plan, sensors=sens,
+                    profile=prof, result=res, seed=seed)
+
+
+def flights_from_batch(batch: SimBatch) -> list[Flight]:
+    """The batch's vehicles as `Flight` objects (deterministic for the batch's seed)."""
+    rng = np.random.default_rng([batch.seed, 1])
+    extra = [{"sensors": batch.sensors.to_dict(i)} for i in range(len(batch.airframes))]
+    return build_flights(batch.result, batch.profile, batch.airframes, batch.damages, batch.rho, batch.rho_mode,
+                         batch.plan.name, batch.seed, rng, extra)
+
+
+def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageSpec = None,
+                     mission: str = "waypoints", duration_s: float = 60.0, profile: str = "px4_high",
+                     rho: RhoSpec = None, rho_mode: str = "physical", seed: int = 0, realism: bool = True,
+                     vibration_gain: float = VIBRATION_GAIN_RADS, healthy_fraction: float = HEALTHY_FRACTION,
+                     eta_range: tuple[float, float] = ETA_RANGE,
+                     midflight_fraction: float = MIDFLIGHT_FRACTION) -> list[Flight]:
+    """Simulate ``n`` flights and return them as parsed-log `Flight` objects (see module docstring)."""
+    batch = simulate_batch(n, airframes=airframes, damages=damages, mission=mission, duration_s=duration_s,
+                           profile=profile, rho=rho, rho_mode=rho_mode, seed=seed, realism=realism,
+                           vibration_gain=vibration_gain, healthy_fraction=healthy_fraction, eta_range=eta_range,
+                           midflight_fraction=midflight_fraction)
+    return flights_from_batch(batch)

@@ -1,0 +1,235 @@
+"""Logger emulation: logging profiles and the assembly of simulated streams into `Flight` objects.
+
+Each stream is recorded every ``k`` simulation steps (``k = sim_rate_hz / stream rate``, an
+integer), so a logged value is the vehicle's state at a simulation step, as a logger writes the
+latest message of a topic. On the log's clock:
+
+- the autopilot clock starts at boot; logging starts at arming ``boot_offset_s`` later (PX4
+  18-30 s, as the PX4 SIH dev logs start ~23.9 s after boot; ArduPilot 30-300 s, ``TimeUS``);
+- timestamps are whole microseconds; every stream of the non-training profiles gets a timing
+  jitter N(0, ``jitter_frac`` · its interval), clipped at ±0.3 interval, and loses samples with
+  probability ``drop_prob`` (PX4 high-rate logs measure ~249.5 Hz for 250 Hz);
+- the ``"training"`` profile has neither (the fast path for datasets).
+
+Profiles (:data:`PROFILES`; rates in Hz):
+
+==================  =========  ====  ========  ======  ==========  ========  ==========
+profile             autopilot  sim   rates     att.    motors      alt       velocity
+==================  =========  ====  ========  ======  ==========  ========  ==========
+``px4_high``        px4        500   250       250     250         10        10
+``px4_default``     px4        250   50        50      10          10        10
+``ardupilot``       ardupilot  400   50 (IMU)  50      50 (RATE)   10 RCOU   10
+``ardupilot_fast``  ardupilot  400   400       400     400 (RATE)  10 RCOU   10
+``training``        px4        200   100       100     100         10        10
+==================  =========  ====  ========  ======  ==========  ========  ==========
+
+Motors: PX4 profiles log ``actuator_motors`` thrust setpoints (``motor_kind = "thrust"``) and
+``alt_motors["actuator_outputs"]``, the PWM signal normalised to 0..1 after PX4's thrust model
+``thrust = f·s² + (1−f)·s`` with ``f = THR_MDL_FAC`` (0 unless the airframe sets it). ArduPilot
+profiles give the per-motor thrust commands at the RATE rate (``"RATE mixer"``) and
+``alt_motors["RCOU"]``, the signal through ``MOT_THST_EXPO`` (default 0.65) at 10 Hz.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from flightlog_fd.flight import Flight, Frame, Series
+from flightlog_fd.sim.airframe import Airframe
+from flightlog_fd.sim.damage import Damage
+from flightlog_fd.sim.dynamics import quat_to_euler
+from flightlog_fd.sim.engine import BatchResult
+
+FIRMWARE = "flightlog-fd sim"
+ARDUPILOT_THST_EXPO = 0.65
+ARDUPILOT_PWM_MIN, ARDUPILOT_PWM_MAX = 1000.0, 2000.0
+PX4_SYS_AUTOSTART = {"quad_x": 4001, "quad_plus": 5001}
+PX4_SIH_AUTOSTART = 10040  # PX4's SIH quadrotor airframe (sihsim_quadx)
+ARDUPILOT_FRAME_TYPE = {"quad_x": 1, "quad_plus": 0}
+LOG_TAIL_RANGE_S = (0.1, 0.5)  # logging continues this long after disarm
+JITTER_CLIP = 0.3
+
+
+@dataclass(frozen=True)
+class LogProfile:
+    """Stream rates (Hz) and timing behaviour of one logging configuration (see module docstring)."""
+
+    name: str
+    autopilot: str  # "px4" | "ardupilot"
+    sim_rate_hz: float
+    rates_hz: float
+    attitude_hz: float
+    motors_hz: float
+    alt_motors_hz: float
+    velocity_hz: float
+    jitter_frac: float
+    drop_prob: float
+    boot_offset_s: tuple[float, float]
+
+    def decimation(self) -> dict[str, int]:
+        """Record every k simulation steps, per stream (engine stream names)."""
+        out = {}
+        for name, hz in (("rates", self.rates_hz), ("attitude", self.attitude_hz), ("motors", self.motors_hz),
+                         ("velocity", self.velocity_hz)):
+            k = self.sim_rate_hz / hz
+            if abs(k - round(k)) > 1e-9:
+                raise ValueError(f"profile {self.name}: {name} at {hz} Hz does not divide {self.sim_rate_hz} Hz")
+            out[name] = int(round(k))
+        return out
+
+    @property
+    def alt_every(self) -> int:
+        """Keep every n-th motor sample for the alternative (signal) motor stream."""
+        return max(1, int(round(self.motors_hz / self.alt_motors_hz)))
+
+
+PROFILES: dict[str, LogProfile] = {
+    "px4_high": LogProfile("px4_high", "px4", 500.0, 250.0, 250.0, 250.0, 10.0, 10.0, 0.04, 0.002, (18.0, 30.0)),
+    "px4_default": LogProfile("px4_default", "px4", 250.0, 50.0, 50.0, 10.0, 10.0, 10.0, 0.04, 0.0005,
+                              (18.0, 30.0)),
+    "ardupilot": LogProfile("ardupilot", "ardupilot", 400.0, 50.0, 50.0, 50.0, 10.0, 10.0, 0.02, 0.0,
+                            (30.0, 300.0)),
+    "ardupilot_fast": LogProfile("ardupilot_fast", "ardupilot", 400.0, 400.0, 400.0, 400.0, 10.0, 10.0, 0.02,
+                                 0.001, (30.0, 300.0)),
+    "training": LogProfile("training", "px4", 200.0, 100.0, 100.0, 100.0, 10.0, 10.0, 0.0, 0.0, (18.0, 30.0)),
+}
+
+
+def get_profile(name: str) -> LogProfile:
+    try:
+        return PROFILES[name]
+    except KeyError:
+        raise ValueError(f"unknown logging profile {name!r}; known: {sorted(PROFILES)}") from None
+
+
+def thrust_to_signal(thrust: np.ndarray, curve: float) -> np.ndarray:
+    """Motor signal s (0..1) whose thrust ``(1−c)·s + c·s²`` equals ``thrust`` (PX4 THR_MDL_FAC / AP MOT_THST_EXPO)."""
+    t = np.clip(thrust, 0.0, 1.0)
+    if curve <= 1e-6:
+        return t
+    b = 1.0 - curve
+    return (-b + np.sqrt(b * b + 4.0 * curve * t)) / (2.0 * curve)
+
+
+def _stamp(t_sim: np.ndarray, offset: float, interval: float, profile: LogProfile,
+           rng: Optional[np.random.Generator]) -> tuple[np.ndarray, np.ndarray]:
+    """Log-clock seconds (µs resolution) and the kept-sample mask for one stream of one vehicle."""
+    us = (t_sim + offset) * 1e6
+    keep = np.ones(t_sim.shape[0], dtype=bool)
+    if rng is not None and profile.jitter_frac > 0:
+        jit = np.clip(rng.normal(0.0, profile.jitter_frac, t_sim.shape[0]), -JITTER_CLIP, JITTER_CLIP)
+        us = us + jit * interval * 1e6
+        if profile.drop_prob > 0:
+            keep = rng.uniform(size=t_sim.shape[0]) >= profile.drop_prob
+    # Strictly increasing whole microseconds even after jitter (us[i] >= us[i-1] + 1).
+    idx = np.arange(us.shape[0], dtype=np.float64)
+    us = np.maximum.accumulate(np.round(us) - idx) + idx
+    return us / 1e6, keep
+
+
+def px4_params(af: Airframe) -> dict[str, float]:
+    frame = Frame.quad_x(af.arm) if af.frame == "quad_x" else Frame.quad_plus(af.arm)
+    p: dict[str, float] = {
+        "SYS_AUTOSTART": float(PX4_SIH_AUTOSTART if af.name == "sih" else PX4_SYS_AUTOSTART[af.frame]),
+        "MAV_TYPE": 2.0,
+        "CA_ROTOR_COUNT": 4.0,
+        "THR_MDL_FAC": float(af.thr_mdl_fac),
+        "MPC_THR_HOVER": float(round(af.hover_command, 3)),
+        "IMU_GYRO_CUTOFF": float(af.gyro_cutoff_hz),
+    }
+    for i, r in enumerate(frame.rotors):
+        p[f"CA_ROTOR{i}_PX"] = float(r.x)
+        p[f"CA_ROTOR{i}_PY"] = float(r.y)
+        p[f"CA_ROTOR{i}_KM"] = float(r.spin * af.torque_ratio)
+    return p
+
+
+def ardupilot_params(af: Airframe) -> dict[str, float]:
+    return {
+        "FRAME_CLASS": 1.0,
+        "FRAME_TYPE": float(ARDUPILOT_FRAME_TYPE[af.frame]),
+        "MOT_PWM_MIN": ARDUPILOT_PWM_MIN,
+        "MOT_PWM_MAX": ARDUPILOT_PWM_MAX,
+        "MOT_THST_EXPO": ARDUPILOT_THST_EXPO,
+        "MOT_THST_HOVER": float(round(af.hover_command, 3)),
+        "INS_GYRO_FILTER": float(af.gyro_cutoff_hz),
+    }
+
+
+def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Airframe], damages: Sequence[Damage],
+                  rho: np.ndarray, rho_mode: str, mission: str, seed: int, rng: np.random.Generator,
+                  extra_truth: Optional[Sequence[dict]] = None) -> list[Flight]:
+    """One `Flight` per vehicle from a batch's recorded streams (see module docstring)."""
+    px4 = profile.autopilot == "px4"
+    jitter_rng = rng if profile.jitter_frac > 0 else None
+    flights = []
+    for i, af in enumerate(airframes):
+        offset = float(rng.uniform(*profile.boot_offset_s))
+        t_disarm = res.t_disarm[i]
+        t_last = (t_disarm + rng.uniform(*LOG_TAIL_RANGE_S)) if np.isfinite(t_disarm) else res.t_end
+
+        def stream(name: str, hz: float) -> tuple[np.ndarray, np.ndarray]:
+            t_sim = res.times[name]
+            m = t_sim <= t_last + 1e-9
+            t, keep = _stamp(t_sim[m], offset, 1.0 / hz, profile, jitter_rng)
+            return t[keep], res.data[name][m, i][keep].astype(np.float64)
+
+        t_r, rates = stream("rates", profile.rates_hz)
+        t_a, q = stream("attitude", profile.attitude_hz)
+        t_m, motors = stream("motors", profile.motors_hz)
+        t_v, vel = stream("velocity", profile.velocity_hz)
+        att = quat_to_euler(q / np.linalg.norm(q, axis=1, keepdims=True))
+        alt_idx = np.arange(0, t_m.shape[0], profile.alt_every)
+
+        frame = Frame.quad_x(af.arm) if af.frame == "quad_x" else Frame.quad_plus(af.arm)
+        if px4:
+            curve = float(af.thr_mdl_fac)
+            params = px4_params(af)
+            frame = Frame(frame.name, frame.rotors, "CA_ROTOR_COUNT=4, CA_ROTORn_PX/PY/KM")
+            src = dict(rates="vehicle_angular_velocity.xyz", attitude="vehicle_attitude.q",
+                       motors="actuator_motors.control[0..3]", alt="actuator_outputs.output[0..3]",
+                       velocity="vehicle_local_position.vx/vy/vz")
+            alt_name, airborne_src = "actuator_outputs", "vehicle_land_detected"
+        else:
+            curve = ARDUPILOT_THST_EXPO
+            params = ardupilot_params(af)
+            frame = Frame(frame.name, frame.rotors, f"FRAME_CLASS=1, FRAME_TYPE={ARDUPILOT_FRAME_TYPE[af.frame]}")
+            src = dict(rates="IMU.GyrX/Y/Z", attitude="ATT.Roll/Pitch/Yaw",
+                       motors="RATE mixer (AOut + ROut/POut/YOut x AP_MotorsMatrix factors)",
+                       alt="RCOU.C1,C2,C3,C4", velocity="XKF1.VN/VE/VD")
+            alt_name, airborne_src = "RCOU", "EV (NOT_LANDED 28 .. LAND_COMPLETE 18 / DISARMED 11)"
+        alt = Series(t_m[alt_idx], thrust_to_signal(motors[alt_idx], curve), src["alt"])
+
+        t0 = offset
+        t_end = float(max(t_r[-1], t_m[-1], t_a[-1]))
+        armed_end = t_disarm + offset if np.isfinite(t_disarm) else t_end
+        airborne = []
+        if np.isfinite(res.t_takeoff[i]):
+            td = res.t_touchdown[i]
+            airborne.append((float(res.t_takeoff[i] + offset), float(td + offset) if np.isfinite(td) else t_end))
+        d = damages[i]
+        # Log-clock onset of a mid-flight damage; None when healthy or damaged from take-off.
+        onset = float(d.onset_s + offset) if (d.motor and d.onset_s is not None) else None
+        truth = {
+            "label": int(d.motor), "motor": int(d.motor), "eta": float(d.eta),
+            "onset_s": onset, "airframe": af.to_dict(), "rho": rho[i].tolist(), "rho_mode": rho_mode,
+            "mission": mission, "seed": int(seed), "index": i, "profile": profile.name,
+            "takeoff_s": float(res.t_takeoff[i] + offset) if np.isfinite(res.t_takeoff[i]) else None,
+            "log_start_boot_s": offset,
+        }
+        if extra_truth is not None:
+            truth.update(extra_truth[i])
+        flights.append(Flight(
+            path=None, autopilot=profile.autopilot, firmware=FIRMWARE, vehicle_type="quadrotor",
+            vehicle_id=f"sim-{seed}-{i}", frame=frame,
+            rates=Series(t_r, rates, src["rates"]),
+            attitude=Series(t_a, att, src["attitude"]),
+            motors=Series(t_m, motors, src["motors"]), motor_kind="thrust", thrust_curve=curve,
+            velocity=Series(t_v, vel, src["velocity"]),
+            alt_motors={alt_name: alt},
+            armed=[(float(t0), float(armed_end))], airborne=airborne, airborne_source=airborne_src,
+            t_start=float(min(t_r[0], t_m[0], t_a[0])), t_end=t_end, params=params, truth=truth,
+        ))
+    return flights
