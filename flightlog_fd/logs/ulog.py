@@ -651,8 +651,13 @@ def read_ulog(path) -> Flight:
     p = Path(path)
     if not p.exists():
         raise NotALogError(path, "no such file")
-    with open(p, "rb") as f:
-        head = f.read(len(ULOG_MAGIC))
+    if p.is_dir():
+        raise NotALogError(path, "is a folder, not a log file")
+    try:
+        with open(p, "rb") as f:
+            head = f.read(len(ULOG_MAGIC))
+    except OSError as e:
+        raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
     if not head.startswith(b"ULog"):
         raise NotALogError(path, "not a PX4 ULog (missing 'ULog' magic bytes)")
     if head != ULOG_MAGIC:

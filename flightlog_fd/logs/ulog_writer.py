@@ -425,7 +425,7 @@ def _info_fields(flight: Flight, hardware: str) -> dict:
     if flight.vehicle_id:
         info["sys_uuid"] = str(flight.vehicle_id)
     if flight.truth is not None:
-        info[TRUTH_INFO_KEY] = json.dumps(_json_safe(flight.truth), sort_keys=True)
+        info[TRUTH_INFO_KEY] = json.dumps(_json_safe(flight.truth), sort_keys=True, default=str)
     return info
 
 
