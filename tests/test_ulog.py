@@ -85,7 +85,7 @@ def test_sample_old_format_never_airborne(shared):
     assert f.attitude.source == "vehicle_attitude.q"
     # on the bench: gyro noise only, well below 0.2 rad/s (it would be ~57x larger in deg/s)
     assert np.median(np.abs(f.rates.values)) < 0.05
-    assert f.motor_kind == "signal" and "1075..1950" in f.motors.source  # legacy PWM_MIN/PWM_MAX
+    assert f.motor_kind == "signal" and "1075..1950 (PWM_MIN/PWM_MAX)" in f.motors.source  # legacy names
     assert np.all(f.motors.values == 0.0)  # 900 µs disarmed output is below PWM_MIN
     assert f.armed == [] and f.airborne == []
     assert any("dropouts" in w for w in f.warnings)
@@ -132,7 +132,7 @@ def test_robologs_armed_on_ground_is_not_airborne(shared):
     # altitude never rises 0.3 m, so neither counts as flight
     assert f.airborne == [] and f.airborne_s == 0.0
     assert sum("treated as on the ground" in w for w in f.warnings) == 2
-    assert "PWM_MAIN 1230..1950" in f.motors.source
+    assert "1230..1950 (PWM_MAIN_MIN/PWM_MAIN_MAX)" in f.motors.source
     assert f.motors.values.max() == pytest.approx((1500 - 1230) / (1950 - 1230), abs=1e-6)
     assert f.esc_rpm is None  # esc_status is published but all zero: no ESC telemetry
 

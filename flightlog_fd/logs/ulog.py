@@ -465,15 +465,16 @@ def _output_function_channels(params: dict, rotor_count: int) -> tuple[list[int]
     return list(range(rotor_count)), "PWM_MAIN"
 
 
-def _output_range(params: dict, prefix: str, channel: int) -> tuple[float, float]:
-    """(min, max) output of 0-based ``channel``: per-channel, then per-driver, then legacy, then default."""
-    def pick(kind: str, default: float) -> float:
+def _output_range(params: dict, prefix: str, channel: int) -> tuple[float, float, str]:
+    """(min, max, parameter used) of 0-based ``channel``: per-channel, per-driver, legacy, default."""
+    def pick(kind: str, default: float) -> tuple[float, str]:
         for key in (f"{prefix}_{kind}{channel + 1}", f"{prefix}_{kind}", f"PWM_{kind}"):
             if key in params and float(params[key]) >= 0:  # -1 = "unset" in PX4 1.11-1.12
-                return float(params[key])
-        return default
+                return float(params[key]), key
+        return default, f"default {kind.lower()}"
 
-    return pick("MIN", PWM_DEFAULT_MIN), pick("MAX", PWM_DEFAULT_MAX)
+    (lo, lo_key), (hi, hi_key) = pick("MIN", PWM_DEFAULT_MIN), pick("MAX", PWM_DEFAULT_MAX)
+    return lo, hi, f"{lo_key}/{hi_key}"
 
 
 def _actuator_outputs(ulog, params: dict, rotor_count: Optional[int], warnings: list[str]) -> Optional[Series]:
@@ -511,7 +512,7 @@ def _actuator_outputs(ulog, params: dict, rotor_count: Optional[int], warnings: 
         if score > best_score:
             chan_txt = ",".join(str(c) for c in channels)
             src = f"actuator_outputs.output[{chan_txt}]" + (f" (instance {tp.instance})" if tp.instance else "")
-            src += f" {prefix} {ranges[0][0]:.0f}..{ranges[0][1]:.0f}"
+            src += f" {ranges[0][0]:.0f}..{ranges[0][1]:.0f} ({ranges[0][2]})"
             best, best_score = Series(tp.t, np.clip(np.nan_to_num(norm, nan=0.0), 0.0, 1.0), src), score
     if best is None:
         warnings.append("actuator_outputs present but no instance has motor channels in the output range")
