@@ -268,3 +268,42 @@ def test_columns_equal_pymavlink_recv_match(shared, name, types):
                 # bit-identical, including the c/C/e/E/L scaling
                 np.testing.assert_array_equal(ours[t].columns[col], np.asarray(expected, dtype=np.float64),
                                               err_msg=f"{t}.{col}")
+
+
+def test_crafted_log_arm_messages_gyr_and_no_rcou(tmp_path):
+    """A modern-style log with ARM (no EV), raw GYR faster than IMU, and no RCOU/RATE."""
+    from flightlog_fd.logs.dataflash_writer import FMT, IMU, MSG, PARM, _block, _Format, _merge
+
+    arm = _Format(140, "ARM", "QBIBB", ("TimeUS", "ArmState", "ArmChecks", "Forced", "Method"))
+    gyr = _Format(141, "GYR", "QBQfff", ("TimeUS", "I", "SampleUS", "GyrX", "GyrY", "GyrZ"))
+    t_imu = np.arange(2.0, 12.0, 1 / 50)
+    t_gyr = np.arange(2.0, 12.0, 1 / 1000)
+    us = lambda t: np.round(np.asarray(t) * 1e6).astype(np.uint64)  # noqa: E731
+    blocks = [
+        _block(FMT, np.zeros(5, np.uint64), phase=0, Type=[f.type_id for f in (FMT, PARM, MSG, arm, gyr)],
+               Length=[f.length for f in (FMT, PARM, MSG, arm, gyr)],
+               Name=[f.name.encode() for f in (FMT, PARM, MSG, arm, gyr)],
+               Format=[f.format.encode() for f in (FMT, PARM, MSG, arm, gyr)],
+               Columns=[",".join(f.columns).encode() for f in (FMT, PARM, MSG, arm, gyr)]),
+        _block(FMT, np.zeros(1, np.uint64), phase=0, Type=[IMU.type_id], Length=[IMU.length],
+               Name=[b"IMU"], Format=[IMU.format.encode()], Columns=[",".join(IMU.columns).encode()]),
+        _block(PARM, us([2.0, 2.0]), phase=0, Name=[b"FRAME_CLASS", b"FRAME_TYPE"], Value=[1.0, 0.0]),
+        _block(MSG, us([2.0]), phase=0, Message=[b"ArduCopter V4.5.7 (crafted)"]),
+        _block(IMU, us(t_imu), I=np.zeros(t_imu.size, np.uint8), GyrX=np.full(t_imu.size, 0.1),
+               GyrY=np.zeros(t_imu.size), GyrZ=np.zeros(t_imu.size)),
+        _block(gyr, us(t_gyr), I=np.zeros(t_gyr.size, np.uint8), SampleUS=us(t_gyr - 0.0005),
+               GyrX=np.sin(t_gyr), GyrY=np.zeros(t_gyr.size), GyrZ=np.zeros(t_gyr.size)),
+        _block(arm, us([3.0, 9.0]), ArmState=[1, 0], ArmChecks=[0, 0], Forced=[0, 0], Method=[0, 0]),
+    ]
+    p = tmp_path / "crafted.bin"
+    _merge(blocks).tofile(p)
+    f = read_dataflash(p)
+    assert f.armed == [(pytest.approx(3.0), pytest.approx(9.0))]
+    assert f.motors is None and f.alt_motors == {}
+    assert any("no motor outputs" in w for w in f.warnings)
+    assert f.frame.name == "quad_plus"
+    # GYR (1 kHz, stamped by SampleUS) beats IMU (50 Hz)
+    assert f.rates.source.startswith("GYR") and f.rates.rate_hz == pytest.approx(1000, rel=0.01)
+    np.testing.assert_allclose(f.rates.t, t_gyr - 0.0005, atol=1e-6)
+    np.testing.assert_allclose(f.rates.values[:, 0], np.sin(t_gyr), atol=1e-6)
+    assert f.airborne == [] and f.airborne_source.startswith("none")

@@ -57,7 +57,6 @@ from .dataflash import (
     FRAME_TYPE_X,
     HEAD1,
     HEAD2,
-    HEADER_BYTES,
     MIXER_SINCE,
     EV_ARMED,
     EV_DISARMED,
