@@ -307,3 +307,36 @@ def test_crafted_log_arm_messages_gyr_and_no_rcou(tmp_path):
     np.testing.assert_allclose(f.rates.t, t_gyr - 0.0005, atol=1e-6)
     np.testing.assert_allclose(f.rates.values[:, 0], np.sin(t_gyr), atol=1e-6)
     assert f.airborne == [] and f.airborne_source.startswith("none")
+
+
+@pytest.mark.parametrize("q_enable,expected", [(0.0, "fixed_wing"), (1.0, "vtol")])
+def test_crafted_plane_logs(tmp_path, q_enable, expected):
+    """ArduPlane: outputs 1..4 are surfaces, so RCOU is motors only through SERVOn_FUNCTION."""
+    from flightlog_fd.logs.dataflash_writer import FMT, MSG, PARM, RCOU, _block, _merge
+
+    fmts = (FMT, PARM, MSG, RCOU)
+    t = np.arange(1.0, 5.0, 0.1)
+    us = np.round(t * 1e6).astype(np.uint64)
+    names = ["Q_ENABLE"] + [f"SERVO{k}_FUNCTION" for k in range(5, 9)]
+    pwm = {f"C{k}": np.full(t.size, 1000 + 100 * k, dtype=np.uint16) for k in range(1, 9)}
+    blocks = [
+        _block(FMT, np.zeros(len(fmts), np.uint64), phase=0, Type=[f.type_id for f in fmts],
+               Length=[f.length for f in fmts], Name=[f.name.encode() for f in fmts],
+               Format=[f.format.encode() for f in fmts], Columns=[",".join(f.columns).encode() for f in fmts]),
+        _block(PARM, np.full(5, us[0]), phase=0, Name=[n.encode() for n in names],
+               Value=[q_enable, 33.0, 34.0, 35.0, 36.0]),
+        _block(MSG, us[:1], phase=0, Message=[b"ArduPlane V4.5.0 (crafted)"]),
+        _block(RCOU, us, **pwm),
+    ]
+    p = tmp_path / "plane.bin"
+    _merge(blocks).tofile(p)
+    f = read_dataflash(p)
+    assert f.vehicle_type == expected and f.frame.name == expected and not f.frame.is_quad
+    # the SERVO5..8 lift motors: PWM 1500..1800 over the default 1000..2000
+    assert f.motors is not None and "C5,C6,C7,C8" in f.motors.source
+    np.testing.assert_allclose(f.motors.values[0], [0.5, 0.6, 0.7, 0.8])
+    # without the lift-motor functions a plane has no motor outputs
+    blocks[1] = _block(PARM, np.full(1, us[0]), phase=0, Name=[b"Q_ENABLE"], Value=[q_enable])
+    _merge(blocks).tofile(p)
+    g = read_dataflash(p)
+    assert g.motors is None and any("SERVOn_FUNCTION" in w for w in g.warnings)

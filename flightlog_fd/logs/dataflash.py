@@ -642,11 +642,15 @@ def _choose_rates(cands: list[Series]) -> Optional[Series]:
     return best
 
 
-def _rcou(tables, params, n_motors, warnings) -> Optional[Series]:
+def _rcou(tables, params, n_motors, warnings, multirotor: bool) -> Optional[Series]:
     if "RCOU" not in tables:
         return None
     tab = tables["RCOU"]
     channels, chan_source = motor_output_channels(params, n_motors)
+    if not multirotor and chan_source != "SERVOn_FUNCTION":
+        # a plane's outputs 1..4 are control surfaces and throttle, not lift motors
+        warnings.append("no SERVOn_FUNCTION lift motors on this vehicle: RCOU not used as motor outputs")
+        return None
     cols = []
     for ch in channels:
         name = f"C{ch}" if f"C{ch}" in tab.columns else f"Ch{ch}"
@@ -919,7 +923,8 @@ def read_dataflash(path) -> Flight:
         attitude = _sorted_series(att.t, np.radians(np.column_stack([att.columns[c] for c in cols])),
                                   f"ATT.{'/'.join(cols)} (deg -> rad)")
 
-    rcou = _rcou(tables, params, n_motors, warnings)
+    multirotor = frame.rotor_count > 0 or "Copter" in firmware_line
+    rcou = _rcou(tables, params, n_motors, warnings, multirotor)
     mixed = _rate_mixer(tables, fclass, ftype, firmware, n_motors)
     alt_motors: dict[str, Series] = {}
     if mixed is not None and (rcou is None or mixed.rate_hz > rcou.rate_hz * RATE_TIE_RATIO):
