@@ -109,6 +109,107 @@ def info(
     raise typer.Exit(code)
 
 
+def _progress(console: Console, total: int, label: str):
+    """A rich progress bar on stderr (hidden when not a terminal or for a single item)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    return Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                    console=console, transient=True, disable=total <= 1)
+
+
+def _diagnose_worker(args):
+    """Process-pool worker: diagnose one log without keeping the Flight (small result to send back)."""
+    path, model_path, profile_path, keep = args
+    from .diagnose import diagnose_path, resolve_model
+    from .profile import Profile
+
+    profile = Profile.load(profile_path) if profile_path else None
+    model = resolve_model(model_path, profile)
+    return diagnose_path(path, model, profile, keep_flight=keep)
+
+
+@app.command()
+def diagnose(
+    logs: List[Path] = typer.Argument(..., help="Log files (.ulg / .bin) or folders of them."),
+    profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate` (its adapted model is used)."),
+    model: Optional[Path] = typer.Option(None, "--model", "-m", help="ONNX model to use instead of the profile's or the shipped one."),
+    as_json: bool = typer.Option(False, "--json", help="Print the versioned JSON report (schema 1) instead of text."),
+    csv_out: Optional[Path] = typer.Option(None, "--csv", help="Write the per-window timeline of every log to this CSV file."),
+    html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
+    windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
+    jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes."),
+    force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
+) -> None:
+    """Diagnose logs: per-window timeline, flight verdict (healthy / propeller k damaged / uncertain) and reports.
+
+    Exit code: 0 every log healthy, 1 damage found or uncertain, 2 invalid input or not diagnosable.
+    """
+    from .diagnose import diagnose_path, resolve_model
+    from .profile import Profile
+    from .report import terminal
+
+    for out in (csv_out, html_out):
+        if out is not None and out.exists() and not force:
+            _fail(f"{out}: already exists (use --force to overwrite)")
+            raise typer.Exit(EXIT_INVALID)
+    files, errors = collect_logs(logs)
+    for e in errors:
+        _fail(e)
+    if not files:
+        if not errors:
+            _fail("no log files found in " + ", ".join(str(p) for p in logs))
+        raise typer.Exit(EXIT_INVALID)
+    try:
+        prof = Profile.load(profile) if profile is not None else None
+        fault_model = resolve_model(model, prof)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+
+    console = _console()
+    err_console = _console(stderr=True)
+    keep = html_out is not None
+    results = []
+    with _progress(err_console, len(files), "diagnosing") as bar:
+        task = bar.add_task("diagnosing", total=len(files))
+        if jobs > 1 and len(files) > 1:
+            from concurrent.futures import ProcessPoolExecutor
+
+            args = [(f, model, profile, keep) for f in files]
+            with ProcessPoolExecutor(max_workers=jobs) as pool:
+                for d in pool.map(_diagnose_worker, args):
+                    results.append(d)
+                    bar.advance(task)
+        else:
+            for f in files:
+                results.append(diagnose_path(f, fault_model, prof, keep_flight=keep))
+                bar.advance(task)
+
+    if as_json:
+        from .report.json_report import render_json
+
+        typer.echo(render_json(results[0] if len(results) == 1 else results))
+    else:
+        for d in results:
+            terminal.render(d, console, show_windows=windows)
+            console.print()
+        if len(results) > 1:
+            console.print(terminal.summary_table(results))
+    for d in results:
+        if d.verdict.status == "not_diagnosable":
+            _fail(f"{d.log}: not diagnosable: {d.verdict.reason}")
+    if csv_out is not None:
+        from .report.csv_report import write_csv
+
+        write_csv(results, csv_out)
+    if html_out is not None:
+        from .report.html_report import write_html
+
+        write_html(results if len(results) > 1 else results[0], html_out)
+    codes = [d.exit_code for d in results]
+    raise typer.Exit(EXIT_INVALID if errors or EXIT_INVALID in codes else max(codes))
+
+
 def main() -> None:
     """Console-script entry point."""
     try:
