@@ -3,25 +3,30 @@
 Frames: world NED (z down, ground at z = 0), body FRD; attitude quaternion ``q = (w, x, y, z)``
 rotating body vectors into NED. Units SI: m, m/s, rad/s, N, N·m.
 
+Array layout: component-major, ``(k, N)`` (a 3-vector of N vehicles is ``(3, N)``, rotors
+``(4, N)``): sums over components are then contiguous row additions, which keeps a step of a few
+hundred vehicles at a few dozen cheap numpy calls.
+
 Model per vehicle (parameters from :class:`~flightlog_fd.sim.airframe.Airframe`):
 
 - motor first-order lag ``w_dot = (w_com - w) / motor_tau`` (discretised exactly), speed clipped to
   ``0..omega_max``;
 - rotor i thrust ``f_i = s_i · k_f · w_i²`` along −z_body and drag torque
   ``spin_i · s_i · k_tau · w_i²`` about z_body, where ``s_i`` is the per-rotor effectiveness
-  (propeller damage η and the unbalance of the adjusted model, see damage.py) applied to BOTH;
-  ``spin_i`` = +1 for a counter-clockwise rotor seen from above (positive yaw torque in FRD, as
-  PX4's positive ``CA_ROTORn_KM``); geometry from ``flightlog_fd.flight.Frame.quad_x/quad_plus``;
+  (propeller damage η and the unbalance of the adjusted model, see damage.py / unbalance.py)
+  applied to BOTH; ``spin_i`` = +1 for a counter-clockwise rotor seen from above (positive yaw
+  torque in FRD, as PX4's positive ``CA_ROTORn_KM``); geometry from
+  ``flightlog_fd.flight.Frame.quad_x/quad_plus``;
 - roll torque ``−Σ y_i f_i``, pitch torque ``Σ x_i f_i`` (r × F with F = (0, 0, −f));
 - linear drag ``drag_lin · (wind − v)``, angular damping ``−drag_ang · ω``, gyroscopic term
-  ``−ω × Iω``, an angular-acceleration disturbance (turbulence / prop wash) supplied by the caller;
+  ``−ω × Iω``, and an angular-acceleration disturbance (turbulence / prop wash) from the caller;
 - ground contact: the vehicle starts landed at z = 0; while thrust cannot lift it (z ≥ 0 after a
-  step) it stays level (yaw kept), with zero velocity and angular velocity. Touching down clamps
+  step) it stays level (yaw kept) with zero velocity and angular velocity; touching down clamps
   z to 0 and levels it the same way.
 
 Integration: semi-implicit Euler (velocities first, then positions/attitude), quaternion
-renormalised each step. Step sizes up to 5 ms are stable for every random airframe (fastest motor
-lag 15 ms, discretised exactly).
+renormalised each step. Steps up to 5 ms are stable for every random airframe (fastest motor lag
+15 ms, discretised exactly).
 """
 from __future__ import annotations
 
@@ -36,13 +41,13 @@ from flightlog_fd.sim.airframe import GRAVITY, Airframe
 
 @dataclass
 class VehicleParams:
-    """Airframe parameters stacked for N vehicles (arrays, leading axis = vehicle)."""
+    """Airframe parameters of N vehicles, component-major: (N,) or (k, N)."""
 
     mass: np.ndarray  # (N,) kg
-    inertia: np.ndarray  # (N, 3) kg·m²
-    rotor_x: np.ndarray  # (N, 4) m, forward
-    rotor_y: np.ndarray  # (N, 4) m, right
-    spin: np.ndarray  # (N, 4) +1 CCW / −1 CW
+    inertia: np.ndarray  # (3, N) kg·m²
+    rotor_x: np.ndarray  # (4, N) m, forward
+    rotor_y: np.ndarray  # (4, N) m, right
+    spin: np.ndarray  # (4, N) +1 CCW / −1 CW
     k_f: np.ndarray  # (N,)
     k_tau: np.ndarray  # (N,)
     motor_tau: np.ndarray  # (N,) s
@@ -54,6 +59,11 @@ class VehicleParams:
     def n(self) -> int:
         return int(self.mass.shape[0])
 
+    @property
+    def thrust_max(self) -> np.ndarray:
+        """(N,) maximum thrust of one healthy rotor, N."""
+        return self.k_f * self.omega_max ** 2
+
     @classmethod
     def from_airframes(cls, airframes: Sequence[Airframe]) -> "VehicleParams":
         rx, ry, sp = [], [], []
@@ -62,59 +72,44 @@ class VehicleParams:
             rx.append([r.x for r in frame.rotors])
             ry.append([r.y for r in frame.rotors])
             sp.append([r.spin for r in frame.rotors])
-        f = lambda name: np.array([getattr(a, name) for a in airframes], dtype=np.float64)  # noqa: E731
-        return cls(mass=f("mass"), inertia=np.array([a.inertia for a in airframes], dtype=np.float64),
-                   rotor_x=np.array(rx, dtype=np.float64), rotor_y=np.array(ry, dtype=np.float64),
-                   spin=np.array(sp, dtype=np.float64), k_f=f("k_f"), k_tau=f("k_tau"),
+
+        def f(name: str) -> np.ndarray:
+            return np.array([getattr(a, name) for a in airframes], dtype=np.float64)
+
+        return cls(mass=f("mass"), inertia=np.array([a.inertia for a in airframes], dtype=np.float64).T.copy(),
+                   rotor_x=np.array(rx, dtype=np.float64).T.copy(), rotor_y=np.array(ry, dtype=np.float64).T.copy(),
+                   spin=np.array(sp, dtype=np.float64).T.copy(), k_f=f("k_f"), k_tau=f("k_tau"),
                    motor_tau=f("motor_tau"), omega_max=f("omega_max"), drag_lin=f("drag_lin"),
                    drag_ang=f("drag_ang"))
+
+    def torque_matrix(self) -> np.ndarray:
+        """(3, 4, N): body torque = Σ_i G[:, i] · (s_i w_i²) (roll, pitch from thrust; yaw from drag)."""
+        return np.stack([-self.rotor_y * self.k_f, self.rotor_x * self.k_f, self.spin * self.k_tau])
 
 
 @dataclass
 class RigidBodyState:
-    """State of N vehicles. ``landed`` is the ground-contact flag (True = resting on the ground)."""
+    """State of N vehicles (component-major). ``landed``: resting on the ground."""
 
-    pos: np.ndarray  # (N, 3) NED m
-    vel: np.ndarray  # (N, 3) NED m/s
-    quat: np.ndarray  # (N, 4) w, x, y, z body→NED
-    omega: np.ndarray  # (N, 3) body FRD rad/s
-    w: np.ndarray  # (N, 4) rotor speeds rad/s
+    pos: np.ndarray  # (3, N) NED m
+    vel: np.ndarray  # (3, N) NED m/s
+    quat: np.ndarray  # (4, N) w, x, y, z body→NED
+    omega: np.ndarray  # (3, N) body FRD rad/s
+    w: np.ndarray  # (4, N) rotor speeds rad/s
     landed: np.ndarray  # (N,) bool
-    acc_body: np.ndarray  # (N, 3) last linear acceleration minus gravity (specific force) in body, m/s²
 
     @classmethod
-    def on_ground(cls, n: int, yaw: Optional[np.ndarray] = None, xy: Optional[np.ndarray] = None) -> "RigidBodyState":
+    def on_ground(cls, n: int, yaw: Optional[np.ndarray] = None) -> "RigidBodyState":
         yaw = np.zeros(n) if yaw is None else np.asarray(yaw, dtype=np.float64)
-        quat = np.zeros((n, 4))
-        quat[:, 0] = np.cos(yaw / 2.0)
-        quat[:, 3] = np.sin(yaw / 2.0)
-        pos = np.zeros((n, 3))
-        if xy is not None:
-            pos[:, :2] = xy
-        return cls(pos=pos, vel=np.zeros((n, 3)), quat=quat, omega=np.zeros((n, 3)), w=np.zeros((n, 4)),
-                   landed=np.ones(n, dtype=bool), acc_body=np.zeros((n, 3)))
-
-
-def quat_to_rotmat(q: np.ndarray) -> np.ndarray:
-    """(N, 4) quaternions (w, x, y, z) → (N, 3, 3) rotation matrices body→world."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    r = np.empty((q.shape[0], 3, 3))
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    r[:, 0, 0] = 1 - 2 * (yy + zz)
-    r[:, 0, 1] = 2 * (xy - wz)
-    r[:, 0, 2] = 2 * (xz + wy)
-    r[:, 1, 0] = 2 * (xy + wz)
-    r[:, 1, 1] = 1 - 2 * (xx + zz)
-    r[:, 1, 2] = 2 * (yz - wx)
-    r[:, 2, 0] = 2 * (xz - wy)
-    r[:, 2, 1] = 2 * (yz + wx)
-    r[:, 2, 2] = 1 - 2 * (xx + yy)
-    return r
+        quat = np.zeros((4, n))
+        quat[0] = np.cos(yaw / 2.0)
+        quat[3] = np.sin(yaw / 2.0)
+        return cls(pos=np.zeros((3, n)), vel=np.zeros((3, n)), quat=quat, omega=np.zeros((3, n)),
+                   w=np.zeros((4, n)), landed=np.ones(n, dtype=bool))
 
 
 def quat_to_euler(q: np.ndarray) -> np.ndarray:
-    """(N, 4) quaternions → (N, 3) roll, pitch, yaw in rad (ZYX, as PX4 and ArduPilot report)."""
+    """(..., 4) quaternions (w, x, y, z) → (..., 3) roll, pitch, yaw rad (ZYX, as PX4 and ArduPilot)."""
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
     pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
@@ -123,22 +118,29 @@ def quat_to_euler(q: np.ndarray) -> np.ndarray:
 
 
 def quat_yaw(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    """(4, N) quaternions → (N,) yaw rad."""
+    w, x, y, z = q
     return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def rotor_forces(params: VehicleParams, w: np.ndarray, effectiveness: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-rotor thrust (N, 4) in N and body torque (N, 3) in N·m for rotor speeds ``w``.
+def body_z_axis(q: np.ndarray) -> np.ndarray:
+    """(4, N) quaternions → (3, N) body z axis (down) expressed in NED."""
+    w, x, y, z = q
+    return np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
 
-    ``effectiveness`` (N, 4) scales both the thrust and the drag torque of each rotor.
-    """
-    w2 = effectiveness * w * w
-    f = params.k_f[:, None] * w2
-    torque = np.empty((w.shape[0], 3))
-    torque[:, 0] = -(params.rotor_y * f).sum(axis=1)
-    torque[:, 1] = (params.rotor_x * f).sum(axis=1)
-    torque[:, 2] = params.k_tau * (params.spin * w2).sum(axis=1)
-    return f, torque
+
+def cross(a: np.ndarray, b: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
+    """Cross product of (3, N) arrays (``np.cross`` costs several times more on this layout)."""
+    out = np.empty_like(a) if out is None else out
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+    return out
+
+
+def rotor_thrusts(params: VehicleParams, w: np.ndarray, effectiveness: np.ndarray) -> np.ndarray:
+    """(4, N) rotor thrusts N for rotor speeds ``w`` (4, N) and effectiveness (4, N)."""
+    return params.k_f * effectiveness * w * w
 
 
 class QuadDynamics:
@@ -147,69 +149,74 @@ class QuadDynamics:
     def __init__(self, params: VehicleParams, dt: float):
         self.p = params
         self.dt = float(dt)
-        self.motor_alpha = (1.0 - np.exp(-self.dt / params.motor_tau))[:, None]
+        self.motor_alpha = 1.0 - np.exp(-self.dt / params.motor_tau)
         self.inv_mass = 1.0 / params.mass
         self.inv_inertia = 1.0 / params.inertia
-        self.weight = params.mass * GRAVITY
+        self.g_torque = params.torque_matrix()
+        self.k_f = params.k_f
+        self.omega_max = params.omega_max
+        self.drag_ang = params.drag_ang
+        self.drag_lin = params.drag_lin
+        self._acc = np.empty((3, params.n))
+        self._dq = np.empty((4, params.n))
+        self._cross = np.empty((3, params.n))
 
     def step(self, s: RigidBodyState, w_com: np.ndarray, effectiveness: np.ndarray, wind: np.ndarray,
-             ang_acc_dist: np.ndarray, speed_gain: Optional[np.ndarray] = None) -> None:
-        """Advance ``s`` in place by one step.
+             ang_acc_dist: np.ndarray, speed_gain: Optional[np.ndarray] = None) -> np.ndarray:
+        """Advance ``s`` in place by one step; returns the (4, N) rotor thrusts of this step.
 
-        ``w_com`` (N, 4) commanded rotor speeds rad/s; ``effectiveness`` (N, 4) thrust/torque scale;
-        ``wind`` (N, 3) NED m/s; ``ang_acc_dist`` (N, 3) rad/s² disturbance; ``speed_gain``
-        (N, 4) optional multiplier on the rotor speed seen by the air (the paper's adjusted model).
+        ``w_com`` (4, N) commanded rotor speeds rad/s; ``effectiveness`` (4, N) thrust/torque scale;
+        ``wind`` (3, N) NED m/s; ``ang_acc_dist`` (3, N) rad/s²; ``speed_gain`` (4, N) optional
+        multiplier on the rotor speed seen by the air (the paper's adjusted model).
         """
-        p, dt = self.p, self.dt
-        s.w += self.motor_alpha * (w_com - s.w)
-        np.clip(s.w, 0.0, p.omega_max[:, None], out=s.w)
-        w_air = s.w if speed_gain is None else s.w * speed_gain
-        f, torque = rotor_forces(p, w_air, effectiveness)
-        thrust = f.sum(axis=1)
+        dt = self.dt
+        w = s.w
+        w += self.motor_alpha * (w_com - w)
+        np.clip(w, 0.0, self.omega_max, out=w)
+        w_air = w if speed_gain is None else w * speed_gain
+        w2 = effectiveness * w_air * w_air
+        f = self.k_f * w2
+        thrust = f.sum(axis=0)
+        torque = (self.g_torque * w2).sum(axis=1)
 
         # Rotational dynamics: I ω_dot = τ − ω × Iω − c ω, plus the disturbance.
         om = s.omega
-        iw = p.inertia * om
-        gyro = np.cross(om, iw)
-        om_dot = (torque - gyro - p.drag_ang[:, None] * om) * self.inv_inertia + ang_acc_dist
+        om_dot = (torque - cross(om, self.p.inertia * om, self._cross) - self.drag_ang * om) * self.inv_inertia + ang_acc_dist
 
         # Translational: thrust along −z_body, gravity, linear drag relative to the air.
         q = s.quat
-        qw, qx, qy, qz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-        b3 = np.empty((q.shape[0], 3))  # body z axis in NED
-        b3[:, 0] = 2 * (qx * qz + qw * qy)
-        b3[:, 1] = 2 * (qy * qz - qw * qx)
-        b3[:, 2] = 1 - 2 * (qx * qx + qy * qy)
-        drag = p.drag_lin[:, None] * (wind - s.vel)
-        acc = (drag - thrust[:, None] * b3) * self.inv_mass[:, None]
-        acc[:, 2] += GRAVITY
+        qw, qx, qy, qz = q
+        acc = self._acc
+        acc[0] = 2 * (qx * qz + qw * qy)
+        acc[1] = 2 * (qy * qz - qw * qx)
+        acc[2] = 1 - 2 * (qx * qx + qy * qy)
+        acc *= -thrust
+        acc += self.drag_lin * (wind - s.vel)
+        acc *= self.inv_mass
+        acc[2] += GRAVITY
         s.vel += acc * dt
         s.pos += s.vel * dt
-        s.omega += om_dot * dt
+        om += om_dot * dt
 
         # Quaternion kinematics q_dot = ½ q ⊗ (0, ω), first order, renormalised.
-        ox, oy, oz = s.omega[:, 0] * (0.5 * dt), s.omega[:, 1] * (0.5 * dt), s.omega[:, 2] * (0.5 * dt)
-        dq = np.empty_like(q)
-        dq[:, 0] = -qx * ox - qy * oy - qz * oz
-        dq[:, 1] = qw * ox + qy * oz - qz * oy
-        dq[:, 2] = qw * oy - qx * oz + qz * ox
-        dq[:, 3] = qw * oz + qx * oy - qy * ox
+        h = om * (0.5 * dt)
+        dq = self._dq
+        dq[0] = -(q[1:] * h).sum(axis=0)
+        dq[1:] = qw * h + cross(q[1:], h, self._cross)
         q += dq
-        q /= np.sqrt((q * q).sum(axis=1))[:, None]
-
-        # Specific force in body (what an accelerometer measures, without gravity).
-        s.acc_body[:, :2] = 0.0
-        s.acc_body[:, 2] = -thrust * self.inv_mass
+        q /= np.sqrt((q * q).sum(axis=0))
 
         # Ground contact: resting or touching down → clamp, zero velocities, level (keep yaw).
-        ground = s.pos[:, 2] >= 0.0
+        ground = s.pos[2] >= 0.0
         s.landed = ground
         if ground.any():
-            s.pos[ground, 2] = 0.0
-            s.vel[ground] = 0.0
-            s.omega[ground] = 0.0
-            yaw = quat_yaw(q[ground])
-            lvl = np.zeros((yaw.shape[0], 4))
-            lvl[:, 0] = np.cos(yaw / 2.0)
-            lvl[:, 3] = np.sin(yaw / 2.0)
-            q[ground] = lvl
+            air = ~ground
+            s.pos[2] *= air
+            s.vel *= air
+            om *= air
+            yaw = quat_yaw(q)
+            q[1] *= air
+            q[2] *= air
+            q[0] = np.where(ground, np.cos(yaw / 2.0), q[0])
+            q[3] = np.where(ground, np.sin(yaw / 2.0), q[3])
+        return f

@@ -14,7 +14,7 @@ per-vehicle loop). Time is seconds since arming (t = 0 is the first logged insta
 Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``attitude``
 (estimated quaternion), ``motors`` (thrust setpoints u), ``velocity`` (estimated NED m/s),
 ``w_com`` (commanded rotor speed rad/s), ``w`` (actual rotor speed), ``pos`` (true NED m),
-``thrust`` (per-rotor thrust N), ``omega`` (true body rates rad/s), ``eta`` (rotor efficiency).
+``thrust`` (per-rotor thrust N, of the step before), ``omega`` (true body rates rad/s), ``eta`` (rotor efficiency).
 
 The loop stops when every vehicle has disarmed and ``tail_s`` more has passed, or at ``t_max``.
 """
@@ -26,9 +26,9 @@ from typing import Sequence
 import numpy as np
 
 from flightlog_fd.sim.airframe import Airframe
-from flightlog_fd.sim.controller import MODE_OFF, CascadeController
+from flightlog_fd.sim.controller import CascadeController
 from flightlog_fd.sim.damage import DamageArrays
-from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams, quat_to_rotmat, quat_yaw, rotor_forces
+from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams, quat_yaw
 from flightlog_fd.sim.missions import MissionPlan, MissionRunner
 from flightlog_fd.sim.sensors import SensorParams, Sensors
 from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_effectiveness
@@ -66,38 +66,40 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     sens = Sensors(sensor_params, vp, dt, ctrl.dt_outer, rng)
     runner = MissionRunner(plan)
     state = RigidBodyState.on_ground(n, yaw=plan.home_yaw)
-    unbalance = physical_effectiveness(rho) if rho_mode == "physical" else np.ones((n, 4))
-    omega_max = vp.omega_max[:, None]
+    rho_t = rho.T.copy()
+    unbalance = physical_effectiveness(rho_t) if rho_mode == "physical" else np.ones((4, n))
+    eta_full = damage.eta.T.copy()
+    imbalance_base = damage.imbalance_base.T.copy()
+    omega_max = vp.omega_max
 
     rec: dict[str, list] = {k: [] for k in decimation}
     rec_t: dict[str, list] = {k: [] for k in decimation}
     n_max = int(np.ceil(t_max / dt))
     t_all_done = None
-    sp = None
     mode = np.zeros(n, dtype=np.int64)
-    u = np.zeros((n, 4))
+    eta = np.ones((4, n))
+    eff = unbalance.copy()
     wind = sens.wind
+    thrust = np.zeros((4, n))
+    t = 0.0
     for i in range(n_max + 1):
         t = i * dt
         if i % ctrl.outer_every == 0:
-            pos_est, vel_est, wind = sens.nav(state.pos, state.vel)
-            q_now = state.quat
-            sp = runner.update(t, ctrl.dt_outer, pos_est, quat_yaw(q_now), state.landed)
+            # Damage onset, estimator errors, gusts, mission and position/velocity loops.
+            eta = np.where(t >= damage.onset, eta_full, 1.0)
+            eff = eta * unbalance
+            pos_est, vel_est, wind = sens.nav(state.pos, state.vel, state.w, imbalance_base + (1.0 - eta))
+            sp = runner.update(t, ctrl.dt_outer, pos_est.T, quat_yaw(state.quat), state.landed)
             mode = sp.mode
-            ctrl.outer(pos_est, vel_est, sp.pos, sp.vel_ff, sp.speed_lim, sp.yaw, sp.yaw_rate_ff, mode,
-                       sp.man_acc_xy, sp.man_vz, state.landed)
+            ctrl.outer(pos_est, vel_est, sp.pos.T, sp.vel_ff.T, sp.speed_lim, sp.yaw, sp.yaw_rate_ff, mode,
+                       sp.man_acc_xy.T, sp.man_vz, state.landed)
             if t_all_done is None and runner.all_done:
                 t_all_done = t
-        eta = damage.eta_at(t)
-        imbalance = damage.imbalance_base + (1.0 - eta)
-        gyro = sens.gyro(state.omega, state.w, imbalance)
+        gyro, disturbance = sens.gyro_and_disturbance(state.omega)
         q_est = sens.attitude(state.quat)
-        u = ctrl.inner(quat_to_rotmat(q_est), gyro, state.landed, mode)
-        w_com = vp.omega_max[:, None] * np.sqrt(u)
-        if rho_mode == "physical":
-            eff, gain = eta * unbalance, None
-        else:
-            eff, gain = eta, paper_speed_gain(rho, state.w, vp.omega_max)
+        u = ctrl.inner(q_est, gyro, state.landed, mode)
+        w_com = omega_max * np.sqrt(u)
+        gain = None if rho_mode == "physical" else paper_speed_gain(rho_t, state.w, omega_max)
         for name, k in decimation.items():
             if i % k:
                 continue
@@ -119,19 +121,14 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
                 v = state.omega
             elif name == "eta":
                 v = eta
-            else:  # thrust
-                w_air = state.w if gain is None else state.w * gain
-                v = rotor_forces(vp, w_air, eff)[0]
-            rec[name].append(v.astype(np.float32))
+            else:  # thrust of the previous step (the rotor state lags anyway)
+                v = thrust
+            rec[name].append(v.T.astype(np.float32))
             rec_t[name].append(t)
-        dyn.step(state, w_com, eff, wind, sens.disturbance(), gain)
+        thrust = dyn.step(state, w_com, eff, wind, disturbance, gain)
         if t_all_done is not None and t >= t_all_done + tail_s:
             break
-    del omega_max, mode
     data = {k: (np.stack(v) if v else np.zeros((0, n, STREAM_FIELDS[k]), np.float32)) for k, v in rec.items()}
     times = {k: np.asarray(v, dtype=np.float64) for k, v in rec_t.items()}
     return BatchResult(times=times, data=data, t_takeoff=runner.t_takeoff, t_touchdown=runner.t_touchdown,
                        t_disarm=runner.t_disarm, t_end=t, dt=dt)
-
-
-__all__ = ["run_batch", "BatchResult", "STREAM_FIELDS", "MODE_OFF"]

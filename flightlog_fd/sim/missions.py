@@ -227,7 +227,11 @@ class Setpoints:
 
 
 class MissionRunner:
-    """Steps the leg state machine of N vehicles; records arming, take-off, touchdown, disarm times."""
+    """Steps the leg state machine of N vehicles; records take-off, touchdown and disarm times.
+
+    Quantities that only change with the leg (its kind, target, trapezoid timing...) are cached and
+    refreshed for the vehicles that change leg, so a tick costs a few dozen array operations.
+    """
 
     def __init__(self, plan: MissionPlan):
         self.plan = plan
@@ -241,66 +245,88 @@ class MissionRunner:
         self.t_takeoff = np.full(n, np.nan)
         self.t_touchdown = np.full(n, np.nan)
         self.t_disarm = np.full(n, np.nan)
-        self._rows = np.arange(n)
+        self.kind = np.zeros(n, dtype=np.int64)
+        self.target = np.zeros((n, 3))
+        self.speed = np.zeros(n)
+        self.dyaw = np.zeros(n)
+        self.yaw_rate = np.ones(n)
+        self.duration = np.zeros(n)
+        self.direction = np.zeros((n, 3))
+        self.dist = np.zeros(n)
+        self.t_a = np.zeros(n)
+        self.t_c = np.zeros(n)
+        self.v_peak = np.zeros(n)
+        self.t_total = np.zeros(n)
+        self.turn_t = np.zeros(n)
+        self._refresh(np.arange(n))
 
-    @property
-    def all_done(self) -> bool:
-        return bool(np.all(self.plan.kind[self._rows, self.idx] == LEG_DONE))
-
-    def update(self, t: float, dt: float, pos_est: np.ndarray, yaw_est: np.ndarray, landed: np.ndarray) -> Setpoints:
-        """Setpoints at time ``t`` (s since arming); ``dt`` is the time since the previous call."""
-        p, r, n = self.plan, self._rows, self.plan.n
-        kind = p.kind[r, self.idx]
-        target = p.target[r, self.idx]
-        speed = p.speed[r, self.idx]
-        dyaw = p.dyaw[r, self.idx]
-        yaw_rate = p.yaw_rate[r, self.idx]
-        duration = p.duration[r, self.idx]
-        tau = t - self.t_leg0
-
-        # Take-off / touchdown events from the ground contact.
-        flying_leg = (kind == LEG_TAKEOFF) | (kind == LEG_HOLD) | (kind == LEG_GOTO) | (kind == LEG_YAW) | (
-            kind == LEG_MANUAL) | (kind == LEG_LAND)
-        lifted = flying_leg & ~landed & np.isnan(self.t_takeoff)
-        self.t_takeoff[lifted] = t
-        landing = (kind == LEG_LAND) & landed
-        self.landed_since = np.where(landing, np.where(np.isnan(self.landed_since), t, self.landed_since), np.nan)
-        first_touch = landing & np.isnan(self.t_touchdown)
-        self.t_touchdown[first_touch] = t
-
-        # Carrot along the leg (take-off and go-to), trapezoidal speed profile.
-        delta = target - self.start_pos
+    def _refresh(self, ids: np.ndarray) -> None:
+        """Load the current leg of vehicles ``ids`` and its trapezoidal speed profile."""
+        p, j = self.plan, self.idx[ids]
+        self.kind[ids] = p.kind[ids, j]
+        target = p.target[ids, j]
+        self.target[ids] = target
+        speed = p.speed[ids, j]
+        self.speed[ids] = speed
+        dyaw, yaw_rate = p.dyaw[ids, j], p.yaw_rate[ids, j]
+        self.dyaw[ids], self.yaw_rate[ids], self.duration[ids] = dyaw, yaw_rate, p.duration[ids, j]
+        self.turn_t[ids] = np.abs(dyaw) / yaw_rate
+        delta = target - self.start_pos[ids]
         dist = np.linalg.norm(delta, axis=1)
-        direction = delta / np.maximum(dist, 1e-9)[:, None]
-        a = p.accel
+        self.dist[ids] = dist
+        self.direction[ids] = delta / np.maximum(dist, 1e-9)[:, None]
+        a = p.accel[ids]
         v = np.maximum(speed, 0.1)
-        t_a = v / a
-        tri = a * t_a * t_a > dist
+        tri = v * v / a > dist  # never reaches cruise speed: triangular profile
         v_peak = np.where(tri, np.sqrt(dist * a), v)
         t_a = v_peak / a
         t_c = np.where(tri, 0.0, (dist - a * t_a * t_a) / np.maximum(v_peak, 1e-9))
-        t_total = 2 * t_a + t_c
+        self.v_peak[ids], self.t_a[ids], self.t_c[ids], self.t_total[ids] = v_peak, t_a, t_c, 2 * t_a + t_c
+
+    @property
+    def all_done(self) -> bool:
+        return bool(np.all(self.kind == LEG_DONE))
+
+    def update(self, t: float, dt: float, pos_est: np.ndarray, yaw_est: np.ndarray, landed: np.ndarray) -> Setpoints:
+        """Setpoints at time ``t`` (s since arming); ``dt`` is the time since the previous call.
+
+        ``pos_est`` (N, 3) NED m, ``yaw_est`` (N,) rad, ``landed`` (N,) ground contact.
+        """
+        p, n, kind = self.plan, self.plan.n, self.kind
+        target, speed, duration = self.target, self.speed, self.duration
+        tau = t - self.t_leg0
+
+        # Take-off / touchdown events from the ground contact.
+        airborne_leg = (kind != LEG_PREARM) & (kind != LEG_DONE)
+        lifted = airborne_leg & ~landed & np.isnan(self.t_takeoff)
+        self.t_takeoff[lifted] = t
+        is_land = kind == LEG_LAND
+        landing = is_land & landed
+        self.landed_since = np.where(landing, np.fmin(self.landed_since, t), np.nan)
+        self.t_touchdown[landing & np.isnan(self.t_touchdown)] = t
+
+        # Carrot along the leg (take-off and go-to), trapezoidal speed profile.
+        a, t_a, t_c, v_peak, t_total = p.accel, self.t_a, self.t_c, self.v_peak, self.t_total
         tc = np.clip(tau, 0.0, t_total)
         s = np.where(tc < t_a, 0.5 * a * tc * tc,
                      np.where(tc < t_a + t_c, 0.5 * a * t_a * t_a + v_peak * (tc - t_a),
-                              dist - 0.5 * a * (t_total - tc) ** 2))
+                              self.dist - 0.5 * a * (t_total - tc) ** 2))
         sdot = np.where(tc < t_a, a * tc, np.where(tc < t_a + t_c, v_peak, a * (t_total - tc)))
-        sdot = np.where(tau >= t_total, 0.0, sdot)
-        moving = (kind == LEG_TAKEOFF) | (kind == LEG_GOTO)
-        pos_sp = np.where(moving[:, None], self.start_pos + direction * s[:, None], self.start_pos)
-        vel_ff = np.where(moving[:, None], direction * sdot[:, None], 0.0)
+        moving = ((kind == LEG_TAKEOFF) | (kind == LEG_GOTO)) & (tau < t_total)
+        s_m = np.where(moving, s, np.where((kind == LEG_TAKEOFF) | (kind == LEG_GOTO), self.dist, 0.0))
+        pos_sp = self.start_pos + self.direction * s_m[:, None]
+        vel_ff = self.direction * (sdot * moving)[:, None]
 
         # Landing: the carrot descends at the land speed until 1 m below ground.
-        is_land = kind == LEG_LAND
         land_z = np.minimum(self.start_pos[:, 2] + speed * tau, 1.0)
         pos_sp[:, 2] = np.where(is_land, land_z, pos_sp[:, 2])
-        vel_ff[:, 2] = np.where(is_land, np.where(land_z < 1.0, speed, 0.0), vel_ff[:, 2])
+        vel_ff[:, 2] = np.where(is_land & (land_z < 1.0), speed, vel_ff[:, 2])
 
         # Heading: slew by dyaw at yaw_rate (go-to and yaw legs); the pilot's yaw rate in manual.
-        turn_t = np.abs(dyaw) / yaw_rate
-        turning = tau < turn_t
-        yaw_sp = self.start_yaw + np.sign(dyaw) * np.minimum(np.abs(dyaw), yaw_rate * np.maximum(tau, 0.0))
-        yaw_rate_ff = np.where(turning, np.sign(dyaw) * yaw_rate, 0.0)
+        turning = tau < self.turn_t
+        sign = np.sign(self.dyaw)
+        yaw_sp = self.start_yaw + sign * np.minimum(np.abs(self.dyaw), self.yaw_rate * np.maximum(tau, 0.0))
+        yaw_rate_ff = sign * self.yaw_rate * turning
 
         # Manual: pilot sticks with a calm/active envelope and a pull back towards home / altitude band.
         is_manual = kind == LEG_MANUAL
@@ -312,44 +338,42 @@ class MissionRunner:
             env = np.clip(0.5 + 0.8 * np.sin(2 * np.pi * p.calm_freq * t + p.calm_phase), 0.0, 1.0)
             sticks *= env[:, None]
             c, sn = np.cos(yaw_est), np.sin(yaw_est)
-            ax = c * sticks[:, 0] - sn * sticks[:, 1]
-            ay = sn * sticks[:, 0] + c * sticks[:, 1]
             d_xy = pos_est[:, :2]
             d = np.linalg.norm(d_xy, axis=1)
             pull = 0.4 * np.maximum(d - p.home_radius, 0.0) / np.maximum(d, 1e-9)
-            man_acc_xy[:, 0] = ax - pull * d_xy[:, 0]
-            man_acc_xy[:, 1] = ay - pull * d_xy[:, 1]
+            man_acc_xy[:, 0] = c * sticks[:, 0] - sn * sticks[:, 1] - pull * d_xy[:, 0]
+            man_acc_xy[:, 1] = sn * sticks[:, 0] + c * sticks[:, 1] - pull * d_xy[:, 1]
             alt = -pos_est[:, 2]
             # Climb rate is NED down-positive: below the band push up (negative), above push down.
             man_vz = -sticks[:, 3] - 0.8 * np.maximum(p.alt_range[:, 0] - alt, 0.0) + 0.8 * np.maximum(
                 alt - p.alt_range[:, 1], 0.0)
-            self.yaw_sp = np.where(is_manual, self.yaw_sp + sticks[:, 2] * dt, yaw_sp)
-            yaw_sp = np.where(is_manual, self.yaw_sp, yaw_sp)
+            yaw_sp = np.where(is_manual, self.yaw_sp + sticks[:, 2] * dt, yaw_sp)
             yaw_rate_ff = np.where(is_manual, sticks[:, 2], yaw_rate_ff)
             pos_sp = np.where(is_manual[:, None], pos_est, pos_sp)
         self.yaw_sp = yaw_sp
 
-        mode = np.where((kind == LEG_PREARM) | (kind == LEG_DONE), MODE_OFF,
-                        np.where(is_manual, MODE_MANUAL, MODE_POSITION))
+        off = (kind == LEG_PREARM) | (kind == LEG_DONE)
+        mode = np.where(off, MODE_OFF, np.where(is_manual, MODE_MANUAL, MODE_POSITION))
         speed_lim = np.where(kind == LEG_GOTO, speed, 1.5)
 
         # Leg completion.
-        err = np.linalg.norm(pos_est - target, axis=1)
-        done = np.zeros(n, dtype=bool)
-        done |= ((kind == LEG_PREARM) | (kind == LEG_HOLD) | (kind == LEG_MANUAL)) & (tau >= duration) & ~turning
-        reached = (tau >= t_total) & (err < ACCEPTANCE_RADIUS_M)
-        done |= (kind == LEG_TAKEOFF) & ((reached & (np.abs(pos_est[:, 2] - target[:, 2]) < 0.5))
-                                        | (tau >= t_total + GOTO_TIMEOUT_S))
-        done |= (kind == LEG_GOTO) & ~turning & (reached | (tau >= t_total + GOTO_TIMEOUT_S))
-        done |= (kind == LEG_YAW) & (tau >= turn_t + 1.0)
-        land_done = is_land & ~np.isnan(self.landed_since) & (t - self.landed_since >= duration)
-        done |= land_done
+        waited = ((kind == LEG_PREARM) | (kind == LEG_HOLD) | is_manual) & (tau >= duration)
+        arrived = tau >= t_total
+        err = pos_est - target
+        close = (err * err).sum(axis=1) < ACCEPTANCE_RADIUS_M ** 2
+        timeout = tau >= t_total + GOTO_TIMEOUT_S
+        took_off = (kind == LEG_TAKEOFF) & ((arrived & close & (np.abs(err[:, 2]) < 0.5)) | timeout)
+        went = (kind == LEG_GOTO) & ~turning & ((arrived & close) | timeout)
+        turned = (kind == LEG_YAW) & (tau >= self.turn_t + 1.0)
+        land_done = is_land & (t - self.landed_since >= duration)  # NaN (not landed) compares False
+        done = waited | took_off | went | turned | land_done
         self.t_disarm[land_done] = t
         if done.any():
-            self.idx[done] += 1
-            self.t_leg0[done] = t
-            self.start_pos[done] = np.where(is_land[done, None], pos_est[done], pos_sp[done])
-            self.start_yaw[done] = yaw_sp[done]
-            self.yaw_sp[done] = yaw_sp[done]
+            ids = np.flatnonzero(done)
+            self.idx[ids] += 1
+            self.t_leg0[ids] = t
+            self.start_pos[ids] = np.where(is_land[ids, None], pos_est[ids], pos_sp[ids])
+            self.start_yaw[ids] = yaw_sp[ids]
+            self._refresh(ids)
         return Setpoints(mode=mode, pos=pos_sp, vel_ff=vel_ff, speed_lim=speed_lim, yaw=yaw_sp,
                          yaw_rate_ff=yaw_rate_ff, man_acc_xy=man_acc_xy, man_vz=man_vz)

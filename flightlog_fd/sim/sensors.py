@@ -43,6 +43,9 @@ TURBULENCE_WOBBLE_DPS = (1.0, 6.0)
 TURBULENCE_TAU_S = 0.1
 #: Share of the roll/pitch vibration that appears on the yaw gyro (frame flex is mostly in-plane).
 VIBRATION_YAW_SHARE = 0.3
+#: White gyro noise is read from a pool of pre-drawn normals at random offsets (drawing 3·N normals
+#: every step would cost as much as the whole dynamics step); 2**20 samples repeat no visible pattern.
+NOISE_POOL_SIZE = 1 << 20
 
 
 @dataclass
@@ -107,83 +110,107 @@ def _ou_coeffs(dt: float, tau: float) -> tuple[float, float]:
 
 
 class Sensors:
-    """Measurement and disturbance generator for one batch; call the methods once per step (or outer tick)."""
+    """Measurement and disturbance generator for one batch (component-major arrays, (k, N))."""
 
     def __init__(self, sp: SensorParams, vp: VehicleParams, dt: float, dt_outer: float, rng: np.random.Generator):
         self.sp, self.vp, self.rng, self.dt = sp, vp, rng, dt
         n = vp.n
         self.n = n
-        self.gyro_sigma = (sp.gyro_noise_density * np.sqrt(1.0 / dt))[:, None]
-        self.gyro_alpha = (1.0 - np.exp(-2 * np.pi * sp.gyro_cutoff_hz * dt))[:, None]
-        self.gyro_filt = np.zeros((n, 3))
-        self.phase = rng.uniform(0.0, 2 * np.pi, size=(n, 4))
+        self.gyro_sigma = sp.gyro_noise_density * np.sqrt(1.0 / dt)
+        self.gyro_alpha = 1.0 - np.exp(-2 * np.pi * sp.gyro_cutoff_hz * dt)
+        self.gyro_bias = sp.gyro_bias.T.copy()
+        self.turb_std = sp.turbulence_std.T.copy()
+        self.gyro_filt = np.zeros((3, n))
+        # Vibration phasors (sin, cos of each rotor's phase), rotated each step by w·dt.
+        phase = rng.uniform(0.0, 2 * np.pi, size=(4, n))
+        self.vib_s, self.vib_c = np.sin(phase), np.cos(phase)
+        self.rot_s, self.rot_c = np.zeros((4, n)), np.ones((4, n))
+        self.vib_amp = np.zeros((4, n))
+        arm = np.hypot(vp.rotor_x, vp.rotor_y)
+        self.vib_yaw_x = VIBRATION_YAW_SHARE * vp.rotor_x / arm
+        self.vib_yaw_y = VIBRATION_YAW_SHARE * vp.rotor_y / arm
+        self._vib = np.empty((3, n))
+        self.pool = rng.standard_normal(NOISE_POOL_SIZE) if sp.realism else np.zeros(3 * n)
+        self.offsets: list[int] = []
         self.delay_steps = int(round(sp.attitude_delay_s / dt))
         self.q_buf = None  # ring buffer of past attitudes, created on first use
         self.buf_i = 0
-        self.turb = np.zeros((n, 3))
-        self.turb_a, self.turb_b = _ou_coeffs(dt, TURBULENCE_TAU_S)
-        self.gust = np.zeros((n, 3))
+        self.turb = np.zeros((3, n))
+        self.outer_every = max(1, int(round(dt_outer / dt)))
+        self.turb_a_outer, self.turb_b_outer = _ou_coeffs(dt_outer, TURBULENCE_TAU_S)
         self.gust_a, self.gust_b = _ou_coeffs(dt_outer, GUST_TAU_S)
-        self.vel_err = np.zeros((n, 3))
         self.vel_a, self.vel_b = _ou_coeffs(dt_outer, VEL_NOISE_TAU_S)
-        self.pos_err = np.zeros((n, 3))
         self.pos_a, self.pos_b = _ou_coeffs(dt_outer, POS_NOISE_TAU_S)
+        self.gust_std = sp.gust_std * np.array([1.0, 1.0, 0.5])[:, None]
+        self.wind_mean = sp.wind_mean.T.copy()
         if sp.realism:
             # Start the slow processes in their stationary distribution.
-            self.gust = rng.standard_normal((n, 3)) * sp.gust_std[:, None] * np.array([1.0, 1.0, 0.5])
-            self.vel_err = rng.standard_normal((n, 3)) * sp.vel_noise_std[:, None]
-            self.pos_err = rng.standard_normal((n, 3)) * sp.pos_noise_std[:, None]
-        self.wind = sp.wind_mean + self.gust
+            r = rng.standard_normal((9, n))
+            self.gust = r[0:3] * self.gust_std
+            self.vel_err = r[3:6] * sp.vel_noise_std
+            self.pos_err = r[6:9] * sp.pos_noise_std
+        else:
+            self.gust, self.vel_err, self.pos_err = np.zeros((3, n)), np.zeros((3, n)), np.zeros((3, n))
+        self.wind = self.wind_mean + self.gust
         self.vib_gain = sp.vibration_gain
 
-    def disturbance(self) -> np.ndarray:
-        """Angular-acceleration disturbance (N, 3) for this step."""
-        if not self.sp.realism:
-            return self.turb
-        self.turb = self.turb_a * self.turb + self.turb_b * self.rng.standard_normal((self.n, 3)) * self.sp.turbulence_std
-        return self.turb
+    def nav(self, pos: np.ndarray, vel: np.ndarray, w: np.ndarray, imbalance: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Outer-loop tick: (pos_est, vel_est, wind), each (3, N), with estimator errors and gusts advanced.
 
-    def nav(self, pos: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Outer-loop tick: (pos_est, vel_est, wind) with the estimator errors and gusts advanced."""
+        Also refreshes the vibration amplitudes from the rotor speeds ``w`` (4, N) and the
+        propeller ``imbalance`` (4, N) (they change slowly compared with the outer-loop period).
+        """
         if not self.sp.realism:
             return pos, vel, self.wind
-        r = self.rng.standard_normal((self.n, 9))
-        self.gust = self.gust_a * self.gust + self.gust_b * r[:, 0:3] * (self.sp.gust_std[:, None] * [1.0, 1.0, 0.5])
-        self.wind = self.sp.wind_mean + self.gust
-        self.vel_err = self.vel_a * self.vel_err + self.vel_b * r[:, 3:6] * self.sp.vel_noise_std[:, None]
-        self.pos_err = self.pos_a * self.pos_err + self.pos_b * r[:, 6:9] * self.sp.pos_noise_std[:, None]
+        sp = self.sp
+        r = self.rng.standard_normal((12, self.n))
+        self.gust = self.gust_a * self.gust + self.gust_b * r[0:3] * self.gust_std
+        self.wind = self.wind_mean + self.gust
+        self.vel_err = self.vel_a * self.vel_err + self.vel_b * r[3:6] * sp.vel_noise_std
+        self.pos_err = self.pos_a * self.pos_err + self.pos_b * r[6:9] * sp.pos_noise_std
+        self.turb = self.turb_a_outer * self.turb + self.turb_b_outer * r[9:12] * self.turb_std
+        if self.vib_gain > 0.0:
+            ratio = w * (1.0 / (2 * np.pi)) / sp.gyro_cutoff_hz
+            w_rel = w / self.vp.omega_max
+            self.vib_amp = self.vib_gain * imbalance * w_rel * w_rel / np.sqrt(1.0 + ratio ** 4)
+            # Per-step phasor rotation for the coming steps (rotor speeds change slowly) and
+            # renormalisation of the phasors against rounding drift.
+            self.rot_s, self.rot_c = np.sin(w * self.dt), np.cos(w * self.dt)
+            norm = np.sqrt(self.vib_s * self.vib_s + self.vib_c * self.vib_c)
+            self.vib_s /= norm
+            self.vib_c /= norm
+        self.offsets = list(self.rng.integers(0, NOISE_POOL_SIZE - 3 * self.n, size=self.outer_every))
         return pos + self.pos_err, vel + self.vel_err, self.wind
 
-    def gyro(self, omega: np.ndarray, w: np.ndarray, imbalance: np.ndarray) -> np.ndarray:
-        """Filtered gyro (N, 3) rad/s as the controller and the logger see it.
+    def gyro_and_disturbance(self, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(filtered gyro (3, N) rad/s as the controller and logger see it, disturbance (3, N) rad/s²).
 
-        ``w`` (N, 4) rotor speeds rad/s, ``imbalance`` (N, 4) per-propeller imbalance (damage.py).
+        The turbulence is advanced at the outer-loop rate (its 0.1 s correlation is much longer).
         """
-        sp = self.sp
-        if not sp.realism:
-            self.gyro_filt = omega.copy()
-            return self.gyro_filt
-        raw = omega + sp.gyro_bias + self.gyro_sigma * self.rng.standard_normal((self.n, 3))
+        if not self.sp.realism:
+            return omega.copy(), self.turb
+        off = self.offsets.pop() if self.offsets else int(self.rng.integers(0, NOISE_POOL_SIZE - 3 * self.n))
+        white = self.pool[off:off + 3 * self.n].reshape(3, self.n)
+        raw = omega + self.gyro_bias + self.gyro_sigma * white
         self.gyro_filt += self.gyro_alpha * (raw - self.gyro_filt)
         if self.vib_gain <= 0.0:
-            return self.gyro_filt
-        vp = self.vp
-        self.phase += w * self.dt
-        self.phase %= 2 * np.pi
-        f_rot = w * (1.0 / (2 * np.pi))
-        ratio = f_rot / sp.gyro_cutoff_hz[:, None]
-        w_rel = w / vp.omega_max[:, None]
-        amp = self.vib_gain * imbalance * w_rel * w_rel / np.sqrt(1.0 + ratio ** 4)
-        s, c = np.sin(self.phase) * amp, np.cos(self.phase) * amp
-        vib = np.empty((self.n, 3))
-        vib[:, 0] = s.sum(axis=1)
-        vib[:, 1] = -c.sum(axis=1)
-        arm = np.hypot(vp.rotor_x, vp.rotor_y)
-        vib[:, 2] = VIBRATION_YAW_SHARE * ((vp.rotor_x * s - vp.rotor_y * c) / arm).sum(axis=1)
-        return self.gyro_filt + vib
+            return self.gyro_filt, self.turb
+        s, c = self.vib_s, self.vib_c
+        s_new = s * self.rot_c + c * self.rot_s
+        c *= self.rot_c
+        c -= s * self.rot_s
+        s[:] = s_new
+        sa, ca = s * self.vib_amp, c * self.vib_amp
+        vib = self._vib
+        vib[0] = sa.sum(axis=0)
+        vib[1] = ca.sum(axis=0)
+        vib[1] *= -1.0
+        vib[2] = (self.vib_yaw_x * sa - self.vib_yaw_y * ca).sum(axis=0)
+        return self.gyro_filt + vib, self.turb
 
     def attitude(self, q: np.ndarray) -> np.ndarray:
-        """Estimated attitude quaternion (N, 4): the true one ``attitude_delay_s`` ago."""
+        """Estimated attitude quaternion (4, N): the true one ``attitude_delay_s`` ago."""
         d = self.delay_steps
         if d == 0:
             return q
