@@ -4,8 +4,9 @@ Legs (``LEG_*``): pre-arm wait on the ground (armed, motors stopped, as the star
 take-off (vertical climb to 5-10 m at 1-2 m/s, trapezoidal speed profile), hold (steady hover,
 ≥ ``MIN_CALIBRATION_HOVER_S`` after take-off so an unbalance calibration has steady hover),
 go-to (straight line at 1-5 m/s, accel ≤ 1.5-3 m/s², yaw slewed to a new heading at 30-60 °/s),
-yaw turn in place (90-360 °), manual flying (pilot sticks), land (descent at 0.5-1 m/s until the
-ground is felt for a land-detector delay of 1-3 s, then disarm), done (disarmed, on the ground).
+yaw turn in place (90-360 °), manual flying (pilot sticks), land (descent at 1.2 m/s down to 3 m,
+then 0.5-1 m/s until the ground is felt for a land-detector delay of 1-3 s, then disarm), done
+(disarmed, on the ground).
 
 Missions (:func:`plan_missions`):
 
@@ -42,6 +43,9 @@ SPEED_RANGE_MS = (1.0, 5.0)
 ACCEPTANCE_RADIUS_M = 1.0
 GOTO_TIMEOUT_S = 15.0
 LAND_DETECT_RANGE_S = (1.0, 3.0)
+#: PX4 AUTO.LAND-like descent: fast (MPC_Z_VEL_MAX_DN-like) down to LAND_SLOW_ALT_M, then the land speed.
+LAND_FAST_SPEED_MS = 1.2
+LAND_SLOW_ALT_M = 3.0
 STICK_SINES = 3
 
 
@@ -104,7 +108,8 @@ def _plan_one(mission: str, duration_s: float, rng: np.random.Generator) -> tupl
     manual = {}
 
     def land_time(a: float) -> float:
-        return a / land_speed + land_detect + 1.0
+        fast = max(a - LAND_SLOW_ALT_M, 0.0)
+        return fast / LAND_FAST_SPEED_MS + (a - fast) / land_speed + land_detect + 1.0
 
     if mission == "hover":
         hold = max(MIN_CALIBRATION_HOVER_S, duration_s - t_est - land_time(alt))
@@ -317,10 +322,14 @@ class MissionRunner:
         pos_sp = self.start_pos + self.direction * s_m[:, None]
         vel_ff = self.direction * (sdot * moving)[:, None]
 
-        # Landing: the carrot descends at the land speed until 1 m below ground.
-        land_z = np.minimum(self.start_pos[:, 2] + speed * tau, 1.0)
+        # Landing: the carrot descends fast down to LAND_SLOW_ALT_M, then at the land speed, until
+        # 1 m below ground (the vehicle sits on the ground long before).
+        t_fast = np.maximum(-LAND_SLOW_ALT_M - self.start_pos[:, 2], 0.0) / LAND_FAST_SPEED_MS
+        land_z = np.minimum(self.start_pos[:, 2] + LAND_FAST_SPEED_MS * np.minimum(tau, t_fast)
+                            + speed * np.maximum(tau - t_fast, 0.0), 1.0)
         pos_sp[:, 2] = np.where(is_land, land_z, pos_sp[:, 2])
-        vel_ff[:, 2] = np.where(is_land & (land_z < 1.0), speed, vel_ff[:, 2])
+        land_vz = np.where(tau < t_fast, LAND_FAST_SPEED_MS, speed) * (land_z < 1.0)
+        vel_ff[:, 2] = np.where(is_land, land_vz, vel_ff[:, 2])
 
         # Heading: slew by dyaw at yaw_rate (go-to and yaw legs); the pilot's yaw rate in manual.
         turning = tau < self.turn_t

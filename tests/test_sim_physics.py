@@ -1,0 +1,199 @@
+"""Simulator physics and control: airframes, rotor geometry/spin signs, mixer, hover trim, damage, ρ."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from flightlog_fd.sim.airframe import GRAVITY, PRESETS, preset, random_airframes
+from flightlog_fd.sim.api import simulate_batch
+from flightlog_fd.sim.controller import mix, mixer_matrices
+from flightlog_fd.sim.damage import Damage, min_feasible_eta
+from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams
+
+PRESET_SET = [preset("sih"), preset("x500"), preset("crazyflie"), preset("heavy"), preset("f450", "quad_plus")]
+
+
+def _steady_hover_mask(batch, j: int, min_alt: float = 2.0) -> np.ndarray:
+    """Samples (on the 'pos' stream grid) where vehicle j is airborne and nearly still."""
+    pos = batch.result.data["pos"][:, j].astype(np.float64)
+    t = batch.result.times["pos"]
+    vel = np.gradient(pos, t, axis=0)
+    still = (np.linalg.norm(vel, axis=1) < 0.05) & (-pos[:, 2] > min_alt)
+    # Keep the middle of the longest still stretch (the hover leg), away from its ends.
+    idx = np.flatnonzero(still)
+    assert idx.size > 50, "no steady hover found"
+    runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+    run = max(runs, key=len)
+    m = np.zeros(t.shape[0], dtype=bool)
+    m[run[len(run) // 4: 3 * len(run) // 4]] = True
+    return m
+
+
+def test_sih_preset_matches_px4_sih_parameters():
+    sih = preset("sih")
+    assert sih.mass == pytest.approx(1.0)
+    assert sih.inertia == pytest.approx((0.025, 0.025, 0.030))
+    # SIH_L_ROLL is the lateral rotor offset: arm · sin 45° = 0.2 m.
+    assert sih.arm / np.sqrt(2.0) == pytest.approx(0.2)
+    assert sih.thrust_max == pytest.approx(5.0)  # SIH_T_MAX, thrust linear in the command
+    assert sih.k_tau * sih.omega_max ** 2 == pytest.approx(0.1)  # SIH_Q_MAX
+    assert sih.motor_tau == pytest.approx(0.05)
+    assert sih.hover_command == pytest.approx(GRAVITY / 20.0)
+
+
+def test_presets_span_nano_to_heavy():
+    masses = {k: a.mass for k, a in PRESETS.items()}
+    assert masses["crazyflie"] == pytest.approx(0.03)
+    assert 1.3 < masses["f450"] < 1.7 and 1.8 < masses["x500"] < 2.2 and 4.5 < masses["heavy"] < 5.5
+    for a in PRESETS.values():
+        assert 1.6 <= a.thrust_to_weight <= 3.5
+
+
+def test_random_airframes_are_physically_consistent():
+    afs = random_airframes(200, np.random.default_rng(3))
+    m = np.array([a.mass for a in afs])
+    twr = np.array([a.thrust_to_weight for a in afs])
+    tau = np.array([a.motor_tau for a in afs])
+    assert m.min() >= 0.03 and m.max() <= 5.0 and m.min() < 0.1 and m.max() > 2.5
+    assert twr.min() >= 1.6 - 1e-9 and twr.max() <= 3.5 + 1e-9
+    assert tau.min() >= 0.015 - 1e-12 and tau.max() <= 0.08 + 1e-12
+    ratio = np.array([a.inertia[0] / (a.mass * a.arm ** 2) for a in afs])
+    assert ratio.min() >= 0.15 - 1e-9 and ratio.max() <= 0.35 + 1e-9
+    assert all(a.inertia[2] > a.inertia[0] for a in afs)
+    frames = {a.frame for a in afs}
+    assert frames == {"quad_x", "quad_plus"}
+    # Heavier vehicles have slower motors and lower rate-loop gains.
+    heavy = [a for a in afs if a.mass > 2.0]
+    light = [a for a in afs if a.mass < 0.1]
+    assert np.mean([a.gains.rate_kp[0] for a in heavy]) < np.mean([a.gains.rate_kp[0] for a in light])
+
+
+@pytest.mark.parametrize("frame", ["quad_x", "quad_plus"])
+def test_rotor_torque_signs(frame):
+    """Each rotor alone: roll/pitch from its position, yaw from its spin (CCW → positive yaw in FRD)."""
+    af = preset("x500", frame)
+    vp = VehicleParams.from_airframes([af] * 4)
+    dyn = QuadDynamics(vp, 0.002)
+    st = RigidBodyState.on_ground(4)
+    st.pos[2] = -10.0
+    st.landed[:] = False
+    w_com = np.zeros((4, 4))
+    for k in range(4):  # vehicle k spins only rotor k at full speed
+        w_com[k, k] = af.omega_max
+        st.w[k, k] = af.omega_max
+    dyn.step(st, w_com, np.ones((4, 4)), np.zeros((3, 4)), np.zeros((3, 4)))
+    rate = st.omega  # (3, vehicles) after one step from rest: sign of the torque
+    if frame == "quad_x":
+        roll_sign, pitch_sign = [-1, 1, 1, -1], [1, -1, 1, -1]  # FR, RL, FL, RR
+    else:
+        roll_sign, pitch_sign = [-1, 1, 0, 0], [0, 0, 1, -1]  # right, left, front, rear
+    yaw_sign = [1, 1, -1, -1]  # 1, 2 CCW; 3, 4 CW
+    for k in range(4):
+        assert np.sign(np.round(rate[0, k], 9)) == roll_sign[k]
+        assert np.sign(np.round(rate[1, k], 9)) == pitch_sign[k]
+        assert np.sign(rate[2, k]) == yaw_sign[k]
+
+
+def _mix_one(frame: str, torque) -> np.ndarray:
+    vp = VehicleParams.from_airframes([preset("x500", frame)])
+    mr, mp, my = mixer_matrices(vp)
+    thrust = np.array([0.5 * 4 * vp.thrust_max[0]])
+    u, _, _ = mix(thrust, np.asarray(torque, float)[:, None], mr, mp, my, vp.thrust_max, np.array([True]))
+    return u[:, 0]
+
+
+def test_quad_x_mixer_maps_torques_to_the_right_motors():
+    u = _mix_one("quad_x", [0.3, 0.0, 0.0])  # roll right (right side down): left motors up
+    assert u[1] > 0.5 and u[2] > 0.5 and u[0] < 0.5 and u[3] < 0.5
+    u = _mix_one("quad_x", [0.0, 0.3, 0.0])  # pitch up: front motors (1, 3) up
+    assert u[0] > 0.5 and u[2] > 0.5 and u[1] < 0.5 and u[3] < 0.5
+    u = _mix_one("quad_x", [0.0, 0.0, 0.05])  # yaw right: CCW motors (1, 2) up
+    assert u[0] > 0.5 and u[1] > 0.5 and u[2] < 0.5 and u[3] < 0.5
+    assert u.mean() == pytest.approx(0.5)
+
+
+def test_quad_plus_mixer_maps_torques_to_the_right_motors():
+    u = _mix_one("quad_plus", [0.3, 0.0, 0.0])  # roll right: left motor (2) up, right (1) down
+    assert u[1] > 0.5 and u[0] < 0.5 and u[2] == pytest.approx(u[3])
+    u = _mix_one("quad_plus", [0.0, 0.3, 0.0])  # pitch up: front (3) up, rear (4) down
+    assert u[2] > 0.5 and u[3] < 0.5 and u[0] == pytest.approx(u[1])
+    u = _mix_one("quad_plus", [0.0, 0.0, 0.05])
+    assert u[0] > 0.5 and u[1] > 0.5 and u[2] < 0.5 and u[3] < 0.5
+
+
+def test_mixer_saturation_keeps_roll_and_gives_up_yaw():
+    vp = VehicleParams.from_airframes([preset("x500")])
+    mr, mp, my = mixer_matrices(vp)
+    thrust = np.array([0.9 * 4 * vp.thrust_max[0]])  # high collective
+    u, rp_sat, yaw_sat = mix(thrust, np.array([[1.0], [0.0], [5.0]]), mr, mp, my, vp.thrust_max, np.array([True]))
+    u = u[:, 0]
+    assert u.min() >= 0.0 and u.max() <= 1.0
+    assert yaw_sat[0]
+    # Roll differential (left minus right) survives intact; the collective was shifted down.
+    roll_only, _, _ = mix(thrust, np.array([[1.0], [0.0], [0.0]]), mr, mp, my, vp.thrust_max, np.array([True]))
+    roll_only = roll_only[:, 0]
+    assert (u[1] + u[2]) - (u[0] + u[3]) == pytest.approx((roll_only[1] + roll_only[2]) - (roll_only[0] + roll_only[3]))
+
+
+@pytest.fixture(scope="module")
+def hover_batch():
+    """Five preset airframes (one quad-+), noise-free hover; motor 2/3/1/4 at η 0.8 on four of them."""
+    damages = [Damage(), Damage(2, 0.8), Damage(3, 0.8), Damage(1, 0.8), Damage(4, 0.8)]
+    return simulate_batch(5, airframes=PRESET_SET, damages=damages, mission="hover", duration_s=34.0,
+                          profile="training", realism=False, seed=11,
+                          extra_streams={"pos": 4, "thrust": 4, "w_com": 4, "motors": 4})
+
+
+def test_hover_thrust_equals_weight(hover_batch):
+    res = hover_batch.result
+    for j, af in enumerate(hover_batch.airframes):
+        m = _steady_hover_mask(hover_batch, j)
+        total = res.data["thrust"][m, j].astype(np.float64).sum(axis=1).mean()
+        assert total == pytest.approx(af.mass * GRAVITY, rel=0.01), af.name
+
+
+def test_damaged_motor_is_commanded_one_over_eta_higher(hover_batch):
+    res = hover_batch.result
+    for j, d in enumerate(hover_batch.damages):
+        m = _steady_hover_mask(hover_batch, j)
+        u = res.data["motors"][m, j].astype(np.float64).mean(axis=0)
+        if d.motor == 0:
+            assert u.max() / u.min() == pytest.approx(1.0, abs=0.01)
+            continue
+        k = d.motor - 1
+        others = np.delete(u, k).mean()
+        assert u[k] / others == pytest.approx(1.0 / d.eta, rel=0.02)
+
+
+def test_rho_physical_mode_reproduces_rho_in_hover():
+    rho = np.array([1.0, 1.03, 0.97, 1.05])
+    b = simulate_batch(2, airframes=[preset("sih"), preset("f450", "quad_plus")], damages=None, healthy_fraction=1.0,
+                       mission="hover", duration_s=30.0, profile="training", realism=False, rho=rho, seed=4,
+                       extra_streams={"pos": 4, "w_com": 4})
+    for j in range(2):
+        m = _steady_hover_mask(b, j)
+        w = b.result.data["w_com"][m, j].astype(np.float64).mean(axis=0)
+        np.testing.assert_allclose(w / w[0], rho, rtol=0.01)
+
+
+def test_rho_paper_mode_applies_the_literal_speed_formula():
+    """Paper mode: the air sees w_a = ρ·w²/w_max, so equal hover thrusts need w_i ∝ 1/sqrt(ρ_i)."""
+    rho = np.array([1.0, 1.04, 0.96, 1.02])
+    b = simulate_batch(1, airframes="sih", damages=None, healthy_fraction=1.0, mission="hover", duration_s=30.0,
+                       profile="training", realism=False, rho=rho, rho_mode="paper", seed=4,
+                       extra_streams={"pos": 4, "w": 4, "thrust": 4})
+    m = _steady_hover_mask(b, 0)
+    w = b.result.data["w"][m, 0].astype(np.float64).mean(axis=0)
+    np.testing.assert_allclose(w / w[0], np.sqrt(rho[0] / rho), rtol=0.01)
+    af = b.airframes[0]
+    assert b.result.data["thrust"][m, 0].astype(np.float64).sum(axis=1).mean() == pytest.approx(af.mass * GRAVITY,
+                                                                                                rel=0.01)
+
+
+def test_min_feasible_eta_leaves_control_margin():
+    af = preset("heavy")
+    assert min_feasible_eta(af) == pytest.approx(af.hover_command / 0.85)
+    with pytest.raises(ValueError):
+        Damage(5, 0.8)
+    with pytest.raises(ValueError):
+        Damage(0, 0.9)
