@@ -210,6 +210,111 @@ def diagnose(
     raise typer.Exit(EXIT_INVALID if errors or EXIT_INVALID in codes else max(codes))
 
 
+FORMATS = {"ulog": ".ulg", "dataflash": ".bin"}
+
+
+def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe: str = "x500",
+                      frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
+                      duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
+                      rho: Optional[list[float]] = None, seed: int = 0, force: bool = False) -> list[tuple[Path, dict]]:
+    """Simulate flights and write them as real log files; returns [(path, truth)].
+
+    ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
+    Existing files are never overwritten unless ``force``.
+    """
+    from .logs.dataflash_writer import write_dataflash
+    from .logs.ulog_writer import write_ulog
+    from .sim.airframe import preset
+    from .sim.api import simulate_flights
+    from .sim.damage import Damage
+
+    if fmt not in FORMATS:
+        raise FlightLogError(out, f"unknown format {fmt!r}: use ulog or dataflash")
+    if not 0 <= motor <= 4:
+        raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..4, got {motor}")
+    if motor and not 0.0 < eta < 1.0:
+        raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {eta}")
+    profile_name = log_profile or ("px4_high" if fmt == "ulog" else "ardupilot_fast")
+    want_autopilot = "px4" if fmt == "ulog" else "ardupilot"
+    if not profile_name.startswith(want_autopilot) and profile_name != "training":
+        raise FlightLogError(out, f"logging profile {profile_name!r} does not match format {fmt!r}")
+    if count == 1:
+        paths = [out]
+    else:
+        paths = [out / f"sim_{i:03d}{FORMATS[fmt]}" for i in range(count)]
+    for p in paths + ([out / "truth.csv"] if count > 1 else []):
+        if p.exists() and not force:
+            raise FlightLogError(p, "already exists (use --force to overwrite)")
+    try:
+        af = [preset(airframe, frame)] * count if airframe != "random" else None
+    except ValueError as e:
+        raise FlightLogError(None, str(e)) from None
+    damage = Damage(motor, eta if motor else 1.0, onset) if motor else Damage()
+    flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
+                               duration_s=duration, profile=profile_name, rho=rho, seed=seed)
+    if count > 1:
+        out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for p, fl in zip(paths, flights):
+        p.parent.mkdir(parents=True, exist_ok=True)
+        fl.path = str(p)
+        (write_ulog if fmt == "ulog" else write_dataflash)(fl, p)
+        written.append((p, fl.truth or {}))
+    if count > 1:
+        import csv
+
+        with open(out / "truth.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["file", "label", "motor", "eta", "onset_s", "airframe", "mission", "seed"])
+            for p, t in written:
+                w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("onset_s"),
+                            (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed")])
+    return written
+
+
+@app.command()
+def simulate(
+    out: Path = typer.Option(..., "--output", "-o", help="Output log file (or folder when --count > 1)."),
+    fmt: str = typer.Option("ulog", "--format", "-f", help="ulog (PX4) or dataflash (ArduPilot)."),
+    airframe: str = typer.Option("x500", help="Airframe preset (x500, f450, crazyflie, sih, heavy) or 'random'."),
+    frame: Optional[str] = typer.Option(None, help="Fly the preset as quad_x or quad_plus."),
+    motor: int = typer.Option(0, help="Damaged propeller 1..4, or 0 for a healthy flight."),
+    eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor)."),
+    onset: Optional[float] = typer.Option(None, help="Damage starts this many seconds after arming (default: from take-off)."),
+    duration: float = typer.Option(60.0, help="Planned flight time, seconds."),
+    mission: str = typer.Option("waypoints", help="waypoints, manual (pilot sticks) or hover."),
+    log_profile: Optional[str] = typer.Option(None, "--log-profile", help="px4_high, px4_default, ardupilot, ardupilot_fast."),
+    rho: Optional[str] = typer.Option(None, help="Unbalance ratios rho1..rho4, comma-separated (e.g. 1,1.05,1,1)."),
+    count: int = typer.Option(1, min=1, help="Number of flights (written into the --output folder)."),
+    seed: int = typer.Option(0, help="Random seed: the same seed gives the same flight."),
+    force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
+) -> None:
+    """Simulate quadrotor flights, healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
+    rho_list = None
+    if rho:
+        try:
+            rho_list = [float(x) for x in rho.split(",")]
+        except ValueError:
+            rho_list = []
+        if len(rho_list) != 4 or min(rho_list) <= 0:
+            _fail(f"--rho must be four positive numbers, got {rho!r}")
+            raise typer.Exit(EXIT_INVALID)
+    try:
+        written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
+                                    onset=onset, duration=duration, mission=mission, log_profile=log_profile,
+                                    rho=rho_list, seed=seed, force=force)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    except ValueError as e:
+        _fail(str(e))
+        raise typer.Exit(EXIT_INVALID)
+    console = _console()
+    for p, t in written:
+        what = "healthy" if not t.get("motor") else f"propeller {t['motor']} damaged (eta {t['eta']:.2f})"
+        console.print(f"wrote {p}: {what}", markup=False)
+
+
 def main() -> None:
     """Console-script entry point."""
     try:
