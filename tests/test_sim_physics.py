@@ -7,7 +7,7 @@ import pytest
 from flightlog_fd.sim.airframe import GRAVITY, PRESETS, preset, random_airframes
 from flightlog_fd.sim.api import simulate_batch
 from flightlog_fd.sim.controller import mix, mixer_matrices
-from flightlog_fd.sim.damage import Damage, min_feasible_eta
+from flightlog_fd.sim.damage import MAX_DAMAGED_COMMAND, MAX_STATIC_TILT_DEG, Damage, min_feasible_eta, random_damages
 from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams
 
 PRESET_SET = [preset("sih"), preset("x500"), preset("crazyflie"), preset("heavy"), preset("f450", "quad_plus")]
@@ -191,8 +191,17 @@ def test_rho_paper_mode_applies_the_literal_speed_formula():
 
 
 def test_min_feasible_eta_leaves_control_margin():
-    af = preset("heavy")
-    assert min_feasible_eta(af) == pytest.approx(af.hover_command / 0.85)
+    for af in list(PRESETS.values()) + random_airframes(50, np.random.default_rng(8)):
+        eta = min_feasible_eta(af)
+        # Hover command of the damaged motor within MAX_DAMAGED_COMMAND...
+        assert af.hover_command / eta <= MAX_DAMAGED_COMMAND + 1e-9
+        # ...and the P-only tilt from the damage torque within MAX_STATIC_TILT_DEG.
+        lever = af.arm if af.frame == "quad_plus" else af.arm / np.sqrt(2.0)
+        alpha = (1.0 - eta) * af.mass * GRAVITY / 4.0 * lever / min(af.inertia[:2])
+        assert np.degrees(alpha / (af.gains.rate_kp[0] * af.gains.att_p[0])) <= MAX_STATIC_TILT_DEG + 1e-6
+    afs = random_airframes(40, np.random.default_rng(9))
+    dmg = random_damages(afs, np.full(40, 60.0), np.random.default_rng(10), healthy_fraction=0.0)
+    assert all(d.eta >= min_feasible_eta(a) - 1e-12 and 1 <= d.motor <= 4 for a, d in zip(afs, dmg))
     with pytest.raises(ValueError):
         Damage(5, 0.8)
     with pytest.raises(ValueError):

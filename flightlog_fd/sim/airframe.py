@@ -21,7 +21,7 @@ Presets (``PRESETS`` / :func:`preset`):
 
 Gains are expressed per unit of angular acceleration (rate loop: rad/s² per rad/s), so they are
 airframe-independent once multiplied by the inertia; :func:`tune_gains` derives them from the
-motor lag so that every airframe is stable (rate-loop crossover ≈ 0.45 / (motor lag + loop
+motor lag so that every airframe is stable (rate-loop crossover ≈ 0.7 / (motor lag + loop
 delay), attitude P below a third of it, velocity loop below half the attitude bandwidth).
 
 :func:`random_airframes` draws airframes from a 30 g nano quad to a 5 kg quad with consistent
@@ -47,10 +47,10 @@ RANDOM_INERTIA_FACTOR_RANGE = (0.15, 0.35)  # I_xx = c * m * arm²
 RANDOM_QUAD_PLUS_FRACTION = 0.3
 
 # Gain design (see tune_gains).
-RATE_CROSSOVER_FACTOR = 0.45  # rate-loop kp = factor / (motor_tau + loop delay)
+RATE_CROSSOVER_FACTOR = 0.7  # rate-loop kp = factor / (motor_tau + loop delay)
 LOOP_DELAY_S = 0.008  # gyro filter + sampling + estimator delay seen by the rate loop
 RATE_KP_RANGE = (4.0, 40.0)  # rad/s² per rad/s
-ATT_P_RANGE = (2.0, 8.0)  # rad/s per rad
+ATT_P_RANGE = (3.0, 10.0)  # rad/s per rad
 
 
 @dataclass(frozen=True)
@@ -132,16 +132,18 @@ def tune_gains(af: Airframe) -> Gains:
     """Cascade gains that fly ``af`` stably, derived from its motor lag (see module docstring)."""
     lag = af.motor_tau + LOOP_DELAY_S
     kp = float(np.clip(RATE_CROSSOVER_FACTOR / lag, *RATE_KP_RANGE))
-    # PX4's defaults have I ≈ 1.3 P and D ≈ 0.02 s · P on roll/pitch; D is capped by the motor lag
-    # so that fast nano quads do not amplify gyro noise into saturated motors.
+    # D ≈ 0.02 s · P on roll/pitch as PX4's defaults, capped by the motor lag so that fast nano
+    # quads do not amplify gyro noise into saturated motors. I = 2.5 P (PX4 uses ~1.3 P): a
+    # propeller damaged from take-off needs the integrator to hold its torque within ~0.4 s of
+    # lift-off, else the P-only attitude error (α_damage / (kp·att_p)) tips slow airframes over.
     kd = kp * min(0.02, 0.3 * af.motor_tau)
-    kp_yaw = 0.5 * kp
+    kp_yaw = 0.6 * kp
     att_p = float(np.clip(kp / 2.5, *ATT_P_RANGE))
     vel_p_xy = min(1.8, 0.45 * att_p)
     vel_p_z = min(4.0, 0.2 / af.motor_tau)
     return Gains(
         rate_kp=(kp, kp, kp_yaw),
-        rate_ki=(1.3 * kp, 1.3 * kp, 0.5 * kp_yaw),
+        rate_ki=(2.5 * kp, 2.5 * kp, kp_yaw),
         rate_kd=(kd, kd, 0.0),
         rate_int_frac=0.4,
         att_p=(att_p, 0.6 * att_p),

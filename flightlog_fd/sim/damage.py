@@ -17,9 +17,11 @@ low-pass filter, with ``imbalance_k = BASE_IMBALANCE (healthy props are never pe
 
 Random damages (:func:`random_damages`): healthy with probability ``healthy_fraction``, else a
 uniformly chosen motor with η uniform in ``eta_range`` but never below
-``hover_command / MAX_DAMAGED_COMMAND`` (a weaker propeller than that would need more than
-``MAX_DAMAGED_COMMAND`` of full thrust in hover, leaving no control margin: the vehicle would
-spin or sink, which is not the "flies on, slightly off" case the tool diagnoses); a fraction
+:func:`min_feasible_eta`: a weaker propeller would need more than ``MAX_DAMAGED_COMMAND`` of
+full thrust in hover (no control margin left: the vehicle spins or sinks), or its torque would
+tip the vehicle by more than ``MAX_STATIC_TILT_DEG`` at lift-off before the rate integrator
+holds it (slow, low-inertia airframes flip) - not the "flies on, slightly off" case the tool
+diagnoses. A fraction
 ``midflight_fraction`` of the damaged ones start mid-flight, 30-70 % into the planned flight.
 """
 from __future__ import annotations
@@ -29,10 +31,13 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from flightlog_fd.sim.airframe import Airframe
+from flightlog_fd.sim.airframe import GRAVITY, Airframe
 
 ETA_RANGE = (0.6, 0.97)
-MAX_DAMAGED_COMMAND = 0.85
+MAX_DAMAGED_COMMAND = 0.72
+#: Largest attitude error the damage torque may cause before the rate integrator catches up
+#: (P-only equilibrium α_damage / (kp · att_p)); beyond it lift-off with the damage tips over.
+MAX_STATIC_TILT_DEG = 15.0
 HEALTHY_FRACTION = 0.2
 MIDFLIGHT_FRACTION = 0.25
 MIDFLIGHT_WINDOW = (0.3, 0.7)
@@ -68,8 +73,15 @@ HEALTHY = Damage()
 
 
 def min_feasible_eta(af: Airframe) -> float:
-    """Smallest η this airframe can hover on with ``MAX_DAMAGED_COMMAND`` on the damaged motor."""
-    return af.hover_command / MAX_DAMAGED_COMMAND
+    """Smallest η this airframe flies with (see module docstring): hover command of the damaged
+    motor ≤ ``MAX_DAMAGED_COMMAND`` and the damage torque tilting it ≤ ``MAX_STATIC_TILT_DEG`` at
+    lift-off, before the rate integrator takes the torque over."""
+    lever = af.arm if af.frame == "quad_plus" else af.arm / np.sqrt(2.0)
+    # Angular acceleration per unit of lost efficiency at hover, on the weaker roll/pitch axis.
+    alpha_per_loss = af.mass * GRAVITY / 4.0 * lever / min(af.inertia[0], af.inertia[1])
+    g = af.gains
+    loss_max = np.radians(MAX_STATIC_TILT_DEG) * g.rate_kp[0] * g.att_p[0] / alpha_per_loss
+    return float(max(af.hover_command / MAX_DAMAGED_COMMAND, 1.0 - loss_max))
 
 
 def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np.random.Generator, *,

@@ -202,9 +202,9 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             alt_name, airborne_src = "RCOU", "EV (NOT_LANDED 28 .. LAND_COMPLETE 18 / DISARMED 11)"
         alt = Series(t_m[alt_idx], thrust_to_signal(motors[alt_idx], curve), src["alt"])
 
-        t0 = offset
+        t_start = float(min(t_r[0], t_m[0], t_a[0]))  # arming: the first logged instant
         t_end = float(max(t_r[-1], t_m[-1], t_a[-1]))
-        armed_end = t_disarm + offset if np.isfinite(t_disarm) else t_end
+        armed_end = min(t_disarm + offset, t_end) if np.isfinite(t_disarm) else t_end
         airborne = []
         if np.isfinite(res.t_takeoff[i]):
             td = res.t_touchdown[i]
@@ -229,7 +229,7 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             motors=Series(t_m, motors, src["motors"]), motor_kind="thrust", thrust_curve=curve,
             velocity=Series(t_v, vel, src["velocity"]),
             alt_motors={alt_name: alt},
-            armed=[(float(t0), float(armed_end))], airborne=airborne, airborne_source=airborne_src,
-            t_start=float(min(t_r[0], t_m[0], t_a[0])), t_end=t_end, params=params, truth=truth,
+            armed=[(t_start, float(armed_end))], airborne=airborne, airborne_source=airborne_src,
+            t_start=t_start, t_end=t_end, params=params, truth=truth,
         ))
     return flights
