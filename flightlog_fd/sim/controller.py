@@ -136,10 +136,11 @@ def mix(thrust: np.ndarray, torque: np.ndarray, m_roll: np.ndarray, m_pitch: np.
 
     # Yaw: the largest fraction k of the demand that keeps every motor in 0..1.
     room = np.where(u_y > 0.0, 1.0 - a, a) / np.maximum(np.abs(u_y), 1e-12)
-    k = np.clip(room.min(axis=0), 0.0, 1.0)
+    k = np.minimum(np.maximum(room.min(axis=0), 0.0), 1.0)
     yaw_sat = k < 1.0
     a += k * u_y
-    np.clip(a, 0.0, 1.0, out=a)
+    np.maximum(a, 0.0, out=a)
+    np.minimum(a, 1.0, out=a)
     return a, rp_sat, yaw_sat
 
 
@@ -240,7 +241,8 @@ class CascadeController:
         qe = (self.err_matrix * q_est).sum(axis=1)
         rate_sp = (2.0 * g.att_p) * qe[1:] * np.where(qe[0] < 0.0, -1.0, 1.0)
         rate_sp[2] += self.yaw_rate_ff
-        np.clip(rate_sp, -g.rate_max, g.rate_max, out=rate_sp)
+        np.minimum(rate_sp, g.rate_max, out=rate_sp)
+        np.maximum(rate_sp, -g.rate_max, out=rate_sp)
 
         # Rate PID in angular-acceleration units, D on the (filtered) measurement derivative.
         err = rate_sp - rate_meas
@@ -258,7 +260,8 @@ class CascadeController:
         inc[:2] *= ~rp_sat
         inc[2] *= ~yaw_sat
         self.rate_int += inc
-        np.clip(self.rate_int, -g.rate_int_lim, g.rate_int_lim, out=self.rate_int)
+        np.minimum(self.rate_int, g.rate_int_lim, out=self.rate_int)
+        np.maximum(self.rate_int, -g.rate_int_lim, out=self.rate_int)
         self.rate_int *= run & ~landed
         self.rp_sat, self.yaw_sat = rp_sat, yaw_sat
         return u

@@ -172,7 +172,8 @@ class QuadDynamics:
         dt = self.dt
         w = s.w
         w += self.motor_alpha * (w_com - w)
-        np.clip(w, 0.0, self.omega_max, out=w)
+        np.minimum(w, self.omega_max, out=w)
+        np.maximum(w, 0.0, out=w)
         w_air = w if speed_gain is None else w * speed_gain
         w2 = effectiveness * w_air * w_air
         f = self.k_f * w2

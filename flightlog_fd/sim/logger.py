@@ -16,7 +16,7 @@ Profiles (:data:`PROFILES`; rates in Hz):
 ==================  =========  ====  ========  ======  ==========  ========  ==========
 profile             autopilot  sim   rates     att.    motors      alt       velocity
 ==================  =========  ====  ========  ======  ==========  ========  ==========
-``px4_high``        px4        500   250       250     250         10        10
+``px4_high``        px4        250   250       250     250         10        10
 ``px4_default``     px4        250   50        50      10          10        10
 ``ardupilot``       ardupilot  400   50 (IMU)  50      50 (RATE)   10 RCOU   10
 ``ardupilot_fast``  ardupilot  400   400       400     400 (RATE)  10 RCOU   10
@@ -86,7 +86,7 @@ class LogProfile:
 
 
 PROFILES: dict[str, LogProfile] = {
-    "px4_high": LogProfile("px4_high", "px4", 500.0, 250.0, 250.0, 250.0, 10.0, 10.0, 0.04, 0.002, (18.0, 30.0)),
+    "px4_high": LogProfile("px4_high", "px4", 250.0, 250.0, 250.0, 250.0, 10.0, 10.0, 0.04, 0.002, (18.0, 30.0)),
     "px4_default": LogProfile("px4_default", "px4", 250.0, 50.0, 50.0, 10.0, 10.0, 10.0, 0.04, 0.0005,
                               (18.0, 30.0)),
     "ardupilot": LogProfile("ardupilot", "ardupilot", 400.0, 50.0, 50.0, 50.0, 10.0, 10.0, 0.02, 0.0,

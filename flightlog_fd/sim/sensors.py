@@ -173,7 +173,8 @@ class Sensors:
         if self.vib_gain > 0.0:
             ratio = w * (1.0 / (2 * np.pi)) / sp.gyro_cutoff_hz
             w_rel = w / self.vp.omega_max
-            self.vib_amp = self.vib_gain * imbalance * w_rel * w_rel / np.sqrt(1.0 + ratio ** 4)
+            ratio *= ratio
+            self.vib_amp = self.vib_gain * imbalance * w_rel * w_rel / np.sqrt(1.0 + ratio * ratio)
             # Per-step phasor rotation for the coming steps (rotor speeds change slowly) and
             # renormalisation of the phasors against rounding drift.
             self.rot_s, self.rot_c = np.sin(w * self.dt), np.cos(w * self.dt)
