@@ -142,8 +142,14 @@ def train_dcnn(
     mmd_batch: int = MMD_BATCH,
     mmd_bandwidth: float | None = None,
     warmup_epochs: int = WARMUP_EPOCHS,
+    init_state: Optional[dict] = None,
 ) -> TrainResult:
-    """Train a DCNN on source windows, aligning healthy features with ``X_tgt_healthy`` if given."""
+    """Train a DCNN on source windows, aligning healthy features with ``X_tgt_healthy`` if given.
+
+    ``init_state`` (a DCNN state dict with the same config) starts from trained weights, e.g. to
+    fine-tune the shipped model with domain adaptation; otherwise the weights start from ``seed``.
+    ``progress(stats)`` is called after every epoch; ``sample_weight`` weights the source CE.
+    """
     config = config or DCNNConfig(in_channels=X_src.shape[1], window=X_src.shape[2])
     X_src = np.ascontiguousarray(X_src, dtype=np.float32)
     y_src = np.asarray(y_src, dtype=np.int64)
@@ -175,6 +181,11 @@ def train_dcnn(
         torch.manual_seed(seed)
         rng = np.random.default_rng(seed)
         model = DCNN(config)
+        if init_state is not None:
+            try:
+                model.load_state_dict(init_state)
+            except (RuntimeError, KeyError) as e:
+                raise ValueError(f"init_state does not fit a DCNN with {config}: {e}") from None
         optimiser = torch.optim.Adam(model.parameters(), lr=lr)
         X_src_t = torch.from_numpy(X_src)  # (N, C, T), shares memory
         y_src_t = torch.from_numpy(y_src)  # (N,)
@@ -267,6 +278,7 @@ def train_dcnn(
         "patience": patience,
         "seed": seed,
         "weighted": weights is not None,
+        "init": "given weights" if init_state is not None else f"random (seed {seed})",
     }
     return TrainResult(model, history, best_epoch, best_loss, stop_reason, seconds, settings)
 
