@@ -39,7 +39,7 @@ OUTER_RATE_HZ = 50.0
 #: Minimum collective thrust as a fraction of the weight while flying (PX4 MPC_THR_MIN-like).
 MIN_THRUST_FRACTION = 0.15
 #: Velocity-integrator limits, m/s² (xy) and fraction of g (z).
-VEL_INT_LIM_XY = 3.0
+VEL_INT_LIM_XY = 5.0
 VEL_INT_LIM_Z_G = 0.5
 #: First-order filter on the rate derivative (D term), Hz.
 D_TERM_CUTOFF_HZ = 30.0

@@ -11,7 +11,8 @@
 - Position/velocity estimates: true + Ornstein-Uhlenbeck errors (velocity σ 0.02-0.1 m/s with
   0.5 s correlation; position σ 0.05-0.3 m with 3 s correlation), as a GNSS/EKF solution wanders.
 - Wind: mean 0-5 m/s horizontal, gusts OU per axis σ 0.2-1.5 m/s (vertical half) with 2 s
-  correlation; acts through the linear drag.
+  correlation; acts through the linear drag. Both are capped for light vehicles so that the mean
+  wind's drag is at most ``MAX_WIND_DRAG_FRACTION`` of the weight (a nano quad does not fly in 5 m/s).
 - Turbulence / prop-wash torque: OU angular-acceleration disturbance with 0.1 s correlation, sized
   so that it alone shakes the hovering vehicle by about 1-6 °/s RMS on the gyro (the PX4 SIH dev
   flights show 5-9 °/s in hover, a Crazyflie about 2 °/s): σ_α = level · rate-loop kp.
@@ -26,7 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
-from flightlog_fd.sim.airframe import Airframe
+from flightlog_fd.sim.airframe import GRAVITY, Airframe
 from flightlog_fd.sim.dynamics import VehicleParams
 
 ATTITUDE_DELAY_S = 0.008
@@ -39,6 +40,7 @@ POS_NOISE_TAU_S = 3.0
 WIND_MEAN_MS = (0.0, 5.0)
 GUST_STD_MS = (0.2, 1.5)
 GUST_TAU_S = 2.0
+MAX_WIND_DRAG_FRACTION = 0.25
 TURBULENCE_WOBBLE_DPS = (1.0, 6.0)
 TURBULENCE_TAU_S = 0.1
 #: Share of the roll/pitch vibration that appears on the yaw gyro (frame flex is mostly in-plane).
@@ -76,7 +78,12 @@ class SensorParams:
                        attitude_delay_s=0.0, vibration_gain=0.0, realism=False)
         kp = np.array([a.gains.rate_kp for a in airframes], dtype=np.float64)
         wind_dir = rng.uniform(-np.pi, np.pi, size=n)
-        wind_speed = rng.uniform(*WIND_MEAN_MS, size=n)
+        # A light vehicle cannot fly in a wind whose drag needs a steep tilt: cap the mean wind
+        # (and the gusts) so that their drag stays within MAX_WIND_DRAG_FRACTION of the weight.
+        weight = np.array([a.mass for a in airframes]) * GRAVITY
+        drag = np.array([a.drag_lin for a in airframes])
+        wind_cap = np.minimum(WIND_MEAN_MS[1], MAX_WIND_DRAG_FRACTION * weight / drag)
+        wind_speed = rng.uniform(0.0, 1.0, size=n) * wind_cap
         wobble = np.radians(rng.uniform(*TURBULENCE_WOBBLE_DPS, size=n))
         return cls(
             gyro_noise_density=np.radians(rng.uniform(*GYRO_NOISE_DENSITY_DPS, size=n)),
@@ -85,7 +92,7 @@ class SensorParams:
             vel_noise_std=rng.uniform(*VEL_NOISE_STD, size=n),
             pos_noise_std=rng.uniform(*POS_NOISE_STD, size=n),
             wind_mean=np.stack([wind_speed * np.cos(wind_dir), wind_speed * np.sin(wind_dir), np.zeros(n)], axis=1),
-            gust_std=rng.uniform(*GUST_STD_MS, size=n),
+            gust_std=rng.uniform(*GUST_STD_MS, size=n) * np.minimum(1.0, wind_cap / WIND_MEAN_MS[1]),
             # Yaw is shaken less than roll/pitch (no lever arm for most disturbances).
             turbulence_std=wobble[:, None] * kp * np.array([1.0, 1.0, 0.4]),
             attitude_delay_s=ATTITUDE_DELAY_S, vibration_gain=vibration_gain, realism=True,
