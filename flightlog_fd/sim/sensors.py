@@ -1,4 +1,4 @@
-"""Sensor, estimator and environment realism for N vehicles (numpy, vectorised).
+"""Sensor, estimator and environment realism for N vehicles (numpy, vectorised, arrays (k, N)).
 
 - Gyro: ``raw = ω + bias + white noise`` (noise density 0.04-0.25 °/s/√Hz, i.e. per-sample
   σ = density·√(sim rate), so the filtered noise does not depend on the step size; bias
@@ -6,16 +6,20 @@
   ``gyro_cutoff_hz``, PX4 IMU_GYRO_CUTOFF-like), plus propeller vibration at each rotor's rotation
   frequency, attenuated by a 2nd-order low-pass gain ``1/√(1 + (f/fc)⁴)`` evaluated at that
   frequency (see damage.py for the amplitude). This filtered signal is what the rate controller
-  uses and what PX4 logs as ``vehicle_angular_velocity`` (ArduPilot ``RATE``).
+  uses and what PX4 logs as ``vehicle_angular_velocity`` (ArduPilot ``IMU``/``RATE``). The white
+  noise is read at random offsets from a pool of ``NOISE_POOL_SIZE`` pre-drawn normals (cost);
+  vibration phasors are rotated by ``w·dt`` each step, amplitudes refreshed at the outer-loop rate.
 - Attitude estimate: the true attitude delayed by ``ATTITUDE_DELAY_S`` (estimator latency).
 - Position/velocity estimates: true + Ornstein-Uhlenbeck errors (velocity σ 0.02-0.1 m/s with
   0.5 s correlation; position σ 0.05-0.3 m with 3 s correlation), as a GNSS/EKF solution wanders.
 - Wind: mean 0-5 m/s horizontal, gusts OU per axis σ 0.2-1.5 m/s (vertical half) with 2 s
   correlation; acts through the linear drag. Both are capped for light vehicles so that the mean
   wind's drag is at most ``MAX_WIND_DRAG_FRACTION`` of the weight (a nano quad does not fly in 5 m/s).
-- Turbulence / prop-wash torque: OU angular-acceleration disturbance with 0.1 s correlation, sized
-  so that it alone shakes the hovering vehicle by about 1-6 °/s RMS on the gyro (the PX4 SIH dev
-  flights show 5-9 °/s in hover, a Crazyflie about 2 °/s): σ_α = level · rate-loop kp.
+- Turbulence / prop-wash torque: OU angular-acceleration disturbance with 0.1 s correlation
+  (advanced at the outer-loop rate), sized so that it alone shakes the hovering vehicle by about
+  1-6 °/s RMS: σ_α = level · rate-loop kp. With the gyro noise, hover rates come out at 2-10 °/s
+  RMS (PX4 SIH dev flights: 6-8 °/s roll, 3-5 pitch, 1.5-2 yaw; a Crazyflie about 2 °/s) and
+  angular accelerations from 250 Hz differences at 200-800 °/s² RMS (SIH: 800/400/170).
 
 ``realism=False`` switches all of this off (exact measurements, no wind, no delay): used for
 physics unit tests.
