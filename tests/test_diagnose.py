@@ -5,6 +5,8 @@ model's feature spec) and calls a motor damaged when its scale-free thrust share
 """
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -196,3 +198,63 @@ def test_keep_flight_false_drops_the_flight_but_keeps_the_result():
     assert d.verdict.status == "damaged" and d.verdict.motor == 1 and d.verdict.position == "front-right"
     page = render_html(d)
     assert page.count("<svg") == 1  # only the probabilities plot without the flight's streams
+
+
+# ---------------------------------------------------------------- with a real FaultModel (ONNX)
+
+def tiny_onnx_model(path) -> None:
+    """A 5-class ONNX classifier of NIF windows, in the file format FaultModel reads: mean over
+    time, then healthy logit 4 against 2 x each motor's standardised thrust share."""
+    onnx = pytest.importorskip("onnx")
+    from onnx import TensorProto, helper, numpy_helper
+
+    spec = FeatureSpec(features="nif").to_dict()
+    spec["mean"] = [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0]
+    spec["std"] = [1.0, 1.0, 1.0, 0.02, 0.02, 0.02, 0.02]
+    weights = np.zeros((7, 5), dtype=np.float32)
+    for k in range(4):
+        weights[3 + k, 1 + k] = 2.0
+    bias = np.array([4.0, 0.0, 0.0, 0.0, 0.0], dtype=np.float32)
+    graph = helper.make_graph(
+        [helper.make_node("ReduceMean", ["windows"], ["m"], axes=[2], keepdims=0),
+         helper.make_node("Gemm", ["m", "W", "b"], ["logits"]),
+         helper.make_node("Softmax", ["logits"], ["probabilities"], axis=1)],
+        "tiny", [helper.make_tensor_value_info("windows", TensorProto.FLOAT, ["N", 7, 80])],
+        [helper.make_tensor_value_info("probabilities", TensorProto.FLOAT, ["N", 5])],
+        [numpy_helper.from_array(weights, "W"), numpy_helper.from_array(bias, "b")])
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 8
+    meta = {"version": "tiny-1", "feature_spec": spec, "classes": ["healthy", "motor1", "motor2", "motor3", "motor4"],
+            "training": {"data": "hand-set weights for tests"}, "created": "2024-01-01T00:00:00+00:00"}
+    helper.set_model_props(model, {"flightlog_fd": json.dumps(meta)})
+    onnx.save(model, str(path))
+
+
+def test_real_fault_model_end_to_end_and_resolve_model(tmp_path):
+    from flightlog_fd.diagnose import resolve_model
+    from flightlog_fd.errors import ProfileError
+    from flightlog_fd.model import FaultModel
+
+    model_file = tmp_path / "tiny.onnx"
+    tiny_onnx_model(model_file)
+    model = resolve_model(model_file)
+    assert isinstance(model, FaultModel) and model.version == "tiny-1"
+
+    damaged = diagnose_flight(synthetic_flight(damaged_motor=4, onset_s=20.0), model)
+    assert damaged.verdict.status == "damaged" and damaged.verdict.motor == 4
+    assert damaged.verdict.position == "rear-right"
+    assert 18.0 <= damaged.verdict.first_seen <= 23.0
+    assert diagnose_flight(synthetic_flight(), model).verdict.status == "healthy"
+
+    # The profile's own model: found relative to the profile's folder, marked calibrated.
+    prof = real_profile(path=str(tmp_path / "profile.json"))
+    prof.set_model(model_file)
+    from_profile = resolve_model(None, prof)
+    assert from_profile.sha256 == model.sha256
+    d = diagnose_flight(synthetic_flight(), from_profile, prof)
+    assert d.model.calibrated and d.profile.model_path == str(model_file)
+
+    # A model file changed after calibration is refused.
+    prof.model = {"path": "tiny.onnx", "sha256": "0" * 64}
+    with pytest.raises(ProfileError):
+        resolve_model(None, prof)
