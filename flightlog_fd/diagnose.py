@@ -38,6 +38,9 @@ EXIT_NOT_DIAGNOSABLE = 2
 
 NO_PROFILE_WARNING = ("no calibration profile: using the shipped model; a profile made with "
                       "`fdlog calibrate` on a healthy flight of this airframe is more accurate")
+#: The same advice when the user chose a model file of their own.
+NO_PROFILE_OWN_MODEL_WARNING = ("no calibration profile: a profile made with `fdlog calibrate` on a "
+                                "healthy flight of this airframe makes the diagnosis more accurate")
 #: If more than this share of windows are manoeuvres, say so: the model is most reliable in
 #: steady flight, and a verdict resting on manoeuvres deserves a second look.
 MANOEUVRE_WARNING_SHARE = 0.5
@@ -172,6 +175,19 @@ def resolve_model(model_path=None, profile: Any = None):
     return FaultModel(default_model_path())
 
 
+def is_shipped_model(model: Any) -> bool:
+    """True when ``model`` is the file shipped with the package (False if none is installed)."""
+    from .model import default_model_path
+
+    path = getattr(model, "path", None)
+    if not path:
+        return False
+    try:
+        return Path(path).resolve() == Path(default_model_path()).resolve()
+    except FlightLogError:  # ModelError: no shipped model installed, so this one is not it
+        return False
+
+
 def _check_model_classes(model: Any) -> None:
     classes = list(getattr(model, "classes", []))
     if classes and len(classes) != N_CLASSES:
@@ -202,7 +218,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     if not check.ok:
         return _not_diagnosable(log, check.reason, diagnosability_facts=dict(check.facts), **common)
     if profile is None:  # only worth saying when a verdict follows
-        warnings.append(NO_PROFILE_WARNING)
+        warnings.append(NO_PROFILE_WARNING if is_shipped_model(model) else NO_PROFILE_OWN_MODEL_WARNING)
     try:
         _check_model_classes(model)
         if profile is not None:

@@ -10,11 +10,13 @@ only words and draws what the verdict says.
   the motor judged damaged, ``?`` uncertain, a space where there is no window (on the ground).
   The characters are the verdict's smoothed window labels, so the strip shows what the verdict saw.
 - :func:`window_table` (``--windows``): every window with its times, class, probabilities, phase.
-- :func:`summary_table`: one row per log when several logs are diagnosed.
+- :func:`summary_table`: one row per log when several logs are diagnosed (file names; the full
+  path where two logs share a name).
 - :func:`render`: all of the above for one log onto a rich Console.
 """
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Optional, Sequence
 
 from rich.console import Console, Group
@@ -86,14 +88,19 @@ def window_table(diagnosis: Diagnosis) -> Table:
 def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
     """One row per log: status, motor and position, confidence, first seen, exit code."""
     table = Table(title="Diagnosis summary")
-    for name in ("log", "verdict", "propeller", "confidence", "first seen", "exit"):
-        table.add_column(name, justify="right" if name in ("confidence", "first seen", "exit") else "left")
-    for d in diagnoses:
+    table.add_column("log", overflow="fold")
+    for name in ("verdict", "propeller", "confidence", "first seen", "exit"):
+        table.add_column(name, no_wrap=True,
+                         justify="right" if name in ("confidence", "first seen", "exit") else "left")
+    names = [Path(d.log).name for d in diagnoses]
+    for d, name in zip(diagnoses, names):
+        # The file name is enough unless two logs share it (same name in different folders).
+        shown = name if names.count(name) == 1 else d.log
         v = d.verdict
         prop = _motor_words(v.motor, v.position) if v.motor else ""
         conf = f"{v.confidence:.2f}" if v.status != "not_diagnosable" else ""
         first = f"t={v.first_seen:.1f} s" if v.first_seen is not None else ""
-        table.add_row(Text(d.log), Text(v.status, style=STATUS_STYLES.get(v.status, "")), Text(prop),
+        table.add_row(Text(shown), Text(v.status, style=STATUS_STYLES.get(v.status, "")), Text(prop),
                       conf, first, str(d.exit_code))
     return table
 
