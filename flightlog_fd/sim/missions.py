@@ -11,8 +11,10 @@ then 0.5-1 m/s until the ground is felt for a land-detector delay of 1-3 s, then
 Missions (:func:`plan_missions`):
 
 - ``"waypoints"``: pre-arm, take-off, hover 4-8 s, random waypoints (|xy| ≤ 15 m, altitude 4-10 m,
-  1-5 m/s) with heading changes, short holds and in-place yaw turns, return home, land. The
-  number of waypoints is chosen so that the estimated flight lasts ``duration_s``.
+  1-5 m/s) with heading changes, short holds and in-place yaw turns, return home, hover, land.
+  The number of waypoints is chosen so that the estimated flight fits ``duration_s``; the hover
+  at home lasts until the landing is due, so flights last about ``duration_s`` (longer when a
+  vehicle falls behind its plan).
 - ``"hover"``: pre-arm, take-off, hover for the rest of ``duration_s``, land.
 - ``"manual"``: pre-arm, take-off to 1.5-4 m, then a pilot flying in an altitude-hold style
   mode: smooth random stick inputs (sum of 3 sinusoids of 0.05-0.5 Hz per stick, with calm
@@ -60,6 +62,7 @@ class MissionPlan:
     dyaw: np.ndarray  # (N, L) rad (heading change during the leg)
     yaw_rate: np.ndarray  # (N, L) rad/s
     duration: np.ndarray  # (N, L) s (hold / pre-arm / manual / land-detect)
+    until: np.ndarray  # (N, L) s since arming before which a hold / manual leg does not end
     accel: np.ndarray  # (N,) m/s²
     home_yaw: np.ndarray  # (N,) rad
     # Manual flying: sticks (fwd accel, right accel, yaw rate, climb rate) as sums of sines.
@@ -171,6 +174,11 @@ def _plan_one(mission: str, duration_s: float, rng: np.random.Generator) -> tupl
         legs.append((LEG_HOLD, tuple(home), 0.0, 0.0, 0.5, rng.uniform(1.0, 3.0)))
         final_alt = -pos[2]
         pos = home
+    # The leg before landing lasts at least until the planned landing time, so that vehicles ahead
+    # of their estimate hover (or keep flying manually) instead of idling on the ground.
+    until = duration_s - land_time(final_alt)
+    legs[-1] = legs[-1] + (until,)
+    t_est = max(t_est, until)
     legs.append((LEG_LAND, tuple(pos), land_speed, 0.0, 0.5, land_detect))
     t_est += land_time(final_alt)
     legs.append((LEG_DONE, tuple(pos), 0.0, 0.0, 0.5, 0.0))
@@ -202,13 +210,16 @@ def plan_missions(n: int, mission: str, duration_s: float, rng: np.random.Genera
     dyaw = np.zeros((n, n_legs))
     yaw_rate = np.full((n, n_legs), 0.5)
     duration = np.zeros((n, n_legs))
+    until = np.zeros((n, n_legs))
     for i, (legs, _, _, _) in enumerate(plans):
-        for j, (k, tg, sp, dy, yr, du) in enumerate(legs):
-            kind[i, j], target[i, j], speed[i, j], dyaw[i, j], yaw_rate[i, j], duration[i, j] = k, tg, sp, dy, yr, du
+        for j, leg in enumerate(legs):
+            kind[i, j], target[i, j], speed[i, j], dyaw[i, j], yaw_rate[i, j], duration[i, j] = leg[:6]
+            until[i, j] = leg[6] if len(leg) > 6 else 0.0
         target[i, len(legs):] = legs[-1][1]
     m = [p[3] for p in plans]
     return MissionPlan(
         name=mission, kind=kind, target=target, speed=speed, dyaw=dyaw, yaw_rate=yaw_rate, duration=duration,
+        until=until,
         accel=np.array([p[1] for p in plans]), home_yaw=np.array([p[2] for p in plans]),
         stick_freq=np.array([x["stick_freq"] for x in m]), stick_amp=np.array([x["stick_amp"] for x in m]),
         stick_phase=np.array([x["stick_phase"] for x in m]), calm_freq=np.array([x["calm_freq"] for x in m]),
@@ -256,6 +267,7 @@ class MissionRunner:
         self.dyaw = np.zeros(n)
         self.yaw_rate = np.ones(n)
         self.duration = np.zeros(n)
+        self.until = np.zeros(n)
         self.direction = np.zeros((n, 3))
         self.dist = np.zeros(n)
         self.t_a = np.zeros(n)
@@ -275,6 +287,7 @@ class MissionRunner:
         self.speed[ids] = speed
         dyaw, yaw_rate = p.dyaw[ids, j], p.yaw_rate[ids, j]
         self.dyaw[ids], self.yaw_rate[ids], self.duration[ids] = dyaw, yaw_rate, p.duration[ids, j]
+        self.until[ids] = p.until[ids, j]
         self.turn_t[ids] = np.abs(dyaw) / yaw_rate
         delta = target - self.start_pos[ids]
         dist = np.linalg.norm(delta, axis=1)
@@ -366,7 +379,7 @@ class MissionRunner:
         speed_lim = np.where(kind == LEG_GOTO, speed, 1.5)
 
         # Leg completion.
-        waited = ((kind == LEG_PREARM) | (kind == LEG_HOLD) | is_manual) & (tau >= duration)
+        waited = ((kind == LEG_PREARM) | (kind == LEG_HOLD) | is_manual) & (tau >= duration) & (t >= self.until)
         arrived = tau >= t_total
         err = pos_est - target
         close = (err * err).sum(axis=1) < ACCEPTANCE_RADIUS_M ** 2
