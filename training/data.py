@@ -107,7 +107,8 @@ def flight_windows(flights: Sequence[Flight], spec: FeatureSpec, labels: Optiona
 def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch: int = SIM_BATCH,
                      airframes=None, rho=None, rho_mode: str = "physical",
                      missions: Sequence[str] = DEFAULT_MISSIONS, duration_s: float = 60.0,
-                     profile: str = "training", healthy_fraction: Optional[float] = None,
+                     profile: str = "training", profiles: Optional[Sequence] = None,
+                     healthy_fraction: Optional[float] = None,
                      eta_range: Optional[tuple[float, float]] = None,
                      progress: Optional[Callable[[int, int], None]] = None) -> WindowSet:
     """Fly ``n_flights`` simulated quads in batches and window them (labels from the truth).
@@ -115,7 +116,8 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
     ``airframes`` / ``rho`` / ``rho_mode`` / ``eta_range`` are passed to
     :func:`flightlog_fd.sim.api.simulate_flights`; ``airframes`` may be a callable
     ``(n, rng) -> list[Airframe]`` to draw a family (e.g. airframes like a calibrated one).
-    Missions alternate batch by batch. Deterministic for a seed.
+    Missions (and ``profiles``, logging profiles, when given instead of ``profile``) alternate
+    batch by batch. Deterministic for a seed.
     """
     from flightlog_fd.sim.api import simulate_flights
 
@@ -135,7 +137,7 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
         if rho is not None and not isinstance(rho, str) and np.ndim(rho) == 2:
             r = np.asarray(rho)[done:done + n]
         flights = simulate_flights(n, airframes=afs, mission=missions[b % len(missions)], duration_s=duration_s,
-                                   profile=profile, rho=r, rho_mode=rho_mode, seed=bseed, **kw)
+                                   profile=profiles[(b // len(missions)) % len(profiles)] if profiles else profile, rho=r, rho_mode=rho_mode, seed=bseed, **kw)
         sets.append(flight_windows(flights, spec, names=[f"sim{seed}-{b}-{i}" for i in range(n)]))
         done += n
         b += 1
