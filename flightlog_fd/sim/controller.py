@@ -184,11 +184,12 @@ class CascadeController:
     # ---------------------------------------------------------------- outer loops
     def outer(self, pos: np.ndarray, vel: np.ndarray, pos_sp: np.ndarray, vel_ff: np.ndarray, speed_lim: np.ndarray,
               yaw_sp: np.ndarray, yaw_rate_ff: np.ndarray, mode: np.ndarray, man_acc_xy: np.ndarray,
-              man_vz: np.ndarray, landed: np.ndarray) -> None:
+              man_vz: np.ndarray, landed: np.ndarray, thrust_ramp: np.ndarray) -> None:
         """Position/velocity loops → desired attitude and collective thrust (held until the next call).
 
         ``pos``/``vel`` estimates (3, N); ``pos_sp``/``vel_ff`` (3, N); ``speed_lim`` (N,) m/s;
-        ``mode`` (N,) MODE_*; ``man_acc_xy`` (2, N) NED m/s² and ``man_vz`` (N,) m/s for MODE_MANUAL.
+        ``mode`` (N,) MODE_*; ``man_acc_xy`` (2, N) NED m/s² and ``man_vz`` (N,) m/s for MODE_MANUAL;
+        ``thrust_ramp`` (N,) 0..1 scales the collective (take-off ramp).
         """
         g, m = self.g, self.p.mass
         vel_sp = g.pos_p * (pos_sp - pos) + vel_ff
@@ -218,7 +219,7 @@ class CascadeController:
         fh = np.hypot(f[0], f[1])
         f[:2] *= np.minimum(1.0, -f[2] * g.tan_tilt_max / np.maximum(fh, 1e-9))
         norm = np.sqrt((f * f).sum(axis=0))
-        self.thrust = norm
+        self.thrust = norm * thrust_ramp
 
         # Desired attitude: the shortest rotation taking the vertical to body z = −F/|F| (tilt),
         # after the heading rotation (yaw): q_d = q_tilt ⊗ q_yaw. Its Euler yaw differs from the

@@ -35,7 +35,8 @@ from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_ef
 
 STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "w_com": 4, "w": 4, "pos": 3,
                  "thrust": 4, "omega": 3, "eta": 4}
-DEFAULT_TAIL_S = 0.5
+#: Simulated time kept after the last disarm (covers the logger's tail after disarming).
+DEFAULT_TAIL_S = 1.0
 
 
 @dataclass
@@ -44,9 +45,11 @@ class BatchResult:
 
     times: dict[str, np.ndarray]
     data: dict[str, np.ndarray]
-    t_takeoff: np.ndarray  # (N,) s, NaN if never airborne
-    t_touchdown: np.ndarray  # (N,) s, NaN if never landed again
-    t_disarm: np.ndarray  # (N,) s, NaN if still flying at the end
+    t_takeoff_cmd: np.ndarray  # (N,) s, take-off leg start (thrust ramp), NaN if never
+    t_takeoff: np.ndarray  # (N,) s, lift-off, NaN if never airborne
+    t_touchdown: np.ndarray  # (N,) s, ground contact at landing, NaN if never landed again
+    t_landed: np.ndarray  # (N,) s, land detector "landed" (motors stopped), NaN if never
+    t_disarm: np.ndarray  # (N,) s, NaN if still armed at the end
     t_end: float  # last simulated time, s
     dt: float
 
@@ -92,8 +95,8 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
             sp = runner.update(t, ctrl.dt_outer, pos_est.T, quat_yaw(state.quat), state.landed)
             mode = sp.mode
             ctrl.outer(pos_est, vel_est, sp.pos.T, sp.vel_ff.T, sp.speed_lim, sp.yaw, sp.yaw_rate_ff, mode,
-                       sp.man_acc_xy.T, sp.man_vz, state.landed)
-            if t_all_done is None and runner.all_done:
+                       sp.man_acc_xy.T, sp.man_vz, state.landed, sp.thrust_ramp)
+            if t_all_done is None and runner.all_done(t):
                 t_all_done = t
         gyro, disturbance = sens.gyro_and_disturbance(state.omega)
         q_est = sens.attitude(state.quat)
@@ -130,5 +133,6 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
             break
     data = {k: (np.stack(v) if v else np.zeros((0, n, STREAM_FIELDS[k]), np.float32)) for k, v in rec.items()}
     times = {k: np.asarray(v, dtype=np.float64) for k, v in rec_t.items()}
-    return BatchResult(times=times, data=data, t_takeoff=runner.t_takeoff, t_touchdown=runner.t_touchdown,
-                       t_disarm=runner.t_disarm, t_end=t, dt=dt)
+    return BatchResult(times=times, data=data, t_takeoff_cmd=runner.t_takeoff_cmd, t_takeoff=runner.t_takeoff,
+                       t_touchdown=runner.t_touchdown, t_landed=runner.t_landed, t_disarm=runner.t_disarm,
+                       t_end=t, dt=dt)

@@ -48,7 +48,9 @@ ARDUPILOT_PWM_MIN, ARDUPILOT_PWM_MAX = 1000.0, 2000.0
 PX4_SYS_AUTOSTART = {"quad_x": 4001, "quad_plus": 5001}
 PX4_SIH_AUTOSTART = 10040  # PX4's SIH quadrotor airframe (sihsim_quadx)
 ARDUPILOT_FRAME_TYPE = {"quad_x": 1, "quad_plus": 0}
-LOG_TAIL_RANGE_S = (0.1, 0.5)  # logging continues this long after disarm
+LOG_TAIL_RANGE_S = (0.5, 1.0)  # logging continues this long after disarm (PX4 SIH logs: ~1 s)
+#: PX4's land detector reports "not landed" shortly after the take-off command / thrust ramp start.
+LAND_DETECTOR_TAKEOFF_DELAY_S = (0.1, 0.3)
 JITTER_CLIP = 0.3
 
 
@@ -129,6 +131,11 @@ def _stamp(t_sim: np.ndarray, offset: float, interval: float, profile: LogProfil
     return us / 1e6, keep
 
 
+def _us(t: float) -> float:
+    """Seconds rounded to the log clock's microsecond."""
+    return float(np.round(t * 1e6) / 1e6)
+
+
 def px4_params(af: Airframe) -> dict[str, float]:
     frame = Frame.quad_x(af.arm) if af.frame == "quad_x" else Frame.quad_plus(af.arm)
     p: dict[str, float] = {
@@ -204,11 +211,14 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
 
         t_start = float(min(t_r[0], t_m[0], t_a[0]))  # arming: the first logged instant
         t_end = float(max(t_r[-1], t_m[-1], t_a[-1]))
-        armed_end = min(t_disarm + offset, t_end) if np.isfinite(t_disarm) else t_end
+        armed_end = _us(min(t_disarm + offset, t_end)) if np.isfinite(t_disarm) else t_end
+        # Airborne as the autopilot's land detector reports it: from the take-off command (thrust
+        # ramp) to "landed" after touchdown; the true lift-off / touchdown go to the truth.
         airborne = []
         if np.isfinite(res.t_takeoff[i]):
-            td = res.t_touchdown[i]
-            airborne.append((float(res.t_takeoff[i] + offset), float(td + offset) if np.isfinite(td) else t_end))
+            start = res.t_takeoff_cmd[i] + rng.uniform(*LAND_DETECTOR_TAKEOFF_DELAY_S)
+            end = res.t_landed[i] + offset if np.isfinite(res.t_landed[i]) else t_end
+            airborne.append((_us(start + offset), _us(min(end, t_end))))
         d = damages[i]
         # Log-clock onset of a mid-flight damage; None when healthy or damaged from take-off.
         onset = float(d.onset_s + offset) if (d.motor and d.onset_s is not None) else None
@@ -216,7 +226,8 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             "label": int(d.motor), "motor": int(d.motor), "eta": float(d.eta),
             "onset_s": onset, "airframe": af.to_dict(), "rho": rho[i].tolist(), "rho_mode": rho_mode,
             "mission": mission, "seed": int(seed), "index": i, "profile": profile.name,
-            "takeoff_s": float(res.t_takeoff[i] + offset) if np.isfinite(res.t_takeoff[i]) else None,
+            "takeoff_s": _us(res.t_takeoff[i] + offset) if np.isfinite(res.t_takeoff[i]) else None,
+            "touchdown_s": _us(res.t_touchdown[i] + offset) if np.isfinite(res.t_touchdown[i]) else None,
             "log_start_boot_s": offset,
         }
         if extra_truth is not None:

@@ -1,12 +1,13 @@
 """Missions: per-vehicle leg lists planned up front, then run for N vehicles at once (vectorised).
 
 Legs (``LEG_*``): pre-arm wait on the ground (armed, motors stopped, as the start of a PX4 log),
-take-off (vertical climb to 5-10 m at 1-2 m/s, trapezoidal speed profile), hold (steady hover,
+take-off (collective thrust ramped up over 1-2 s, then a vertical climb to 5-10 m at 1-2 m/s,
+trapezoidal speed profile), hold (steady hover,
 ≥ ``MIN_CALIBRATION_HOVER_S`` after take-off so an unbalance calibration has steady hover),
 go-to (straight line at 1-5 m/s, accel ≤ 1.5-3 m/s², yaw slewed to a new heading at 30-60 °/s),
 yaw turn in place (90-360 °), manual flying (pilot sticks), land (descent at 1.2 m/s down to 3 m,
-then 0.5-1 m/s until the ground is felt for a land-detector delay of 1-3 s, then disarm), done
-(disarmed, on the ground).
+then 0.5-1 m/s until the ground is felt for a land-detector delay of 1-3 s: "landed", motors
+stop), done (on the ground; disarmed ``DISARM_DELAY_S`` after "landed", as PX4's COM_DISARM_LAND).
 
 Missions (:func:`plan_missions`):
 
@@ -45,6 +46,10 @@ SPEED_RANGE_MS = (1.0, 5.0)
 ACCEPTANCE_RADIUS_M = 1.0
 GOTO_TIMEOUT_S = 15.0
 LAND_DETECT_RANGE_S = (1.0, 3.0)
+#: PX4 COM_DISARM_LAND-like: disarm this long after the land detector says "landed".
+DISARM_DELAY_S = 2.0
+#: PX4-like take-off thrust ramp (MPC_TKO_RAMP_T-like): the collective thrust rises from zero over this.
+TAKEOFF_RAMP_RANGE_S = (1.0, 2.0)
 #: PX4 AUTO.LAND-like descent: fast (MPC_Z_VEL_MAX_DN-like) down to LAND_SLOW_ALT_M, then the land speed.
 LAND_FAST_SPEED_MS = 1.2
 LAND_SLOW_ALT_M = 3.0
@@ -64,6 +69,7 @@ class MissionPlan:
     duration: np.ndarray  # (N, L) s (hold / pre-arm / manual / land-detect)
     until: np.ndarray  # (N, L) s since arming before which a hold / manual leg does not end
     accel: np.ndarray  # (N,) m/s²
+    takeoff_ramp: np.ndarray  # (N,) s
     home_yaw: np.ndarray  # (N,) rad
     # Manual flying: sticks (fwd accel, right accel, yaw rate, climb rate) as sums of sines.
     stick_freq: np.ndarray  # (N, 4, K) Hz
@@ -95,6 +101,7 @@ def _plan_one(mission: str, duration_s: float, rng: np.random.Generator) -> tupl
     """Legs (kind, target, speed, dyaw, yaw_rate, duration) for one vehicle."""
     legs: list[tuple] = []
     accel = rng.uniform(1.5, 3.0)
+    ramp = rng.uniform(*TAKEOFF_RAMP_RANGE_S)
     yaw = rng.uniform(-np.pi, np.pi)
     home_yaw = yaw
     t_est = 0.0
@@ -105,7 +112,7 @@ def _plan_one(mission: str, duration_s: float, rng: np.random.Generator) -> tupl
     alt = rng.uniform(*alt_range)
     climb = rng.uniform(1.0, 2.0)
     legs.append((LEG_TAKEOFF, (0.0, 0.0, -alt), climb, 0.0, 0.5, 0.0))
-    t_est += _trapezoid_time(alt, climb, accel) + 1.0
+    t_est += _trapezoid_time(alt, climb, accel) + 1.0 + ramp
     land_speed = rng.uniform(0.5, 1.0)
     land_detect = rng.uniform(*LAND_DETECT_RANGE_S)
     manual = {}
@@ -195,7 +202,7 @@ def _plan_one(mission: str, duration_s: float, rng: np.random.Generator) -> tupl
         calm_freq=rng.uniform(0.02, 0.05), calm_phase=rng.uniform(0.0, 2 * np.pi),
         home_radius=rng.uniform(5.0, 15.0), alt_range=(1.0, rng.uniform(6.0, 12.0)),
     )
-    return legs, accel, home_yaw, dict(manual, estimated_s=t_est)
+    return legs, accel, home_yaw, dict(manual, estimated_s=t_est + DISARM_DELAY_S, takeoff_ramp=ramp)
 
 
 def plan_missions(n: int, mission: str, duration_s: float, rng: np.random.Generator) -> MissionPlan:
@@ -220,7 +227,8 @@ def plan_missions(n: int, mission: str, duration_s: float, rng: np.random.Genera
     return MissionPlan(
         name=mission, kind=kind, target=target, speed=speed, dyaw=dyaw, yaw_rate=yaw_rate, duration=duration,
         until=until,
-        accel=np.array([p[1] for p in plans]), home_yaw=np.array([p[2] for p in plans]),
+        accel=np.array([p[1] for p in plans]), takeoff_ramp=np.array([p[3]["takeoff_ramp"] for p in plans]),
+        home_yaw=np.array([p[2] for p in plans]),
         stick_freq=np.array([x["stick_freq"] for x in m]), stick_amp=np.array([x["stick_amp"] for x in m]),
         stick_phase=np.array([x["stick_phase"] for x in m]), calm_freq=np.array([x["calm_freq"] for x in m]),
         calm_phase=np.array([x["calm_phase"] for x in m]), home_radius=np.array([x["home_radius"] for x in m]),
@@ -240,6 +248,7 @@ class Setpoints:
     yaw_rate_ff: np.ndarray  # (N,)
     man_acc_xy: np.ndarray  # (N, 2)
     man_vz: np.ndarray  # (N,)
+    thrust_ramp: np.ndarray  # (N,) 0..1 factor on the collective thrust (take-off ramp)
 
 
 class MissionRunner:
@@ -258,8 +267,10 @@ class MissionRunner:
         self.start_yaw = plan.home_yaw.copy()
         self.yaw_sp = plan.home_yaw.copy()
         self.landed_since = np.full(n, np.nan)
-        self.t_takeoff = np.full(n, np.nan)
-        self.t_touchdown = np.full(n, np.nan)
+        self.t_takeoff_cmd = np.full(n, np.nan)  # take-off leg start (PX4's land detector flips here)
+        self.t_takeoff = np.full(n, np.nan)  # lift-off (ground contact lost)
+        self.t_touchdown = np.full(n, np.nan)  # ground contact again
+        self.t_landed = np.full(n, np.nan)  # land detector: landed (motors stop)
         self.t_disarm = np.full(n, np.nan)
         self.kind = np.zeros(n, dtype=np.int64)
         self.target = np.zeros((n, 3))
@@ -301,9 +312,9 @@ class MissionRunner:
         t_c = np.where(tri, 0.0, (dist - a * t_a * t_a) / np.maximum(v_peak, 1e-9))
         self.v_peak[ids], self.t_a[ids], self.t_c[ids], self.t_total[ids] = v_peak, t_a, t_c, 2 * t_a + t_c
 
-    @property
-    def all_done(self) -> bool:
-        return bool(np.all(self.kind == LEG_DONE))
+    def all_done(self, t: float) -> bool:
+        """Every vehicle landed and disarmed by time ``t``."""
+        return bool(np.all(self.kind == LEG_DONE) and np.all(self.t_disarm <= t))
 
     def update(self, t: float, dt: float, pos_est: np.ndarray, yaw_est: np.ndarray, landed: np.ndarray) -> Setpoints:
         """Setpoints at time ``t`` (s since arming); ``dt`` is the time since the previous call.
@@ -389,13 +400,17 @@ class MissionRunner:
         turned = (kind == LEG_YAW) & (tau >= self.turn_t + 1.0)
         land_done = is_land & (t - self.landed_since >= duration)  # NaN (not landed) compares False
         done = waited | took_off | went | turned | land_done
-        self.t_disarm[land_done] = t
+        self.t_landed[land_done] = t
+        self.t_disarm[land_done] = t + DISARM_DELAY_S
         if done.any():
             ids = np.flatnonzero(done)
+            started = ids[self.kind[ids] == LEG_PREARM]
+            self.t_takeoff_cmd[started] = t
             self.idx[ids] += 1
             self.t_leg0[ids] = t
             self.start_pos[ids] = np.where(is_land[ids, None], pos_est[ids], pos_sp[ids])
             self.start_yaw[ids] = yaw_sp[ids]
             self._refresh(ids)
+        ramp = np.where(kind == LEG_TAKEOFF, np.minimum(tau / p.takeoff_ramp, 1.0), 1.0)
         return Setpoints(mode=mode, pos=pos_sp, vel_ff=vel_ff, speed_lim=speed_lim, yaw=yaw_sp,
-                         yaw_rate_ff=yaw_rate_ff, man_acc_xy=man_acc_xy, man_vz=man_vz)
+                         yaw_rate_ff=yaw_rate_ff, man_acc_xy=man_acc_xy, man_vz=man_vz, thrust_ramp=ramp)
