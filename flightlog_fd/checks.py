@@ -22,8 +22,8 @@ MIN_RATES_HZ = 15.0
 MIN_MOTORS_HZ = 5.0
 #: A verdict from less than this is too easily swayed by one manoeuvre.
 MIN_AIRBORNE_S = 8.0
-#: The verdict needs several windows to smooth over (see verdict.py).
-MIN_WINDOWS = 3
+# The verdict needs several windows to smooth over: use its own minimum so that both agree.
+from .verdict import MIN_WINDOWS  # noqa: E402
 
 DEFAULT_RATE_HZ = 50.0
 DEFAULT_WINDOW = 80

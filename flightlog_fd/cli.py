@@ -210,6 +210,74 @@ def diagnose(
     raise typer.Exit(EXIT_INVALID if errors or EXIT_INVALID in codes else max(codes))
 
 
+@app.command()
+def calibrate(
+    logs: List[Path] = typer.Argument(..., help="One or more logs of HEALTHY flights of one airframe."),
+    output: Path = typer.Option(..., "--output", "-o", help="Profile to write (JSON); the adapted model goes beside it (.onnx)."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing profile and model."),
+    no_adapt: bool = typer.Option(False, "--no-adapt", help="Only measure the imbalance and statistics; keep the shipped model."),
+    flights: int = typer.Option(192, help="Simulated flights of this airframe to adapt on."),
+    epochs: int = typer.Option(12, help="At most this many training epochs."),
+    seed: int = typer.Option(0, help="Random seed (simulation and training)."),
+) -> None:
+    """Calibrate one airframe from healthy flights: motor imbalance from hover, then adapt the model to it.
+
+    Needs the training extra (torch): pip install 'flightlog-fd[train]'.
+    """
+    files, errors = collect_logs(logs)
+    for e in errors:
+        _fail(e)
+    if errors or not files:
+        if not files and not errors:
+            _fail("no log files found")
+        raise typer.Exit(EXIT_INVALID)
+    if not no_adapt:
+        try:
+            import torch  # noqa: F401
+            from training.adapt import AdaptSettings, calibrate as run_calibration
+        except ImportError:
+            _fail("calibration adapts the model and needs torch: pip install 'flightlog-fd[train]' "
+                  "(or use --no-adapt to measure the imbalance only)")
+            raise typer.Exit(EXIT_INVALID)
+    console = _console()
+    err_console = _console(stderr=True)
+    try:
+        if no_adapt:
+            from .profile import calibrate_profile
+
+            for p in (output,):
+                if p.exists() and not force:
+                    raise FlightLogError(p, "already exists (use --force to overwrite)")
+            profile = calibrate_profile(files)
+            profile.save(output, overwrite=force)
+        else:
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+            with Progress(TextColumn("{task.description:<16}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+                          TimeElapsedColumn(), console=err_console, transient=True) as bar:
+                tasks: dict[str, int] = {}
+
+                def progress(stage: str, frac: float) -> None:
+                    if stage not in tasks:
+                        tasks[stage] = bar.add_task(stage, total=1.0)
+                    bar.update(tasks[stage], completed=min(1.0, frac))
+
+                settings = AdaptSettings(n_flights=flights, max_epochs=epochs, seed=seed)
+                profile = run_calibration(files, output, settings=settings, overwrite=force, progress=progress)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    rho = ", ".join(f"{x:.3f}" for x in profile.rho_)
+    console.print(f"wrote {output}: {profile.autopilot} {profile.frame}, rho = [{rho}], "
+                  f"hover throttle {profile.hover_throttle_:.3f} from {profile.hover_s_:.0f} s of hover "
+                  f"in {profile.n_hover_segments_} segment(s)", markup=False)
+    if profile.model:
+        ad = (profile.extra or {}).get("adaptation", {})
+        console.print(f"adapted model: {output.with_suffix('.onnx')} ({ad.get('epochs', '?')} epochs, "
+                      f"{ad.get('total_seconds', '?')} s)", markup=False)
+    console.print(f"use it with: fdlog diagnose --profile {output} LOG", markup=False)
+
+
 FORMATS = {"ulog": ".ulg", "dataflash": ".bin"}
 
 
