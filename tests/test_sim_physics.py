@@ -1,6 +1,8 @@
 """Simulator physics and control: airframes, rotor geometry/spin signs, mixer, hover trim, damage, ρ."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,9 @@ from flightlog_fd.sim.api import simulate_batch
 from flightlog_fd.sim.controller import mix, mixer_matrices
 from flightlog_fd.sim.damage import MAX_DAMAGED_COMMAND, MAX_STATIC_TILT_DEG, Damage, min_feasible_eta, random_damages
 from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams
+from flightlog_fd.sim.logger import thrust_to_signal
+from flightlog_fd.sim.sensors import SensorParams, Sensors
+from flightlog_fd.sim.unbalance import resolve_rho
 
 PRESET_SET = [preset("sih"), preset("x500"), preset("crazyflie"), preset("heavy"), preset("f450", "quad_plus")]
 
@@ -206,3 +211,48 @@ def test_min_feasible_eta_leaves_control_margin():
         Damage(5, 0.8)
     with pytest.raises(ValueError):
         Damage(0, 0.9)
+
+
+def test_resolve_rho_modes():
+    rng = np.random.default_rng(0)
+    np.testing.assert_array_equal(resolve_rho(None, 3, rng), np.ones((3, 4)))
+    r = resolve_rho("random", 500, rng)
+    assert (r[:, 0] == 1.0).all() and np.abs(r - 1).max() <= 0.08 + 1e-12 and r[:, 1:].std() > 0.02
+    np.testing.assert_array_equal(resolve_rho([1, 1.1, 0.9, 1], 2, rng), [[1, 1.1, 0.9, 1]] * 2)
+    with pytest.raises(ValueError):
+        resolve_rho([1, 1, 1], 2, rng)
+
+
+def test_thrust_curve_signal_inverts_the_autopilot_model():
+    u = np.linspace(0.0, 1.0, 11)
+    for curve in (0.0, 0.3, 0.65):
+        s = thrust_to_signal(u, curve)
+        np.testing.assert_allclose((1 - curve) * s + curve * s * s, u, atol=1e-12)
+        assert (s >= u - 1e-12).all()  # an expo curve needs more signal than thrust
+
+
+def test_damaged_propeller_vibration_at_its_rotation_frequency():
+    """Noise-free gyro with one unbalanced rotor: the sampled vibration sits at that rotor's
+    (aliased) rotation frequency with the filtered amplitude of damage.py / sensors.py."""
+    af = preset("sih")
+    vp = VehicleParams.from_airframes([af])
+    sp = replace(SensorParams.draw([af], np.random.default_rng(1)), gyro_noise_density=np.zeros(1),
+                 gyro_bias=np.zeros((1, 3)), turbulence_std=np.zeros((1, 3)), vibration_gain=1.2)
+    dt = 1.0 / 250.0
+    sens = Sensors(sp, vp, dt, 10 * dt, np.random.default_rng(2))
+    w = np.array([[700.0], [650.0], [600.0], [550.0]])  # rad/s, rotor 2 is the damaged one
+    imbalance = np.array([[0.0], [0.3], [0.0], [0.0]])
+    pos, vel = np.zeros((3, 1)), np.zeros((3, 1))
+    out = []
+    for i in range(2500):
+        if i % 10 == 0:
+            sens.nav(pos, vel, w, imbalance)
+        out.append(sens.gyro_and_disturbance(np.zeros((3, 1)))[0][:, 0].copy())
+    roll = np.array(out)[500:, 0]
+    f_rot = 650.0 / (2 * np.pi)
+    expected_amp = 1.2 * 0.3 * (650.0 / af.omega_max) ** 2 / np.sqrt(1 + (f_rot / af.gyro_cutoff_hz) ** 4)
+    assert roll.std() * np.sqrt(2.0) == pytest.approx(expected_amp, rel=0.05)
+    spec = np.abs(np.fft.rfft(roll * np.hanning(roll.size)))
+    freqs = np.fft.rfftfreq(roll.size, dt)
+    alias = abs(((f_rot + 125.0) % 250.0) - 125.0)  # folded into 0..125 Hz by 250 Hz sampling
+    assert freqs[spec.argmax()] == pytest.approx(alias, abs=0.5)

@@ -182,7 +182,9 @@ class QuadDynamics:
 
         # Rotational dynamics: I ω_dot = τ − ω × Iω − c ω, plus the disturbance.
         om = s.omega
-        om_dot = (torque - cross(om, self.p.inertia * om, self._cross) - self.drag_ang * om) * self.inv_inertia + ang_acc_dist
+        om_dot = torque - cross(om, self.p.inertia * om, self._cross) - self.drag_ang * om
+        om_dot *= self.inv_inertia
+        om_dot += ang_acc_dist
 
         # Translational: thrust along −z_body, gravity, linear drag relative to the air.
         q = s.quat
