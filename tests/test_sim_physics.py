@@ -256,3 +256,10 @@ def test_damaged_propeller_vibration_at_its_rotation_frequency():
     freqs = np.fft.rfftfreq(roll.size, dt)
     alias = abs(((f_rot + 125.0) % 250.0) - 125.0)  # folded into 0..125 Hz by 250 Hz sampling
     assert freqs[spec.argmax()] == pytest.approx(alias, abs=0.5)
+
+
+def test_random_damage_on_a_weak_airframe_stays_a_real_damage():
+    weak = replace(preset("x500"), k_f=preset("x500").k_f * 0.7, gains=None)  # hover command 0.68
+    dmg = random_damages([weak] * 30, np.full(30, 60.0), np.random.default_rng(1), healthy_fraction=0.0,
+                         eta_range=(0.6, 0.95))
+    assert all(1 <= d.motor <= 4 and d.eta == pytest.approx(0.95) for d in dmg)

@@ -21,7 +21,7 @@ uniformly chosen motor with η uniform in ``eta_range`` but never below
 full thrust in hover (no control margin left: the vehicle spins or sinks), or its torque would
 tip the vehicle by more than ``MAX_STATIC_TILT_DEG`` at lift-off before the rate integrator
 holds it (slow, low-inertia airframes flip) - not the "flies on, slightly off" case the tool
-diagnoses. A fraction
+diagnoses; an airframe too weak for any η of the range gets its upper end. A fraction
 ``midflight_fraction`` of the damaged ones start mid-flight, 30-70 % into the planned flight.
 """
 from __future__ import annotations
@@ -94,12 +94,13 @@ def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np
             out.append(HEALTHY)
             continue
         motor = int(rng.integers(1, 5))
-        lo = max(eta_range[0], min_feasible_eta(af))
-        eta = float(rng.uniform(lo, max(lo, eta_range[1])))
+        # An airframe too weak for any η in the range gets the mildest one (never η = 1 with a label).
+        lo = min(max(eta_range[0], min_feasible_eta(af)), eta_range[1])
+        eta = float(rng.uniform(lo, eta_range[1]))
         onset = None
         if rng.uniform() < midflight_fraction:
             onset = float(rng.uniform(*MIDFLIGHT_WINDOW) * planned)
-        out.append(Damage(motor, min(eta, 1.0), onset))
+        out.append(Damage(motor, eta, onset))
     return out
 
 
