@@ -75,9 +75,12 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     imbalance_base = damage.imbalance_base.T.copy()
     omega_max = vp.omega_max
 
-    rec: dict[str, list] = {k: [] for k in decimation}
-    rec_t: dict[str, list] = {k: [] for k in decimation}
     n_max = int(np.ceil(t_max / dt))
+    # Recording buffers sized for the longest possible run; pages never written are never
+    # committed by the OS, so an early stop costs no memory.
+    rec = {k: np.empty((n_max // d + 2, n, STREAM_FIELDS[k]), np.float32) for k, d in decimation.items()}
+    rec_t = {k: np.empty(n_max // d + 2) for k, d in decimation.items()}
+    count = dict.fromkeys(decimation, 0)
     t_all_done = None
     mode = np.zeros(n, dtype=np.int64)
     eta = np.ones((4, n))
@@ -126,13 +129,15 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
                 v = eta
             else:  # thrust of the previous step (the rotor state lags anyway)
                 v = thrust
-            rec[name].append(v.T.astype(np.float32))
-            rec_t[name].append(t)
+            c = count[name]
+            rec[name][c] = v.T
+            rec_t[name][c] = t
+            count[name] = c + 1
         thrust = dyn.step(state, w_com, eff, wind, disturbance, gain)
         if t_all_done is not None and t >= t_all_done + tail_s:
             break
-    data = {k: (np.stack(v) if v else np.zeros((0, n, STREAM_FIELDS[k]), np.float32)) for k, v in rec.items()}
-    times = {k: np.asarray(v, dtype=np.float64) for k, v in rec_t.items()}
+    data = {k: v[:count[k]] for k, v in rec.items()}
+    times = {k: v[:count[k]] for k, v in rec_t.items()}
     return BatchResult(times=times, data=data, t_takeoff_cmd=runner.t_takeoff_cmd, t_takeoff=runner.t_takeoff,
                        t_touchdown=runner.t_touchdown, t_landed=runner.t_landed, t_disarm=runner.t_disarm,
                        t_end=t, dt=dt)
