@@ -172,6 +172,9 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
     px4 = profile.autopilot == "px4"
     jitter_rng = rng if profile.jitter_frac > 0 else None
     flights = []
+    # Vehicle-major float64 copies: one pass per stream instead of a strided gather per vehicle.
+    per_vehicle = {k: np.ascontiguousarray(res.data[k].transpose(1, 0, 2), dtype=np.float64)
+                   for k in ("rates", "attitude", "motors", "velocity")}
     for i, af in enumerate(airframes):
         offset = float(rng.uniform(*profile.boot_offset_s))
         t_disarm = res.t_disarm[i]
@@ -179,9 +182,9 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
 
         def stream(name: str, hz: float) -> tuple[np.ndarray, np.ndarray]:
             t_sim = res.times[name]
-            m = t_sim <= t_last + 1e-9
-            t, keep = _stamp(t_sim[m], offset, 1.0 / hz, profile, jitter_rng)
-            return t[keep], res.data[name][m, i][keep].astype(np.float64)
+            m = int(np.searchsorted(t_sim, t_last + 1e-9, side="right"))
+            t, keep = _stamp(t_sim[:m], offset, 1.0 / hz, profile, jitter_rng)
+            return t[keep], per_vehicle[name][i, :m][keep]
 
         t_r, rates = stream("rates", profile.rates_hz)
         t_a, q = stream("attitude", profile.attitude_hz)
