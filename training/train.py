@@ -19,9 +19,10 @@ Two choices the paper leaves open, made so that lam = 1e4 trains (measured on to
 tests/test_train.py): (1) the UNBIASED MMD^2 estimator: the biased one has a positive floor
 (1 - mean within-set kernel) / batch that lam = 1e4 turns into a force of ~150x the CE which
 collapses all features to a point (CE stuck at chance); the unbiased one has no such floor.
-(2) a warm-up: the first ``warmup_epochs`` (default 1) optimise the CE alone, because an MMD term
-that large on untrained features drowns the CE gradient and the network learns slowly or not at
-all (toy: 75 % vs 99 % source accuracy after 10 epochs). The reported loss of every epoch,
+(2) a warm-up: the first WARMUP_STEPS = 300 steps (rounded up to whole epochs; 2 epochs for 20k
+windows; none when fine-tuning given weights) optimise the CE alone, because an MMD term that
+large on untrained features drowns the CE gradient and the network learns slowly or not at all
+(toy, 10k windows, 10 epochs: 75 % source accuracy without warm-up, 99 % with one epoch). The reported loss of every epoch,
 including warm-up ones, is the full CE + lam * MMD^2, so early stopping and model keeping watch
 the paper's objective. Being unbiased, the per-epoch MMD^2 mean can be slightly negative; with
 lam = 1e4 its noise (~1e-3) moves the loss by ~10, far more than the CE changes late in training.
@@ -33,11 +34,13 @@ every epoch) and the weights of the epoch with the lowest training loss are rest
 selection ever uses labelled target data.
 
 Repeatability: one ``seed`` sets torch's generator (weights, dropout) and a numpy Generator
-(shuffles); same inputs and seed give the same model on the same machine. CPU only; torch is
-limited to at most TORCH_THREADS threads while training (restored afterwards).
+(shuffles); same inputs and seed give the same model on the same machine. CPU only; torch runs
+on ``threads`` (default TORCH_THREADS = 1, see there why) threads while training and predicting,
+restored afterwards.
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import time
 from dataclasses import asdict, dataclass, field
@@ -56,9 +59,13 @@ BATCH_SIZE = 128
 MAX_EPOCHS = 50
 PATIENCE = 10  # epochs without a lower training loss before stopping
 MMD_BATCH = 64  # healthy source + healthy target windows per step for the MMD
-WARMUP_EPOCHS = 1  # epochs of CE only before the MMD term joins the optimised loss
+WARMUP_STEPS = 300  # CE-only optimiser steps (rounded up to whole epochs) before the MMD joins
 HEALTHY = 0  # class index of healthy windows
-TORCH_THREADS = 2  # the target machines have 2 cores
+# One thread: the network's ops are small, and on the 2-core machines this runs on (shared with
+# other processes) 2 OpenMP threads measured 10-25x SLOWER per step (186 vs 7 ms for the
+# 16-filter test network, 540 vs 28 ms for the paper's) because the threads spin-wait for
+# cores that are busy.
+TORCH_THREADS = 1
 PREDICT_BATCH = 4096  # windows per forward pass at inference
 
 
@@ -102,6 +109,17 @@ class TrainResult:
         }
 
 
+@contextlib.contextmanager
+def limited_threads(threads: int):
+    """Run torch on ``threads`` intra-op threads inside the block, restoring the previous count."""
+    previous = torch.get_num_threads()
+    torch.set_num_threads(max(1, threads))
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
 def _check_windows(name: str, X: np.ndarray, config: DCNNConfig) -> None:
     if X.ndim != 3 or X.shape[1] != config.in_channels or X.shape[2] != config.window:
         raise ValueError(
@@ -141,14 +159,18 @@ def train_dcnn(
     sample_weight: Optional[np.ndarray] = None,
     mmd_batch: int = MMD_BATCH,
     mmd_bandwidth: float | None = None,
-    warmup_epochs: int = WARMUP_EPOCHS,
+    warmup_steps: Optional[int] = None,
     init_state: Optional[dict] = None,
+    threads: int = TORCH_THREADS,
 ) -> TrainResult:
     """Train a DCNN on source windows, aligning healthy features with ``X_tgt_healthy`` if given.
 
     ``init_state`` (a DCNN state dict with the same config) starts from trained weights, e.g. to
     fine-tune the shipped model with domain adaptation; otherwise the weights start from ``seed``.
-    ``progress(stats)`` is called after every epoch; ``sample_weight`` weights the source CE.
+    ``warmup_steps`` CE-only steps (rounded up to whole epochs) come before the MMD joins the
+    optimised loss; default WARMUP_STEPS from random weights, 0 when fine-tuning ``init_state``
+    (its features are already trained). ``progress(stats)`` is called after every epoch;
+    ``sample_weight`` weights the source CE.
     """
     config = config or DCNNConfig(in_channels=X_src.shape[1], window=X_src.shape[2])
     X_src = np.ascontiguousarray(X_src, dtype=np.float32)
@@ -175,9 +197,7 @@ def train_dcnn(
         if len(X_tgt_healthy) < 2 or len(healthy_src) < 2:
             raise ValueError("domain adaptation needs >= 2 healthy source and >= 2 target windows")
 
-    previous_threads = torch.get_num_threads()
-    torch.set_num_threads(min(TORCH_THREADS, previous_threads))
-    try:
+    with limited_threads(threads):
         torch.manual_seed(seed)
         rng = np.random.default_rng(seed)
         model = DCNN(config)
@@ -193,6 +213,11 @@ def train_dcnn(
             X_tgt_t = torch.from_numpy(X_tgt_healthy)  # (M, C, T)
             src_healthy_batches = _cycle_batches(healthy_src, mmd_batch, rng)
             tgt_batches = _cycle_batches(np.arange(len(X_tgt_healthy)), mmd_batch, rng)
+
+        steps_per_epoch = -(-len(X_src) // batch)
+        if warmup_steps is None:
+            warmup_steps = WARMUP_STEPS if init_state is None else 0
+        warmup_epochs = -(-warmup_steps // steps_per_epoch) if use_mmd else 0
 
         history: list[EpochStats] = []
         best_loss, best_epoch, best_state = float("inf"), 0, None
@@ -261,8 +286,6 @@ def train_dcnn(
             best_state, best_epoch, best_loss = model.state_dict(), len(history), float("nan")
         model.load_state_dict(best_state)
         model.eval()
-    finally:
-        torch.set_num_threads(previous_threads)
 
     settings = {
         "n_source_windows": int(len(X_src)),
@@ -273,7 +296,7 @@ def train_dcnn(
         "batch": batch,
         "mmd_batch": mmd_batch if use_mmd else 0,
         "mmd_estimator": "unbiased, median-heuristic multi-bandwidth Gaussian" if use_mmd else None,
-        "warmup_epochs": warmup_epochs if use_mmd else 0,
+        "warmup_epochs": warmup_epochs,
         "max_epochs": max_epochs,
         "patience": patience,
         "seed": seed,
@@ -283,7 +306,9 @@ def train_dcnn(
     return TrainResult(model, history, best_epoch, best_loss, stop_reason, seconds, settings)
 
 
-def predict_proba(model: DCNN, X: np.ndarray, batch: int = PREDICT_BATCH) -> np.ndarray:
+def predict_proba(
+    model: DCNN, X: np.ndarray, batch: int = PREDICT_BATCH, threads: int = TORCH_THREADS
+) -> np.ndarray:
     """Class probabilities (N, n_classes) float32 for standardised windows X (N, C, T)."""
     X = np.ascontiguousarray(X, dtype=np.float32)
     n_classes = model.config.n_classes
@@ -292,7 +317,7 @@ def predict_proba(model: DCNN, X: np.ndarray, batch: int = PREDICT_BATCH) -> np.
     was_training = model.training
     model.eval()
     out = []
-    with torch.no_grad():
+    with torch.no_grad(), limited_threads(threads):
         for first in range(0, len(X), batch):
             logits = model(torch.from_numpy(X[first : first + batch]))  # (b, 5)
             out.append(torch.softmax(logits, 1).numpy())
