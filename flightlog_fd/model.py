@@ -112,6 +112,8 @@ class FaultModel:
 
     def __init__(self, path):
         self._path = Path(path)
+        if self._path.is_dir():
+            raise ModelError(self._path, "is a folder, not a model file")
         if not self._path.is_file():
             raise ModelError(self._path, "model file not found")
         # Imported here so that `import flightlog_fd.model` stays cheap for commands not diagnosing.
