@@ -76,7 +76,7 @@ class EpochStats:
     epoch: int  # 1-based
     loss: float  # CE + lam * MMD^2, the quantity early stopping watches
     ce: float
-    mmd2: float  # 0.0 when no target data
+    mmd2: float  # unbiased estimate, may be slightly negative; 0.0 when no target data
     accuracy: float  # on the (dropout-perturbed) training batches
     seconds: float
 
