@@ -81,12 +81,16 @@ def airframe_family(frame: str, hover_throttle: float):
     return draw
 
 
-def logging_profile_for(profile: Profile) -> str:
-    """The simulator's logging profile closest to how the calibration log was written."""
+def logging_profiles_for(profile: Profile) -> tuple[str, ...]:
+    """The simulator's logging profiles to train with, given how the calibration log was written.
+
+    A PX4 airframe calibrated on a high-rate log will also be diagnosed from default-profile
+    logs (10 Hz motors), so both are simulated; a 10 Hz calibration log gets 10 Hz only.
+    """
     motors_hz = float(profile.stream_rates.get("motors", 100.0))
     if profile.autopilot == "ardupilot":
-        return "ardupilot"
-    return "px4_default" if motors_hz < SLOW_MOTORS_HZ else "training"
+        return ("ardupilot",)
+    return ("px4_default",) if motors_hz < SLOW_MOTORS_HZ else ("training", "px4_default")
 
 
 def base_model_files(model_path: Optional[Path] = None) -> tuple[Path, Optional[Path]]:
@@ -118,13 +122,13 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
     base = FaultModel(base_onnx)
     spec = FeatureSpec.from_dict(base.feature_spec)  # same channels, rate, window and statistics
     target = np.concatenate([make_windows(fl, spec).X for fl in healthy_flights])
-    log_profile = logging_profile_for(profile)
+    log_profiles = logging_profiles_for(profile)
     report = (lambda stage, frac: progress(stage, frac)) if progress else (lambda stage, frac: None)
 
     src = simulate_windows(settings.n_flights, spec, seed=settings.seed,
                            airframes=airframe_family(profile.frame, profile.hover_throttle_),
                            rho=np.asarray(profile.rho_, float), rho_mode="physical",
-                           duration_s=settings.duration_s, profile=log_profile, eta_range=settings.eta_range,
+                           duration_s=settings.duration_s, profiles=log_profiles, eta_range=settings.eta_range,
                            progress=lambda d, n: report("simulating", d / n))
     t_sim = time.time() - t0
     config = DCNNConfig(in_channels=len(spec.channels), window=spec.window)
@@ -139,7 +143,7 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
         "kind": "calibrated (adjusted simulation model + MMD domain adaptation)",
         "base_model": {"path": str(base_onnx), "sha256": base.sha256, "finetuned": init is not None},
         "data": f"{settings.n_flights} simulated flights like this airframe (frame {profile.frame}, hover throttle "
-                f"{profile.hover_throttle_:.3f}, rho {np.round(profile.rho_, 4).tolist()}, logging {log_profile}, "
+                f"{profile.hover_throttle_:.3f}, rho {np.round(profile.rho_, 4).tolist()}, logging {list(log_profiles)}, "
                 f"eta {settings.eta_range}); {len(src)} windows; target: {len(target)} healthy windows from "
                 f"{len(healthy_flights)} log(s)",
         "class_counts": np.bincount(src.y, minlength=5).tolist(),

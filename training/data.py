@@ -38,6 +38,7 @@ class WindowSet:
     y: np.ndarray  # (N,) int, 0 healthy, k = motor k damaged
     flight: np.ndarray  # (N,) int, index of the flight the window came from
     t_start: np.ndarray  # (N,) float, log clock seconds
+    t_end: np.ndarray  # (N,) float, log clock seconds
     eta: np.ndarray  # (N,) float, efficiency of the damaged motor (1.0 when healthy / unknown)
     names: list[str] = field(default_factory=list)  # one per flight
 
@@ -45,8 +46,8 @@ class WindowSet:
         return int(len(self.y))
 
     def subset(self, mask: np.ndarray) -> "WindowSet":
-        return WindowSet(self.X[mask], self.y[mask], self.flight[mask], self.t_start[mask], self.eta[mask],
-                         self.names)
+        return WindowSet(self.X[mask], self.y[mask], self.flight[mask], self.t_start[mask], self.t_end[mask],
+                         self.eta[mask], self.names)
 
     def healthy(self) -> np.ndarray:
         return self.X[self.y == 0]
@@ -64,18 +65,21 @@ class WindowSet:
             np.concatenate([s.y for s in sets]) if sets else np.zeros(0, int),
             np.concatenate(parts_flight) if sets else np.zeros(0, int),
             np.concatenate([s.t_start for s in sets]) if sets else np.zeros(0),
+            np.concatenate([s.t_end for s in sets]) if sets else np.zeros(0),
             np.concatenate([s.eta for s in sets]) if sets else np.zeros(0),
             names,
         )
 
     def save(self, path: Path) -> None:
-        np.savez_compressed(path, X=self.X, y=self.y, flight=self.flight, t_start=self.t_start, eta=self.eta,
+        np.savez_compressed(path, X=self.X, y=self.y, flight=self.flight, t_start=self.t_start, t_end=self.t_end,
+                            eta=self.eta,
                             names=np.array(self.names))
 
     @staticmethod
     def load(path: Path) -> "WindowSet":
         d = np.load(path)
-        return WindowSet(d["X"], d["y"], d["flight"], d["t_start"], d["eta"], [str(x) for x in d["names"]])
+        t_end = d["t_end"] if "t_end" in d else d["t_start"]
+        return WindowSet(d["X"], d["y"], d["flight"], d["t_start"], t_end, d["eta"], [str(x) for x in d["names"]])
 
 
 def flight_windows(flights: Sequence[Flight], spec: FeatureSpec, labels: Optional[Sequence[dict]] = None,
@@ -97,7 +101,7 @@ def flight_windows(flights: Sequence[Flight], spec: FeatureSpec, labels: Optiona
         keep = np.ones(len(y), bool) if keep_ambiguous else (y != AMBIGUOUS)
         n = int(keep.sum())
         sets.append(WindowSet(
-            w.X[keep].astype(np.float32), y[keep].astype(int), np.zeros(n, int), w.t_start[keep],
+            w.X[keep].astype(np.float32), y[keep].astype(int), np.zeros(n, int), w.t_start[keep], w.t_end[keep],
             np.where(y[keep] > 0, eta, 1.0),
             [names[i] if names is not None else (fl.path or f"flight{i}")],
         ))
