@@ -19,7 +19,7 @@ profile             autopilot  sim   rates     att.    motors      alt       vel
 ``px4_high``        px4        250   250       250     250         10        10
 ``px4_default``     px4        250   50        50      10          10        10
 ``ardupilot``       ardupilot  400   50 (IMU)  50      50 (RATE)   10 RCOU   10
-``ardupilot_slow``  ardupilot  400   25 (IMU)  25      25 (RATE)   10 RCOU   10
+``ardupilot_slow``  ardupilot  400   20 (IMU)  20      20 (RATE)   10 RCOU   10
 ``ardupilot_fast``  ardupilot  400   400       400     400 (RATE)  10 RCOU   10
 ``training``        px4        200   100       100     100         10        10
 ==================  =========  ====  ========  ======  ==========  ========  ==========
@@ -94,8 +94,8 @@ PROFILES: dict[str, LogProfile] = {
                               (18.0, 30.0)),
     "ardupilot": LogProfile("ardupilot", "ardupilot", 400.0, 50.0, 50.0, 50.0, 10.0, 10.0, 0.02, 0.0,
                             (30.0, 300.0)),
-    # ArduCopter 3.x with the default LOG_BITMASK: RATE/ATT/IMU near 25 Hz (the Erle logs: ~24 Hz).
-    "ardupilot_slow": LogProfile("ardupilot_slow", "ardupilot", 400.0, 25.0, 25.0, 25.0, 10.0, 10.0, 0.02, 0.0,
+    # ArduCopter 3.x with the default LOG_BITMASK: RATE/ATT/IMU at 20-25 Hz (the Erle logs: ~24 Hz).
+    "ardupilot_slow": LogProfile("ardupilot_slow", "ardupilot", 400.0, 20.0, 20.0, 20.0, 10.0, 10.0, 0.02, 0.0,
                                  (30.0, 300.0)),
     "ardupilot_fast": LogProfile("ardupilot_fast", "ardupilot", 400.0, 400.0, 400.0, 400.0, 10.0, 10.0, 0.02,
                                  0.001, (30.0, 300.0)),
