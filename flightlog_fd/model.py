@@ -15,6 +15,11 @@ object:
     classes       list  ["healthy", "motor1", "motor2", "motor3", "motor4"] (output order)
     training      dict  free-form summary (data, epochs, seed, lam, accuracy...)
     created       str   ISO-8601 UTC time of export
+    logit_bias    list  optional, one number per class: decision offsets added to the log
+                        probabilities before renormalising (p_k * exp(b_k) / sum). `fdlog
+                        calibrate` sets them from the calibration flight's healthy windows so
+                        that this airframe's own healthy flight is called healthy (see
+                        training/adapt.py); absent or zero for the shipped model.
 
 :class:`FaultModel` loads such a file, checks that the metadata is complete and agrees with the
 graph's input/output shapes (ModelError otherwise, naming the file), standardises raw windows
@@ -99,6 +104,8 @@ def validate_metadata(meta: Any, path: Any = None) -> dict:
         raise ModelError(path, f"feature_spec needs 'mean' and 'std' as {len(channels)} finite numbers each")
     if np.any(std <= 0):
         raise ModelError(path, "feature_spec 'std' must be positive")
+    if "logit_bias" in meta and _finite_numbers(meta["logit_bias"], len(classes)) is None:
+        raise ModelError(path, f"model metadata 'logit_bias' must be {len(classes)} finite numbers")
     return meta
 
 
@@ -233,10 +240,24 @@ class FaultModel:
             self._session.run([OUTPUT_NAME], {INPUT_NAME: X[first : first + INFERENCE_BATCH]})[0]
             for first in range(0, len(X), INFERENCE_BATCH)
         ]
-        return np.concatenate(parts).astype(np.float32, copy=False)
+        return apply_logit_bias(np.concatenate(parts), self.logit_bias).astype(np.float32, copy=False)
+
+    @property
+    def logit_bias(self) -> np.ndarray:
+        """Decision offsets per class (zeros when the model has none)."""
+        b = self._metadata.get("logit_bias")
+        return np.zeros(len(self.classes)) if b is None else np.asarray(b, dtype=np.float64)
 
     def __repr__(self) -> str:
         return f"FaultModel({str(self._path)!r}, version={self.version!r}, classes={len(self.classes)})"
+
+
+def apply_logit_bias(probs: np.ndarray, bias: Optional[np.ndarray]) -> np.ndarray:
+    """p_k * exp(b_k), renormalised per row; unchanged when ``bias`` is None or all zero."""
+    if bias is None or not np.any(bias):
+        return probs
+    q = np.asarray(probs, dtype=np.float64) * np.exp(np.asarray(bias, dtype=np.float64))[None, :]
+    return q / q.sum(axis=1, keepdims=True)
 
 
 def default_model_path() -> Path:

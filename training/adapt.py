@@ -13,7 +13,14 @@ from. No damaged real flight is ever needed.
 2. **Domain adaptation.** Fine-tune the shipped model's weights (``models/default.pt``; from
    scratch when absent) on those windows with loss CE + λ·MMD, the MMD on the first dense
    layer between healthy simulated windows and the log's own (healthy) windows, λ = 1e4.
-3. **Export** the adapted model as ONNX (feature spec and statistics in its metadata) next to the
+3. **Decision offsets from the healthy flight.** The calibration flight is healthy by definition,
+   so the adapted model must call its windows healthy. Per damage class k, the offset b_k is
+   chosen so that healthy is at least ``HEALTHY_MARGIN`` times as likely as class k on
+   ``HEALTHY_QUANTILE`` of the calibration windows (b_k = 0 when it already is); the runtime
+   applies them as p_k·exp(b_k) (:func:`flightlog_fd.model.apply_logit_bias`). This sets the
+   false-alarm rate on real healthy data of this airframe, using no damaged data; its cost is
+   sensitivity to damage that looks like this airframe's own healthy flight.
+4. **Export** the adapted model as ONNX (feature spec and statistics in its metadata) next to the
    profile, and record it in the profile (path + sha256).
 
 Time: the goal is under 3 minutes on a 2-core CPU (``ADAPT_FLIGHTS`` flights of
@@ -40,6 +47,10 @@ ADAPT_MAX_SECONDS = 100.0
 #: Damage severities simulated for an adapted model: mild damage matters most to a pilot.
 ETA_RANGE = (0.6, 0.95)
 LAMBDA_MMD = 1e4
+#: Decision offsets: healthy must beat each damage class by this factor on this share of the
+#: calibration flight's windows.
+HEALTHY_MARGIN = 2.0
+HEALTHY_QUANTILE = 0.95
 #: A log whose motors are slower than this is simulated with PX4's default 10 Hz motor logging.
 SLOW_MOTORS_HZ = 30.0
 
@@ -93,6 +104,22 @@ def logging_profiles_for(profile: Profile) -> tuple[str, ...]:
     return ("px4_default",) if motors_hz < SLOW_MOTORS_HZ else ("training", "px4_default")
 
 
+def healthy_decision_offsets(probs: np.ndarray, margin: float = HEALTHY_MARGIN,
+                             quantile: float = HEALTHY_QUANTILE) -> np.ndarray:
+    """(5,) log-probability offsets so that healthy windows ``probs`` (N, 5) are called healthy.
+
+    b_0 = 0; b_k = -max(0, q(log p_k - log p_0) + log(margin)) with q the ``quantile`` over windows.
+    """
+    logp = np.log(np.clip(np.asarray(probs, dtype=np.float64), 1e-12, 1.0))
+    bias = np.zeros(logp.shape[1])
+    if len(logp) == 0:
+        return bias
+    for k in range(1, logp.shape[1]):
+        need = float(np.quantile(logp[:, k] - logp[:, 0], quantile)) + np.log(margin)
+        bias[k] = -max(0.0, need)
+    return bias
+
+
 def base_model_files(model_path: Optional[Path] = None) -> tuple[Path, Optional[Path]]:
     """The ONNX model to adapt and its torch weights (``.pt`` beside it) when present."""
     from flightlog_fd.model import default_model_path
@@ -115,7 +142,7 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
     from training.data import simulate_windows
     from training.dcnn import DCNN, DCNNConfig
     from training.export import export_onnx
-    from training.train import train_dcnn
+    from training.train import predict_proba, train_dcnn
 
     t0 = time.time()
     base_onnx, base_pt = base_model_files(base_model)
@@ -139,8 +166,11 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
                      max_epochs=settings.max_epochs, patience=settings.patience, seed=settings.seed,
                      max_seconds=settings.max_seconds, init_state=init,
                      progress=lambda e: report("training", e.epoch / settings.max_epochs))
+    target_std = spec.normalise(target)
+    bias = healthy_decision_offsets(predict_proba(res.model, target_std))
     summary = {
-        "kind": "calibrated (adjusted simulation model + MMD domain adaptation)",
+        "kind": "calibrated (adjusted simulation model + MMD domain adaptation + healthy decision offsets)",
+        "logit_bias": np.round(bias, 4).tolist(),
         "base_model": {"path": str(base_onnx), "sha256": base.sha256, "finetuned": init is not None},
         "data": f"{settings.n_flights} simulated flights like this airframe (frame {profile.frame}, hover throttle "
                 f"{profile.hover_throttle_:.3f}, rho {np.round(profile.rho_, 4).tolist()}, logging {list(log_profiles)}, "
@@ -153,7 +183,8 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
     }
     out_onnx = Path(out_onnx)
     export_onnx(res.model, out_onnx, metadata={"feature_spec": spec.to_dict(), "training": summary,
-                                                "version": f"calibrated-{base.version}"})
+                                                "version": f"calibrated-{base.version}",
+                                                "logit_bias": [float(b) for b in bias]})
     return AdaptResult(out_onnx, summary)
 
 

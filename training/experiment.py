@@ -41,6 +41,9 @@ RESULTS = Path(__file__).resolve().parents[1] / "results"
 CLASS_NAMES = ["healthy", "motor 1", "motor 2", "motor 3", "motor 4"]
 DEFAULT_CALIB = {"px4_sih_dev": "sih_004", "crazypad_e9": "normal_flight__E9_log00"}
 METHODS = ("CF", "NIF", "NIF+DA")
+#: Our addition, not the paper's: NIF+DA with decision offsets set on the calibration flight's
+#: healthy windows (training/adapt.py), as `fdlog calibrate` ships it.
+OFFSETS = "NIF+DA+offsets"
 TSNE_POINTS = 1200  # per domain
 
 
@@ -124,8 +127,31 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
     target_healthy = nif.normalise(make_windows(cal.load(), nif).X)
     log(f"T: {len(T['nif'])} windows from {len(tests)} flights; DA target: {len(target_healthy)} healthy windows")
 
-    results = {m: MethodResult() for m in METHODS}
+    from flightlog_fd.model import apply_logit_bias
+    from training.adapt import healthy_decision_offsets
+
+    results = {m: MethodResult() for m in METHODS + (OFFSETS,)}
     models0 = {}
+
+    def record(method, model, seconds, ps, P, te, tw, r, epochs):
+        """Score one trained model (S-test predictions ``ps``, T probabilities ``P``)."""
+        R = results[method]
+        R.seconds.append(seconds)
+        pt = P.argmax(1)
+        known = tw.y >= 0
+        R.s_acc.append(float((ps == te.y).mean()))
+        R.t_acc.append(float((pt[known] == tw.y[known]).mean()))
+        R.t_healthy_acc.append(float((pt[tw.y == 0] == 0).mean()) if (tw.y == 0).any() else float("nan"))
+        R.t_damaged_acc.append(float((pt[tw.y > 0] == tw.y[tw.y > 0]).mean()) if (tw.y > 0).any() else float("nan"))
+        np.add.at(R.confusion, (tw.y[known], pt[known]), 1)
+        v = flight_verdicts(P, tw, tests)
+        R.verdict_ok.append(float(np.mean([x["ok"] for x in v])))
+        if r == 0:
+            R.verdicts = v
+            models0[method] = model
+        log(f"run {r} {method:14s}: S {R.s_acc[-1]:.3f}  T {R.t_acc[-1]:.3f}  verdicts "
+            f"{sum(x['ok'] for x in v)}/{len(v)}  ({seconds:.0f} s, {epochs} epochs)")
+
     for r in range(runs):
         for method in METHODS:
             key = "cf" if method == "CF" else "nif"
@@ -137,24 +163,15 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
                              config=DCNNConfig(in_channels=len(spec.channels), window=spec.window),
                              lam=1e4 if method == "NIF+DA" else 0.0, max_epochs=epochs, patience=patience,
                              seed=seed + r)
-            R = results[method]
-            R.seconds.append(time.time() - t1)
-            ps = predict_proba(res.model, spec.normalise(te.X)).argmax(1)
-            P = predict_proba(res.model, spec.normalise(tw.X))
-            pt = P.argmax(1)
-            known = tw.y >= 0
-            R.s_acc.append(float((ps == te.y).mean()))
-            R.t_acc.append(float((pt[known] == tw.y[known]).mean()))
-            R.t_healthy_acc.append(float((pt[tw.y == 0] == 0).mean()) if (tw.y == 0).any() else float("nan"))
-            R.t_damaged_acc.append(float((pt[tw.y > 0] == tw.y[tw.y > 0]).mean()) if (tw.y > 0).any() else float("nan"))
-            np.add.at(R.confusion, (tw.y[known], pt[known]), 1)
-            v = flight_verdicts(P, tw, tests)
-            R.verdict_ok.append(float(np.mean([x["ok"] for x in v])))
-            if r == 0:
-                R.verdicts = v
-                models0[method] = res.model
-            log(f"run {r} {method:6s}: S {R.s_acc[-1]:.3f}  T {R.t_acc[-1]:.3f}  verdicts "
-                f"{sum(x['ok'] for x in v)}/{len(v)}  ({R.seconds[-1]:.0f} s, {len(res.history)} epochs)")
+            seconds = time.time() - t1
+            ps_raw = predict_proba(res.model, spec.normalise(te.X))
+            P_raw = predict_proba(res.model, spec.normalise(tw.X))
+            variants = [(method, None)]
+            if method == "NIF+DA":
+                variants.append((OFFSETS, healthy_decision_offsets(predict_proba(res.model, target_healthy))))
+            for name, bias in variants:
+                record(name, res.model, seconds, apply_logit_bias(ps_raw, bias).argmax(1),
+                       apply_logit_bias(P_raw, bias), te, tw, r, len(res.history))
 
     # Peer rule on the same test flights, offsets from the calibration flight.
     offsets = healthy_offsets(cal.load())
@@ -242,7 +259,8 @@ def write_markdown(summary: dict, path: Path) -> None:
          "| method | accuracy on S (%) | accuracy on T (%) | T healthy windows (%) | T damaged windows (%) | flight verdicts right (%) |",
          "|---|---|---|---|---|---|"]
     for m, R in M.items():
-        L.append(f"| DCNN+{m} | {_ms(R['S_acc'])} | {_ms(R['T_acc'])} | {_ms(R['T_healthy_acc'])} | "
+        label = f"DCNN+{m}" + (" (ours)" if m == OFFSETS else "")
+        L.append(f"| {label} | {_ms(R['S_acc'])} | {_ms(R['T_acc'])} | {_ms(R['T_healthy_acc'])} | "
                  f"{_ms(R['T_damaged_acc'])} | {_ms(R['verdict_ok'])} |")
     peer = summary["peer_rule"]
     L += ["", f"Peer rule (a motor whose mean steady-flight command exceeds the others' by > 0.05 after "
@@ -257,9 +275,12 @@ def write_markdown(summary: dict, path: Path) -> None:
             if conf[k].sum():
                 L.append(f"| {CLASS_NAMES[k]} | " + " | ".join(str(x) for x in conf[k]) + " |")
         L.append("")
-    L += ["Per-flight verdicts (run 0) for DCNN+NIF+DA and the peer rule:", "",
-          "| flight | truth | DCNN+NIF+DA verdict | confidence | first seen (onset) | peer rule |", "|---|---|---|---|---|---|"]
+    L += ["Per-flight verdicts (run 0) for DCNN+NIF+DA, the same model with the calibration flight's decision "
+          "offsets, and the peer rule:", "",
+          "| flight | truth | DCNN+NIF+DA verdict | confidence | first seen (onset) | with offsets | peer rule |",
+          "|---|---|---|---|---|---|---|"]
     pr = {p["name"]: p for p in peer}
+    off = {v["name"]: v for v in M[OFFSETS]["verdicts_run0"]}
     for v in M["NIF+DA"]["verdicts_run0"]:
         verdict = v["status"] + (f" motor {v['motor']}" if v.get("motor") else "")
         onset = ""
@@ -267,8 +288,11 @@ def write_markdown(summary: dict, path: Path) -> None:
             fs = v.get("first_seen")
             onset = f"{fs:.1f} s ({v['onset']:.1f} s)" if fs is not None else f"- ({v['onset']:.1f} s)"
         p = pr.get(v["name"], {})
+        o = off.get(v["name"], {})
+        o_verdict = o.get("status", "") + (f" motor {o['motor']}" if o.get("motor") else "")
         L.append(f"| {v['name']} | {CLASS_NAMES[v['truth']]} | {'✔' if v['ok'] else '✘'} {verdict} | "
-                 f"{v.get('confidence', '')} | {onset} | {'✔' if p.get('ok') else '✘'} "
+                 f"{v.get('confidence', '')} | {onset} | {'✔' if o.get('ok') else '✘'} {o_verdict} | "
+                 f"{'✔' if p.get('ok') else '✘'} "
                  f"{'healthy' if not p.get('motor') else 'motor ' + str(p.get('motor'))} |")
     L += ["", f"![t-SNE of first-dense-layer features]({t}_tsne.png)", ""]
     path.write_text("\n".join(L))

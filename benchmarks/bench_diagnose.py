@@ -1,0 +1,64 @@
+"""Time to diagnose a long high-rate flight against the time to merely load it (goal: < 1.5x).
+
+    python benchmarks/bench_diagnose.py [--seconds 600] [--repeat 3] [--log FILE...]
+
+Writes a long simulated PX4 high-rate flight (250 Hz rates, attitude and motors) to a temporary
+ULog (and an ArduPilot 400 Hz DataFlash log), then times, best of ``--repeat``:
+  load      flightlog_fd.load_flight(path)
+  diagnose  load + windows + ONNX model + phases + verdict (flightlog_fd.diagnose.diagnose_path)
+and prints both and their ratio. Also times any real logs given with --log. Prints figures only;
+the machine is shared, so compare ratios measured in one run.
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+
+def best_of(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=600.0)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--log", type=Path, nargs="*", default=[])
+    args = ap.parse_args()
+
+    from flightlog_fd import load_flight
+    from flightlog_fd.diagnose import diagnose_path, resolve_model
+    from flightlog_fd.logs.dataflash_writer import write_dataflash
+    from flightlog_fd.logs.ulog_writer import write_ulog
+    from flightlog_fd.sim.api import simulate_flights
+
+    model = resolve_model()
+    with tempfile.TemporaryDirectory() as tmp:
+        files = []
+        for profile, writer, name in (("px4_high", write_ulog, "long.ulg"), ("ardupilot_fast", write_dataflash, "long.bin")):
+            fl = simulate_flights(1, airframes="x500", mission="waypoints", duration_s=args.seconds, profile=profile,
+                                  seed=5)[0]
+            p = Path(tmp) / name
+            writer(fl, p)
+            files.append(p)
+        files += list(args.log)
+        print(f"{'file':28s} {'size MB':>8s} {'airborne s':>10s} {'windows':>8s} {'load s':>8s} "
+              f"{'diagnose s':>10s} {'ratio':>6s}")
+        for p in files:
+            t_load = best_of(lambda: load_flight(p), args.repeat)
+            d = diagnose_path(p, model, keep_flight=False)
+            t_diag = best_of(lambda: diagnose_path(p, model, keep_flight=False), args.repeat)
+            air = d.facts.airborne_s if d.facts else 0.0
+            print(f"{p.name:28s} {p.stat().st_size / 1e6:8.1f} {air:10.0f} {len(d.windows):8d} {t_load:8.3f} "
+                  f"{t_diag:10.3f} {t_diag / t_load:6.2f}x")
+
+
+if __name__ == "__main__":
+    main()
