@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench install
+.PHONY: demo test bench install samples
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
@@ -23,3 +23,17 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	for b in benchmarks/*.py; do $(BIN)/python $$b || exit 1; done
+
+# Regenerate sample_logs/ with our own simulator (their truth is in sample_logs/README.md).
+SIM := $(BIN)/fdlog simulate --force
+samples: $(STAMP)
+	$(SIM) -o sample_logs/px4_healthy.ulg            --airframe x500 --duration 40 --seed 11
+	$(SIM) -o sample_logs/px4_motor1_damaged.ulg     --airframe x500 --duration 40 --seed 12 --motor 1 --eta 0.70
+	$(SIM) -o sample_logs/px4_motor2_damaged.ulg     --airframe f450 --duration 45 --seed 13 --motor 2 --eta 0.70 --log-profile px4_default
+	$(SIM) -o sample_logs/px4_motor3_midflight.ulg   --airframe x500 --duration 50 --seed 14 --motor 3 --eta 0.65 --onset 22
+	$(SIM) -o sample_logs/px4_motor4_damaged.ulg     --airframe f450 --duration 45 --seed 15 --motor 4 --eta 0.75 --log-profile px4_default
+	$(SIM) -o sample_logs/ardupilot_healthy.bin      --format dataflash --airframe f450 --duration 45 --seed 21 --log-profile ardupilot
+	$(SIM) -o sample_logs/ardupilot_motor1_damaged.bin --format dataflash --airframe x500 --duration 45 --seed 22 --motor 1 --eta 0.70
+	$(SIM) -o sample_logs/ardupilot_motor2_damaged.bin --format dataflash --airframe f450 --duration 45 --seed 23 --motor 2 --eta 0.75 --log-profile ardupilot
+	$(SIM) -o sample_logs/ardupilot_motor3_damaged.bin --format dataflash --airframe x500 --duration 45 --seed 24 --motor 3 --eta 0.70 --log-profile ardupilot
+	$(SIM) -o sample_logs/ardupilot_plus_motor4_damaged.bin --format dataflash --airframe f450 --frame quad_plus --duration 45 --seed 25 --motor 4 --eta 0.70 --log-profile ardupilot

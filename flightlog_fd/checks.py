@@ -43,8 +43,9 @@ class Diagnosability:
 def describe_vehicle(flight: Flight) -> str:
     """Plain words for the vehicle: "quadrotor (quad_x)", "VTOL", "hexarotor"..."""
     vt = (flight.vehicle_type or "unknown").replace("_", " ")
-    if flight.frame is not None and flight.frame.name:
-        return f"{vt} ({flight.frame.name}, {flight.frame.rotor_count} rotors)"
+    f = flight.frame
+    if f is not None and f.rotor_count:
+        return f"{vt} ({f.name}, {f.rotor_count} rotors)" if f.name != vt else f"{vt} ({f.rotor_count} rotors)"
     return vt
 
 
@@ -61,7 +62,8 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
         if vtype in ("quadrotor", "unknown", "multirotor") and frame is not None and frame.rotor_count and frame.rotor_count != 4:
             reasons.append(f"not a quadrotor: {frame.rotor_count}-rotor frame ({frame.name}); fdlog diagnoses quadrotors only")
         elif vtype not in ("quadrotor", "unknown", "multirotor"):
-            reasons.append(f"not a quadrotor: vehicle is a {describe_vehicle(flight)}; fdlog diagnoses quadrotors only")
+            reasons.append(f"not a quadrotor: this log is from a {describe_vehicle(flight).replace('vtol', 'VTOL')}; "
+                           f"fdlog diagnoses quadrotors only")
         elif frame is None:
             reasons.append("unknown frame: the log has no rotor geometry or frame parameters")
         else:

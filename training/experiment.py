@@ -124,7 +124,10 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
     T = {name: flight_windows([lg.load() for lg in tests], spec, labels=[lg.truth for lg in tests],
                               names=[lg.name for lg in tests], keep_ambiguous=True)
          for name, spec in (("nif", nif), ("cf", cf))}
-    target_healthy = nif.normalise(make_windows(cal.load(), nif).X)
+    from training.adapt import TARGET_STRIDE_DIV
+
+    dense = FeatureSpec.from_dict({**nif.to_dict(), "stride": max(1, nif.window // TARGET_STRIDE_DIV)})
+    target_healthy = nif.normalise(make_windows(cal.load(), dense).X)
     log(f"T: {len(T['nif'])} windows from {len(tests)} flights; DA target: {len(target_healthy)} healthy windows")
 
     from flightlog_fd.model import apply_logit_bias
