@@ -39,8 +39,11 @@ Confidence (0..1) is the mean probability the model gave to the chosen class ove
 the decision rests on (the run for ``damaged``, all windows for ``healthy``; for ``uncertain``
 the leading class over the run, or over the flight); 0 for ``not_diagnosable``.
 
+A run that starts after healthy flight (mid-flight onset) must also last ``MIN_ONSET_RUN_S``.
+
 Limits: one damaged propeller per flight (the model has no multi-fault class); damage present
-only in the last ``MIN_RUN_S`` seconds cannot be confirmed; the thresholds are tuned for windows
+only in the last ``MIN_RUN_S`` seconds (``MIN_ONSET_RUN_S`` after healthy flight) cannot be
+confirmed; the thresholds are tuned for windows
 of about 0.5-2 s with any overlap.
 """
 from __future__ import annotations
@@ -75,6 +78,11 @@ MIN_COVERED_S = 5.0
 MIN_RUN_WINDOWS = 6
 #: ... covering at least this many seconds of flight (window union, ground gaps excluded).
 MIN_RUN_S = 5.0
+#: A run that starts after healthy flight (a mid-flight onset) must last this long to be called
+#: damaged: a propeller that breaks stays broken to the end of the flight, while a stretch of
+#: odd windows at the end of a healthy flight (a descent in wind, a landing approach) is the
+#: commonest false alarm on real healthy logs. Shorter runs are at most "uncertain".
+MIN_ONSET_RUN_S = 20.0
 #: Share of the run's windows that must vote for the motor to call it damaged.
 DAMAGED_MIN_SHARE = 0.60
 #: Share of the run's damage votes (any motor) that must name the same motor; below it the
@@ -98,6 +106,7 @@ class VerdictSettings:
     min_covered_s: float = MIN_COVERED_S
     min_run_windows: int = MIN_RUN_WINDOWS
     min_run_s: float = MIN_RUN_S
+    min_onset_run_s: float = MIN_ONSET_RUN_S
     damaged_min_share: float = DAMAGED_MIN_SHARE
     motor_min_agreement: float = MOTOR_MIN_AGREEMENT
     uncertain_damage_prob: float = UNCERTAIN_DAMAGE_PROB
@@ -292,7 +301,8 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
     long_enough = run is not None and run.n_windows >= s.min_run_windows and run.covered_s >= s.min_run_s
     if long_enough:
         k, j = run.motor, run.start_index
-        if run.share >= s.damaged_min_share and run.agreement >= s.motor_min_agreement:
+        onset_confirmed = j == 0 or run.covered_s >= s.min_onset_run_s
+        if run.share >= s.damaged_min_share and run.agreement >= s.motor_min_agreement and onset_confirmed:
             # first_seen: the first window of the run the model itself already gave to motor k
             # (the onset model starts the run on such a window whenever one exists).
             hits = np.nonzero(raw_label[j:] == k)[0]
@@ -305,7 +315,11 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
             votes = {m: float(np.mean(run_labels == m)) for m in range(1, N_CLASSES)}
             ranked = sorted(votes, key=lambda m: -votes[m])
             top, second = ranked[0], ranked[1]
-            if run.agreement < s.motor_min_agreement and votes[second] > 0:
+            if not onset_confirmed and run.share >= s.damaged_min_share and run.agreement >= s.motor_min_agreement:
+                why = (f"{_motor_words(frame, k)} looks damaged only in the last {run.covered_s:.0f} s "
+                       f"(from t={run.t_start:.1f} s) after healthy flight; damage that starts mid-flight "
+                       f"is confirmed after {s.min_onset_run_s:.0f} s")
+            elif run.agreement < s.motor_min_agreement and votes[second] > 0:
                 why = (f"windows disagree between {_motor_words(frame, top)} ({_pct(votes[top])}) and "
                        f"{_motor_words(frame, second)} ({_pct(votes[second])}) in {run.n_windows} "
                        f"windows from t={run.t_start:.1f} s")

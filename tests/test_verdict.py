@@ -163,3 +163,20 @@ def test_helpers():
     slots = timeline_labels([0, 10], [10, 20], [0, 3], 0, 20, 4)
     assert slots == [0, 0, 3, 3]
     assert timeline_labels([0], [5], [1], 0, 20, 4) == [1, None, None, None]
+
+
+def test_short_damage_run_at_the_end_of_a_healthy_flight_is_not_a_damaged_verdict():
+    """A stretch of confident motor-3 windows in the last 12 s after a healthy flight (the
+    pattern of a real healthy log's descent) is at most uncertain; 30 s of it is damage."""
+    rng = np.random.default_rng(7)
+    ts, te = windows(90, t0=0.0)
+    short = np.where(ts >= 78.0, 3, 0)
+    v = decide(ts, te, confident(short, rng), frame=Frame.quad_x())
+    assert v.status in ("uncertain", "healthy")
+    assert v.status != "damaged"
+    if v.status == "uncertain":
+        assert "confirmed after 20 s" in v.reason
+    long = np.where(ts >= 55.0, 3, 0)
+    v = decide(ts, te, confident(long, rng), frame=Frame.quad_x())
+    assert v.status == "damaged" and v.motor == 3
+    assert abs(v.first_seen - 55.0) < 2.0
