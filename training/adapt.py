@@ -221,6 +221,6 @@ def calibrate(paths: Sequence[Path], out_profile: Path, *, settings: AdaptSettin
     if adapt:
         res = adapt_model(profile, flights, out_onnx, settings=settings, base_model=base_model, progress=progress)
         profile.extra = {**(profile.extra or {}), "adaptation": res.summary}
-        profile.set_model(out_onnx)
+        profile.set_model(out_onnx, profile_path=out_profile)
     profile.save(out_profile, overwrite=overwrite)
     return profile
