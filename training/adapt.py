@@ -52,6 +52,12 @@ LAMBDA_MMD = 1e4
 HEALTHY_MARGIN = 2.0
 HEALTHY_QUANTILE = 0.95
 TARGET_STRIDE_DIV = 8
+#: Dynamics matching: simulated flights are kept when their attitude time constant (robust scale
+#: of the roll/pitch rates over that of their angular accelerations) is within this factor of
+#: the calibration log's. A 30 g Crazyflie (~0.05 s) and a 2 kg quad (~0.13 s) differ by 2.5x.
+TAU_BAND = 1.35
+#: Flights simulated per flight kept, so that the band holds enough of them.
+TAU_OVERSAMPLE = 2.5
 #: A log whose motors are slower than this is simulated with PX4's default 10 Hz motor logging.
 SLOW_MOTORS_HZ = 30.0
 
@@ -121,6 +127,21 @@ def healthy_decision_offsets(probs: np.ndarray, margin: float = HEALTHY_MARGIN,
     return bias
 
 
+def attitude_time_constant(flight: Flight, rate_hz: float = 50.0) -> float:
+    """Robust scale of roll/pitch rates over that of roll/pitch angular accelerations, seconds.
+
+    A size-free signature of how fast the airframe's attitude moves (small quads are fast)."""
+    from flightlog_fd.features import resample
+
+    segs = resample(flight, rate_hz)
+    if not segs:
+        return float("nan")
+    r = np.concatenate([s.rates[:, :2] for s in segs])
+    a = np.concatenate([s.ang_acc[:, :2] for s in segs])
+    mad = lambda x: np.median(np.abs(x - np.median(x, axis=0)), axis=0)  # noqa: E731
+    return float(np.median(mad(r) / np.maximum(mad(a), 1e-9)))
+
+
 def base_model_files(model_path: Optional[Path] = None) -> tuple[Path, Optional[Path]]:
     """The ONNX model to adapt and its torch weights (``.pt`` beside it) when present."""
     from flightlog_fd.model import default_model_path
@@ -157,11 +178,19 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
     log_profiles = logging_profiles_for(profile)
     report = (lambda stage, frac: progress(stage, frac)) if progress else (lambda stage, frac: None)
 
-    src = simulate_windows(settings.n_flights, spec, seed=settings.seed,
+    tau = float(np.nanmedian([attitude_time_constant(fl, spec.rate_hz) for fl in healthy_flights]))
+
+    def like_this_airframe(fl: Flight) -> bool:
+        t = attitude_time_constant(fl, spec.rate_hz)
+        return bool(np.isfinite(tau) and np.isfinite(t) and abs(np.log(t / tau)) <= np.log(TAU_BAND))
+
+    src = simulate_windows(int(round(settings.n_flights * TAU_OVERSAMPLE)), spec, seed=settings.seed,
+                           flight_filter=like_this_airframe if np.isfinite(tau) else None,
                            airframes=airframe_family(profile.frame, profile.hover_throttle_),
                            rho=np.asarray(profile.rho_, float), rho_mode="physical",
                            duration_s=settings.duration_s, profiles=log_profiles, eta_range=settings.eta_range,
                            progress=lambda d, n: report("simulating", d / n))
+    n_kept = len(set(src.names))
     t_sim = time.time() - t0
     config = DCNNConfig(in_channels=len(spec.channels), window=spec.window)
     init = None
@@ -177,7 +206,8 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
         "kind": "calibrated (adjusted simulation model + MMD domain adaptation + healthy decision offsets)",
         "logit_bias": np.round(bias, 4).tolist(),
         "base_model": {"path": str(base_onnx), "sha256": base.sha256, "finetuned": init is not None},
-        "data": f"{settings.n_flights} simulated flights like this airframe (frame {profile.frame}, hover throttle "
+        "data": f"{n_kept} simulated flights like this airframe (attitude time constant {tau:.3f} s +/- x{TAU_BAND}, "
+                f"frame {profile.frame}, hover throttle "
                 f"{profile.hover_throttle_:.3f}, rho {np.round(profile.rho_, 4).tolist()}, logging {list(log_profiles)}, "
                 f"eta {settings.eta_range}); {len(src)} windows; target: {len(target)} healthy windows from "
                 f"{len(healthy_flights)} log(s)",

@@ -114,6 +114,7 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
                      profile: str = "training", profiles: Optional[Sequence] = None,
                      healthy_fraction: Optional[float] = None,
                      eta_range: Optional[tuple[float, float]] = None,
+                     flight_filter: Optional[Callable[[Flight], bool]] = None,
                      progress: Optional[Callable[[int, int], None]] = None) -> WindowSet:
     """Fly ``n_flights`` simulated quads in batches and window them (labels from the truth).
 
@@ -121,7 +122,8 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
     :func:`flightlog_fd.sim.api.simulate_flights`; ``airframes`` may be a callable
     ``(n, rng) -> list[Airframe]`` to draw a family (e.g. airframes like a calibrated one).
     Missions (and ``profiles``, logging profiles, when given instead of ``profile``) alternate
-    batch by batch. Deterministic for a seed.
+    batch by batch. ``flight_filter(flight) -> bool`` keeps only some of the simulated flights
+    (``n_flights`` counts the simulated ones). Deterministic for a seed.
     """
     from flightlog_fd.sim.api import simulate_flights
 
@@ -142,7 +144,12 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
             r = np.asarray(rho)[done:done + n]
         flights = simulate_flights(n, airframes=afs, mission=missions[b % len(missions)], duration_s=duration_s,
                                    profile=profiles[(b // len(missions)) % len(profiles)] if profiles else profile, rho=r, rho_mode=rho_mode, seed=bseed, **kw)
-        sets.append(flight_windows(flights, spec, names=[f"sim{seed}-{b}-{i}" for i in range(n)]))
+        names = [f"sim{seed}-{b}-{i}" for i in range(n)]
+        if flight_filter is not None:
+            keep = [i for i, fl in enumerate(flights) if flight_filter(fl)]
+            flights, names = [flights[i] for i in keep], [names[i] for i in keep]
+        if flights:
+            sets.append(flight_windows(flights, spec, names=names))
         done += n
         b += 1
         if progress is not None:

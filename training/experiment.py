@@ -87,7 +87,8 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
         out_dir: Path, log=print) -> dict:
     import torch
 
-    from training.adapt import airframe_family, logging_profiles_for
+    from training.adapt import (ETA_RANGE, TAU_BAND, TAU_OVERSAMPLE, airframe_family, attitude_time_constant,
+                                logging_profiles_for)
     from training.data import WindowSet, flight_windows, simulate_windows
     from training.dcnn import DCNNConfig
     from training.peer_rule import healthy_offsets, peer_rule
@@ -109,17 +110,27 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
         f"{profile.hover_throttle_:.3f}, {profile.hover_s_:.0f} s hover")
 
     family = airframe_family(profile.frame, profile.hover_throttle_)
+    # The same airframe matching as `fdlog calibrate` (training/adapt.py): keep simulated flights
+    # whose attitude time constant is within TAU_BAND of the calibration flight's.
+    tau = attitude_time_constant(cal.load(), nif.rate_hz)
+
+    def like_this_airframe(fl) -> bool:
+        t = attitude_time_constant(fl, nif.rate_hz)
+        return bool(np.isfinite(t) and abs(np.log(t / tau)) <= np.log(TAU_BAND))
+
     sim_kw = dict(airframes=family, rho=np.asarray(profile.rho_), rho_mode="physical",
-                  profiles=logging_profiles_for(profile), seed=seed)
+                  profiles=logging_profiles_for(profile), seed=seed, eta_range=ETA_RANGE,
+                  flight_filter=like_this_airframe)
+    log(f"attitude time constant of {calib}: {tau:.3f} s; simulated flights kept within x{TAU_BAND}")
     n_test = max(32, flights // 4)
     S = {}
     for name, spec in (("nif", nif), ("cf", cf)):
-        tr = simulate_windows(flights, spec, **sim_kw)
-        te = simulate_windows(n_test, spec, **{**sim_kw, "seed": seed + 1000})
+        tr = simulate_windows(int(round(flights * TAU_OVERSAMPLE)), spec, **sim_kw)
+        te = simulate_windows(int(round(n_test * TAU_OVERSAMPLE)), spec, **{**sim_kw, "seed": seed + 1000})
         spec.fit(tr.X)
         S[name] = (tr, te)
-        log(f"S {name}: train {len(tr)} windows from {flights} flights, test {len(te)} from {n_test} "
-            f"({time.time() - t0:.0f} s)")
+        log(f"S {name}: train {len(tr)} windows from {len(tr.names)} flights, test {len(te)} from "
+            f"{len(te.names)} ({time.time() - t0:.0f} s)")
     # T keeps the windows that straddle a mid-flight onset (label -1) for the verdicts; accuracies skip them.
     T = {name: flight_windows([lg.load() for lg in tests], spec, labels=[lg.truth for lg in tests],
                               names=[lg.name for lg in tests], keep_ambiguous=True)
@@ -191,6 +202,7 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
         "patience": patience, "seed": seed,
         "profile": {"rho": profile.rho_.tolist(), "hover_throttle": profile.hover_throttle_,
                     "hover_s": profile.hover_s_},
+        "tau": tau, "flights_kept": {"S_train": len(S["nif"][0].names), "S_test": len(S["nif"][1].names)},
         "n_windows": {"S_train": len(S["nif"][0]), "S_test": len(S["nif"][1]), "T": int((T["nif"].y >= 0).sum()),
                       "T_healthy": int((T["nif"].y == 0).sum()), "DA_target": int(len(target_healthy))},
         "methods": {m: {"S_acc": R.s_acc, "T_acc": R.t_acc, "T_healthy_acc": R.t_healthy_acc,
@@ -253,8 +265,10 @@ def write_markdown(summary: dict, path: Path) -> None:
          f"{[round(x, 4) for x in summary['profile']['rho']]}, hover throttle "
          f"{summary['profile']['hover_throttle']:.3f}, {summary['profile']['hover_s']:.0f} s of hover). "
          f"S = simulated flights of the adjusted model for this airframe "
-         f"({summary['n_windows']['S_train']} training windows from {summary['flights']} flights, "
-         f"{summary['n_windows']['S_test']} test windows from other flights); T = every other flight of the set "
+         f"({summary['n_windows']['S_train']} training windows from {summary['flights_kept']['S_train']} flights, "
+         f"{summary['n_windows']['S_test']} test windows from {summary['flights_kept']['S_test']} other flights; "
+         f"kept: attitude time constant within x1.35 of the calibration flight's {summary['tau']:.3f} s); "
+         f"T = every other flight of the set "
          f"({summary['n_windows']['T']} windows, {summary['n_windows']['T_healthy']} healthy). DA target: the "
          f"calibration flight's {summary['n_windows']['DA_target']} healthy windows. No labelled target data is "
          f"used for training or model selection. {summary['runs']} runs per method (seeds 0..{summary['runs'] - 1}), "
