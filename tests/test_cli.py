@@ -128,3 +128,30 @@ def test_profile_for_another_autopilot_is_refused(sim_logs, tmp_path):
     res = runner.invoke(app, ["diagnose", "--profile", str(out), str(bin_)])
     assert res.exit_code == 2
     assert "px4" in res.output and "ardupilot" in res.output
+
+
+def test_calibrate_adapts_the_model_and_diagnose_uses_it(sim_logs, tmp_path):
+    """A tiny calibration (few simulated flights, one epoch): the profile records an adapted
+    ONNX model beside it, with decision offsets, and `diagnose --profile` uses that model."""
+    ulg, _ = sim_logs
+    out = tmp_path / "f450.json"
+    res = runner.invoke(app, ["calibrate", str(ulg), "-o", str(out), "--flights", "16", "--epochs", "1"])
+    assert res.exit_code == 0, res.output
+    prof = json.loads(out.read_text())
+    assert prof["model"]["path"] == "f450.onnx"
+    assert (tmp_path / "f450.onnx").exists()
+    adaptation = prof["extra"]["adaptation"]
+    assert adaptation["domain_adaptation"] is True and len(adaptation["logit_bias"]) == 5
+    from flightlog_fd.model import FaultModel
+
+    m = FaultModel(tmp_path / "f450.onnx")
+    assert m.version.startswith("calibrated-") and m.logit_bias.shape == (5,)
+    res = runner.invoke(app, ["diagnose", "--json", "--profile", str(out), str(ulg)])
+    assert res.exit_code in (0, 1), res.output
+    doc = json.loads(res.stdout)
+    assert doc["model"]["calibrated"] is True
+    assert doc["verdict"]["status"] in ("healthy", "uncertain")  # its own healthy flight is never "damaged"
+    # A changed model file is refused (the profile pins its sha256).
+    (tmp_path / "f450.onnx").write_bytes(b"tampered")
+    res = runner.invoke(app, ["diagnose", "--profile", str(out), str(ulg)])
+    assert res.exit_code == 2 and "changed since calibration" in res.output
