@@ -215,9 +215,14 @@ def train_dcnn(
             tgt_batches = _cycle_batches(np.arange(len(X_tgt_healthy)), mmd_batch, rng)
 
         steps_per_epoch = -(-len(X_src) // batch)
-        if warmup_steps is None:
-            warmup_steps = WARMUP_STEPS if init_state is None else 0
-        warmup_epochs = -(-warmup_steps // steps_per_epoch) if use_mmd else 0
+        warmup_epochs = 0
+        if use_mmd and warmup_steps is None:
+            # The default: WARMUP_STEPS from random weights, but at most a fifth of the epochs so
+            # that a small source set still leaves room for the MMD; none when fine-tuning.
+            warmup_epochs = 0 if init_state is not None else min(-(-WARMUP_STEPS // steps_per_epoch),
+                                                                 max(1, max_epochs // 5))
+        elif use_mmd:
+            warmup_epochs = -(-warmup_steps // steps_per_epoch)
 
         history: list[EpochStats] = []
         best_loss, best_epoch, best_state = float("inf"), 0, None
@@ -271,10 +276,14 @@ def train_dcnn(
             history.append(stats)
             if progress is not None:
                 progress(stats)
-            if stats.loss < best_loss:
+            # Warm-up epochs optimise CE alone, so their full loss (with the un-optimised MMD) is
+            # no measure of the model: they are never kept as best and do not use up patience.
+            if epoch <= warmup_epochs:
+                pass
+            elif stats.loss < best_loss:
                 best_loss, best_epoch = stats.loss, epoch
                 best_state = copy.deepcopy(model.state_dict())
-            elif epoch - best_epoch >= patience:
+            elif epoch - max(best_epoch, warmup_epochs) >= patience:
                 stop_reason = "patience"
                 break
             if max_seconds is not None and time.perf_counter() - start >= max_seconds:
