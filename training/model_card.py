@@ -18,7 +18,35 @@ def _pct(x) -> str:
     return "n/a" if x is None else f"{100 * x:.1f} %"
 
 
-def render(meta: dict) -> str:
+def flight_verdicts() -> dict:
+    """Flight verdicts of the shipped model, no profile, on the labelled ../shared sets (if present)."""
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+    from training.targets import available, crazypad_logs, sih_logs
+
+    model = resolve_model()
+    out = {}
+    for key, loader in (("px4_sih_dev", sih_logs), ("crazypad_e9", crazypad_logs)):
+        if not available()[key]:
+            continue
+        rows = []
+        for lg in loader():
+            v = diagnose_flight(lg.load(), model, keep_flight=False).verdict
+            rows.append((lg.truth["label"], v.status, v.motor))
+        healthy = [r for r in rows if r[0] == 0]
+        damaged = [r for r in rows if r[0] > 0]
+        out[key] = {
+            "healthy_flights": len(healthy),
+            "healthy_right": sum(r[1] == "healthy" for r in healthy),
+            "healthy_false_alarm": sum(r[1] == "damaged" for r in healthy),
+            "damaged_flights": len(damaged),
+            "damaged_right": sum(r[1] == "damaged" and r[2] == r[0] for r in damaged),
+            "damaged_wrong_motor": sum(r[1] == "damaged" and r[2] != r[0] for r in damaged),
+            "uncertain": sum(r[1] == "uncertain" for r in rows),
+        }
+    return out
+
+
+def render(meta: dict, verdicts: dict | None = None) -> str:
     sim = meta["sim_test"]
     L = [
         "# Model card: the shipped default model (`models/default.onnx`)",
@@ -53,6 +81,19 @@ def render(meta: dict) -> str:
     for key, t in meta.get("targets", {}).items():
         L.append(f"| {names.get(key, key)} | {t['n_windows']} | {_pct(t['window_accuracy'])} | "
                  f"{_pct(t['healthy_window_accuracy'])} | {_pct(t['damaged_window_accuracy'])} |")
+    if verdicts:
+        L += ["", "Flight verdicts without calibration (`fdlog diagnose`, shipped model, no profile):", "",
+              "| set | healthy flights called healthy | false alarms on healthy flights | damaged flights, right motor | "
+              "damaged, wrong motor | uncertain (any) |", "|---|---|---|---|---|---|"]
+        for key, v in verdicts.items():
+            L.append(f"| {names.get(key, key).split(',')[0]} | {v['healthy_right']}/{v['healthy_flights']} | "
+                     f"{v['healthy_false_alarm']} | {v['damaged_right']}/{v['damaged_flights']} | "
+                     f"{v['damaged_wrong_motor']} | {v['uncertain']} |")
+        L += ["", "Read the CrazyPAD row with its README in mind: this airframe runs motor 2 hardest when healthy "
+              "and most of its damage is on motor 2, so a model that says \"motor 2\" whenever it sees that "
+              "imbalance scores well on damaged flights while failing healthy ones. Without calibration the "
+              "shipped model does exactly that on the healthy flights; `fdlog calibrate` on one healthy flight "
+              "removes it (see `results/crazypad_e9.md`)."]
     L += [
         "",
         "Confusion on the simulated test flights (rows truth, columns predicted):",
@@ -84,7 +125,7 @@ def render(meta: dict) -> str:
 
 def main() -> None:
     meta = json.loads((MODELS / "default.json").read_text())
-    (MODELS / "MODEL_CARD.md").write_text(render(meta))
+    (MODELS / "MODEL_CARD.md").write_text(render(meta, flight_verdicts()))
     print(f"wrote {MODELS / 'MODEL_CARD.md'}")
 
 
