@@ -32,7 +32,6 @@ refused); this module must not import torch (``fdlog diagnose`` installs without
 """
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 from typing import Any, Optional
@@ -40,6 +39,7 @@ from typing import Any, Optional
 import numpy as np
 
 from .errors import ModelError
+from .util import file_sha256  # noqa: F401  (re-exported: tests and callers use model.file_sha256)
 
 METADATA_KEY = "flightlog_fd"
 CLASSES = ("healthy", "motor1", "motor2", "motor3", "motor4")
@@ -48,15 +48,6 @@ OUTPUT_NAME = "probabilities"
 INTRA_OP_THREADS = 1  # per session; parallelism comes from diagnosing logs in separate processes
 INFERENCE_BATCH = 1024  # windows per onnxruntime run: bounds memory for long logs
 REQUIRED_METADATA = ("version", "feature_spec", "classes", "training", "created")
-
-
-def file_sha256(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes (profiles pin the model they were calibrated with)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
 
 
 def _finite_numbers(values: Any, n: int) -> Optional[np.ndarray]:

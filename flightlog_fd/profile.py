@@ -25,7 +25,6 @@ and frame). Battery sag and payload changes move the hover throttle, not rho.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -37,6 +36,7 @@ from typing import Iterable, Optional, Union
 
 import numpy as np
 
+from .util import file_sha256  # noqa: F401  (part of this module's API)
 from .errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
 from .features import FeatureSpec, make_windows
 from .flight import Flight
@@ -101,15 +101,6 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
     throttle = float(np.average([s.throttle for s in segments], weights=weights))
     return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=hover_s, n_segments=len(segments),
                              hover_throttle=throttle, segments=segments)
-
-
-def file_sha256(path: PathLike) -> str:
-    """Hex sha256 of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 @dataclass

@@ -91,6 +91,7 @@ from typing import Iterable, Optional
 
 import numpy as np
 
+from ..util import intersect_intervals
 from ..errors import CorruptLogError, NotALogError
 from ..flight import Flight, Frame, Rotor, Series
 
@@ -759,16 +760,6 @@ def _intervals(starts_ends: list[tuple[float, int]], t0: float, t1: float, clock
     return [(a, b) for a, b in out if b > a]
 
 
-def _intersect(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    out = []
-    for a0, a1 in a:
-        for b0, b1 in b:
-            lo, hi = max(a0, b0), min(a1, b1)
-            if hi > lo:
-                out.append((lo, hi))
-    return out
-
-
 def _above_for(t: np.ndarray, flag: np.ndarray, min_s: float) -> list[tuple[float, float]]:
     """Intervals where ``flag`` holds continuously for at least ``min_s`` seconds."""
     out = []
@@ -822,7 +813,7 @@ def _armed_airborne(tables, params, firmware, motors_signal: Optional[Series], c
     if throttle is not None:
         intervals, thr_source = throttle
         if ev_airborne is not None:
-            intervals = _intersect(intervals, ev_airborne)
+            intervals = intersect_intervals(intervals, ev_airborne)
             source = f"EV (NOT_LANDED 28 .. LAND_COMPLETE 18 / DISARMED 11) confirmed by {thr_source}"
         else:
             source = f"throttle fallback: {thr_source}"
@@ -831,7 +822,7 @@ def _armed_airborne(tables, params, firmware, motors_signal: Optional[Series], c
     else:
         return armed, [], "none (no land-detector events, CTUN or motor outputs)"
     if armed:
-        intervals = _intersect(intervals, armed)
+        intervals = intersect_intervals(intervals, armed)
     return armed, intervals, source
 
 

@@ -74,6 +74,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..util import intersect_intervals  # noqa: F401  (part of this module's API)
 from ..errors import CorruptLogError, NotALogError
 from ..flight import Flight, Frame, Rotor, Series
 
@@ -566,16 +567,6 @@ def state_intervals(t: np.ndarray, state: np.ndarray, t_end: float) -> list[tupl
     if start is not None:
         out.append((start, max(float(t_end), start)))
     return [(a, b) for a, b in out if b > a]
-
-
-def intersect_intervals(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    out = []
-    for a0, a1 in a:
-        for b0, b1 in b:
-            lo, hi = max(a0, b0), min(a1, b1)
-            if hi > lo:
-                out.append((lo, hi))
-    return sorted(out)
 
 
 def _armed(ulog, t_end: float) -> tuple[Optional[list[tuple[float, float]]], str]:

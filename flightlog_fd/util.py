@@ -1,0 +1,28 @@
+"""Small helpers shared by the readers, the model and the profile."""
+from __future__ import annotations
+
+import hashlib
+import os
+from typing import Union
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def file_sha256(path: PathLike) -> str:
+    """Hex SHA-256 of a file's bytes (profiles pin their source logs and model with it)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def intersect_intervals(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The non-empty overlaps of two lists of (start, end) intervals, sorted."""
+    out = []
+    for a0, a1 in a:
+        for b0, b1 in b:
+            lo, hi = max(a0, b0), min(a1, b1)
+            if hi > lo:
+                out.append((lo, hi))
+    return sorted(out)
