@@ -15,8 +15,9 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
+# Exit code 1 means "damage found": expected here, since most sample logs have a damaged propeller.
 demo: $(STAMP)
-	$(BIN)/fdlog diagnose sample_logs/
+	$(BIN)/fdlog diagnose sample_logs/ || [ $$? -eq 1 ]
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
