@@ -19,6 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional, Sequence
 
+from rich import box
 from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
@@ -87,11 +88,13 @@ def window_table(diagnosis: Diagnosis) -> Table:
 
 def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
     """One row per log: status, motor and position, confidence, first seen, exit code."""
-    table = Table(title="Diagnosis summary")
+    # A light box and short headers keep a row on one line in an 80-column terminal or a CI log.
+    table = Table(title="Diagnosis summary", box=box.SIMPLE_HEAD, pad_edge=False)
     table.add_column("log", overflow="fold")
-    for name in ("verdict", "propeller", "confidence", "first seen", "exit"):
-        table.add_column(name, no_wrap=True,
-                         justify="right" if name in ("confidence", "first seen", "exit") else "left")
+    for name in ("verdict", "propeller", "conf.", "first seen", "exit"):
+        table.add_column(name, no_wrap=True, min_width={"verdict": 9, "propeller": 15, "conf.": 5,
+                                                        "first seen": 9, "exit": 4}[name],
+                         justify="right" if name in ("conf.", "first seen", "exit") else "left")
     names = [Path(d.log).name for d in diagnoses]
     for d, name in zip(diagnoses, names):
         # The file name is enough unless two logs share it (same name in different folders).
