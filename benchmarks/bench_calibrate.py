@@ -43,6 +43,11 @@ def main() -> None:
     from training.adapt import AdaptSettings, calibrate
     from training.targets import crazypad_logs, sih_logs
 
+    from training.targets import available
+
+    if not available()[args.target]:
+        print(f"skipped: ../shared/{args.target} is not present")
+        return
     logs = {"px4_sih_dev": sih_logs, "crazypad_e9": crazypad_logs}[args.target]()
     calib = args.calib or DEFAULT_CALIB[args.target]
     cal = next(lg for lg in logs if lg.name == calib)
