@@ -6,7 +6,6 @@ id 128 (0x80).
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from ..errors import NotALogError
@@ -17,21 +16,27 @@ DATAFLASH_HEAD = b"\xa3\x95"
 DATAFLASH_FMT_ID = 0x80
 
 
-def sniff_format(path) -> str:
-    """Return ``"ulog"`` or ``"dataflash"`` from the file's first bytes, else raise NotALogError."""
+def read_head(path, n: int = 16) -> bytes:
+    """The first ``n`` bytes of a log file; NotALogError (one line) for a missing path, a folder,
+    an unreadable or an empty file. Every reader starts here."""
     p = Path(path)
     if not p.exists():
         raise NotALogError(path, "no such file")
     if p.is_dir():
         raise NotALogError(path, "is a folder, not a log file")
     try:
-        size = os.path.getsize(p)
         with open(p, "rb") as f:
-            head = f.read(16)
+            head = f.read(n)
     except OSError as e:
         raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
-    if size == 0:
+    if not head:
         raise NotALogError(path, "empty file (0 bytes)")
+    return head
+
+
+def sniff_format(path) -> str:
+    """Return ``"ulog"`` or ``"dataflash"`` from the file's first bytes, else raise NotALogError."""
+    head = read_head(path)
     if head.startswith(ULOG_MAGIC):
         return "ulog"
     if len(head) >= 3 and head[:2] == DATAFLASH_HEAD and head[2] == DATAFLASH_FMT_ID:

@@ -91,6 +91,7 @@ from typing import Iterable, Optional
 
 import numpy as np
 
+from . import read_head
 from ..util import intersect_intervals
 from ..errors import CorruptLogError, NotALogError
 from ..flight import Flight, Frame, Rotor, Series
@@ -390,17 +391,7 @@ def _cstr(b: bytes) -> str:
 
 
 def _check_header(path: str) -> None:
-    if not os.path.exists(path):
-        raise NotALogError(path, "no such file")
-    if os.path.isdir(path):
-        raise NotALogError(path, "is a folder, not a log file")
-    try:
-        with open(path, "rb") as f:
-            head = f.read(3)
-    except OSError as e:
-        raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
-    if len(head) == 0:
-        raise NotALogError(path, "empty file (0 bytes)")
+    head = read_head(path, 3)
     if len(head) < 3 or head[0] != HEAD1 or head[1] != HEAD2 or head[2] != FMT_TYPE_ID:
         raise NotALogError(path, "not an ArduPilot DataFlash log (no FMT message header)")
 

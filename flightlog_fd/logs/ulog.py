@@ -74,6 +74,7 @@ from typing import Optional
 
 import numpy as np
 
+from . import read_head
 from ..util import intersect_intervals  # noqa: F401  (part of this module's API)
 from ..errors import CorruptLogError, NotALogError
 from ..flight import Flight, Frame, Rotor, Series
@@ -642,15 +643,7 @@ def _params(ulog) -> dict[str, float]:
 def read_ulog(path) -> Flight:
     """Read a PX4 ULog into a :class:`Flight` (see the module docstring for every field)."""
     p = Path(path)
-    if not p.exists():
-        raise NotALogError(path, "no such file")
-    if p.is_dir():
-        raise NotALogError(path, "is a folder, not a log file")
-    try:
-        with open(p, "rb") as f:
-            head = f.read(len(ULOG_MAGIC))
-    except OSError as e:
-        raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
+    head = read_head(p, len(ULOG_MAGIC))
     if not head.startswith(b"ULog"):
         raise NotALogError(path, "not a PX4 ULog (missing 'ULog' magic bytes)")
     if head != ULOG_MAGIC:
