@@ -21,14 +21,10 @@ DEFAULT_CALIB = {"px4_sih_dev": "sih_004", "crazypad_e9": "normal_flight__E9_log
 
 
 def window_truth(lg, windows) -> np.ndarray:
-    onset = lg.truth.get("onset_s")
-    y = np.full(len(windows), lg.truth["label"])
-    if onset is not None:
-        ts = np.array([w.t_start for w in windows])
-        te = np.array([w.t_end for w in windows])
-        y[te <= onset] = 0
-        y[(ts < onset) & (te > onset)] = -1
-    return y
+    """Truth per diagnosed window (-1 for windows straddling a mid-flight onset)."""
+    from flightlog_fd.features import labels_for_spans
+
+    return labels_for_spans(lg.truth, [w.t_start for w in windows], [w.t_end for w in windows])
 
 
 def main() -> None:

@@ -592,25 +592,39 @@ def cf_windows(flight: Flight, **spec_kwargs) -> Windows:
 AMBIGUOUS_LABEL = -1
 
 
-def window_labels(flight: Flight, windows: Windows) -> np.ndarray:
-    """(N,) class per window from ``flight.truth``: 0 healthy, k = motor k damaged, -1 ambiguous.
-
-    ``truth["label"]`` (0..4, falling back on ``truth["motor"]``) applies from ``truth["onset_s"]``
-    (log-clock seconds; None or absent = from the start). Windows ending before the onset are
-    healthy (0); windows straddling it are -1.
-    """
-    truth = flight.truth
+def window_labels(flight: Flight, windows: Windows, truth: Optional[dict] = None) -> np.ndarray:
+    """(N,) class per window from ``truth`` (default ``flight.truth``): 0 healthy, k = motor k
+    damaged, -1 ambiguous. See :func:`labels_for_spans`."""
+    truth = truth if truth is not None else flight.truth
     if not truth:
         raise ValueError(f"{flight.path}: flight has no truth (only simulated flights carry labels)")
+    try:
+        return labels_for_spans(truth, windows.t_start, windows.t_end)
+    except ValueError as e:
+        raise ValueError(f"{flight.path}: {e}") from None
+
+
+def labels_for_spans(truth: dict, t_start: np.ndarray, t_end: np.ndarray) -> np.ndarray:
+    """(N,) class per time span [t_start, t_end] (log clock) from a truth dict.
+
+    ``truth["label"]`` (0..4, falling back on ``truth["motor"]``) applies from ``truth["onset_s"]``
+    (log-clock seconds; None or absent = from the start). Spans ending before the onset are
+    healthy (0); spans straddling it are -1.
+    """
     label = truth.get("label", truth.get("motor"))
     if label is None or int(label) not in range(5):
-        raise ValueError(f"{flight.path}: truth label must be 0..4, not {label!r}")
+        raise ValueError(f"truth label must be 0..4, not {label!r}")
     label = int(label)
-    n = len(windows)
-    out = np.full(n, label, dtype=int)
+    t_start = np.asarray(t_start, dtype=np.float64)
+    t_end = np.asarray(t_end, dtype=np.float64)
+    out = np.full(len(t_start), label, dtype=int)
     onset = truth.get("onset_s")
     if label == 0 or onset is None:
         return out
+    onset = float(onset)
+    out[t_end < onset] = 0
+    out[(t_start < onset) & (t_end >= onset)] = AMBIGUOUS_LABEL
+    return out
     onset = float(onset)
     out[windows.t_end < onset] = 0
     out[(windows.t_start < onset) & (windows.t_end >= onset)] = AMBIGUOUS_LABEL

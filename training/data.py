@@ -91,9 +91,7 @@ def flight_windows(flights: Sequence[Flight], spec: FeatureSpec, labels: Optiona
         w = make_windows(fl, spec)
         truth = (labels[i] if labels is not None else None) or fl.truth
         if truth is not None:
-            saved, fl.truth = fl.truth, truth
-            y = window_labels(fl, w)
-            fl.truth = saved
+            y = window_labels(fl, w, truth)
             eta = float(truth.get("eta") or 1.0)
         else:
             y = np.zeros(len(w.X), int)
