@@ -142,6 +142,29 @@ def attitude_time_constant(flight: Flight, rate_hz: float = 50.0) -> float:
     return float(np.median(mad(r) / np.maximum(mad(a), 1e-9)))
 
 
+def target_windows(healthy_flights: Sequence[Flight], spec: FeatureSpec) -> np.ndarray:
+    """Raw (unstandardised) healthy target windows for the MMD and the decision offsets.
+
+    They overlap more than diagnosis windows (stride window / TARGET_STRIDE_DIV), so that a short
+    calibration flight (a Crazyflie hop is ~16 s airborne) still gives enough of them."""
+    dense = FeatureSpec.from_dict({**spec.to_dict(), "stride": max(1, spec.window // TARGET_STRIDE_DIV)})
+    return np.concatenate([make_windows(fl, dense).X for fl in healthy_flights])
+
+
+def dynamics_filter(reference_flights: Sequence[Flight], rate_hz: float):
+    """(tau, filter): the reference flights' attitude time constant and a ``flight -> bool`` that
+    keeps simulated flights within TAU_BAND of it (None when tau cannot be measured)."""
+    tau = float(np.nanmedian([attitude_time_constant(fl, rate_hz) for fl in reference_flights]))
+    if not np.isfinite(tau):
+        return tau, None
+
+    def like_this_airframe(fl: Flight) -> bool:
+        t = attitude_time_constant(fl, rate_hz)
+        return bool(np.isfinite(t) and abs(np.log(t / tau)) <= np.log(TAU_BAND))
+
+    return tau, like_this_airframe
+
+
 def base_model_files(model_path: Optional[Path] = None) -> tuple[Path, Optional[Path]]:
     """The ONNX model to adapt and its torch weights (``.pt`` beside it) when present."""
     from flightlog_fd.model import default_model_path
@@ -170,22 +193,13 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
     base_onnx, base_pt = base_model_files(base_model)
     base = FaultModel(base_onnx)
     spec = FeatureSpec.from_dict(base.feature_spec)  # same channels, rate, window and statistics
-    # The healthy target windows overlap more than diagnosis windows (stride window/8): a short
-    # calibration flight (a Crazyflie hop is ~16 s airborne) then still gives the MMD and the
-    # decision offsets enough windows.
-    target_spec = FeatureSpec.from_dict({**spec.to_dict(), "stride": max(1, spec.window // TARGET_STRIDE_DIV)})
-    target = np.concatenate([make_windows(fl, target_spec).X for fl in healthy_flights])
+    target = target_windows(healthy_flights, spec)
     log_profiles = logging_profiles_for(profile)
     report = (lambda stage, frac: progress(stage, frac)) if progress else (lambda stage, frac: None)
-
-    tau = float(np.nanmedian([attitude_time_constant(fl, spec.rate_hz) for fl in healthy_flights]))
-
-    def like_this_airframe(fl: Flight) -> bool:
-        t = attitude_time_constant(fl, spec.rate_hz)
-        return bool(np.isfinite(tau) and np.isfinite(t) and abs(np.log(t / tau)) <= np.log(TAU_BAND))
+    tau, like_this_airframe = dynamics_filter(healthy_flights, spec.rate_hz)
 
     src = simulate_windows(int(round(settings.n_flights * TAU_OVERSAMPLE)), spec, seed=settings.seed,
-                           flight_filter=like_this_airframe if np.isfinite(tau) else None,
+                           flight_filter=like_this_airframe,
                            airframes=airframe_family(profile.frame, profile.hover_throttle_),
                            rho=np.asarray(profile.rho_, float), rho_mode="physical",
                            duration_s=settings.duration_s, profiles=log_profiles, eta_range=settings.eta_range,

@@ -123,6 +123,22 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
     batch by batch. ``flight_filter(flight) -> bool`` keeps only some of the simulated flights
     (``n_flights`` counts the simulated ones). Deterministic for a seed.
     """
+    return simulate_window_sets(n_flights, [spec], seed=seed, batch=batch, airframes=airframes, rho=rho,
+                                rho_mode=rho_mode, missions=missions, duration_s=duration_s, profile=profile,
+                                profiles=profiles, healthy_fraction=healthy_fraction, eta_range=eta_range,
+                                flight_filter=flight_filter, progress=progress)[0]
+
+
+def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: int = 0, batch: int = SIM_BATCH,
+                         airframes=None, rho=None, rho_mode: str = "physical",
+                         missions: Sequence[str] = DEFAULT_MISSIONS, duration_s: float = 60.0,
+                         profile: str = "training", profiles: Optional[Sequence] = None,
+                         healthy_fraction: Optional[float] = None,
+                         eta_range: Optional[tuple[float, float]] = None,
+                         flight_filter: Optional[Callable[[Flight], bool]] = None,
+                         progress: Optional[Callable[[int, int], None]] = None) -> list[WindowSet]:
+    """:func:`simulate_windows` for several feature specs at once: one WindowSet per spec, all from
+    the same simulated flights (so NIF and CF windows of an experiment describe the same data)."""
     from flightlog_fd.sim.api import simulate_flights
 
     kw = {}
@@ -130,7 +146,7 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
         kw["healthy_fraction"] = healthy_fraction
     if eta_range is not None:
         kw["eta_range"] = eta_range
-    sets = []
+    sets: list[list[WindowSet]] = [[] for _ in specs]
     done = 0
     b = 0
     while done < n_flights:
@@ -147,9 +163,10 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
             keep = [i for i, fl in enumerate(flights) if flight_filter(fl)]
             flights, names = [flights[i] for i in keep], [names[i] for i in keep]
         if flights:
-            sets.append(flight_windows(flights, spec, names=names))
+            for out, spec in zip(sets, specs):
+                out.append(flight_windows(flights, spec, names=names))
         done += n
         b += 1
         if progress is not None:
             progress(done, n_flights)
-    return WindowSet.concat(sets)
+    return [WindowSet.concat(parts) for parts in sets]

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec, make_windows
+from flightlog_fd.features import FeatureSpec
 from flightlog_fd.profile import calibrate_profile
 from flightlog_fd.verdict import decide
 
@@ -88,9 +88,9 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
         out_dir: Path, log=print) -> dict:
     import torch
 
-    from training.adapt import (ETA_RANGE, TAU_BAND, TAU_OVERSAMPLE, airframe_family, attitude_time_constant,
-                                logging_profiles_for)
-    from training.data import WindowSet, flight_windows, simulate_windows
+    from training.adapt import (ETA_RANGE, TAU_BAND, TAU_OVERSAMPLE, airframe_family, dynamics_filter,
+                                logging_profiles_for, target_windows)
+    from training.data import flight_windows, simulate_window_sets
     from training.dcnn import DCNNConfig
     from training.peer_rule import healthy_offsets, peer_rule
     from training.targets import crazypad_logs, sih_logs
@@ -113,21 +113,17 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
     family = airframe_family(profile.frame, profile.hover_throttle_)
     # The same airframe matching as `fdlog calibrate` (training/adapt.py): keep simulated flights
     # whose attitude time constant is within TAU_BAND of the calibration flight's.
-    tau = attitude_time_constant(cal.load(), nif.rate_hz)
-
-    def like_this_airframe(fl) -> bool:
-        t = attitude_time_constant(fl, nif.rate_hz)
-        return bool(np.isfinite(t) and abs(np.log(t / tau)) <= np.log(TAU_BAND))
-
+    tau, like_this_airframe = dynamics_filter([cal.load()], nif.rate_hz)
     sim_kw = dict(airframes=family, rho=np.asarray(profile.rho_), rho_mode="physical",
                   profiles=logging_profiles_for(profile), seed=seed, eta_range=ETA_RANGE,
                   flight_filter=like_this_airframe)
     log(f"attitude time constant of {calib}: {tau:.3f} s; simulated flights kept within x{TAU_BAND}")
     n_test = max(32, flights // 4)
+    # One simulation gives both the NIF and the CF windows of the same flights.
+    trains = simulate_window_sets(int(round(flights * TAU_OVERSAMPLE)), [nif, cf], **sim_kw)
+    tests_s = simulate_window_sets(int(round(n_test * TAU_OVERSAMPLE)), [nif, cf], **{**sim_kw, "seed": seed + 1000})
     S = {}
-    for name, spec in (("nif", nif), ("cf", cf)):
-        tr = simulate_windows(int(round(flights * TAU_OVERSAMPLE)), spec, **sim_kw)
-        te = simulate_windows(int(round(n_test * TAU_OVERSAMPLE)), spec, **{**sim_kw, "seed": seed + 1000})
+    for name, spec, tr, te in (("nif", nif, trains[0], tests_s[0]), ("cf", cf, trains[1], tests_s[1])):
         spec.fit(tr.X)
         S[name] = (tr, te)
         log(f"S {name}: train {len(tr)} windows from {len(tr.names)} flights, test {len(te)} from "
@@ -137,14 +133,13 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
                               names=[lg.name for lg in tests], keep_ambiguous=True)
          for name, spec in (("nif", nif), ("cf", cf))}
     from flightlog_fd.model import FaultModel
-    from training.adapt import ADAPT_EPOCHS, ADAPT_PATIENCE, TARGET_STRIDE_DIV, base_model_files
+    from training.adapt import ADAPT_EPOCHS, ADAPT_PATIENCE, base_model_files
 
     base_onnx, base_pt = base_model_files()
     base_spec = FeatureSpec.from_dict(FaultModel(base_onnx).feature_spec)
     init = torch.load(base_pt, map_location="cpu", weights_only=True)
 
-    dense = FeatureSpec.from_dict({**nif.to_dict(), "stride": max(1, nif.window // TARGET_STRIDE_DIV)})
-    target_raw = make_windows(cal.load(), dense).X
+    target_raw = target_windows([cal.load()], nif)
     target_healthy = nif.normalise(target_raw)
     target_base = base_spec.normalise(target_raw)
     log(f"T: {len(T['nif'])} windows from {len(tests)} flights; DA target: {len(target_healthy)} healthy windows")
