@@ -117,15 +117,25 @@ def _progress(console: Console, total: int, label: str):
                     console=console, transient=True, disable=total <= 1)
 
 
-def _diagnose_worker(args):
-    """Process-pool worker: diagnose one log without keeping the Flight (small result to send back)."""
-    path, model_path, profile_path, keep = args
-    from .diagnose import diagnose_path, resolve_model
+_worker_state: dict = {}
+
+
+def _init_diagnose_worker(model_path, profile_path) -> None:
+    """Process-pool initializer: load the profile and the ONNX model once per worker process
+    (onnxruntime sessions cannot be pickled, and one per log would be wasted work)."""
+    from .diagnose import resolve_model
     from .profile import Profile
 
     profile = Profile.load(profile_path) if profile_path else None
-    model = resolve_model(model_path, profile)
-    return diagnose_path(path, model, profile, keep_flight=keep)
+    _worker_state.update(profile=profile, model=resolve_model(model_path, profile))
+
+
+def _diagnose_worker(args):
+    """Process-pool worker: diagnose one log without keeping the Flight (small result to send back)."""
+    path, keep = args
+    from .diagnose import diagnose_path
+
+    return diagnose_path(path, _worker_state["model"], _worker_state["profile"], keep_flight=keep)
 
 
 @app.command()
@@ -175,8 +185,9 @@ def diagnose(
         if jobs > 1 and len(files) > 1:
             from concurrent.futures import ProcessPoolExecutor
 
-            args = [(f, model, profile, keep) for f in files]
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
+            args = [(f, keep) for f in files]
+            with ProcessPoolExecutor(max_workers=jobs, initializer=_init_diagnose_worker,
+                                     initargs=(model, profile)) as pool:
                 for d in pool.map(_diagnose_worker, args):
                     results.append(d)
                     bar.advance(task)
@@ -245,9 +256,8 @@ def calibrate(
         if no_adapt:
             from .profile import calibrate_profile
 
-            for p in (output,):
-                if p.exists() and not force:
-                    raise FlightLogError(p, "already exists (use --force to overwrite)")
+            if output.exists() and not force:
+                raise FlightLogError(output, "already exists (use --force to overwrite)")
             profile = calibrate_profile(files)
             profile.save(output, overwrite=force)
         else:

@@ -30,23 +30,22 @@ class PeerRuleResult:
 
 
 def steady_means(flight: Flight) -> tuple[np.ndarray, float, str]:
-    """Mean command per motor over steady flight (hover), else over all airborne time."""
-    m = flight.motors
+    """Mean command per motor over steady flight (the hover segments' means, weighted by their
+    durations), else over all airborne time."""
     segs = hover_segments(flight)
     if segs:
-        spans = [(s.t0, s.t1) for s in segs]
-        source = "hover"
-    else:
-        spans = list(flight.airborne)
-        source = "airborne"
+        durations = np.array([s.duration_s for s in segs])
+        means = np.average(np.stack([s.mean_motors for s in segs]), axis=0, weights=durations)
+        return means, float(durations.sum()), "hover"
+    m = flight.motors
     mask = np.zeros(len(m.t), bool)
-    for a, b in spans:
+    for a, b in flight.airborne:
         mask |= (m.t >= a) & (m.t <= b)
     vals = m.values[mask][:, :4]
     vals = vals[np.isfinite(vals).all(1)]
     if len(vals) == 0:
-        return np.full(4, np.nan), 0.0, source
-    return vals.mean(0), float(sum(b - a for a, b in spans)), source
+        return np.full(4, np.nan), 0.0, "airborne"
+    return vals.mean(0), float(sum(b - a for a, b in flight.airborne)), "airborne"
 
 
 def healthy_offsets(flight: Flight) -> np.ndarray:
