@@ -36,10 +36,10 @@ def main() -> None:
 
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
     from flightlog_fd.profile import Profile
-    from training.adapt import AdaptSettings, calibrate
-    from training.targets import crazypad_logs, sih_logs
+    from flightlog_fd.training.adapt import AdaptSettings, calibrate
+    from flightlog_fd.training.targets import crazypad_logs, sih_logs
 
-    from training.targets import available
+    from flightlog_fd.training.targets import available
 
     if not available()[args.target]:
         print(f"skipped: ../shared/{args.target} is not present")

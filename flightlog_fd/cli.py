@@ -245,7 +245,7 @@ def calibrate(
     if not no_adapt:
         try:
             import torch  # noqa: F401
-            from training.adapt import AdaptSettings, calibrate as run_calibration
+            from flightlog_fd.training.adapt import AdaptSettings, calibrate as run_calibration
         except ImportError:
             _fail("calibration adapts the model and needs torch: pip install 'flightlog-fd[train]' "
                   "(or use --no-adapt to measure the imbalance only)")

@@ -252,13 +252,13 @@ def apply_logit_bias(probs: np.ndarray, bias: Optional[np.ndarray]) -> np.ndarra
 
 
 def default_model_path() -> Path:
-    """The shipped model (package ``flightlog_fd_models``); ModelError when it is not installed."""
+    """The shipped model (package ``flightlog_fd.models``); ModelError when it is not installed."""
     try:
-        import flightlog_fd_models
+        import flightlog_fd.models
     except ImportError:
-        raise ModelError(None, "the shipped models package (flightlog_fd_models) is not installed") from None
-    path = Path(flightlog_fd_models.DEFAULT_MODEL)
+        raise ModelError(None, "the shipped models package (flightlog_fd.models) is not installed") from None
+    path = Path(flightlog_fd.models.DEFAULT_MODEL)
     if not path.is_file():
-        raise ModelError(path, "the shipped default model is missing; build it with `python -m training.build_default`")
+        raise ModelError(path, "the shipped default model is missing; build it with `python -m flightlog_fd.training.build_default`")
     return path
 

@@ -1,4 +1,4 @@
-"""The shipped default ONNX model (installed as package ``flightlog_fd_models``)."""
+"""The shipped default ONNX model (installed as package ``flightlog_fd.models``)."""
 from pathlib import Path
 
 DEFAULT_MODEL = Path(__file__).with_name("default.onnx")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from training.dcnn import CF_CHANNELS, NIF_CHANNELS, DCNN, DCNNConfig, count_parameters
+from flightlog_fd.training.dcnn import CF_CHANNELS, NIF_CHANNELS, DCNN, DCNNConfig, count_parameters
 
 
 @pytest.mark.parametrize("channels", [NIF_CHANNELS, CF_CHANNELS])

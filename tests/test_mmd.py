@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from training.mmd import median_bandwidth, mmd2
+from flightlog_fd.training.mmd import median_bandwidth, mmd2
 
 
 def _sets(shift: float, n: int = 200, d: int = 16, seed: int = 0):

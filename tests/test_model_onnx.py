@@ -12,13 +12,13 @@ import onnx
 import pytest
 import torch
 
-import flightlog_fd_models
+import flightlog_fd.models
 from flightlog_fd.errors import ModelError
 from flightlog_fd.features import FeatureSpec
 from flightlog_fd.model import CLASSES, INFERENCE_BATCH, METADATA_KEY, FaultModel, default_model_path
-from training.dcnn import DCNN, DCNNConfig
-from training.export import export_onnx
-from training.train import predict_proba, train_dcnn
+from flightlog_fd.training.dcnn import DCNN, DCNNConfig
+from flightlog_fd.training.export import export_onnx
+from flightlog_fd.training.train import predict_proba, train_dcnn
 
 
 def raw_windows(n: int, seed: int, channels: int = 7) -> np.ndarray:
@@ -205,8 +205,8 @@ def test_cf_model_exports_too(tmp_path):
 
 
 def test_default_model_path(monkeypatch, exported, tmp_path):
-    monkeypatch.setattr(flightlog_fd_models, "DEFAULT_MODEL", tmp_path / "default.onnx")
+    monkeypatch.setattr(flightlog_fd.models, "DEFAULT_MODEL", tmp_path / "default.onnx")
     with pytest.raises(ModelError, match="missing"):
         default_model_path()
-    monkeypatch.setattr(flightlog_fd_models, "DEFAULT_MODEL", exported.path)
+    monkeypatch.setattr(flightlog_fd.models, "DEFAULT_MODEL", exported.path)
     assert default_model_path() == exported.path

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import torch
 
-from training.dcnn import DCNNConfig
-from training.mmd import mmd2
-from training.train import evaluate, predict_proba, train_dcnn
+from flightlog_fd.training.dcnn import DCNNConfig
+from flightlog_fd.training.mmd import mmd2
+from flightlog_fd.training.train import evaluate, predict_proba, train_dcnn
 
 # A shift of the healthy target that looks partly like damage on motor 1 (channel 3): the
 # "simulation-to-reality gap" of this toy.

@@ -184,10 +184,10 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
     import torch
 
     from flightlog_fd.model import FaultModel
-    from training.data import simulate_windows
-    from training.dcnn import DCNN, DCNNConfig
-    from training.export import export_onnx
-    from training.train import predict_proba, train_dcnn
+    from flightlog_fd.training.data import simulate_windows
+    from flightlog_fd.training.dcnn import DCNN, DCNNConfig
+    from flightlog_fd.training.export import export_onnx
+    from flightlog_fd.training.train import predict_proba, train_dcnn
 
     t0 = time.time()
     base_onnx, base_pt = base_model_files(base_model)

@@ -1,6 +1,6 @@
 """Build the shipped default model: simulated flights only, randomised airframes, no real data.
 
-    python -m training.build_default --flights 2400 --test-flights 240 --epochs 50   # ~20 min, 2 cores
+    python -m flightlog_fd.training.build_default --flights 2400 --test-flights 240 --epochs 50   # ~20 min, 2 cores
 
 Steps: simulate ``--flights`` flights over random airframes (30 g to 5 kg, quad-X and quad-+,
 waypoint and pilot-style missions, small random motor imbalance, PX4 high-rate, PX4 default
@@ -44,9 +44,9 @@ DEFAULT_OUT = Path(__file__).resolve().parents[1] / "models" / "default.onnx"
 
 def evaluate_targets(model, spec: FeatureSpec) -> dict:
     """Window accuracy and per-flight majority on the labelled ../shared sets (skipped if absent)."""
-    from training.data import flight_windows
-    from training.targets import available, crazypad_logs, sih_logs
-    from training.train import predict_proba
+    from flightlog_fd.training.data import flight_windows
+    from flightlog_fd.training.targets import available, crazypad_logs, sih_logs
+    from flightlog_fd.training.train import predict_proba
 
     out = {}
     for name, loader in (("px4_sih_dev", sih_logs), ("crazypad_e9", crazypad_logs)):
@@ -78,10 +78,10 @@ def main(argv=None) -> None:
     ap.add_argument("--cache", type=Path, default=None, help="npz cache of the simulated training windows")
     args = ap.parse_args(argv)
 
-    from training.data import WindowSet, simulate_windows
-    from training.dcnn import DCNNConfig
-    from training.export import export_onnx
-    from training.train import evaluate, train_dcnn
+    from flightlog_fd.training.data import WindowSet, simulate_windows
+    from flightlog_fd.training.dcnn import DCNNConfig
+    from flightlog_fd.training.export import export_onnx
+    from flightlog_fd.training.train import evaluate, train_dcnn
     import torch
 
     spec = FeatureSpec()
@@ -119,7 +119,7 @@ def main(argv=None) -> None:
         "sim_test": {"flights": args.test_flights, "windows": len(test), "window_accuracy": sim_acc,
                      "confusion": np.asarray(sim_conf).tolist()},
         "targets": targets,
-        "command": "python -m training.build_default " + " ".join(
+        "command": "python -m flightlog_fd.training.build_default " + " ".join(
             f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items() if k not in ("out", "cache")),
         "train_seconds": round(time.time() - t0, 1),
     }

@@ -1,13 +1,13 @@
 """The paper's experiment, one command: DCNN+CF, DCNN+NIF, DCNN+NIF+DA on a simulated set S and a
 labelled real-format target set T, with the calibration protocol a pilot would follow.
 
-    python -m training.experiment --target px4_sih_dev --runs 10
-    python -m training.experiment --target crazypad_e9 --runs 10
+    python -m flightlog_fd.training.experiment --target px4_sih_dev --runs 10
+    python -m flightlog_fd.training.experiment --target crazypad_e9 --runs 10
 
 Protocol (no labelled target data is used for training or model selection):
 1. Calibrate on ONE healthy target flight (``--calib``): ρ from its hover, hover throttle, stream
    rates (:func:`flightlog_fd.profile.calibrate_profile`).
-2. S: simulated flights of the adjusted model for that airframe (:mod:`training.adapt`: random
+2. S: simulated flights of the adjusted model for that airframe (:mod:`flightlog_fd.training.adapt`: random
    airframes rescaled to its hover throttle, its frame and ρ, its logging), split by flight into
    S-train and S-test; the same flights give NIF and CF windows.
 3. Train ``--runs`` times (seeds 0..runs-1) each of CF, NIF (CE only) and NIF+DA (CE + λ·MMD,
@@ -16,7 +16,7 @@ Protocol (no labelled target data is used for training or model selection):
 4. Test on S-test and on every OTHER target flight: window accuracy mean ± std over runs, a
    per-class confusion matrix (summed over runs), the flight verdict (:mod:`flightlog_fd.verdict`)
    of every test flight, first-seen time for mid-flight onsets, and the peer rule
-   (:mod:`training.peer_rule`) on the same flights.
+   (:mod:`flightlog_fd.training.peer_rule`) on the same flights.
 5. A t-SNE figure of first-dense-layer features of S-test and T, NIF vs NIF+DA (PNG).
 
 Results go to ``results/<target>.md`` (+ ``results/<target>_tsne.png`` and a JSON with every
@@ -88,13 +88,13 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
         out_dir: Path, log=print) -> dict:
     import torch
 
-    from training.adapt import (ETA_RANGE, TAU_BAND, TAU_OVERSAMPLE, airframe_family, dynamics_filter,
+    from flightlog_fd.training.adapt import (ETA_RANGE, TAU_BAND, TAU_OVERSAMPLE, airframe_family, dynamics_filter,
                                 logging_profiles_for, target_windows)
-    from training.data import flight_windows, simulate_window_sets
-    from training.dcnn import DCNNConfig
-    from training.peer_rule import healthy_offsets, peer_rule
-    from training.targets import crazypad_logs, sih_logs
-    from training.train import predict_proba, train_dcnn
+    from flightlog_fd.training.data import flight_windows, simulate_window_sets
+    from flightlog_fd.training.dcnn import DCNNConfig
+    from flightlog_fd.training.peer_rule import healthy_offsets, peer_rule
+    from flightlog_fd.training.targets import crazypad_logs, sih_logs
+    from flightlog_fd.training.train import predict_proba, train_dcnn
 
     t0 = time.time()
     logs = {"px4_sih_dev": sih_logs, "crazypad_e9": crazypad_logs}[target]()
@@ -133,7 +133,7 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
                               names=[lg.name for lg in tests], keep_ambiguous=True)
          for name, spec in (("nif", nif), ("cf", cf))}
     from flightlog_fd.model import FaultModel
-    from training.adapt import ADAPT_EPOCHS, ADAPT_PATIENCE, base_model_files
+    from flightlog_fd.training.adapt import ADAPT_EPOCHS, ADAPT_PATIENCE, base_model_files
 
     base_onnx, base_pt = base_model_files()
     base_spec = FeatureSpec.from_dict(FaultModel(base_onnx).feature_spec)
@@ -145,7 +145,7 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
     log(f"T: {len(T['nif'])} windows from {len(tests)} flights; DA target: {len(target_healthy)} healthy windows")
 
     from flightlog_fd.model import apply_logit_bias
-    from training.adapt import healthy_decision_offsets
+    from flightlog_fd.training.adapt import healthy_decision_offsets
 
     results = {m: MethodResult() for m in METHODS + (OFFSETS,)}
     models0 = {}
@@ -219,7 +219,7 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
                         "verdict_ok": R.verdict_ok, "verdicts_run0": R.verdicts, "seconds": R.seconds}
                     for m, R in results.items()},
         "peer_rule": peer,
-        "command": "python -m training.experiment " + " ".join(sys.argv[1:]),
+        "command": "python -m flightlog_fd.training.experiment " + " ".join(sys.argv[1:]),
         "seconds": round(time.time() - t0, 1),
     }
     return summary

@@ -36,7 +36,7 @@ from torch import nn
 
 import flightlog_fd
 from flightlog_fd.model import CLASSES, INPUT_NAME, METADATA_KEY, OUTPUT_NAME, validate_metadata
-from training.dcnn import DCNN
+from flightlog_fd.training.dcnn import DCNN
 
 EXAMPLE_BATCH = 4  # trace batch; > 1 so torch.export does not specialise the batch axis to 1
 BATCH_AXIS_NAME = "batch"

@@ -1,6 +1,6 @@
 """Write models/MODEL_CARD.md from the figures `build_default` measured (models/default.json).
 
-    python -m training.model_card
+    python -m flightlog_fd.training.model_card
 
 The card's numbers are never typed by hand: they come from the JSON that the build wrote next to
 the ONNX file (the same summary is inside the ONNX metadata, key "training").
@@ -21,7 +21,7 @@ def _pct(x) -> str:
 def flight_verdicts() -> dict:
     """Flight verdicts of the shipped model, no profile, on the labelled ../shared sets (if present)."""
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
-    from training.targets import available, crazypad_logs, sih_logs
+    from flightlog_fd.training.targets import available, crazypad_logs, sih_logs
 
     model = resolve_model()
     out = {}

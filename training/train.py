@@ -50,8 +50,8 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from training.dcnn import DCNN, DCNNConfig
-from training.mmd import mmd2
+from flightlog_fd.training.dcnn import DCNN, DCNNConfig
+from flightlog_fd.training.mmd import mmd2
 
 LAMBDA_MMD = 1e4  # paper's weight of the MMD term
 LEARNING_RATE = 5e-4
