@@ -279,8 +279,8 @@ def calibrate(
         raise typer.Exit(EXIT_INVALID)
     rho = ", ".join(f"{x:.3f}" for x in profile.rho_)
     console.print(f"wrote {output}: {profile.autopilot} {profile.frame}, rho = [{rho}], "
-                  f"hover throttle {profile.hover_throttle_:.3f} from {profile.hover_s_:.0f} s of hover "
-                  f"in {profile.n_hover_segments_} segment(s)", markup=False)
+                  f"throttle {profile.hover_throttle_:.3f} from {profile.hover_s_:.0f} s of {profile.rho_source_} "
+                  f"({profile.n_hover_segments_} segment(s))", markup=False)
     if profile.model:
         ad = (profile.extra or {}).get("adaptation", {})
         console.print(f"adapted model: {output.with_suffix('.onnx')} ({ad.get('epochs', '?')} epochs, "

@@ -7,8 +7,12 @@ Steps (pure: nothing is printed, nothing imports torch):
 2. Is the calibration profile, if any, made for this airframe? (``profile.check_compatible``.)
 3. Windows with the model's own feature spec (:func:`flightlog_fd.features.make_windows`),
    standardised with the model's statistics, then class probabilities from the ONNX model.
-4. A flight phase per window (:mod:`flightlog_fd.phases`) and the flight's verdict from all
+4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's verdict from all
    windows (:mod:`flightlog_fd.verdict`).
+5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
+   baseline or the neighbours, :mod:`flightlog_fd.effectiveness`, the model's votes) from the same
+   resampled segments as the windows, and the flight verdict from model and evidence together
+   (:func:`flightlog_fd.verdict.combine_with_evidence`).
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
@@ -30,7 +34,7 @@ from .checks import diagnosability
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .phases import window_phases
-from .verdict import N_CLASSES, Verdict, VerdictSettings, decide, not_diagnosable
+from .verdict import N_CLASSES, Verdict, VerdictSettings, combine_with_evidence, decide, not_diagnosable
 
 EXIT_HEALTHY = 0
 EXIT_DAMAGED_OR_UNCERTAIN = 1
@@ -119,6 +123,13 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     diagnosability_facts: dict = field(default_factory=dict)
     flight: Optional[Flight] = field(default=None, repr=False)
+    #: Per-motor evidence (:class:`flightlog_fd.evidence.FlightEvidence`); None when not diagnosable.
+    evidence: Any = None
+
+    @property
+    def motors(self) -> list:
+        """Per-motor figures (:class:`flightlog_fd.evidence.MotorEvidence`), [] without evidence."""
+        return list(self.evidence.motors) if self.evidence is not None else []
 
     @property
     def exit_code(self) -> int:
@@ -239,7 +250,13 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     t_start = np.asarray(win.t_start, dtype=np.float64)
     t_end = np.asarray(win.t_end, dtype=np.float64)
     phases = window_phases(flight, t_start, t_end)
-    verdict = decide(t_start, t_end, probs, settings=settings, frame=flight.frame)
+    model_verdict = decide(t_start, t_end, probs, settings=settings, frame=flight.frame)
+    run = model_verdict.evidence.run if model_verdict.evidence is not None else None
+    onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
+    evidence = flight_evidence(flight, win, probs, profile, since=onset)
+    verdict = combine_with_evidence(model_verdict, probs, evidence, flight.frame)
+    if evidence.airframe_changed:
+        warnings.append(f"the airframe changed since calibration: {evidence.airframe_changed}; re-calibrate")
     order = np.argsort(t_start, kind="stable")
     windows = [WindowResult(float(t_start[i]), float(t_end[i]), int(np.argmax(probs[i])),
                             [float(x) for x in probs[i]], phases[i], int(verdict.window_labels[i]))
@@ -248,8 +265,21 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
-    return Diagnosis(log=log, verdict=verdict, windows=windows,
+    return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence,
                      diagnosability_facts=dict(check.facts), **common)
+
+
+def flight_evidence(flight: Flight, windows: Any, probs: np.ndarray, profile: Any = None,
+                    since: Optional[float] = None):
+    """Per-motor evidence of one flight from the windows' own resampled segments (the flight is
+    resampled once) and the profile's baseline, if any; ``since`` = a mid-flight damage onset."""
+    from .effectiveness import estimate_effectiveness
+    from .evidence import build_evidence
+
+    eff = estimate_effectiveness(flight, rate_hz=windows.spec.rate_hz, savgol_window_s=windows.spec.savgol_window_s,
+                                 segments=windows.segments)
+    baseline = profile.baseline() if profile is not None else None
+    return build_evidence(windows.segments, probs, flight.frame, eff, baseline, since=since)
 
 
 def diagnose_path(path, model: Any, profile: Any = None, *,

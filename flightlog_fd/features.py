@@ -278,6 +278,9 @@ class Windows:
     segment_s: float = 0.0  # total duration of usable segments
     reason: str = ""
     scales: dict = field(default_factory=dict)  # per-flight robust scales used (scale_free)
+    #: The resampled segments the windows were cut from (for the effectiveness estimate and the
+    #: evidence, so a flight is resampled once); never serialised.
+    segments: list = field(default_factory=list, repr=False)
 
     def __len__(self) -> int:
         return int(self.X.shape[0])
@@ -550,7 +553,9 @@ def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: boo
                       f"window needs {spec.window / spec.rate_hz:.1f} s")
         if strict:
             raise NotDiagnosableError(flight.path, reason)
-        return _empty_windows(spec, source, reason, len(segments), seg_s)
+        out = _empty_windows(spec, source, reason, len(segments), seg_s)
+        out.segments = segments
+        return out
 
     scales = {}
     if spec.transform == "scale_free":
@@ -575,7 +580,7 @@ def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: boo
         X[:, motor_ch, :] /= np.maximum(share, MIN_MEAN_THRUST)[:, None, None].astype(np.float32)
     return Windows(X=X, t_start=np.concatenate(t0s), t_end=np.concatenate(t1s), segment=np.concatenate(segidx),
                    spec=spec, speed_source=source, n_segments=len(segments), segment_s=seg_s, reason="",
-                   scales={k: v.tolist() for k, v in scales.items()})
+                   scales={k: v.tolist() for k, v in scales.items()}, segments=segments)
 
 
 def nif_windows(flight: Flight, **spec_kwargs) -> Windows:

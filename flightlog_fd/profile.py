@@ -7,9 +7,20 @@ Here ``w`` is the motor SPEED proxy, ``sqrt`` of the thrust proxy of
 :func:`flightlog_fd.features.thrust_proxy` (thrust ~ w^2), averaged over the steady-hover segments
 of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
 
-- :func:`estimate_imbalance` (flights -> :class:`ImbalanceEstimate`) needs at least
-  ``MIN_HOVER_S`` (4 s) of steady hover in all; ``rho_spread`` is the standard deviation of the
-  per-segment ratios (0 with a single segment). Motor 1 is the reference (rho_1 = 1).
+- :func:`estimate_imbalance` (flights -> :class:`ImbalanceEstimate`) uses, in this order, what
+  the flights have: at least ``MIN_HOVER_S`` (4 s) of steady hover; else as much of steady
+  flight of any kind (hover, cruise, gentle climbs and descents: ``STEADY_*`` thresholds, speed
+  free); else the whole airborne time, which is steady on average (over a flight the mean angular
+  acceleration is ~0, so the mean commands satisfy the trim moment balance; ρ_i is then
+  sqrt(share_i / share_1) of the airborne-mean thrust shares), provided there are
+  ``MIN_AIRBORNE_S`` of it. ``rho_spread`` is the standard deviation of the per-segment ratios
+  (0 with a single segment). Motor 1 is the reference (rho_1 = 1). ``source`` records which.
+  Measured: the project's own healthy sample logs (constant manoeuvring missions) hold 0 s of
+  hover and 1.8-2.3 s of steady flight, 40-47 s airborne; the Erle-Copter 34_7 holds 30 s of hover.
+- :func:`estimate_baseline` (flights -> :class:`~flightlog_fd.evidence.Baseline`): the healthy
+  airframe's airborne-mean command shares, the same quantity `diagnose` measures (so their
+  biases cancel), as a line in throttle fitted over ``BASELINE_CHUNK_S`` chunks when the chunks
+  span at least ``BASELINE_MIN_THROTTLE_RANGE`` of throttle (else flat).
 - :class:`Profile` is a versioned JSON file (``"schema": 1``): airframe identity (autopilot,
   frame name, firmware, vehicle_id, rotor count), the learned values (trailing underscore:
   ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
@@ -38,12 +49,24 @@ import numpy as np
 
 from .util import file_sha256  # noqa: F401  (part of this module's API)
 from .errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
-from .features import FeatureSpec, make_windows
+from .features import DEFAULT_RATE_HZ, FeatureSpec, make_windows
 from .flight import Flight
-from .hover import HOVER_MAX_RATE_RMS, HOVER_MAX_SPEED_M_S, HOVER_MIN_DURATION_S, HoverSegment, hover_segments
+from .hover import HOVER_MAX_RATE_RMS, HOVER_MAX_SPEED_M_S, HOVER_MIN_DURATION_S, HoverSegment, hover_seconds, hover_segments
 
-#: Profile file format version; :meth:`Profile.load` refuses others.
-PROFILE_SCHEMA = 1
+#: Profile file format version; :meth:`Profile.load` reads this one and the older ones in
+#: ``READABLE_SCHEMAS`` (schema 1 has no ``baseline_``: it is derived from rho_).
+PROFILE_SCHEMA = 2
+READABLE_SCHEMAS = (1, 2)
+#: Steady flight of any kind (for rho when there is too little hover): rates, tilt and duration
+#: relaxed, speed free. A cruise at constant speed and a gentle climb are balanced flight too.
+STEADY_MAX_RATE_RMS = 0.5  # rad/s
+STEADY_MAX_TILT_RAD = 0.35  # rad (20 deg)
+STEADY_MIN_DURATION_S = 1.0
+#: Least usable airborne time (s) for the whole-flight fallback.
+MIN_AIRBORNE_S = 20.0
+#: Chunk length (s) for the share-vs-throttle fit, and the throttle span it needs to fit a slope.
+BASELINE_CHUNK_S = 10.0
+BASELINE_MIN_THROTTLE_RANGE = 0.05
 #: Least total steady hover (s) for rho: 2 segments of the 2 s minimum, or one of 4 s. At 4 s a
 #: 100 Hz log has 400 samples per motor; the ratios then repeat within ~1 % across flights.
 MIN_HOVER_S = 4.0
@@ -54,7 +77,7 @@ _SHA256_RE = re.compile(r"^[0-9a-f]{64}$")
 _REQUIRED_KEYS = ("schema", "autopilot", "frame", "rotor_count", "rho_", "rho_spread_", "hover_throttle_",
                   "feature_spec")
 _OPTIONAL_KEYS = ("firmware", "vehicle_id", "hover_s_", "n_hover_segments_", "n_windows_", "stream_rates",
-                  "source_logs", "created", "tool_version", "model", "extra")
+                  "source_logs", "created", "tool_version", "model", "extra", "rho_source_", "baseline_")
 
 PathLike = Union[str, os.PathLike]
 
@@ -69,38 +92,89 @@ class ImbalanceEstimate:
     n_segments: int
     hover_throttle: float
     segments: list[HoverSegment] = field(default_factory=list)
+    source: str = "hover"  # "hover" | "steady flight" | "airborne mean"
 
 
 def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER_S,
                        min_segment_s: float = HOVER_MIN_DURATION_S) -> ImbalanceEstimate:
-    """Motor-imbalance ratios from the steady hover of one or more healthy flights.
+    """Motor-imbalance ratios from the steadiest flight the healthy logs hold (module docstring).
 
-    Raises NotDiagnosableError (naming the logs, what was found and what is needed) when the
-    flights hold less than ``min_hover_s`` of steady hover in segments of ``min_segment_s``.
+    Raises NotDiagnosableError (naming the logs, what was found and what would do) when the
+    flights hold neither ``min_hover_s`` of steady flight nor ``MIN_AIRBORNE_S`` of airborne data.
     """
+    from .features import resample
+
     flights = list(flights)
     if not flights:
         raise ValueError("estimate_imbalance needs at least one flight")
-    segments: list[HoverSegment] = []
+    hover: list[HoverSegment] = []
     for fl in flights:
-        segments += hover_segments(fl, min_duration_s=min_segment_s)
-    hover_s = float(sum(s.duration_s for s in segments))
-    if hover_s < min_hover_s:
+        hover += hover_segments(fl, min_duration_s=min_segment_s)
+    source, segments = "hover", hover
+    if hover_seconds(hover) < min_hover_s:
+        steady: list[HoverSegment] = []
+        for fl in flights:
+            steady += hover_segments(fl, min_duration_s=STEADY_MIN_DURATION_S, max_rate_rms=STEADY_MAX_RATE_RMS,
+                                     max_tilt_rad=STEADY_MAX_TILT_RAD, max_speed_m_s=float("inf"))
+        source, segments = "steady flight", steady
+    if hover_seconds(segments) >= min_hover_s:
+        weights = np.array([s.duration_s for s in segments])
+        speeds = np.array([s.mean_speed for s in segments])  # (S, 4)
+        pooled = np.average(speeds, axis=0, weights=weights)
+        rho = pooled / pooled[0]
+        per_segment = speeds / speeds[:, :1]
+        spread = per_segment.std(axis=0, ddof=1) if len(segments) > 1 else np.zeros(rho.shape)
+        throttle = float(np.average([s.throttle for s in segments], weights=weights))
+        return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=hover_seconds(segments),
+                                 n_segments=len(segments), hover_throttle=throttle, segments=segments, source=source)
+    # Whole airborne time: steady on average (module docstring).
+    chunks = [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ)]
+    airborne_s = sum(len(c) for c in chunks) / DEFAULT_RATE_HZ
+    if airborne_s < MIN_AIRBORNE_S:
         names = ", ".join(Path(f.path).name if f.path else "<in-memory flight>" for f in flights)
         where = flights[0].path if len(flights) == 1 else None
         raise NotDiagnosableError(
-            where, f"found {hover_s:.1f} s of steady hover ({len(segments)} segments of >= {min_segment_s:g} s) in "
-                   f"{len(flights)} log(s) [{names}]; calibration needs at least {min_hover_s:g} s: fly a steady "
-                   f"hover (rates < {math.degrees(HOVER_MAX_RATE_RMS):.0f} deg/s, level, < {HOVER_MAX_SPEED_M_S:g} m/s)")
-    weights = np.array([s.duration_s for s in segments])
-    speeds = np.array([s.mean_speed for s in segments])  # (S, 4)
-    pooled = np.average(speeds, axis=0, weights=weights)
-    rho = pooled / pooled[0]
-    per_segment = speeds / speeds[:, :1]
-    spread = per_segment.std(axis=0, ddof=1) if len(segments) > 1 else np.zeros(rho.shape)
-    throttle = float(np.average([s.throttle for s in segments], weights=weights))
-    return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=hover_s, n_segments=len(segments),
-                             hover_throttle=throttle, segments=segments)
+            where, f"found {hover_seconds(hover):.1f} s of steady hover, {hover_seconds(segments):.1f} s of steady "
+                   f"flight and {airborne_s:.0f} s of usable airborne data in {len(flights)} log(s) [{names}]; "
+                   f"calibration needs {min_hover_s:g} s of steady flight (hover, cruise or a gentle climb: rates "
+                   f"< {math.degrees(STEADY_MAX_RATE_RMS):.0f} deg/s, tilt < {math.degrees(STEADY_MAX_TILT_RAD):.0f} deg) "
+                   f"or {MIN_AIRBORNE_S:.0f} s of airborne flight: give a longer healthy flight or several")
+    u = np.vstack(chunks)
+    mean_thrust = u.mean(axis=0)
+    speed = np.sqrt(np.clip(mean_thrust, 0.0, None))
+    rho = speed / speed[0]
+    per_chunk = np.array([np.sqrt(np.clip(c.mean(axis=0), 0.0, None)) for c in chunks if len(c)])
+    per_chunk = per_chunk / per_chunk[:, :1]
+    spread = per_chunk.std(axis=0, ddof=1) if len(per_chunk) > 1 else np.zeros(4)
+    return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=float(airborne_s), n_segments=len(chunks),
+                             hover_throttle=float(mean_thrust.mean()), segments=[], source="airborne mean")
+
+
+def estimate_baseline(flights: Iterable[Flight]) -> dict:
+    """The healthy airframe's command shares against throttle (module docstring), as the
+    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds."""
+    from .evidence import command_shares
+    from .features import resample
+
+    rate = DEFAULT_RATE_HZ
+    blocks = [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=rate)]
+    share, throttle = command_shares(blocks)
+    shares, throttles = [], []
+    n = int(BASELINE_CHUNK_S * rate)
+    for w_sq in blocks:
+        for a in range(0, len(w_sq) - n + 1, n):
+            sh, th = command_shares([w_sq[a:a + n]])
+            shares.append(sh)
+            throttles.append(th)
+    slope = np.zeros(4)
+    rng = (float(min(throttles)), float(max(throttles))) if throttles else (throttle, throttle)
+    if len(throttles) >= 3 and rng[1] - rng[0] >= BASELINE_MIN_THROTTLE_RANGE:
+        th = np.asarray(throttles) - throttle
+        slope = (np.asarray(shares) - share).T @ th / float(th @ th)
+    seconds = sum(len(b) for b in blocks) / rate
+    return {"share": [float(x) for x in share], "slope": [float(x) for x in slope], "throttle_ref": float(throttle),
+            "throttle_range": [rng[0], rng[1]], "seconds": round(float(seconds), 1),
+            "source": "airborne mean of the thrust-command shares"}
 
 
 @dataclass
@@ -125,6 +199,8 @@ class Profile:
     tool_version: str = ""
     model: Optional[dict] = None
     extra: dict = field(default_factory=dict)
+    rho_source_: str = "hover"
+    baseline_: Optional[dict] = None
     schema: int = PROFILE_SCHEMA
     path: Optional[str] = field(default=None, repr=False, compare=False)  # where it was loaded/saved
 
@@ -159,7 +235,22 @@ class Profile:
             "tool_version": self.tool_version,
             "model": self.model,
             "extra": self.extra,
+            "rho_source_": self.rho_source_,
+            "baseline_": self.baseline_,
         }
+
+    def baseline(self):
+        """The healthy command-share baseline (:class:`~flightlog_fd.evidence.Baseline`); a
+        schema-1 profile has none recorded, so it is derived from rho_ at the hover throttle."""
+        from .evidence import Baseline
+
+        b = self.baseline_
+        if b:
+            return Baseline(share=np.asarray(b["share"], float), slope=np.asarray(b["slope"], float),
+                            throttle_ref=float(b["throttle_ref"]), source=str(b.get("source", "")))
+        share = self.rho_ ** 2
+        return Baseline(share=share / share.mean(), slope=np.zeros(4), throttle_ref=float(self.hover_throttle_),
+                        source="from rho_ (schema 1 profile)")
 
     @classmethod
     def from_dict(cls, d, path: Optional[PathLike] = None) -> "Profile":
@@ -171,9 +262,9 @@ class Profile:
             raise bad("the file does not hold a JSON object")
         if "schema" not in d:
             raise bad('not an fdlog profile (no "schema" key)')
-        if d["schema"] != PROFILE_SCHEMA:
-            raise ProfileError(path, f"profile schema {d['schema']!r} is not supported (this fdlog reads schema "
-                                     f"{PROFILE_SCHEMA}); recalibrate with this version")
+        if d["schema"] not in READABLE_SCHEMAS:
+            raise ProfileError(path, f"profile schema {d['schema']!r} is not supported (this fdlog reads schemas "
+                                     f"{', '.join(map(str, READABLE_SCHEMAS))}); recalibrate with this version")
         missing = [k for k in _REQUIRED_KEYS if k not in d]
         if missing:
             raise bad(f"missing key(s) {', '.join(missing)}")
@@ -218,7 +309,20 @@ class Profile:
         rates = d.get("stream_rates", {})
         if not isinstance(rates, dict) or not all(_is_number(v) for v in rates.values()):
             raise bad("stream_rates must map stream names to rates in Hz")
+        base = d.get("baseline_")
+        if base is not None:
+            if not isinstance(base, dict):
+                raise bad("baseline_ must be null or an object")
+            share = _number_list(base.get("share"), n, "baseline_.share", bad)
+            _number_list(base.get("slope"), n, "baseline_.slope", bad)
+            if not all(0.0 < x < 4.0 for x in share):
+                raise bad(f"baseline_.share values must be within 0..4, got {share}")
+            if not _is_number(base.get("throttle_ref")) or not 0.0 < base["throttle_ref"] <= 1.5:
+                raise bad("baseline_.throttle_ref must be a number in (0, 1.5]")
+        if "rho_source_" in d and d["rho_source_"] not in ("hover", "steady flight", "airborne mean"):
+            raise bad(f"rho_source_ must be hover, steady flight or airborne mean, not {d['rho_source_']!r}")
         kw = {k: d[k] for k in _REQUIRED_KEYS + _OPTIONAL_KEYS if k in d}
+        kw["schema"] = PROFILE_SCHEMA
         kw["hover_throttle_"] = float(thr)
         for k in ("hover_s_",):
             if k in kw and not _is_number(kw[k]):
@@ -367,6 +471,7 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
         autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
         firmware=first.firmware, vehicle_id=first.vehicle_id,
         rho_=imbalance.rho, rho_spread_=imbalance.rho_spread, hover_throttle_=imbalance.hover_throttle,
+        rho_source_=imbalance.source, baseline_=estimate_baseline(flights),
         hover_s_=imbalance.hover_s, n_hover_segments_=imbalance.n_segments, n_windows_=int(len(X)),
         stream_rates={k: float(np.median(v)) for k, v in rates.items()},
         feature_spec=fitted.to_dict(), source_logs=[_source_entry(fl) for fl in flights],

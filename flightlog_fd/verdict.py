@@ -367,3 +367,82 @@ def timeline_labels(t_start: Sequence[float], t_end: Sequence[float], labels: Se
         cand = np.nonzero(overlap >= overlap.max() - 1e-9)[0]
         out.append(int(labels[cand[np.argmax(ts[cand])]]))
     return out
+
+
+# ----------------------------------------------------------------------------- model + evidence
+
+def _with(v: Verdict, **kw) -> Verdict:
+    """A copy of ``v`` with some fields replaced (window labels and evidence kept)."""
+    d = dict(status=v.status, motor=v.motor, position=v.position, confidence=v.confidence,
+             first_seen=v.first_seen, reason=v.reason, evidence=v.evidence, window_labels=v.window_labels)
+    d.update(kw)
+    return Verdict(**d)
+
+
+def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Frame] = None) -> Verdict:
+    """The flight verdict from the model's verdict ``v`` and the per-motor evidence
+    (:class:`flightlog_fd.evidence.FlightEvidence`; None leaves ``v`` as it is).
+
+    - ``damaged`` stays damaged only when the evidence agrees on the motor: its command pattern is
+      one motor high and it is that motor (``evidence.pattern_supports``), and an informative
+      effectiveness estimate does not say the motor works like its neighbours. Otherwise the
+      model's windows are taken for what real healthy airframes show (one motor running high from a
+      trim): ``healthy`` with the reason, or ``uncertain`` when the commands clearly single out
+      ANOTHER motor (model and evidence genuinely split).
+    - ``uncertain`` stays uncertain only when the evidence points at the motor the model leans to
+      (same tests); otherwise the windows did not consistently point at one motor and nothing
+      measurable supports damage, so the flight is ``healthy``.
+    - With a profile, an airframe that changed since calibration (all shares or the throttle moved)
+      never gets a motor named: ``uncertain`` with advice to re-calibrate.
+    """
+    ev = flight_evidence
+    if ev is None or v.status == "not_diagnosable":
+        return v
+    p = np.asarray(probs, dtype=np.float64)
+    words = lambda k: _motor_words(frame, k)  # noqa: E731
+    if ev.airframe_changed and v.status in ("damaged", "uncertain"):
+        return _with(v, status="uncertain", motor=None, position=None, first_seen=None,
+                     reason=f"the airframe changed since calibration ({ev.airframe_changed}); re-calibrate on a "
+                            f"healthy flight of it before trusting a motor verdict")
+    if v.status == "damaged":
+        k = v.motor
+        if ev.pattern_supports(k) and not ev.effectiveness_contradicts(k):
+            others = [m for m in range(1, N_CLASSES) if m != k]
+            spread = max(abs(ev.motors[a - 1].command_change - ev.motors[b - 1].command_change)
+                         for a in others for b in others)
+            return _with(v, reason=f"{v.reason}; {words(k)} {ev.summary(k)}; the other three agree within "
+                                   f"{100 * spread:.0f} %")
+        if ev.effectiveness_contradicts(k):
+            lo, hi = ev.motors[k - 1].effectiveness_ci
+            why = (f"its effectiveness [{lo:.2f}, {hi:.2f}] is that of its neighbours")
+        elif ev.top_motor == k:
+            why = (f"it {ev.summary(k)}, a pattern healthy airframes show too (it stands "
+                   f"{100 * ev.single_motor_gap:.0f} % above the next motor; damage needs "
+                   f"{100 * _gap_needed(ev):.0f} %)")
+        else:
+            why = f"the commands single out no motor like it (the highest is {words(ev.top_motor)})"
+        if ev.top_motor != k and ev.pattern_supports(ev.top_motor):
+            return _with(v, status="uncertain", motor=None, position=None, first_seen=None,
+                         reason=f"split: the model points at {words(k)}, the commands at {words(ev.top_motor)} "
+                                f"({ev.summary(ev.top_motor)})")
+        advice = "" if ev.baseline != "neighbours" else "; a calibration profile of this airframe can tell milder damage"
+        return _with(v, status="healthy", motor=None, position=None, first_seen=None,
+                     confidence=float(np.mean(p[:, HEALTHY])) if p.size else 0.0,
+                     reason=f"no damage the evidence confirms: the model leaned to {words(k)}, but {why}{advice}")
+    if v.status == "uncertain":
+        lean = int(np.argmax(p[:, 1:].mean(axis=0))) + 1 if p.size else ev.top_motor
+        if ev.pattern_supports(lean) and not ev.effectiveness_contradicts(lean):
+            return _with(v, reason=f"{v.reason}; {words(lean)} {ev.summary(lean)}")
+        p_damage = float(np.mean(1.0 - p[:, HEALTHY])) if p.size else 0.0
+        return _with(v, status="healthy", motor=None, position=None, first_seen=None,
+                     confidence=float(np.mean(p[:, HEALTHY])) if p.size else 0.0,
+                     reason=f"the windows do not consistently point at one motor (mean damage probability "
+                            f"{p_damage:.2f}) and the motor commands single out none "
+                            f"({words(ev.top_motor)} stands {100 * ev.single_motor_gap:.0f} % above the next)")
+    return v
+
+
+def _gap_needed(ev) -> float:
+    from .evidence import NEIGHBOUR_MIN_GAP, PROFILE_MIN_GAP
+
+    return NEIGHBOUR_MIN_GAP if ev.baseline == "neighbours" else PROFILE_MIN_GAP

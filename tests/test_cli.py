@@ -115,7 +115,7 @@ def test_calibrate_no_adapt_writes_profile_and_refuses_overwrite(sim_logs, tmp_p
     res = runner.invoke(app, ["calibrate", "--no-adapt", str(ulg), "-o", str(out)])
     assert res.exit_code == 0, res.output
     prof = json.loads(out.read_text())
-    assert prof["schema"] == 1 and prof["autopilot"] == "px4"
+    assert prof["schema"] == 2 and prof["autopilot"] == "px4"
     assert prof["rho_"] == pytest.approx([1, 1, 1, 1], abs=0.02)  # the simulated f450 is balanced
     res = runner.invoke(app, ["calibrate", "--no-adapt", str(ulg), "-o", str(out)])
     assert res.exit_code == 2 and "already exists" in res.output

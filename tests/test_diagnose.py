@@ -49,7 +49,8 @@ class ShareModel:
 
 
 class FakeProfile:
-    """Only what diagnose reads from a profile: its path, model entry and compatibility check."""
+    """Only what diagnose reads from a profile: its path, model entry, compatibility check and
+    healthy command-share baseline (even shares at hover throttle 0.5)."""
 
     def __init__(self, path="/profiles/e9.json", model=None):
         self.path = path
@@ -58,9 +59,15 @@ class FakeProfile:
     def check_compatible(self, flight):
         return []
 
+    def baseline(self):
+        from flightlog_fd.evidence import Baseline
 
-def synthetic_flight(damaged_motor=None, onset_s=None, airborne=(2.0, 62.0), path="synthetic.ulg") -> Flight:
-    """Hover at 0.5 command with gyro noise; from ``onset_s`` one motor works 12 % harder."""
+        return Baseline(share=np.ones(4), slope=np.zeros(4), throttle_ref=0.5, source="test")
+
+
+def synthetic_flight(damaged_motor=None, onset_s=None, airborne=(2.0, 62.0), path="synthetic.ulg",
+                     harder: float = 1.12) -> Flight:
+    """Hover at 0.5 command with gyro noise; from ``onset_s`` one motor works ``harder`` (12 %)."""
     rng = np.random.default_rng(42)
     t_end = airborne[1] + 2.0
     t_rates = np.arange(0.0, t_end, 1 / 250)
@@ -69,7 +76,7 @@ def synthetic_flight(damaged_motor=None, onset_s=None, airborne=(2.0, 62.0), pat
     motors = HOVER_COMMAND + rng.normal(0.0, 0.005, (t_mot.size, 4))
     if damaged_motor is not None:
         after = t_mot >= (onset_s if onset_s is not None else 0.0)
-        motors[after, damaged_motor - 1] *= 1.12
+        motors[after, damaged_motor - 1] *= harder
     ground = (t_mot < airborne[0]) | (t_mot > airborne[1])
     motors[ground] = 0.0
     vel = np.zeros((t_mot.size, 3))
@@ -194,7 +201,7 @@ def test_real_healthy_px4_log_runs_through(shared):
 def test_keep_flight_false_drops_the_flight_but_keeps_the_result():
     from flightlog_fd.report.html_report import render_html
 
-    d = diagnose_flight(synthetic_flight(damaged_motor=1, onset_s=0.0), ShareModel(), keep_flight=False)
+    d = diagnose_flight(synthetic_flight(damaged_motor=1, onset_s=0.0, harder=1.45), ShareModel(), keep_flight=False)
     assert d.flight is None
     assert d.verdict.status == "damaged" and d.verdict.motor == 1 and d.verdict.position == "front-right"
     page = render_html(d)
@@ -259,3 +266,23 @@ def test_real_fault_model_end_to_end_and_resolve_model(tmp_path):
     prof.model = {"path": "tiny.onnx", "sha256": "0" * 64}
     with pytest.raises(ProfileError):
         resolve_model(None, prof)
+
+
+def test_evidence_decides_between_model_and_airframe_trim():
+    """A motor 12 % high from take-off (no onset to compare with): without a profile that is a
+    pattern healthy airframes show, so the model's vote is not confirmed (healthy, with the
+    reason); with a profile whose baseline is even, the same flight is damaged and the reason
+    cites the command change; a strong one-motor pattern (45 %) is damaged without a profile."""
+    mild = synthetic_flight(damaged_motor=2, onset_s=0.0)
+    d = diagnose_flight(mild, ShareModel())
+    assert d.verdict.status == "healthy"
+    assert "motor 2" in d.verdict.reason and "calibration profile" in d.verdict.reason
+    assert [round(m.model_vote, 1) for m in d.motors][1] > 0.5
+    d = diagnose_flight(mild, ShareModel(), FakeProfile())
+    assert d.verdict.status == "damaged" and d.verdict.motor == 2
+    assert "against calibration" in d.verdict.reason
+    assert d.motors[1].command_share_baseline == pytest.approx(1.0)
+    strong = diagnose_flight(synthetic_flight(damaged_motor=2, onset_s=0.0, harder=1.45), ShareModel())
+    assert strong.verdict.status == "damaged" and strong.verdict.motor == 2
+    assert "against its neighbours" in strong.verdict.reason
+    assert strong.motors[1].command_change > 0.3 and strong.evidence.baseline == "neighbours"

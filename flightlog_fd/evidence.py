@@ -1,0 +1,242 @@
+"""Per-motor evidence a pilot can check, and whether it supports the model's verdict.
+
+Inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
+:attr:`flightlog_fd.features.Windows.segments`), the model's window probabilities, the rotor
+layout, and optionally the calibration profile's healthy baseline.
+
+Per motor it gives:
+
+- **command share**: the motor's mean thrust command (the NIF ``ω²`` proxy) over the airborne
+  time divided by the mean of all four (1.0 = an even share). Over a whole flight the mean
+  angular acceleration is ~0, so the mean commands satisfy the same moment balance as a steady
+  hover: the airborne mean is the trim pattern even when the flight never hovers.
+- **command change**: with a profile, the share minus the profile's healthy baseline at this
+  flight's throttle (:meth:`Baseline.share_at`); without one, the share minus the mean of the
+  other three ("against its neighbours").
+- **effectiveness**: :mod:`flightlog_fd.effectiveness` (relative angular acceleration per unit
+  command, with its bootstrap interval; ``informative`` says whether the flight manoeuvred enough).
+- **model vote**: the mean probability the model gave to "this motor's propeller is damaged".
+
+Why a command pattern alone cannot name a motor, and what it can do
+--------------------------------------------------------------------
+In steady flight the four commands have four degrees of freedom (thrust, roll, pitch, yaw
+moment), so a centre of mass off the middle (two ADJACENT motors high), a yaw trim or motor tilt
+(a DIAGONAL pair high) and thrust-curve spread explain any pattern of means. What a damaged
+propeller does that those do not is raise ONE motor alone: its excess over the second-highest
+motor's (``single_motor_gap``). Measured on the airborne-mean shares (``results`` of this
+session, see the note): 18 real healthy ArduCopter flights (``../shared/real_healthy``, Erle)
+show a top excess of 0.05-0.33 and a gap of 0.00-0.21 (one odd flight, 6-3-2014_6, 0.51 with an
+inconsistent effectiveness fit); PX4 SITL flights with one weak motor show gaps of 0.14-0.15 at
+η = 0.9, 0.31-0.32 at η = 0.8 and 0.48-0.52 at η = 0.7 (healthy SITL: ≤ 0.002). So without a
+profile a gap of ``NEIGHBOUR_MIN_GAP`` = 0.25 confirms damage from η ≈ 0.83 down and never fires
+on those real healthy airframes; milder damage needs a profile, where the change against the
+airframe's own baseline is compared (``PROFILE_MIN_CHANGE``: re-flights of one healthy airframe
+move a share by ≤ 0.02, CrazyPAD E9 logs 01/02 against 00; η = 0.9 moves it by ~0.1).
+
+The effectiveness estimate is a veto, not a trigger: on simulated flights at ≥ 50 Hz it recovers η
+(rmse 0.05), but on the SITL set it fits with R² 0.1-0.2 (intervals ±0.2-0.7), and on real 10 Hz
+RCOU logs a healthy motor read as low as 0.78 ± 0.06: it contradicts a named motor only when it
+is informative AND that motor's interval lies above ``EFFECTIVENESS_HEALTHY_LOW``.
+
+Airframe change (with a profile): when the shares moved against the baseline in a pattern that
+is not one motor (``AIRFRAME_CHANGE_SHARE`` on two or more motors), or the throttle moved by
+more than ``AIRFRAME_CHANGE_THROTTLE`` (a new battery type, payload, another propeller size), the
+airframe is not the one calibrated: the report says so and advises re-calibrating.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .effectiveness import EffectivenessEstimate
+from .flight import Frame
+
+#: Without a profile: a motor's excess over the second-highest motor's must reach this to be a
+#: one-motor (damage) pattern rather than an airframe trim (see the module docstring).
+NEIGHBOUR_MIN_GAP = 0.25
+#: With a profile: the named motor's share must have risen by this much against the baseline ...
+PROFILE_MIN_CHANGE = 0.04
+#: ... and by this much more than any other motor's.
+PROFILE_MIN_GAP = 0.04
+#: An informative effectiveness interval wholly above this says the motor works like its neighbours.
+EFFECTIVENESS_HEALTHY_LOW = 0.95
+#: A fit with any motor below this is physically inconsistent (wrong motor map, saturation,
+#: reconstructed commands): its numbers are shown but never used.
+EFFECTIVENESS_SANE_MIN = 0.2
+#: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
+MIN_BEFORE_ONSET_S = 10.0
+#: The feature grid rate (Hz) of the segments (features.DEFAULT_RATE_HZ).
+_GRID_HZ = 50.0
+#: With a profile: shares moved by this much on two or more motors, or ...
+AIRFRAME_CHANGE_SHARE = 0.06
+#: ... the throttle moved by this fraction, means the airframe changed since calibration.
+AIRFRAME_CHANGE_THROTTLE = 0.20
+
+
+@dataclass
+class Baseline:
+    """A healthy airframe's command shares as a function of throttle (from a profile).
+
+    ``share_at(c) = share + slope * (c - throttle_ref)``; ``slope`` is 0 when the calibration
+    flights did not span enough throttle.
+    """
+
+    share: np.ndarray  # (4,)
+    slope: np.ndarray  # (4,) per unit throttle
+    throttle_ref: float
+    source: str = ""
+
+    def share_at(self, throttle: float) -> np.ndarray:
+        out = self.share + self.slope * (throttle - self.throttle_ref)
+        return out / out.mean()
+
+
+@dataclass
+class MotorEvidence:
+    """One motor's figures (the report's per-motor panel)."""
+
+    motor: int
+    position: Optional[str]
+    command_share: float
+    command_share_baseline: Optional[float]
+    command_change: float
+    effectiveness: Optional[float]
+    effectiveness_ci: Optional[tuple[float, float]]
+    model_vote: float
+
+    def as_dict(self) -> dict:
+        r = lambda x: None if x is None or not np.isfinite(x) else round(float(x), 4)  # noqa: E731
+        return {
+            "motor": self.motor, "position": self.position,
+            "command_share": r(self.command_share), "command_share_baseline": r(self.command_share_baseline),
+            "command_change": r(self.command_change),
+            "effectiveness": r(self.effectiveness),
+            "effectiveness_ci": None if self.effectiveness_ci is None else [r(x) for x in self.effectiveness_ci],
+            "model_vote": r(self.model_vote),
+        }
+
+
+@dataclass
+class FlightEvidence:
+    """All per-motor evidence of one flight and what it says."""
+
+    motors: list[MotorEvidence]
+    baseline: str  # "profile" | "before onset" | "neighbours"
+    throttle: float
+    top_motor: int  # 1-based motor with the largest command change
+    single_motor_gap: float  # its change minus the second-largest change
+    effectiveness: Optional[EffectivenessEstimate] = None
+    airframe_changed: Optional[str] = None  # why, when it did
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def effectiveness_usable(self) -> bool:
+        e = self.effectiveness
+        return bool(e is not None and e.informative and np.all(e.values > EFFECTIVENESS_SANE_MIN))
+
+    def pattern_supports(self, motor: int) -> bool:
+        """The command pattern is one motor high, and it is ``motor``."""
+        if self.top_motor != motor:
+            return False
+        if self.baseline in ("profile", "before onset"):
+            return (self.motors[motor - 1].command_change >= PROFILE_MIN_CHANGE
+                    and self.single_motor_gap >= PROFILE_MIN_GAP)
+        return self.single_motor_gap >= NEIGHBOUR_MIN_GAP
+
+    def effectiveness_contradicts(self, motor: int) -> bool:
+        """An informative estimate says ``motor`` is as effective as its neighbours."""
+        if not self.effectiveness_usable:
+            return False
+        lo, _ = self.effectiveness.motors[motor - 1].ci
+        return lo > EFFECTIVENESS_HEALTHY_LOW
+
+    def summary(self, motor: int) -> str:
+        """Plain words for one motor, e.g. for the verdict's reason."""
+        m = self.motors[motor - 1]
+        if self.baseline in ("profile", "before onset"):
+            against = "calibration" if self.baseline == "profile" else "before the onset"
+            words = (f"needs {100 * m.command_change / max(m.command_share_baseline or 1.0, 1e-9):+.0f} % command "
+                     f"share against {against} (share {m.command_share:.3f}, baseline {m.command_share_baseline:.3f})")
+        else:
+            words = f"runs {100 * m.command_change:+.0f} % command share against its neighbours"
+        if m.effectiveness is not None and self.effectiveness_usable:
+            lo, hi = m.effectiveness_ci
+            words += f", effectiveness {m.effectiveness:.2f} [{lo:.2f}, {hi:.2f}] of its neighbours'"
+        return words
+
+
+def command_shares(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
+    """(4,) mean thrust-command shares (mean 1) over the (n, 4) blocks of the thrust proxy
+    (e.g. each segment's ``w_sq``), and the mean thrust command (throttle)."""
+    blocks = [np.asarray(b, dtype=np.float64) for b in thrust_blocks if len(b)]
+    u = np.vstack(blocks) if blocks else np.zeros((0, 4))
+    if u.shape[0] == 0:
+        return np.full(4, np.nan), float("nan")
+    mean = u.mean(axis=0)
+    throttle = float(mean.mean())
+    return (mean / throttle if throttle > 0 else np.full(4, np.nan)), throttle
+
+
+def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
+                   effectiveness: Optional[EffectivenessEstimate] = None,
+                   baseline: Optional[Baseline] = None, since: Optional[float] = None) -> FlightEvidence:
+    """Per-motor evidence (see module docstring). ``probs`` (N, 5) window probabilities.
+
+    ``since``: the model's damage onset (s, log clock) when it lies mid-flight: the shares are then
+    taken from the onset on, and without a profile the flight before the onset (at least
+    ``MIN_BEFORE_ONSET_S`` of it) is the baseline - the same airframe, healthy, minutes earlier.
+    """
+    if since is not None:
+        before = [s.w_sq[s.t < since] for s in segments]
+        after = [s.w_sq[s.t >= since] for s in segments]
+        if baseline is None and sum(len(b) for b in before) / _GRID_HZ >= MIN_BEFORE_ONSET_S:
+            pre, pre_thr = command_shares(before)
+            baseline = Baseline(share=pre, slope=np.zeros(4), throttle_ref=pre_thr, source="before onset")
+        share, throttle = command_shares(after)
+    else:
+        share, throttle = command_shares([s.w_sq for s in segments])
+    probs = np.asarray(probs, dtype=np.float64)
+    votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(4)
+    notes: list[str] = []
+    airframe_changed = None
+    if baseline is not None:
+        base = baseline.share_at(throttle)
+        change = share - base
+        moved = np.abs(change) >= AIRFRAME_CHANGE_SHARE
+        reasons = []
+        if np.count_nonzero(moved) >= 2:
+            reasons.append("the motors' command shares moved on " + ", ".join(
+                f"motor {i + 1} ({100 * change[i]:+.0f} %)" for i in np.flatnonzero(moved)))
+        if baseline.throttle_ref > 0 and abs(throttle / baseline.throttle_ref - 1.0) > AIRFRAME_CHANGE_THROTTLE:
+            reasons.append(f"the throttle is {100 * (throttle / baseline.throttle_ref - 1.0):+.0f} % against "
+                           f"calibration ({throttle:.2f} vs {baseline.throttle_ref:.2f}: weight, battery or propellers changed)")
+        if reasons and baseline.source != "before onset":
+            airframe_changed = "; ".join(reasons)
+        kind = "before onset" if baseline.source == "before onset" else "profile"
+    else:
+        base = None
+        change = np.array([share[i] - np.delete(share, i).mean() for i in range(4)])
+        kind = "neighbours"
+    order = np.argsort(-np.nan_to_num(change, nan=-np.inf))
+    top = int(order[0]) + 1
+    gap = float(change[order[0]] - change[order[1]]) if np.all(np.isfinite(change)) else 0.0
+
+    motors = []
+    for i in range(4):
+        eff = ci = None
+        if effectiveness is not None and effectiveness.motors:
+            me = effectiveness.motors[i]
+            eff, ci = me.effectiveness, me.ci
+        motors.append(MotorEvidence(
+            motor=i + 1, position=frame.position(i + 1) if frame is not None else None,
+            command_share=float(share[i]), command_share_baseline=None if base is None else float(base[i]),
+            command_change=float(change[i]), effectiveness=eff, effectiveness_ci=ci, model_vote=float(votes[i])))
+    if effectiveness is not None and not effectiveness.informative:
+        notes.append(f"effectiveness: {effectiveness.reason}")
+    elif effectiveness is not None and not np.all(effectiveness.values > EFFECTIVENESS_SANE_MIN):
+        notes.append("effectiveness: the fit is physically inconsistent (a motor below "
+                     f"{EFFECTIVENESS_SANE_MIN}); not used")
+    return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, top_motor=top, single_motor_gap=gap,
+                          effectiveness=effectiveness, airframe_changed=airframe_changed, notes=notes)
