@@ -44,6 +44,7 @@ much).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -249,15 +250,19 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
         return EffectivenessEstimate(reason="the motor commands never varied independently", seconds=seconds)
     b_all = np.concatenate([coef.T[None], np.transpose(boot, (0, 2, 1))], axis=0)  # (1+B, 3, 4)
     rel = _relative(b_all, signs)  # (1+B, 3, 4)
-    var = np.nanvar(rel[1:], axis=0)  # (3, 4)
+    with warnings.catch_warnings():  # a motor without a lever on an axis (quad-+) is all-NaN there
+        warnings.simplefilter("ignore", RuntimeWarning)
+        var = np.nanvar(rel[1:], axis=0)  # (3, 4)
     thrust = _combine(rel[:, :2], var[None, :2].repeat(rel.shape[0], axis=0))  # (1+B, 4)
     lo_q, hi_q = (1.0 - CI_LEVEL) / 2.0, 1.0 - (1.0 - CI_LEVEL) / 2.0
     point = thrust[0]
-    lo = np.nanquantile(thrust[1:], lo_q, axis=0)
-    hi = np.nanquantile(thrust[1:], hi_q, axis=0)
-    yaw_point = rel[0, 2]
-    yaw_lo = np.nanquantile(rel[1:, 2], lo_q, axis=0)
-    yaw_hi = np.nanquantile(rel[1:, 2], hi_q, axis=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        lo = np.nanquantile(thrust[1:], lo_q, axis=0)
+        hi = np.nanquantile(thrust[1:], hi_q, axis=0)
+        yaw_point = rel[0, 2]
+        yaw_lo = np.nanquantile(rel[1:, 2], lo_q, axis=0)
+        yaw_hi = np.nanquantile(rel[1:, 2], hi_q, axis=0)
 
     motors = []
     for i in range(4):

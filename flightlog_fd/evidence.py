@@ -39,7 +39,8 @@ RCOU logs a healthy motor read as low as 0.78 ± 0.06: it contradicts a named mo
 is informative AND that motor's interval lies above ``EFFECTIVENESS_HEALTHY_LOW``.
 
 Airframe change (with a profile): when the shares moved against the baseline in a pattern that
-is not one motor (``AIRFRAME_CHANGE_SHARE`` on two or more motors), or the throttle moved by
+is not one motor (one motor rising lowers the other three equally; here the other three moved
+apart by ``AIRFRAME_CHANGE_SHARE`` or more), or the throttle moved by
 more than ``AIRFRAME_CHANGE_THROTTLE`` (a new battery type, payload, another propeller size), the
 airframe is not the one calibrated: the report says so and advises re-calibrating.
 """
@@ -69,7 +70,7 @@ EFFECTIVENESS_SANE_MIN = 0.2
 MIN_BEFORE_ONSET_S = 10.0
 #: The feature grid rate (Hz) of the segments (features.DEFAULT_RATE_HZ).
 _GRID_HZ = 50.0
-#: With a profile: shares moved by this much on two or more motors, or ...
+#: With a profile: the three motors other than the highest moved apart by this much, or ...
 AIRFRAME_CHANGE_SHARE = 0.06
 #: ... the throttle moved by this fraction, means the airframe changed since calibration.
 AIRFRAME_CHANGE_THROTTLE = 0.20
@@ -204,11 +205,14 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
     if baseline is not None:
         base = baseline.share_at(throttle)
         change = share - base
-        moved = np.abs(change) >= AIRFRAME_CHANGE_SHARE
+        # One motor rising lowers the other three's normalised shares EQUALLY; the airframe changed
+        # when the other three moved apart from each other (the pattern is not one motor).
+        top_i = int(np.nanargmax(change)) if np.isfinite(change).any() else 0
+        rest = np.delete(change, top_i)
         reasons = []
-        if np.count_nonzero(moved) >= 2:
-            reasons.append("the motors' command shares moved on " + ", ".join(
-                f"motor {i + 1} ({100 * change[i]:+.0f} %)" for i in np.flatnonzero(moved)))
+        if np.isfinite(rest).all() and float(rest.max() - rest.min()) >= AIRFRAME_CHANGE_SHARE:
+            reasons.append("the motors' command shares moved in a pattern that is not one motor: " + ", ".join(
+                f"motor {i + 1} {100 * change[i]:+.0f} %" for i in range(4)))
         if baseline.throttle_ref > 0 and abs(throttle / baseline.throttle_ref - 1.0) > AIRFRAME_CHANGE_THROTTLE:
             reasons.append(f"the throttle is {100 * (throttle / baseline.throttle_ref - 1.0):+.0f} % against "
                            f"calibration ({throttle:.2f} vs {baseline.throttle_ref:.2f}: weight, battery or propellers changed)")

@@ -155,3 +155,62 @@ def test_calibrate_adapts_the_model_and_diagnose_uses_it(sim_logs, tmp_path):
     (tmp_path / "f450.onnx").write_bytes(b"tampered")
     res = runner.invoke(app, ["diagnose", "--profile", str(out), str(ulg)])
     assert res.exit_code == 2 and "changed since calibration" in res.output
+
+
+# ---------------------------------------------------------------- per-motor evidence (issue 9)
+
+SAMPLES = __import__("pathlib").Path(__file__).resolve().parents[1] / "sample_logs"
+
+
+def test_diagnose_json_has_per_motor_evidence_valid_against_schema():
+    from flightlog_fd.report.json_report import validate
+
+    res = runner.invoke(app, ["diagnose", "--json", str(SAMPLES / "px4_motor2_damaged.ulg")])
+    assert res.exit_code == 1, res.output
+    doc = json.loads(res.stdout)
+    assert validate(doc) == [] and doc["schema"] == 2
+    motors = doc["motors"]
+    assert [m["motor"] for m in motors] == [1, 2, 3, 4]
+    assert motors[1]["position"] == "rear-left"
+    # the damaged motor carries the command excess and the model's vote; the verdict cites it
+    assert max(motors, key=lambda m: m["command_change"])["motor"] == 2
+    assert motors[1]["command_change"] > 0.25 and motors[1]["model_vote"] > 0.5
+    assert all(m["command_share_baseline"] is None for m in motors)  # no profile: against neighbours
+    assert doc["motor_evidence"]["baseline"] == "neighbours" and doc["motor_evidence"]["top_motor"] == 2
+    assert doc["verdict"]["motor"] == 2 and "command share" in doc["verdict"]["reason"]
+    eff = motors[1]["effectiveness_ci"]
+    assert eff is None or eff[0] <= eff[1]
+    # a broken per-motor entry is caught by the validator
+    doc["motors"][0]["model_vote"] = 3.0
+    assert any("motors[0].model_vote" in e for e in validate(doc))
+
+
+def test_diagnose_with_profile_compares_against_calibration_and_html_panel(tmp_path):
+    prof = tmp_path / "x500.json"
+    res = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / "px4_healthy.ulg"), "-o", str(prof)])
+    assert res.exit_code == 0, res.output
+    assert "airborne mean" in res.output or "steady flight" in res.output or "hover" in res.output
+    p = json.loads(prof.read_text())
+    assert p["schema"] == 2 and p["baseline_"]["seconds"] > 20 and len(p["baseline_"]["share"]) == 4
+    html = tmp_path / "r.html"
+    res = runner.invoke(app, ["diagnose", "--profile", str(prof), "--json", "--html", str(html),
+                              str(SAMPLES / "px4_motor1_damaged.ulg")])
+    assert res.exit_code == 1, res.output
+    doc = json.loads(res.stdout)
+    assert doc["motor_evidence"]["baseline"] == "profile"
+    assert all(m["command_share_baseline"] is not None for m in doc["motors"])
+    assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 1
+    assert "against calibration" in doc["verdict"]["reason"]
+    page = html.read_text(encoding="utf-8")
+    assert "Per-motor evidence" in page and 'class="motor-panel"' in page
+    assert page.count("<tr") >= 5 and 'tr class="top"' in page  # the named motor is highlighted
+    assert "front-right" in page
+
+
+def test_calibrate_sample_logs_without_hover(tmp_path):
+    """Both healthy sample logs calibrate, though neither holds 4 s of steady hover."""
+    for name in ("px4_healthy.ulg", "ardupilot_healthy.bin"):
+        out = tmp_path / (name + ".json")
+        res = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / name), "-o", str(out)])
+        assert res.exit_code == 0, res.output
+        assert json.loads(out.read_text())["rho_source_"] in ("hover", "steady flight", "airborne mean")

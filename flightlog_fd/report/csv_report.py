@@ -4,7 +4,10 @@ Columns (:data:`CSV_COLUMNS`): ``log`` (the path as given), ``t_start``, ``t_end
 the log's clock, 3 decimals), ``class`` (the model's most probable class, 0 healthy, k motor k),
 ``p_healthy``, ``p_motor1`` .. ``p_motor4`` (0..1, 4 decimals), ``phase`` (hover, climb, descent,
 manoeuvre, unknown), ``smoothed_class`` (the verdict's label: -1 uncertain, 0..4), ``verdict``
-(the flight's status, repeated on every row so one file of many logs can be filtered).
+(the flight's status, repeated on every row so one file of many logs can be filtered), then the
+per-motor evidence, also repeated on every row: ``change_m1`` .. ``change_m4`` (command share
+against the baseline, 4 decimals) and ``effectiveness_m1`` .. ``effectiveness_m4`` (relative
+effectiveness, empty when it could not be estimated).
 A log that could not be diagnosed contributes no rows. Comma-separated, UTF-8, ``\\n`` line ends.
 """
 from __future__ import annotations
@@ -17,7 +20,9 @@ from typing import Sequence, TextIO, Union
 from ..diagnose import Diagnosis
 
 CSV_COLUMNS = ("log", "t_start", "t_end", "class", "p_healthy", "p_motor1", "p_motor2", "p_motor3",
-               "p_motor4", "phase", "smoothed_class", "verdict")
+               "p_motor4", "phase", "smoothed_class", "verdict",
+               "change_m1", "change_m2", "change_m3", "change_m4",
+               "effectiveness_m1", "effectiveness_m2", "effectiveness_m3", "effectiveness_m4")
 
 
 def write_csv(diagnoses: Union[Diagnosis, Sequence[Diagnosis]], out: Union[str, Path, TextIO]) -> None:
@@ -42,6 +47,10 @@ def _write(diagnoses: Sequence[Diagnosis], fh: TextIO) -> None:
     writer = csv.writer(fh, lineterminator="\n")
     writer.writerow(CSV_COLUMNS)
     for d in diagnoses:
+        motors = d.motors
+        change = [f"{m.command_change:.4f}" for m in motors] or [""] * 4
+        eff = [("" if m.effectiveness is None else f"{m.effectiveness:.4f}") for m in motors] or [""] * 4
         for w in d.windows:
             writer.writerow([d.log, f"{w.t_start:.3f}", f"{w.t_end:.3f}", w.cls,
-                             *(f"{p:.4f}" for p in w.probabilities), w.phase, w.label, d.verdict.status])
+                             *(f"{p:.4f}" for p in w.probabilities), w.phase, w.label, d.verdict.status,
+                             *change, *eff])

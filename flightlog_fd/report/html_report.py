@@ -54,6 +54,8 @@ h1{font-size:1.4em} h2{font-size:1.15em;margin-top:2em;border-bottom:1px solid #
 table{border-collapse:collapse;font-size:.9em} td,th{border:1px solid #ddd;padding:3px 8px;text-align:left}
 th{background:#f5f5f5} .warn{color:#8a5a00} .muted{color:#777;font-size:.85em}
 svg{display:block;margin:6px 0 14px 0} svg text{font-size:11px;fill:#333}
+.row{display:flex;flex-wrap:wrap;gap:18px;align-items:flex-start} .motors h3{font-size:1em;margin:0 0 4px 0}
+.motors{max-width:520px} tr.top td{background:#ffebee;font-weight:600}
 """
 
 
@@ -230,6 +232,29 @@ def _window_table(d: Diagnosis) -> str:
             f"<table><tr>{head}</tr>{''.join(rows)}</table></details>")
 
 
+def motor_panel(d: Diagnosis) -> str:
+    """The per-motor evidence panel (same cells as the terminal's), beside the timeline."""
+    from .terminal import MOTOR_HEADERS, motor_rows
+
+    rows = motor_rows(d)
+    if not rows:
+        return ""
+    ev = d.evidence
+    against = {"profile": "calibration", "before onset": "the flight before the onset",
+               "neighbours": "the other three motors"}.get(getattr(ev, "baseline", ""), "")
+    top = ev.top_motor if ev is not None else None
+    head = "".join(f"<th>{esc(h)}</th>" for h in MOTOR_HEADERS)
+    body = "".join(
+        ("<tr class=\"top\">" if d.verdict.motor is not None and r[0] == str(d.verdict.motor) else "<tr>")
+        + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
+    notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in (ev.notes if ev is not None else []))
+    gap = (f"motor {top} stands {100 * ev.single_motor_gap:.0f} % above the next" if ev is not None else "")
+    return (f'<div class="motors"><h3>Per-motor evidence</h3><table class="motor-panel"><tr>{head}</tr>{body}</table>'
+            f'<p class="muted">Command share: mean thrust command / mean of the four (1 = even); change against '
+            f'{esc(against)}; {esc(gap)}. Effectiveness: angular acceleration per unit command relative to the '
+            f'other three (1 = as they). Model vote: mean probability that this propeller is damaged.</p>{notes}</div>')
+
+
 def log_section(d: Diagnosis) -> str:
     """The verdict, facts, plots and window table of one log."""
     v = d.verdict
@@ -238,7 +263,7 @@ def log_section(d: Diagnosis) -> str:
            f'<p class="verdict" style="border-color:{colour};color:{colour}">{esc(verdict_sentence(d))}</p>']
     if d.warnings:
         out.append("<ul>" + "".join(f'<li class="warn">{esc(w)}</li>' for w in d.warnings) + "</ul>")
-    out.append(_facts_table(d))
+    out.append(f'<div class="row">{_facts_table(d)}{motor_panel(d)}</div>')
     t0, t1 = _time_span(d)
     fl = d.flight
     if fl is not None:

@@ -1,4 +1,4 @@
-"""JSON report, schema version 1 (``fdlog diagnose --json``).
+"""JSON report, schema version 2 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals.
@@ -6,7 +6,7 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
 .. code-block:: text
 
     {
-      "schema": 1,
+      "schema": 2,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -25,6 +25,18 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
       "evidence": {"n_windows": int, "covered_s": float,
                    "share": [healthy, m1, m2, m3, m4],   # smoothed votes, 0..1
                    "abstained": 0-1} | null,
+      "motors": [{"motor": 1-4, "position": str|null,
+                  "command_share": float,                 # mean thrust command / mean of the four (1 = even)
+                  "command_share_baseline": float|null,   # the profile's (or pre-onset) healthy share
+                  "command_change": float,                # share - baseline, or - mean of the other three
+                  "effectiveness": float|null,            # relative to the other three (1 = as they)
+                  "effectiveness_ci": [lo, hi]|null,      # 90 % block-bootstrap interval
+                  "model_vote": 0-1}],                    # mean model probability "this propeller damaged"
+      "motor_evidence": {"baseline": "profile" | "before onset" | "neighbours",
+                         "throttle": float, "top_motor": 1-4, "single_motor_gap": float,
+                         "effectiveness": {"informative": bool, "reason": str, "seconds": float,
+                                           "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
+                         "airframe_changed": str | null, "notes": [str]} | null,
       "windows": [{"t_start": s, "t_end": s,
                    "class": 0-4,                  # the model's most probable class
                    "probabilities": [p0, p1, p2, p3, p4],
@@ -37,17 +49,20 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
 :data:`JSON_SCHEMA` is the same as a JSON Schema (draft 2020-12) dict; :func:`validate` checks a
 document against it without needing the ``jsonschema`` package (it implements exactly the
 keywords the schema uses). Adding a field is a compatible change; renaming or removing one
-bumps ``schema``.
+bumps ``schema``. Schema 2 (this one) added ``motors`` and ``motor_evidence`` and changed what
+the verdict means: it now rests on the model AND the per-motor evidence (``verdict.reason`` cites it).
 """
 from __future__ import annotations
 
 import json
-from typing import Any, Sequence, Union
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
 
 from .. import __version__
 from ..diagnose import Diagnosis
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
 PROB_DECIMALS = 4
 TIME_DECIMALS = 3
@@ -61,8 +76,8 @@ JSON_SCHEMA: dict = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "fdlog diagnose report",
     "type": "object",
-    "required": ["schema", "log", "autopilot", "frame", "model", "profile", "verdict", "windows",
-                 "warnings", "exit_code"],
+    "required": ["schema", "log", "autopilot", "frame", "model", "profile", "verdict", "motors",
+                 "motor_evidence", "windows", "warnings", "exit_code"],
     "properties": {
         "schema": {"const": SCHEMA_VERSION},
         "tool": {"type": "object", "required": ["name", "version"],
@@ -96,6 +111,42 @@ JSON_SCHEMA: dict = {
                      "properties": {"n_windows": {"type": "integer", "minimum": 0}, "covered_s": _NUM,
                                     "share": {"type": "array", "items": _PROB, "minItems": 5, "maxItems": 5},
                                     "abstained": _PROB}},
+        "motors": {
+            "type": "array", "maxItems": 4,
+            "items": {
+                "type": "object",
+                "required": ["motor", "position", "command_share", "command_share_baseline", "command_change",
+                             "effectiveness", "effectiveness_ci", "model_vote"],
+                "properties": {
+                    "motor": {"type": "integer", "minimum": 1, "maximum": 4},
+                    "position": _STR_OR_NULL,
+                    "command_share": _NUM_OR_NULL,
+                    "command_share_baseline": _NUM_OR_NULL,
+                    "command_change": _NUM_OR_NULL,
+                    "effectiveness": _NUM_OR_NULL,
+                    "effectiveness_ci": {"type": ["array", "null"], "items": _NUM_OR_NULL, "minItems": 2, "maxItems": 2},
+                    "model_vote": _PROB,
+                },
+            },
+        },
+        "motor_evidence": {
+            "type": ["object", "null"],
+            "required": ["baseline", "throttle", "top_motor", "single_motor_gap", "effectiveness",
+                         "airframe_changed", "notes"],
+            "properties": {
+                "baseline": {"enum": ["profile", "before onset", "neighbours"]},
+                "throttle": _NUM_OR_NULL,
+                "top_motor": {"type": "integer", "minimum": 1, "maximum": 4},
+                "single_motor_gap": _NUM,
+                "effectiveness": {"type": ["object", "null"],
+                                  "required": ["informative", "reason", "seconds", "motor_lag_s", "r2"],
+                                  "properties": {"informative": {"type": "boolean"}, "reason": {"type": "string"},
+                                                 "seconds": _NUM, "motor_lag_s": _NUM,
+                                                 "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
+                "airframe_changed": _STR_OR_NULL,
+                "notes": {"type": "array", "items": {"type": "string"}},
+            },
+        },
         "windows": {
             "type": "array",
             "items": {
@@ -117,8 +168,18 @@ JSON_SCHEMA: dict = {
 }
 
 
+def _motor_evidence(d: Diagnosis) -> Optional[dict]:
+    ev = d.evidence
+    if ev is None:
+        return None
+    return {"baseline": ev.baseline, "throttle": None if not np.isfinite(ev.throttle) else round(float(ev.throttle), 4),
+            "top_motor": int(ev.top_motor), "single_motor_gap": round(float(ev.single_motor_gap), 4),
+            "effectiveness": None if ev.effectiveness is None else ev.effectiveness.as_dict(),
+            "airframe_changed": ev.airframe_changed, "notes": list(ev.notes)}
+
+
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-1 object for one diagnosis."""
+    """The schema-2 object for one diagnosis."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
     ev = v.evidence
     return {
@@ -140,6 +201,8 @@ def to_dict(d: Diagnosis) -> dict:
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),
             "share": [round(x, PROB_DECIMALS) for x in ev.smoothed_share],
             "abstained": round(ev.abstained_share, PROB_DECIMALS)},
+        "motors": [m.as_dict() for m in d.motors],
+        "motor_evidence": _motor_evidence(d),
         "windows": [{"t_start": round(w.t_start, TIME_DECIMALS), "t_end": round(w.t_end, TIME_DECIMALS),
                      "class": w.cls, "probabilities": [round(x, PROB_DECIMALS) for x in w.probabilities],
                      "phase": w.phase, "smoothed_class": w.label} for w in d.windows],

@@ -123,12 +123,46 @@ def facts_line(diagnosis: Diagnosis) -> str:
     return " | ".join(parts)
 
 
+def motor_rows(diagnosis: Diagnosis) -> list[list[str]]:
+    """The per-motor evidence as text cells (shared by the terminal and HTML panels):
+    motor, position, command share, change against the baseline, effectiveness [90 % CI], model vote."""
+    rows = []
+    ev = diagnosis.evidence
+    for m in diagnosis.motors:
+        eff = "-"
+        if m.effectiveness is not None and m.effectiveness_ci is not None and abs(m.effectiveness) < 100:
+            eff = f"{m.effectiveness:.2f} [{m.effectiveness_ci[0]:.2f}-{m.effectiveness_ci[1]:.2f}]"
+            if ev is not None and not ev.effectiveness_usable:
+                eff += "*"
+        base = "-" if m.command_share_baseline is None else f"{m.command_share_baseline:.3f}"
+        rows.append([str(m.motor), m.position or "-", f"{m.command_share:.3f}", base,
+                     f"{100 * m.command_change:+.1f} %", eff, f"{m.model_vote:.2f}"])
+    return rows
+
+
+MOTOR_HEADERS = ("motor", "position", "share", "baseline", "change", "effectiveness (90 % CI)", "vote")
+
+
+def motor_panel(diagnosis: Diagnosis) -> Table:
+    """Per-motor evidence table: what the verdict rests on, in numbers a pilot can check."""
+    ev = diagnosis.evidence
+    against = {"profile": "calibration", "before onset": "the flight before the onset",
+               "neighbours": "the other three"}.get(getattr(ev, "baseline", ""), "")
+    t = Table(title=f"per-motor evidence (change against {against})", title_justify="left", box=None,
+              padding=(0, 1), title_style="dim")
+    for h in MOTOR_HEADERS:
+        t.add_column(h, justify="left" if h in ("position", "effectiveness (90 % CI)") else "right", no_wrap=True)
+    for row in motor_rows(diagnosis):
+        t.add_row(*row)
+    return t
+
+
 def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_windows: bool = False) -> Group:
     """Print (when ``console`` is given) and return the report for one log."""
     v = diagnosis.verdict
     parts: list = [Text(diagnosis.log, style="bold"),
                    Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
-    if v.status in ("damaged", "healthy") and v.reason:
+    if v.status in ("damaged", "healthy", "uncertain") and v.reason:
         parts.append(Text(f"  {v.reason}", style="dim"))
     line = facts_line(diagnosis)
     if line:
@@ -136,6 +170,10 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
     if diagnosis.windows:
         parts.append(timeline_strip(diagnosis))
         parts.append(Text("  . healthy   1-4 propeller damaged   ? uncertain", style="dim"))
+    if diagnosis.motors:
+        parts.append(motor_panel(diagnosis))
+        for note in diagnosis.evidence.notes:
+            parts.append(Text(f"  * {note}", style="dim"))
     if show_windows and diagnosis.windows:
         parts.append(window_table(diagnosis))
     for w in diagnosis.warnings:
