@@ -66,6 +66,11 @@ EFFECTIVENESS_HEALTHY_LOW = 0.95
 #: A fit with any motor below this is physically inconsistent (wrong motor map, saturation,
 #: reconstructed commands): its numbers are shown but never used.
 EFFECTIVENESS_SANE_MIN = 0.2
+#: After a mid-flight onset, a rise of the motor's share between the first and last third of
+#: the run larger than this fraction of its whole change is a drift, not a broken propeller
+#: (real "healthy" Erle flight 11-2-2015_112: motor 2 climbs from 0.58 to 0.88 PWM over 40 s
+#: before a hard landing; SITL steps: the share is flat after the onset).
+ONSET_DRIFT_SHARE = 0.5
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
 MIN_BEFORE_ONSET_S = 10.0
 #: The feature grid rate (Hz) of the segments (features.DEFAULT_RATE_HZ).
@@ -131,6 +136,18 @@ class FlightEvidence:
     effectiveness: Optional[EffectivenessEstimate] = None
     airframe_changed: Optional[str] = None  # why, when it did
     notes: list[str] = field(default_factory=list)
+    #: Since a mid-flight onset the other three motors moved apart too: not one motor changing.
+    not_one_motor: bool = False
+    #: Since a mid-flight onset: the top motor's share change from the first to the last third of
+    #: the run (a broken propeller is a step: ~0; a motor, ESC or mount degrading drifts).
+    onset_drift: Optional[float] = None
+
+    def drifting(self, motor: int) -> bool:
+        """The named motor's command rose steadily after the onset rather than in one step."""
+        if self.onset_drift is None or self.top_motor != motor:
+            return False
+        change = self.motors[motor - 1].command_change
+        return change > 0 and self.onset_drift > ONSET_DRIFT_SHARE * change
 
     @property
     def effectiveness_usable(self) -> bool:
@@ -138,8 +155,8 @@ class FlightEvidence:
         return bool(e is not None and e.informative and np.all(e.values > EFFECTIVENESS_SANE_MIN))
 
     def pattern_supports(self, motor: int) -> bool:
-        """The command pattern is one motor high, and it is ``motor``."""
-        if self.top_motor != motor:
+        """The command pattern is one motor high, and it is ``motor`` (a step, not a drift)."""
+        if self.top_motor != motor or self.not_one_motor or self.drifting(motor):
             return False
         if self.baseline in ("profile", "before onset"):
             return (self.motors[motor - 1].command_change >= PROFILE_MIN_CHANGE
@@ -189,9 +206,11 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
     taken from the onset on, and without a profile the flight before the onset (at least
     ``MIN_BEFORE_ONSET_S`` of it) is the baseline - the same airframe, healthy, minutes earlier.
     """
+    onset_drift = None
     if since is not None:
         before = [s.w_sq[s.t < since] for s in segments]
         after = [s.w_sq[s.t >= since] for s in segments]
+        onset_drift = _drift(after)
         if baseline is None and sum(len(b) for b in before) / _GRID_HZ >= MIN_BEFORE_ONSET_S:
             pre, pre_thr = command_shares(before)
             baseline = Baseline(share=pre, slope=np.zeros(4), throttle_ref=pre_thr, source="before onset")
@@ -202,6 +221,7 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
     votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(4)
     notes: list[str] = []
     airframe_changed = None
+    not_one_motor = False
     if baseline is not None:
         base = baseline.share_at(throttle)
         change = share - base
@@ -216,9 +236,13 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         if baseline.throttle_ref > 0 and abs(throttle / baseline.throttle_ref - 1.0) > AIRFRAME_CHANGE_THROTTLE:
             reasons.append(f"the throttle is {100 * (throttle / baseline.throttle_ref - 1.0):+.0f} % against "
                            f"calibration ({throttle:.2f} vs {baseline.throttle_ref:.2f}: weight, battery or propellers changed)")
-        if reasons and baseline.source != "before onset":
-            airframe_changed = "; ".join(reasons)
         kind = "before onset" if baseline.source == "before onset" else "profile"
+        if reasons and kind == "profile":
+            airframe_changed = "; ".join(reasons)
+        elif reasons and kind == "before onset" and np.isfinite(rest).all() \
+                and float(rest.max() - rest.min()) >= AIRFRAME_CHANGE_SHARE:
+            notes.append("since the onset the other three motors moved apart too (not one motor changing)")
+            not_one_motor = True
     else:
         base = None
         change = np.array([share[i] - np.delete(share, i).mean() for i in range(4)])
@@ -242,5 +266,20 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
     elif effectiveness is not None and not np.all(effectiveness.values > EFFECTIVENESS_SANE_MIN):
         notes.append("effectiveness: the fit is physically inconsistent (a motor below "
                      f"{EFFECTIVENESS_SANE_MIN}); not used")
+    drift = None
+    if onset_drift is not None and np.isfinite(onset_drift[top - 1]):
+        drift = float(onset_drift[top - 1])
     return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, top_motor=top, single_motor_gap=gap,
-                          effectiveness=effectiveness, airframe_changed=airframe_changed, notes=notes)
+                          effectiveness=effectiveness, airframe_changed=airframe_changed, notes=notes,
+                          not_one_motor=not_one_motor, onset_drift=drift)
+
+
+def _drift(blocks: Sequence[np.ndarray]) -> np.ndarray:
+    """(4,) change of each motor's share from the first to the last third of the samples in
+    ``blocks`` (time order): ~0 after a step (a propeller breaks once), large for a steady rise."""
+    u = np.vstack([np.asarray(b, float) for b in blocks if len(b)]) if any(len(b) for b in blocks) else np.zeros((0, 4))
+    if len(u) < 3 * 50:  # under 3 s after the onset: nothing to compare
+        return np.full(4, np.nan)
+    n = len(u) // 3
+    first, last = u[:n].mean(axis=0), u[-n:].mean(axis=0)
+    return last / last.mean() - first / first.mean()

@@ -412,6 +412,11 @@ def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Fr
                          for a in others for b in others)
             return _with(v, reason=f"{v.reason}; {words(k)} {ev.summary(k)}; the other three agree within "
                                    f"{100 * spread:.0f} %")
+        if ev.drifting(k):
+            return _with(v, status="uncertain", motor=None, position=None, first_seen=None,
+                         reason=f"{words(k)} needed steadily more command from t={v.first_seen:.1f} s "
+                                f"({ev.summary(k)}): a drift rather than the step a broken propeller makes; "
+                                f"inspect {words(k)}, its ESC and its mount")
         if ev.effectiveness_contradicts(k):
             lo, hi = ev.motors[k - 1].effectiveness_ci
             why = (f"its effectiveness [{lo:.2f}, {hi:.2f}] is that of its neighbours")
