@@ -20,7 +20,7 @@ imbalance fills its own:
   propeller spread; independent draws): a thrust-weak rotor runs its own command high.
 - **per-motor motor time constants** ``motor_tau_scale`` (ESC / motor spread).
 
-Randomisation (:func:`random_imbalances`, per vehicle, a severity ``s ~ U(0.15, 1)`` scales all
+Randomisation (:func:`random_imbalances`, per vehicle, a severity ``s ~ U(0.25, 1)`` scales all
 of it so that near-balanced airframes appear too):
 
 - CoG offset: random direction, magnitude ``s · U(0, COG_MAX_ARM_FRACTION)`` of the arm;
@@ -52,15 +52,15 @@ import numpy as np
 
 from flightlog_fd.sim.airframe import Airframe
 
-COG_MAX_ARM_FRACTION = 0.08
-TILT_COMMON_STD_DEG = 0.35
+COG_MAX_ARM_FRACTION = 0.10
+TILT_COMMON_STD_DEG = 0.45
 TILT_MOTOR_STD_DEG = 0.2
 TILT_CLIP_DEG = 1.2
 COEF_STD = 0.03
 COEF_CLIP = 0.08
 MOTOR_TAU_STD = 0.08
 MOTOR_TAU_CLIP = 0.2
-SEVERITY_RANGE = (0.15, 1.0)
+SEVERITY_RANGE = (0.25, 1.0)
 #: A healthy motor may need at most this hover command after all imbalances (else the draw is
 #: scaled down: a real airframe that far off would be re-trimmed before it flies).
 MAX_HEALTHY_HOVER_COMMAND = 0.75

@@ -35,7 +35,7 @@ from flightlog_fd.sim.airframe import GRAVITY, Airframe
 from flightlog_fd.sim.dynamics import VehicleParams
 
 ATTITUDE_DELAY_S = 0.008
-GYRO_NOISE_DENSITY_DPS = (0.04, 0.25)  # °/s/√Hz
+GYRO_NOISE_DENSITY_DPS = (0.04, 0.35)  # °/s/√Hz
 GYRO_BIAS_STD_DPS = 0.3
 VEL_NOISE_STD = (0.02, 0.10)
 VEL_NOISE_TAU_S = 0.5
@@ -45,7 +45,7 @@ WIND_MEAN_MS = (0.0, 5.0)
 GUST_STD_MS = (0.2, 1.5)
 GUST_TAU_S = 2.0
 MAX_WIND_DRAG_FRACTION = 0.25
-TURBULENCE_WOBBLE_DPS = (1.0, 6.0)
+TURBULENCE_WOBBLE_DPS = (1.0, 9.0)
 TURBULENCE_TAU_S = 0.1
 #: Share of the roll/pitch vibration that appears on the yaw gyro (frame flex is mostly in-plane).
 VIBRATION_YAW_SHARE = 0.3
