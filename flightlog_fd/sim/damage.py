@@ -22,7 +22,9 @@ Vibration: an unbalanced propeller shakes the frame at its rotation frequency ``
 (100-400 Hz). The gyro sees an oscillation of amplitude
 ``VIBRATION_GAIN_RADS · imbalance_k · (w_k/omega_max)²`` rad/s before the autopilot's gyro
 low-pass filter, with ``imbalance_k = BASE_IMBALANCE (healthy props are never perfect) +
-(1 − η_k)``; the filtered amplitude is what the controller and the logs see (sensors.py).
+(1 − η_k)``: it grows linearly with the thrust loss (η 0.95 adds 0.05, more than a healthy
+prop's 0.01-0.04; η 0.6 adds 0.4, ten times it); the filtered amplitude is what the controller
+and the logs see (sensors.py).
 
 Random damages (:func:`random_damages`): healthy with probability ``healthy_fraction``, else a
 uniformly chosen motor; a fraction ``mild_fraction`` of the damaged ones get mild damage, η

@@ -29,19 +29,48 @@ of it so that near-balanced airframes appear too):
 - thrust / torque scale: ``1 + s · N(0, COEF_STD)`` each, independent, clipped to ``± COEF_CLIP``;
 - motor time-constant scale: ``1 + N(0, MOTOR_TAU_STD)`` clipped to ``± MOTOR_TAU_CLIP``.
 
-Real healthy logs (measured with ``python /tmp/simwork/measure_real.py`` -> see the table in
-``benchmarks/real_imbalance.py``'s docstring, which reproduces it): steady per-motor command
-offsets (motor mean − mean of the four, full scale 1) of healthy real airframes:
+Real healthy logs, measured with ``python benchmarks/real_imbalance.py --sim 24`` (offsets =
+steady per-motor command minus the mean of the four, full scale 1; hover segments where found,
+else all airborne time; ArduPilot "signal" = RCOU PWM, "thrust" = RATE mixer / actuator_motors):
 
-==========================================  ============================  =============
-log                                         offsets m1..m4                pattern
-==========================================  ============================  =============
-REAL_OFFSETS_TABLE
-==========================================  ============================  =============
+===========================================  =========================  ==============  ==========
+log                                          offsets m1..m4             gyro std °/s    motor std
+                                                                        roll/pitch/yaw
+===========================================  =========================  ==============  ==========
+real_logs erle_copter33_73 (RCOU 10 Hz)      −0.048 +0.009 +0.019 +0.019  8.6 / 8.2 / 2.9  0.026-0.032
+real_logs erle_copter34_22 (RATE 24 Hz)      −0.016 −0.036 +0.042 +0.010  4.0 / 6.0 / 1.5  0.011-0.019
+real_logs erle_copter34_7 (RATE 24 Hz)       +0.003 −0.008 +0.015 −0.010  12.3 / 13.2 / 1.7 0.019-0.022
+real_healthy 09-10-2014_25                   +0.030 +0.007 −0.011 −0.026  18.8 / 14.8 / 11.2 0.022-0.024
+real_healthy 09-10-2014_31                   +0.029 +0.043 −0.027 −0.045  6.7 / 5.5 / 1.7  0.013-0.019
+real_healthy 10-11-2014_104                  +0.027 +0.026 −0.009 −0.043  13.3 / 11.9 / 2.6 0.016-0.019
+real_healthy 11-2-2015_112                   −0.038 +0.010 +0.008 +0.020  2.1 / 1.9 / 1.2  0.016-0.019
+real_healthy 15-10-2014_42                   −0.013 +0.013 +0.059 −0.059  11.4 / 8.1 / 2.1  0.014-0.025
+real_healthy 19-10-2014_ALT_HOLD_test1       +0.036 −0.009 −0.066 +0.039  6.2 / 3.9 / 1.2  0.010-0.012
+real_healthy 22-12-2014_37                   +0.035 +0.043 −0.025 −0.052  4.4 / 3.3 / 1.5  0.031-0.034
+real_healthy 25-9-2014_3                     −0.092 −0.041 +0.044 +0.089  17.4 / 21.2 / 9.2 0.029-0.040
+real_healthy 27-9-2014_72                    −0.039 +0.029 +0.001 +0.009  8.7 / 5.2 / 0.6  0.022-0.028
+real_healthy 29-09-2014_2                    +0.004 +0.075 −0.023 −0.056  43.1 / 34.2 / 3.1 0.076-0.087
+real_healthy 5-12-2014_218                   +0.012 +0.017 +0.008 −0.037  3.8 / 4.2 / 1.7  0.008-0.009
+real_healthy 6-3-2014_6                      +0.002 −0.068 −0.018 +0.084  9.7 / 7.7 / 4.2  0.088-0.093
+real_healthy 7-9-2014_21                     −0.004 +0.044 −0.027 −0.014  19.3 / 14.9 / 1.4 0.050-0.053
+real_healthy 7-9-2014_25                     +0.011 +0.030 −0.010 −0.031  22.8 / 20.1 / 2.1 0.056-0.063
+CrazyPAD E9 normal_flight log00..02          +0.01 +0.072..0.081 −0.063..−0.071 −0.013..−0.022
+                                                                        3.9-4.7 / 3.1-4.4 / 0.6-0.9
+                                                                                        0.018-0.026
+===========================================  =========================  ==============  ==========
 
-So real offsets reach ±0.10 of full scale with a diagonal (yaw-trim) pattern dominating. The
-ranges above are chosen so that simulated healthy airframes' offsets span the same (measured on
-simulated hovers by ``tests/test_sim_imbalance.py::test_random_imbalance_offsets_span_real``).
+(real_healthy "Erle-Brain2 first flight" is excluded: its motors sit at full scale, 9 s only.)
+Summary: the largest |offset| of a real healthy airframe is 0.015-0.092, median 0.045, 90th
+percentile ≈ 0.08; gyro noise (0.5 s detrended, 50-100 Hz logs) roll/pitch 2-43 °/s, median ≈ 8,
+yaw 0.6-11 °/s; motor command noise 0.008-0.09, median ≈ 0.02. The real_healthy logs are
+ArduCopter 3.1-3.2 without RATE: IMU at 50-56 Hz, RCOU at 10-11 Hz (the ``ardupilot_rcou``
+logging profile of logger.py).
+
+Simulated healthy airframes with these ranges (same script, ``--sim 24``: 72 flights, random
+airframes, ardupilot_rcou manual + waypoints and px4_default hover): largest |offset| per flight
+p10/50/90/max 0.021 / 0.045 / 0.077 / 0.126; gyro std roll/pitch p10/50/90 4.5 / 7.1 / 12.6 (yaw 1.4 / 2.5 / 4.5) °/s; motor std p10/50/90
+0.012 / 0.018 / 0.033. The static hover balance :func:`hover_commands` (used to keep every draw flyable)
+gives the same offsets to within 0.003 (tests/test_sim_imbalance.py).
 """
 from __future__ import annotations
 

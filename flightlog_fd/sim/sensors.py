@@ -1,6 +1,6 @@
 """Sensor, estimator and environment realism for N vehicles (numpy, vectorised, arrays (k, N)).
 
-- Gyro: ``raw = ω + bias + white noise`` (noise density 0.04-0.25 °/s/√Hz, i.e. per-sample
+- Gyro: ``raw = ω + bias + white noise`` (noise density 0.04-0.35 °/s/√Hz, i.e. per-sample
   σ = density·√(sim rate), so the filtered noise does not depend on the step size; bias
   N(0, 0.3 °/s) per axis), then the autopilot's gyro low-pass (first order at the airframe's
   ``gyro_cutoff_hz``, PX4 IMU_GYRO_CUTOFF-like), plus propeller vibration at each rotor's rotation
@@ -17,9 +17,15 @@
   wind's drag is at most ``MAX_WIND_DRAG_FRACTION`` of the weight (a nano quad does not fly in 5 m/s).
 - Turbulence / prop-wash torque: OU angular-acceleration disturbance with 0.1 s correlation
   (advanced at the outer-loop rate), sized so that it alone shakes the hovering vehicle by about
-  1-6 °/s RMS: σ_α = level · rate-loop kp. With the gyro noise, hover rates come out at 2-10 °/s
+  1-9 °/s RMS: σ_α = level · rate-loop kp. With the gyro noise, hover rates come out at 2-10 °/s
   RMS (PX4 SIH dev flights: 6-8 °/s roll, 3-5 pitch, 1.5-2 yaw; a Crazyflie about 2 °/s) and
   angular accelerations from 250 Hz differences at 200-800 °/s² RMS (SIH: 800/400/170).
+  The upper ends (9 °/s wobble, 0.35 °/s/√Hz) were raised from 6 and 0.25 so that flight noise
+  spans real healthy logs (``python benchmarks/real_imbalance.py --sim 24``, 0.5 s detrended std
+  over airborne time): real Erle ArduCopter / CrazyPAD roll-pitch gyro 2-43 °/s (median ≈ 8),
+  yaw 0.6-11, motor commands 0.008-0.09 (median ≈ 0.02); simulated random airframes roll-pitch
+  p10/50/90 ≈ 4.5 / 7 / 13 °/s, yaw 1.4 / 2.5 / 4.5, motor commands 0.012 / 0.018 / 0.033
+  (the wobbliest real logs, > 20 °/s, are beyond it). Full table: imbalance.py.
 
 ``realism=False`` switches all of this off (exact measurements, no wind, no delay): used for
 physics unit tests.
