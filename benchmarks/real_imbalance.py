@@ -8,7 +8,7 @@ what is absent. Per log: stream rates, gyro noise std (°/s, roll/pitch/yaw, air
 each end, after removing a 0.5 s moving-average trend), motor command noise std (same
 detrending, full scale 1), and the steady per-motor offsets (training/peer_rule.steady_means
 minus the mean of the four: hover segments, else all airborne time). ``--sim N`` flies N healthy
-random airframes with realistic imbalance (sim/imbalance.py) per (profile, mission) in
+random airframes with realistic imbalance (sim/imbalance.py) and ``noise="real_logs"`` per (profile, mission) in
 ``ardupilot_rcou``/manual, ``ardupilot_rcou``/waypoints, ``px4_default``/hover and prints the same
 figures as percentiles over flights. Prints figures only.
 """
@@ -80,7 +80,7 @@ def main() -> None:
         gs, ms_all, worst = [], [], []
         for prof, mission in (("ardupilot_rcou", "manual"), ("ardupilot_rcou", "waypoints"), ("px4_default", "hover")):
             for fl in simulate_flights(args.sim, profile=prof, mission=mission, duration_s=50.0, imbalance="random",
-                                       healthy_fraction=1.0, seed=3):
+                                       healthy_fraction=1.0, noise="real_logs", seed=3):
                 g, ms, off, _ = figures(fl)
                 gs.append(g)
                 ms_all.append(np.nanmean(ms))

@@ -41,12 +41,14 @@ TORQUE_EXPONENT_RANGE = (1.0, 1.6)
 #: Healthy share of the simulated flights (false alarms on healthy airframes are the costly error;
 #: the simulator's default is 0.2).
 HEALTHY_FRACTION = 0.35
+#: Turbulence and gyro noise spanning real healthy logs (sim/sensors.py, measured there).
+NOISE = "real_logs"
 
 
 def sim_kwargs() -> dict:
     """Keyword arguments of simulate_windows for the shipped model's training and test data."""
     return dict(profiles=TRAIN_PROFILES, imbalance=IMBALANCE, eta_range=ETA_RANGE, mild_fraction=MILD_FRACTION,
-                torque_exponent_range=TORQUE_EXPONENT_RANGE, healthy_fraction=HEALTHY_FRACTION)
+                torque_exponent_range=TORQUE_EXPONENT_RANGE, healthy_fraction=HEALTHY_FRACTION, noise=NOISE)
 DEFAULT_OUT = Path(__file__).resolve().parents[1] / "models" / "default.onnx"
 
 

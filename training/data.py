@@ -113,14 +113,15 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
                      healthy_fraction: Optional[float] = None,
                      eta_range: Optional[tuple[float, float]] = None,
                      imbalance=None, mild_fraction: Optional[float] = None,
-                     torque_exponent_range: Optional[tuple[float, float]] = None,
+                     torque_exponent_range: Optional[tuple[float, float]] = None, noise: Optional[str] = None,
                      flight_filter: Optional[Callable[[Flight], bool]] = None,
                      progress: Optional[Callable[[int, int], None]] = None) -> WindowSet:
     """Fly ``n_flights`` simulated quads in batches and window them (labels from the truth).
 
     ``airframes`` / ``rho`` / ``rho_mode`` / ``eta_range`` / ``imbalance`` (None, ``"random"`` for
     realistic healthy-airframe imbalance drawn per flight, sim/imbalance.py) / ``mild_fraction`` /
-    ``torque_exponent_range`` (damaged propellers' separate drag-torque loss, sim/damage.py) are
+    ``torque_exponent_range`` (damaged propellers' separate drag-torque loss, sim/damage.py) /
+    ``noise`` ("real_logs": sensor noise spanning real logs, sim/sensors.py) are
     passed to :func:`flightlog_fd.sim.api.simulate_flights`; ``airframes`` may be a callable
     ``(n, rng) -> list[Airframe]`` to draw a family (e.g. airframes like a calibrated one).
     Missions (and ``profiles``, logging profiles, when given instead of ``profile``) alternate
@@ -131,7 +132,7 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
                                 rho_mode=rho_mode, missions=missions, duration_s=duration_s, profile=profile,
                                 profiles=profiles, healthy_fraction=healthy_fraction, eta_range=eta_range,
                                 imbalance=imbalance, mild_fraction=mild_fraction,
-                                torque_exponent_range=torque_exponent_range,
+                                torque_exponent_range=torque_exponent_range, noise=noise,
                                 flight_filter=flight_filter, progress=progress)[0]
 
 
@@ -142,7 +143,7 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
                          healthy_fraction: Optional[float] = None,
                          eta_range: Optional[tuple[float, float]] = None,
                          imbalance=None, mild_fraction: Optional[float] = None,
-                         torque_exponent_range: Optional[tuple[float, float]] = None,
+                         torque_exponent_range: Optional[tuple[float, float]] = None, noise: Optional[str] = None,
                          flight_filter: Optional[Callable[[Flight], bool]] = None,
                          progress: Optional[Callable[[int, int], None]] = None) -> list[WindowSet]:
     """:func:`simulate_windows` for several feature specs at once: one WindowSet per spec, all from
@@ -158,6 +159,8 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
         kw["mild_fraction"] = mild_fraction
     if torque_exponent_range is not None:
         kw["torque_exponent_range"] = torque_exponent_range
+    if noise is not None:
+        kw["noise"] = noise
     sets: list[list[WindowSet]] = [[] for _ in specs]
     done = 0
     b = 0

@@ -22,6 +22,8 @@ Arguments (all keyword except ``n``):
   :class:`~flightlog_fd.sim.imbalance.AirframeImbalance` for all, or a list of ``n``;
 - ``torque_exponent_range``: random damages draw ``η_torque = η^k`` with k in this range (None:
   η_torque = η); ``mild_fraction``: share of random damages drawn mild (η 0.9-0.97), damage.py;
+- ``noise``: "default" | "real_logs" (sensors.py: turbulence and gyro noise ranges widened to
+  span real healthy logs);
 - ``realism``: False removes noise, wind, delays and vibration (physics checks);
 - ``vibration_gain``: rad/s of gyro vibration per unit propeller imbalance at full speed.
 
@@ -104,7 +106,7 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
                    eta_range: tuple[float, float] = ETA_RANGE, midflight_fraction: float = MIDFLIGHT_FRACTION,
                    extra_streams: Optional[dict[str, int]] = None, imbalance: ImbalanceSpec = None,
                    mild_fraction: float = 0.0,
-                   torque_exponent_range: Optional[tuple[float, float]] = None) -> SimBatch:
+                   torque_exponent_range: Optional[tuple[float, float]] = None, noise: str = "default") -> SimBatch:
     """Fly the batch and keep the raw recording (see :func:`simulate_flights` for the arguments).
 
     ``extra_streams`` maps engine stream names (engine.STREAM_FIELDS, e.g. ``"w_com"``, ``"pos"``)
@@ -122,7 +124,7 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
     rho_arr = resolve_rho(rho, n, rng)
     # Drawn from a child generator so that adding an imbalance leaves every other draw unchanged.
     imbs = resolve_imbalances(imbalance, afs, np.random.default_rng([seed, 5]))
-    sens = SensorParams.draw(afs, rng, realism=realism, vibration_gain=vibration_gain)
+    sens = SensorParams.draw(afs, rng, realism=realism, vibration_gain=vibration_gain, noise=noise)
     dmg_arr = DamageArrays.build(dmg, rng)
     dec = prof.decimation()
     if extra_streams:
@@ -153,11 +155,12 @@ def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageS
                      eta_range: tuple[float, float] = ETA_RANGE,
                      midflight_fraction: float = MIDFLIGHT_FRACTION, imbalance: ImbalanceSpec = None,
                      mild_fraction: float = 0.0,
-                     torque_exponent_range: Optional[tuple[float, float]] = None) -> list[Flight]:
+                     torque_exponent_range: Optional[tuple[float, float]] = None,
+                     noise: str = "default") -> list[Flight]:
     """Simulate ``n`` flights and return them as parsed-log `Flight` objects (see module docstring)."""
     batch = simulate_batch(n, airframes=airframes, damages=damages, mission=mission, duration_s=duration_s,
                            profile=profile, rho=rho, rho_mode=rho_mode, seed=seed, realism=realism,
                            vibration_gain=vibration_gain, healthy_fraction=healthy_fraction, eta_range=eta_range,
                            midflight_fraction=midflight_fraction, imbalance=imbalance, mild_fraction=mild_fraction,
-                           torque_exponent_range=torque_exponent_range)
+                           torque_exponent_range=torque_exponent_range, noise=noise)
     return flights_from_batch(batch)
