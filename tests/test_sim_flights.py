@@ -109,6 +109,11 @@ def test_logger_rates_and_flight_contract(profile):
         assert f.attitude.rate_hz == pytest.approx(prof.attitude_hz, rel=0.02)
         assert f.motors.rate_hz == pytest.approx(prof.motors_hz, rel=0.02)
         assert f.velocity.rate_hz == pytest.approx(prof.velocity_hz, rel=0.02)
+        if prof.motors_from == "rcou":
+            # Old ArduCopter without RATE: the parser's motors are RCOU itself (the PWM signal).
+            assert f.motor_kind == "signal" and f.alt_motors == {} and f.motors.source.startswith("RCOU")
+            assert f.motors.values.min() >= 0.0 and f.motors.values.max() <= 1.0
+            continue
         alt_name = "actuator_outputs" if prof.autopilot == "px4" else "RCOU"
         alt = f.alt_motors[alt_name]
         assert alt.rate_hz == pytest.approx(prof.alt_motors_hz, rel=0.05)

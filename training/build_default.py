@@ -3,8 +3,11 @@
     python -m flightlog_fd.training.build_default --flights 2400 --test-flights 240 --epochs 50   # ~20 min, 2 cores
 
 Steps: simulate ``--flights`` flights over random airframes (30 g to 5 kg, quad-X and quad-+,
-waypoint and pilot-style missions, small random motor imbalance, PX4 high-rate, PX4 default
-(10 Hz motors) and ArduPilot logging) -> NIF windows through the same `make_windows` as
+waypoint and pilot-style missions, every airframe unbalanced as real ones are: CoG offset, motor
+tilt / yaw trim, per-motor thrust and drag-torque coefficient and motor-lag spread
+(``flightlog_fd.sim.imbalance``, offsets up to ~±0.10 of full scale as real healthy quads);
+damage with separate thrust and drag-torque loss, strong and mild; PX4 high-rate, PX4 default
+(10 Hz motors), ArduPilot and old ArduPilot (RCOU-only, 10 Hz motors) logging) -> NIF windows through the same `make_windows` as
 diagnosis -> per-channel statistics -> DCNN (no adaptation: there is no target airframe) ->
 ONNX with the feature spec in its metadata, plus the torch weights (``default.pt``) that
 `fdlog calibrate` fine-tunes. It then measures window accuracy on held-out simulated flights
@@ -24,21 +27,28 @@ from flightlog_fd.features import FeatureSpec
 
 #: Logging profiles mixed into the shipped model's training data, batch by batch: real logs
 #: come at 250 Hz (PX4 high-rate), with 10 Hz motors (PX4 default) or from ArduPilot.
-TRAIN_PROFILES = ("training", "px4_default", "ardupilot", "ardupilot_slow")
-#: Without calibration the model cannot tell a weak propeller from an airframe's own imbalance,
-#: so it is trained to call healthy what real healthy quads show (per-motor speed ratios within
-#: about ±5 %: CrazyPAD E9 [1, 1.053, 0.934, 0.974], an Erle-Copter [1, 0.965, 1.095, 1.044]) and
-#: damaged only what exceeds it. Milder damage needs `fdlog calibrate`.
-RHO_SIGMA_MAX = 0.05
-RHO_CLIP = 0.12
-ETA_RANGE = (0.55, 0.85)
+TRAIN_PROFILES = ("training", "px4_default", "ardupilot", "ardupilot_slow", "ardupilot_rcou")
+#: Every simulated airframe, healthy or damaged, is unbalanced the way real healthy quads are
+#: (sim/imbalance.py: CoG offset, motor tilt, coefficient spread), so "one motor runs a few %
+#: high" is not damage by itself; what marks damage is the lost effectiveness, the torque/thrust
+#: proportion and the vibration. The old weak-motor ρ imbalance is no longer drawn.
+IMBALANCE = "random"
+ETA_RANGE = (0.55, 0.9)
+#: Share of damaged flights with mild damage (η 0.9-0.97, sim/damage.py MILD_ETA_RANGE).
+MILD_FRACTION = 0.25
+#: Damaged propellers lose drag torque as η^k, k in this range (sim/damage.py).
+TORQUE_EXPONENT_RANGE = (1.0, 1.6)
+#: Healthy share of the simulated flights (false alarms on healthy airframes are the costly error;
+#: the simulator's default is 0.2).
+HEALTHY_FRACTION = 0.35
+#: Turbulence and gyro noise spanning real healthy logs (sim/sensors.py, measured there).
+NOISE = "real_logs"
 
 
-def random_imbalance(n: int, rng: np.random.Generator) -> np.ndarray:
-    """(n, 4) unbalance ratios: each flight's spread drawn from U(0, RHO_SIGMA_MAX), motor 1 = 1."""
-    sigma = rng.uniform(0.0, RHO_SIGMA_MAX, size=(n, 1))
-    rho = 1.0 + np.clip(rng.normal(0.0, 1.0, size=(n, 4)) * sigma, -RHO_CLIP, RHO_CLIP)
-    return rho / rho[:, :1]
+def sim_kwargs() -> dict:
+    """Keyword arguments of simulate_windows for the shipped model's training and test data."""
+    return dict(profiles=TRAIN_PROFILES, imbalance=IMBALANCE, eta_range=ETA_RANGE, mild_fraction=MILD_FRACTION,
+                torque_exponent_range=TORQUE_EXPONENT_RANGE, healthy_fraction=HEALTHY_FRACTION, noise=NOISE)
 DEFAULT_OUT = Path(__file__).resolve().parents[1] / "models" / "default.onnx"
 
 
@@ -89,16 +99,13 @@ def main(argv=None) -> None:
     if args.cache is not None and args.cache.exists():
         train = WindowSet.load(args.cache)
     else:
-        rho = random_imbalance(args.flights, np.random.default_rng([args.seed, 11]))
-        train = simulate_windows(args.flights, spec, seed=args.seed, profiles=TRAIN_PROFILES, rho=rho,
-                                 eta_range=ETA_RANGE, duration_s=args.duration,
+        train = simulate_windows(args.flights, spec, seed=args.seed, duration_s=args.duration, **sim_kwargs(),
                                  progress=lambda d, n: print(f"simulated {d}/{n} flights ({time.time() - t0:.0f} s)",
                                                              flush=True))
         if args.cache is not None:
             train.save(args.cache)
-    test = simulate_windows(args.test_flights, spec, seed=args.seed + 1000, profiles=TRAIN_PROFILES,
-                            rho=random_imbalance(args.test_flights, np.random.default_rng([args.seed, 12])),
-                            eta_range=ETA_RANGE, duration_s=args.duration)
+    test = simulate_windows(args.test_flights, spec, seed=args.seed + 1000, duration_s=args.duration,
+                            **sim_kwargs())
     print(f"windows: train {len(train)} {np.bincount(train.y, minlength=5).tolist()}, test {len(test)}", flush=True)
     spec.fit(train.X)
     t1 = time.time()
@@ -110,7 +117,9 @@ def main(argv=None) -> None:
     targets = evaluate_targets(res.model, spec)
     summary = {
         "data": f"{args.flights} simulated flights (random airframes 30 g-5 kg, quad-X and quad-+, waypoint and "
-                f"pilot-style missions, motor imbalance rho ~ 1 + N(0, s), s ~ U(0, {RHO_SIGMA_MAX}), damage eta in {ETA_RANGE}, "
+                f"pilot-style missions, realistic airframe imbalance (CoG offset, motor tilt, coefficient spread), "
+                f"healthy fraction {HEALTHY_FRACTION}, damage eta in {ETA_RANGE} plus {MILD_FRACTION:.0%} mild "
+                f"(0.9-0.97), eta_torque = eta^k, k in {TORQUE_EXPONENT_RANGE}, "
                 f"logging {list(TRAIN_PROFILES)}), "
                 f"{len(train)} NIF windows; no real data",
         "class_counts": np.bincount(train.y, minlength=5).tolist(),

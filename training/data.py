@@ -112,12 +112,17 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
                      profile: str = "training", profiles: Optional[Sequence] = None,
                      healthy_fraction: Optional[float] = None,
                      eta_range: Optional[tuple[float, float]] = None,
+                     imbalance=None, mild_fraction: Optional[float] = None,
+                     torque_exponent_range: Optional[tuple[float, float]] = None, noise: Optional[str] = None,
                      flight_filter: Optional[Callable[[Flight], bool]] = None,
                      progress: Optional[Callable[[int, int], None]] = None) -> WindowSet:
     """Fly ``n_flights`` simulated quads in batches and window them (labels from the truth).
 
-    ``airframes`` / ``rho`` / ``rho_mode`` / ``eta_range`` are passed to
-    :func:`flightlog_fd.sim.api.simulate_flights`; ``airframes`` may be a callable
+    ``airframes`` / ``rho`` / ``rho_mode`` / ``eta_range`` / ``imbalance`` (None, ``"random"`` for
+    realistic healthy-airframe imbalance drawn per flight, sim/imbalance.py) / ``mild_fraction`` /
+    ``torque_exponent_range`` (damaged propellers' separate drag-torque loss, sim/damage.py) /
+    ``noise`` ("real_logs": sensor noise spanning real logs, sim/sensors.py) are
+    passed to :func:`flightlog_fd.sim.api.simulate_flights`; ``airframes`` may be a callable
     ``(n, rng) -> list[Airframe]`` to draw a family (e.g. airframes like a calibrated one).
     Missions (and ``profiles``, logging profiles, when given instead of ``profile``) alternate
     batch by batch. ``flight_filter(flight) -> bool`` keeps only some of the simulated flights
@@ -126,6 +131,8 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
     return simulate_window_sets(n_flights, [spec], seed=seed, batch=batch, airframes=airframes, rho=rho,
                                 rho_mode=rho_mode, missions=missions, duration_s=duration_s, profile=profile,
                                 profiles=profiles, healthy_fraction=healthy_fraction, eta_range=eta_range,
+                                imbalance=imbalance, mild_fraction=mild_fraction,
+                                torque_exponent_range=torque_exponent_range, noise=noise,
                                 flight_filter=flight_filter, progress=progress)[0]
 
 
@@ -135,6 +142,8 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
                          profile: str = "training", profiles: Optional[Sequence] = None,
                          healthy_fraction: Optional[float] = None,
                          eta_range: Optional[tuple[float, float]] = None,
+                         imbalance=None, mild_fraction: Optional[float] = None,
+                         torque_exponent_range: Optional[tuple[float, float]] = None, noise: Optional[str] = None,
                          flight_filter: Optional[Callable[[Flight], bool]] = None,
                          progress: Optional[Callable[[int, int], None]] = None) -> list[WindowSet]:
     """:func:`simulate_windows` for several feature specs at once: one WindowSet per spec, all from
@@ -146,6 +155,12 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
         kw["healthy_fraction"] = healthy_fraction
     if eta_range is not None:
         kw["eta_range"] = eta_range
+    if mild_fraction is not None:
+        kw["mild_fraction"] = mild_fraction
+    if torque_exponent_range is not None:
+        kw["torque_exponent_range"] = torque_exponent_range
+    if noise is not None:
+        kw["noise"] = noise
     sets: list[list[WindowSet]] = [[] for _ in specs]
     done = 0
     b = 0
@@ -157,7 +172,8 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
         if rho is not None and not isinstance(rho, str) and np.ndim(rho) == 2:
             r = np.asarray(rho)[done:done + n]
         flights = simulate_flights(n, airframes=afs, mission=missions[b % len(missions)], duration_s=duration_s,
-                                   profile=profiles[(b // len(missions)) % len(profiles)] if profiles else profile, rho=r, rho_mode=rho_mode, seed=bseed, **kw)
+                                   profile=profiles[(b // len(missions)) % len(profiles)] if profiles else profile, rho=r, rho_mode=rho_mode, seed=bseed,
+                                   imbalance=imbalance, **kw)
         names = [f"sim{seed}-{b}-{i}" for i in range(n)]
         if flight_filter is not None:
             keep = [i for i, fl in enumerate(flights) if flight_filter(fl)]

@@ -3,7 +3,7 @@
 Flies ``n`` quadrotors together (one vectorised batch) and returns one :class:`~flightlog_fd.flight.Flight`
 per vehicle exactly as a log parser would return it, plus ``Flight.truth``:
 ``{"label": 0..4, "motor": 0..4, "eta": float, "onset_s": log-clock s or None, "airframe": {...},
-"rho": [4], "rho_mode": str, "mission": str, "seed": int, "index": i, "profile": str,
+"eta_torque": float, "rho": [4], "rho_mode": str, "imbalance": {...}, "mission": str, "seed": int, "index": i, "profile": str,
 "takeoff_s": log-clock s, "log_start_boot_s": s, "sensors": {...}}``.
 
 Arguments (all keyword except ``n``):
@@ -17,6 +17,13 @@ Arguments (all keyword except ``n``):
   ratios, ``rho_mode`` "physical" | "paper" (unbalance.py);
 - ``seed``: everything (airframes, missions, damages, noise, log timing) is drawn from one
   ``numpy.random.default_rng(seed)``, so the same arguments give the same flights;
+- ``imbalance``: None (balanced, as designed), ``"random"`` (realistic per-vehicle CoG offset,
+  motor tilt, thrust/torque-coefficient and motor-lag spread, imbalance.py), one
+  :class:`~flightlog_fd.sim.imbalance.AirframeImbalance` for all, or a list of ``n``;
+- ``torque_exponent_range``: random damages draw ``η_torque = η^k`` with k in this range (None:
+  η_torque = η); ``mild_fraction``: share of random damages drawn mild (η 0.9-0.97), damage.py;
+- ``noise``: "default" | "real_logs" (sensors.py: turbulence and gyro noise ranges widened to
+  span real healthy logs);
 - ``realism``: False removes noise, wind, delays and vibration (physics checks);
 - ``vibration_gain``: rad/s of gyro vibration per unit propeller imbalance at full speed.
 
@@ -35,6 +42,7 @@ from flightlog_fd.sim.airframe import Airframe, preset, random_airframes
 from flightlog_fd.sim.damage import (ETA_RANGE, HEALTHY, HEALTHY_FRACTION, MIDFLIGHT_FRACTION, VIBRATION_GAIN_RADS,
                                      Damage, DamageArrays, random_damages)
 from flightlog_fd.sim.engine import BatchResult, run_batch
+from flightlog_fd.sim.imbalance import AirframeImbalance, ImbalanceArrays, ImbalanceSpec, resolve_imbalances
 from flightlog_fd.sim.logger import LogProfile, build_flights, get_profile
 from flightlog_fd.sim.missions import MissionPlan, plan_missions
 from flightlog_fd.sim.sensors import SensorParams
@@ -61,6 +69,7 @@ class SimBatch:
     profile: LogProfile
     result: BatchResult
     seed: int
+    imbalances: Optional[list[AirframeImbalance]] = None
 
 
 def _resolve_airframes(n: int, airframes: AirframeSpec, rng: np.random.Generator) -> list[Airframe]:
@@ -78,10 +87,10 @@ def _resolve_airframes(n: int, airframes: AirframeSpec, rng: np.random.Generator
 
 def _resolve_damages(n: int, damages: DamageSpec, airframes: list[Airframe], plan: MissionPlan,
                      rng: np.random.Generator, healthy_fraction: float, eta_range: tuple[float, float],
-                     midflight_fraction: float) -> list[Damage]:
+                     midflight_fraction: float, **damage_kw) -> list[Damage]:
     if damages is None:
         return random_damages(airframes, plan.estimated_s, rng, healthy_fraction=healthy_fraction,
-                              eta_range=eta_range, midflight_fraction=midflight_fraction)
+                              eta_range=eta_range, midflight_fraction=midflight_fraction, **damage_kw)
     if isinstance(damages, Damage):
         return [damages] * n
     out = [HEALTHY if d is None else d for d in damages]
@@ -95,7 +104,9 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
                    rho: RhoSpec = None, rho_mode: str = "physical", seed: int = 0, realism: bool = True,
                    vibration_gain: float = VIBRATION_GAIN_RADS, healthy_fraction: float = HEALTHY_FRACTION,
                    eta_range: tuple[float, float] = ETA_RANGE, midflight_fraction: float = MIDFLIGHT_FRACTION,
-                   extra_streams: Optional[dict[str, int]] = None) -> SimBatch:
+                   extra_streams: Optional[dict[str, int]] = None, imbalance: ImbalanceSpec = None,
+                   mild_fraction: float = 0.0,
+                   torque_exponent_range: Optional[tuple[float, float]] = None, noise: str = "default") -> SimBatch:
     """Fly the batch and keep the raw recording (see :func:`simulate_flights` for the arguments).
 
     ``extra_streams`` maps engine stream names (engine.STREAM_FIELDS, e.g. ``"w_com"``, ``"pos"``)
@@ -108,23 +119,31 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
     rng = np.random.default_rng(seed)
     afs = _resolve_airframes(n, airframes, rng)
     plan = plan_missions(n, mission, duration_s, rng)
-    dmg = _resolve_damages(n, damages, afs, plan, rng, healthy_fraction, eta_range, midflight_fraction)
+    dmg = _resolve_damages(n, damages, afs, plan, rng, healthy_fraction, eta_range, midflight_fraction,
+                           mild_fraction=mild_fraction, torque_exponent_range=torque_exponent_range)
     rho_arr = resolve_rho(rho, n, rng)
-    sens = SensorParams.draw(afs, rng, realism=realism, vibration_gain=vibration_gain)
+    # Drawn from a child generator so that adding an imbalance leaves every other draw unchanged.
+    imbs = resolve_imbalances(imbalance, afs, np.random.default_rng([seed, 5]))
+    sens = SensorParams.draw(afs, rng, realism=realism, vibration_gain=vibration_gain, noise=noise)
     dmg_arr = DamageArrays.build(dmg, rng)
     dec = prof.decimation()
     if extra_streams:
         dec.update(extra_streams)
     t_max = float(plan.estimated_s.max()) * OVERTIME_FACTOR + OVERTIME_S
-    res = run_batch(afs, plan, dmg_arr, rho_arr, rho_mode, sens, 1.0 / prof.sim_rate_hz, dec, t_max, rng)
+    imb_arr = None if imbalance is None else ImbalanceArrays.build(imbs)
+    res = run_batch(afs, plan, dmg_arr, rho_arr, rho_mode, sens, 1.0 / prof.sim_rate_hz, dec, t_max, rng,
+                    imbalance=imb_arr)
     return SimBatch(airframes=afs, damages=dmg, rho=rho_arr, rho_mode=rho_mode, plan=plan, sensors=sens,
-                    profile=prof, result=res, seed=seed)
+                    profile=prof, result=res, seed=seed, imbalances=imbs)
 
 
 def flights_from_batch(batch: SimBatch) -> list[Flight]:
     """The batch's vehicles as `Flight` objects (deterministic for the batch's seed)."""
     rng = np.random.default_rng([batch.seed, 1])
-    extra = [{"sensors": batch.sensors.to_dict(i)} for i in range(len(batch.airframes))]
+    imbs = batch.imbalances or [None] * len(batch.airframes)
+    extra = [{"sensors": batch.sensors.to_dict(i), "eta_torque": float(batch.damages[i].torque_eta),
+              "imbalance": imbs[i].to_dict() if imbs[i] is not None else None}
+             for i in range(len(batch.airframes))]
     return build_flights(batch.result, batch.profile, batch.airframes, batch.damages, batch.rho, batch.rho_mode,
                          batch.plan.name, batch.seed, rng, extra)
 
@@ -134,10 +153,14 @@ def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageS
                      rho: RhoSpec = None, rho_mode: str = "physical", seed: int = 0, realism: bool = True,
                      vibration_gain: float = VIBRATION_GAIN_RADS, healthy_fraction: float = HEALTHY_FRACTION,
                      eta_range: tuple[float, float] = ETA_RANGE,
-                     midflight_fraction: float = MIDFLIGHT_FRACTION) -> list[Flight]:
+                     midflight_fraction: float = MIDFLIGHT_FRACTION, imbalance: ImbalanceSpec = None,
+                     mild_fraction: float = 0.0,
+                     torque_exponent_range: Optional[tuple[float, float]] = None,
+                     noise: str = "default") -> list[Flight]:
     """Simulate ``n`` flights and return them as parsed-log `Flight` objects (see module docstring)."""
     batch = simulate_batch(n, airframes=airframes, damages=damages, mission=mission, duration_s=duration_s,
                            profile=profile, rho=rho, rho_mode=rho_mode, seed=seed, realism=realism,
                            vibration_gain=vibration_gain, healthy_fraction=healthy_fraction, eta_range=eta_range,
-                           midflight_fraction=midflight_fraction)
+                           midflight_fraction=midflight_fraction, imbalance=imbalance, mild_fraction=mild_fraction,
+                           torque_exponent_range=torque_exponent_range, noise=noise)
     return flights_from_batch(batch)

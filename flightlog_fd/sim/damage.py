@@ -1,9 +1,18 @@
 """Propeller damage: which motor, how much, from when; and its vibration signature.
 
-A damaged propeller k (PX4/ArduPilot numbering 1..4) has an efficiency ``eta`` (0 < η ≤ 1) that
-scales BOTH its thrust and its reaction (drag) torque: ``f_k = η·k_f·w_k²``, ``τ_k = η·k_tau·w_k²``.
-In steady hover the controller then commands that motor ``1/η`` times the others' thrust
-setpoint (u_k / u_others ≈ 1/η), which is the signature the diagnosis looks for.
+A damaged propeller k (PX4/ArduPilot numbering 1..4) has a thrust efficiency ``eta`` (0 < η ≤ 1)
+and a drag-torque efficiency ``eta_torque`` (default: = ``eta``): ``f_k = η·k_f·w_k²``,
+``τ_k = η_torque·k_tau·w_k²``. In steady hover the controller then commands that motor ``1/η``
+times the others' thrust setpoint (u_k / u_others ≈ 1/η), and its effectiveness (angular
+acceleration per unit command) drops by the factor η: the latter is what an airframe's own
+imbalance (CoG offset, motor tilt, imbalance.py) never does.
+
+Why two efficiencies: a chipped or cut blade tip loses more torque than thrust (blade-element
+theory: thrust ∝ R⁴, power/torque ∝ R⁵ for the same speed, so a cut to radius R' gives
+η_thrust ≈ (R'/R)⁴ and η_torque ≈ (R'/R)⁵ = η_thrust^1.25); a tape or a crack that bends the tip
+changes pitch and drag more than lift. :func:`random_damages` therefore draws
+``η_torque = η^k`` with ``k ~ U(TORQUE_EXPONENT_RANGE)`` = U(1.0, 1.6) (the CrazyPAD cuts of
+0.5-3 mm on a 46 mm prop are the R⁴/R⁵ case; k up to 1.6 covers the draggier tapes and chips).
 
 Onset: ``onset_s`` is seconds after arming (= after the log's first sample) or ``None`` for a
 propeller damaged from take-off; :class:`Damage` with ``motor = 0`` is a healthy vehicle.
@@ -13,10 +22,14 @@ Vibration: an unbalanced propeller shakes the frame at its rotation frequency ``
 (100-400 Hz). The gyro sees an oscillation of amplitude
 ``VIBRATION_GAIN_RADS · imbalance_k · (w_k/omega_max)²`` rad/s before the autopilot's gyro
 low-pass filter, with ``imbalance_k = BASE_IMBALANCE (healthy props are never perfect) +
-(1 − η_k)``; the filtered amplitude is what the controller and the logs see (sensors.py).
+(1 − η_k)``: it grows linearly with the thrust loss (η 0.95 adds 0.05, more than a healthy
+prop's 0.01-0.04; η 0.6 adds 0.4, ten times it); the filtered amplitude is what the controller
+and the logs see (sensors.py).
 
 Random damages (:func:`random_damages`): healthy with probability ``healthy_fraction``, else a
-uniformly chosen motor with η uniform in ``eta_range`` but never below
+uniformly chosen motor; a fraction ``mild_fraction`` of the damaged ones get mild damage, η
+uniform in ``mild_eta_range`` (0.9-0.97: a nick that a pilot does not notice), the others η
+uniform in ``eta_range``; η is never below
 :func:`min_feasible_eta`: a weaker propeller would need more than ``MAX_DAMAGED_COMMAND`` of
 full thrust in hover (no control margin left: the vehicle spins or sinks), or its torque would
 tip the vehicle by more than ``MAX_STATIC_TILT_DEG`` at lift-off before the rate integrator
@@ -34,6 +47,11 @@ import numpy as np
 from flightlog_fd.sim.airframe import GRAVITY, Airframe
 
 ETA_RANGE = (0.6, 0.97)
+MILD_ETA_RANGE = (0.9, 0.97)
+#: Share of the damaged vehicles drawn with mild damage by default (0 keeps the old behaviour).
+MILD_FRACTION = 0.0
+#: η_torque = η_thrust ** k, k uniform in this range (see module docstring).
+TORQUE_EXPONENT_RANGE = (1.0, 1.6)
 MAX_DAMAGED_COMMAND = 0.72
 #: Largest attitude error the damage torque may cause before the rate integrator catches up
 #: (P-only equilibrium α_damage / (kp · att_p)); beyond it lift-off with the damage tips over.
@@ -54,14 +72,24 @@ class Damage:
     motor: int = 0
     eta: float = 1.0
     onset_s: Optional[float] = None  # s after arming; None = damaged from take-off
+    eta_torque: Optional[float] = None  # drag-torque efficiency; None = same as eta
 
     def __post_init__(self) -> None:
+        if self.eta_torque is not None and not 0.0 < self.eta_torque <= 1.0:
+            raise ValueError(f"eta_torque must be in (0, 1], got {self.eta_torque}")
+        if self.motor == 0 and self.eta_torque not in (None, 1.0):
+            raise ValueError("a healthy vehicle (motor 0) has eta_torque 1.0")
         if not 0 <= self.motor <= 4:
             raise ValueError(f"motor must be 0 (healthy) or 1..4, got {self.motor}")
         if not 0.0 < self.eta <= 1.0:
             raise ValueError(f"eta must be in (0, 1], got {self.eta}")
         if self.motor == 0 and self.eta != 1.0:
             raise ValueError("a healthy vehicle (motor 0) has eta 1.0")
+
+    @property
+    def torque_eta(self) -> float:
+        """Drag-torque efficiency of the damaged propeller (``eta`` when not given)."""
+        return self.eta if self.eta_torque is None else float(self.eta_torque)
 
     @property
     def label(self) -> int:
@@ -86,8 +114,13 @@ def min_feasible_eta(af: Airframe) -> float:
 
 def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np.random.Generator, *,
                    healthy_fraction: float = HEALTHY_FRACTION, eta_range: tuple[float, float] = ETA_RANGE,
-                   midflight_fraction: float = MIDFLIGHT_FRACTION) -> list[Damage]:
-    """One random :class:`Damage` per airframe (see module docstring); ``planned_s`` (N,) flight lengths."""
+                   midflight_fraction: float = MIDFLIGHT_FRACTION, mild_fraction: float = MILD_FRACTION,
+                   mild_eta_range: tuple[float, float] = MILD_ETA_RANGE,
+                   torque_exponent_range: Optional[tuple[float, float]] = None) -> list[Damage]:
+    """One random :class:`Damage` per airframe (see module docstring); ``planned_s`` (N,) flight lengths.
+
+    ``torque_exponent_range`` None keeps η_torque = η (the paper's model); give
+    ``TORQUE_EXPONENT_RANGE`` for the separate drag-torque loss."""
     out = []
     for af, planned in zip(airframes, planned_s):
         if rng.uniform() < healthy_fraction:
@@ -95,12 +128,16 @@ def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np
             continue
         motor = int(rng.integers(1, 5))
         # An airframe too weak for any η in the range gets the mildest one (never η = 1 with a label).
-        lo = min(max(eta_range[0], min_feasible_eta(af)), eta_range[1])
-        eta = float(rng.uniform(lo, eta_range[1]))
+        rng_eta = mild_eta_range if (mild_fraction > 0 and rng.uniform() < mild_fraction) else eta_range
+        lo = min(max(rng_eta[0], min_feasible_eta(af)), rng_eta[1])
+        eta = float(rng.uniform(lo, rng_eta[1]))
+        eta_torque = None
+        if torque_exponent_range is not None:
+            eta_torque = float(eta ** rng.uniform(*torque_exponent_range))
         onset = None
         if rng.uniform() < midflight_fraction:
             onset = float(rng.uniform(*MIDFLIGHT_WINDOW) * planned)
-        out.append(Damage(motor, eta, onset))
+        out.append(Damage(motor, eta, onset, eta_torque))
     return out
 
 
@@ -108,20 +145,24 @@ def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np
 class DamageArrays:
     """Damage of N vehicles as arrays for the time loop."""
 
-    eta: np.ndarray  # (N, 4) efficiency of each rotor once damaged (1 for healthy rotors)
+    eta: np.ndarray  # (N, 4) thrust efficiency of each rotor once damaged (1 for healthy rotors)
     onset: np.ndarray  # (N,) s after arming (0 = from the start)
     imbalance_base: np.ndarray  # (N, 4) residual imbalance of each propeller
+    eta_torque: Optional[np.ndarray] = None  # (N, 4) drag-torque efficiency once damaged (None: = eta)
 
     @classmethod
     def build(cls, damages: Sequence[Damage], rng: np.random.Generator) -> "DamageArrays":
         n = len(damages)
         eta = np.ones((n, 4))
+        eta_torque = np.ones((n, 4))
         onset = np.zeros(n)
         for i, d in enumerate(damages):
             if d.motor:
                 eta[i, d.motor - 1] = d.eta
+                eta_torque[i, d.motor - 1] = d.torque_eta
                 onset[i] = d.onset_s if d.onset_s is not None else 0.0
-        return cls(eta=eta, onset=onset, imbalance_base=rng.uniform(*BASE_IMBALANCE_RANGE, size=(n, 4)))
+        return cls(eta=eta, onset=onset, imbalance_base=rng.uniform(*BASE_IMBALANCE_RANGE, size=(n, 4)),
+                   eta_torque=None if np.array_equal(eta_torque, eta) else eta_torque)
 
     def eta_at(self, t: float) -> np.ndarray:
         """(N, 4) rotor efficiencies at time ``t`` (s after arming)."""

@@ -11,10 +11,13 @@ Model per vehicle (parameters from :class:`~flightlog_fd.sim.airframe.Airframe`)
 
 - motor first-order lag ``w_dot = (w_com - w) / motor_tau`` (discretised exactly), speed clipped to
   ``0..omega_max``;
-- rotor i thrust ``f_i = s_i · k_f · w_i²`` along −z_body and drag torque
-  ``spin_i · s_i · k_tau · w_i²`` about z_body, where ``s_i`` is the per-rotor effectiveness
-  (propeller damage η and the unbalance of the adjusted model, see damage.py / unbalance.py)
-  applied to BOTH; ``spin_i`` = +1 for a counter-clockwise rotor seen from above (positive yaw
+- rotor i thrust ``f_i = s_i · k_f,i · w_i²`` along −z_body and drag torque
+  ``spin_i · s_i · d_i · k_tau,i · w_i²`` about z_body, where ``s_i`` is the per-rotor thrust
+  effectiveness (propeller damage η_thrust and the unbalance of the adjusted model, see
+  damage.py / unbalance.py) and ``d_i = η_torque/η_thrust`` the damaged propeller's extra drag
+  change; ``k_f,i``, ``k_tau,i`` and the motor lag are the nominal ones × the airframe's per-rotor
+  spread (imbalance.py), rotor positions are taken about the (possibly offset) CoG, and a tilted
+  rotor adds a yaw torque ``|r_i| sin δ_i · f_i``; ``spin_i`` = +1 for a counter-clockwise rotor seen from above (positive yaw
   torque in FRD, as PX4's positive ``CA_ROTORn_KM``); geometry from
   ``flightlog_fd.flight.Frame.quad_x/quad_plus``;
 - roll torque ``−Σ y_i f_i``, pitch torque ``Σ x_i f_i`` (r × F with F = (0, 0, −f));
@@ -54,6 +57,12 @@ class VehicleParams:
     omega_max: np.ndarray  # (N,) rad/s
     drag_lin: np.ndarray  # (N,) N/(m/s)
     drag_ang: np.ndarray  # (N,) N·m/(rad/s)
+    # Per-rotor imbalance of the real airframe (imbalance.py); None = nominal. The controller's
+    # mixer always sees the nominal parameters, only the dynamics the imbalanced ones.
+    thrust_scale: Optional[np.ndarray] = None  # (4, N) × k_f
+    torque_scale: Optional[np.ndarray] = None  # (4, N) × k_tau
+    motor_tau_scale: Optional[np.ndarray] = None  # (4, N) × motor_tau
+    tilt_yaw_lever: Optional[np.ndarray] = None  # (4, N) m, yaw torque per newton of rotor thrust
 
     @property
     def n(self) -> int:
@@ -82,9 +91,41 @@ class VehicleParams:
                    motor_tau=f("motor_tau"), omega_max=f("omega_max"), drag_lin=f("drag_lin"),
                    drag_ang=f("drag_ang"))
 
+    def with_imbalance(self, imb) -> "VehicleParams":
+        """These vehicles as built (:class:`~flightlog_fd.sim.imbalance.ImbalanceArrays`): rotors
+        placed relative to the shifted CoG, per-rotor coefficient / lag scales, tilt yaw levers."""
+        from dataclasses import replace
+
+        arm = np.hypot(self.rotor_x, self.rotor_y)
+        return replace(self, rotor_x=self.rotor_x - imb.cog[0] * arm.max(axis=0),
+                       rotor_y=self.rotor_y - imb.cog[1] * arm.max(axis=0),
+                       thrust_scale=imb.thrust_scale, torque_scale=imb.torque_scale,
+                       motor_tau_scale=imb.motor_tau_scale, tilt_yaw_lever=arm * np.sin(imb.tilt))
+
+    def rotor_k_f(self) -> np.ndarray:
+        """(4, N) thrust coefficient of each rotor."""
+        return self.k_f * (np.ones((4, self.n)) if self.thrust_scale is None else self.thrust_scale)
+
+    def rotor_k_tau(self) -> np.ndarray:
+        """(4, N) drag-torque coefficient of each rotor."""
+        return self.k_tau * (np.ones((4, self.n)) if self.torque_scale is None else self.torque_scale)
+
+    def rotor_motor_tau(self) -> np.ndarray:
+        """(4, N) motor time constant of each rotor, s."""
+        return self.motor_tau * (np.ones((4, self.n)) if self.motor_tau_scale is None else self.motor_tau_scale)
+
     def torque_matrix(self) -> np.ndarray:
-        """(3, 4, N): body torque = Σ_i G[:, i] · (s_i w_i²) (roll, pitch from thrust; yaw from drag)."""
-        return np.stack([-self.rotor_y * self.k_f, self.rotor_x * self.k_f, self.spin * self.k_tau])
+        """(3, 4, N): body torque = Σ_i G[:, i] · (s_i w_i²) (roll, pitch from thrust; yaw from drag
+        and from the tilted rotors' horizontal thrust)."""
+        k_f = self.rotor_k_f()
+        yaw = self.spin * self.rotor_k_tau()
+        if self.tilt_yaw_lever is not None:
+            yaw = yaw + self.tilt_yaw_lever * k_f
+        return np.stack([-self.rotor_y * k_f, self.rotor_x * k_f, yaw])
+
+    def drag_torque_row(self) -> np.ndarray:
+        """(4, N): the rotor drag-torque part of the yaw row of :meth:`torque_matrix`."""
+        return self.spin * self.rotor_k_tau()
 
 
 @dataclass
@@ -149,11 +190,12 @@ class QuadDynamics:
     def __init__(self, params: VehicleParams, dt: float):
         self.p = params
         self.dt = float(dt)
-        self.motor_alpha = 1.0 - np.exp(-self.dt / params.motor_tau)
+        self.motor_alpha = 1.0 - np.exp(-self.dt / params.rotor_motor_tau())
         self.inv_mass = 1.0 / params.mass
         self.inv_inertia = 1.0 / params.inertia
         self.g_torque = params.torque_matrix()
-        self.k_f = params.k_f
+        self.g_drag = params.drag_torque_row()
+        self.k_f = params.rotor_k_f()
         self.omega_max = params.omega_max
         self.drag_ang = params.drag_ang
         self.drag_lin = params.drag_lin
@@ -162,12 +204,15 @@ class QuadDynamics:
         self._cross = np.empty((3, params.n))
 
     def step(self, s: RigidBodyState, w_com: np.ndarray, effectiveness: np.ndarray, wind: np.ndarray,
-             ang_acc_dist: np.ndarray, speed_gain: Optional[np.ndarray] = None) -> np.ndarray:
+             ang_acc_dist: np.ndarray, speed_gain: Optional[np.ndarray] = None,
+             drag_ratio: Optional[np.ndarray] = None) -> np.ndarray:
         """Advance ``s`` in place by one step; returns the (4, N) rotor thrusts of this step.
 
         ``w_com`` (4, N) commanded rotor speeds rad/s; ``effectiveness`` (4, N) thrust/torque scale;
         ``wind`` (3, N) NED m/s; ``ang_acc_dist`` (3, N) rad/s²; ``speed_gain`` (4, N) optional
-        multiplier on the rotor speed seen by the air (the paper's adjusted model).
+        multiplier on the rotor speed seen by the air (the paper's adjusted model); ``drag_ratio``
+        (4, N) optional drag-torque efficiency / thrust efficiency of each rotor (a damaged
+        propeller loses torque and thrust in different proportions, damage.py).
         """
         dt = self.dt
         w = s.w
@@ -179,6 +224,8 @@ class QuadDynamics:
         f = self.k_f * w2
         thrust = f.sum(axis=0)
         torque = (self.g_torque * w2).sum(axis=1)
+        if drag_ratio is not None:
+            torque[2] += (self.g_drag * (drag_ratio - 1.0) * w2).sum(axis=0)
 
         # Rotational dynamics: I ω_dot = τ − ω × Iω − c ω, plus the disturbance.
         om = s.omega

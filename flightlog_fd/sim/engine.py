@@ -8,7 +8,9 @@ per-vehicle loop). Time is seconds since arming (t = 0 is the first logged insta
 2. gyro (filtered, noisy, vibrating) and delayed attitude estimate;
 3. attitude + rate loops + mixer → thrust setpoints u (0..1), ``w_com = omega_max·sqrt(u)``;
 4. rotor effectiveness = damage η (after its onset) × unbalance (``"physical"`` ρ mode), or the
-   paper's speed gain (``"paper"`` mode); rigid-body step;
+   paper's speed gain (``"paper"`` mode), plus the damaged rotor's separate drag-torque loss;
+   rigid-body step with the airframe as built (imbalance.py: CoG offset, motor tilt, per-rotor
+   coefficient and lag spread), while the controller's mixer uses the nominal airframe;
 5. recording: stream ``s`` stores its quantities every ``decimation[s]`` steps.
 
 Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``attitude``
@@ -21,13 +23,14 @@ The loop stops when every vehicle has disarmed and ``tail_s`` more has passed, o
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
 from flightlog_fd.sim.airframe import Airframe
 from flightlog_fd.sim.controller import CascadeController
 from flightlog_fd.sim.damage import DamageArrays
+from flightlog_fd.sim.imbalance import ImbalanceArrays
 from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams, quat_yaw
 from flightlog_fd.sim.missions import MissionPlan, MissionRunner
 from flightlog_fd.sim.sensors import SensorParams, Sensors
@@ -56,15 +59,17 @@ class BatchResult:
 
 def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageArrays, rho: np.ndarray, rho_mode: str,
               sensor_params: SensorParams, dt: float, decimation: dict[str, int], t_max: float,
-              rng: np.random.Generator, tail_s: float = DEFAULT_TAIL_S) -> BatchResult:
-    """Fly the batch; see the module docstring. ``decimation`` maps stream name → record every k steps."""
+              rng: np.random.Generator, tail_s: float = DEFAULT_TAIL_S,
+              imbalance: Optional[ImbalanceArrays] = None) -> BatchResult:
+    """Fly the batch; see the module docstring. ``decimation`` maps stream name → record every k steps;
+    ``imbalance`` the airframes as built (None: as designed)."""
     check_mode(rho_mode)
     for name in decimation:
         if name not in STREAM_FIELDS:
             raise ValueError(f"unknown stream {name!r}; known: {sorted(STREAM_FIELDS)}")
     vp = VehicleParams.from_airframes(airframes)
     n = vp.n
-    dyn = QuadDynamics(vp, dt)
+    dyn = QuadDynamics(vp if imbalance is None else vp.with_imbalance(imbalance), dt)
     ctrl = CascadeController(airframes, vp, dt)
     sens = Sensors(sensor_params, vp, dt, ctrl.dt_outer, rng)
     runner = MissionRunner(plan)
@@ -72,6 +77,9 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     rho_t = rho.T.copy()
     unbalance = physical_effectiveness(rho_t) if rho_mode == "physical" else np.ones((4, n))
     eta_full = damage.eta.T.copy()
+    # Drag-torque efficiency relative to the thrust efficiency of each damaged rotor (None: equal).
+    drag_full = None if damage.eta_torque is None else (damage.eta_torque / damage.eta).T.copy()
+    drag_ratio = None
     imbalance_base = damage.imbalance_base.T.copy()
     omega_max = vp.omega_max
 
@@ -94,6 +102,8 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
             # Damage onset, estimator errors, gusts, mission and position/velocity loops.
             eta = np.where(t >= damage.onset, eta_full, 1.0)
             eff = eta * unbalance
+            if drag_full is not None:
+                drag_ratio = np.where(t >= damage.onset, drag_full, 1.0)
             pos_est, vel_est, wind = sens.nav(state.pos, state.vel, state.w, imbalance_base + (1.0 - eta))
             sp = runner.update(t, ctrl.dt_outer, pos_est.T, quat_yaw(state.quat), state.landed)
             mode = sp.mode
@@ -133,7 +143,7 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
             rec[name][c] = v.T
             rec_t[name][c] = t
             count[name] = c + 1
-        thrust = dyn.step(state, w_com, eff, wind, disturbance, gain)
+        thrust = dyn.step(state, w_com, eff, wind, disturbance, gain, drag_ratio)
         if t_all_done is not None and t >= t_all_done + tail_s:
             break
     data = {k: v[:count[k]] for k, v in rec.items()}

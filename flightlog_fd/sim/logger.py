@@ -21,8 +21,14 @@ profile             autopilot  sim   rates     att.    motors      alt       vel
 ``ardupilot``       ardupilot  400   50 (IMU)  50      50 (RATE)   10 RCOU   10
 ``ardupilot_slow``  ardupilot  400   20 (IMU)  20      20 (RATE)   10 RCOU   10
 ``ardupilot_fast``  ardupilot  400   400       400     400 (RATE)  10 RCOU   10
+``ardupilot_rcou``  ardupilot  400   50 (IMU)  50      10 (RCOU)   -         10
 ``training``        px4        200   100       100     100         10        10
 ==================  =========  ====  ========  ======  ==========  ========  ==========
+
+``ardupilot_rcou`` is an old ArduCopter log (3.1-3.3, the ``real_healthy`` Erle set: RCOU 3-11 Hz,
+IMU 15-56 Hz, measured 50-56 Hz on real_healthy, no ``RATE`` message): logs/dataflash.py then takes the motors from RCOU, so the
+Flight's motors are the PWM signal (``motor_kind = "signal"``, through ``MOT_THST_EXPO``) at
+10 Hz and there is no alternative motor stream.
 
 Motors: PX4 profiles log ``actuator_motors`` thrust setpoints (``motor_kind = "thrust"``) and
 ``alt_motors["actuator_outputs"]``, the PWM signal normalised to 0..1 after PX4's thrust model
@@ -70,6 +76,7 @@ class LogProfile:
     jitter_frac: float
     drop_prob: float
     boot_offset_s: tuple[float, float]
+    motors_from: str = "rate"  # "rate": thrust setpoints (RATE mixer / actuator_motors); "rcou": PWM signal only
 
     def decimation(self) -> dict[str, int]:
         """Record every k simulation steps, per stream (engine stream names)."""
@@ -99,6 +106,9 @@ PROFILES: dict[str, LogProfile] = {
                                  (30.0, 300.0)),
     "ardupilot_fast": LogProfile("ardupilot_fast", "ardupilot", 400.0, 400.0, 400.0, 400.0, 10.0, 10.0, 0.02,
                                  0.001, (30.0, 300.0)),
+    # Old ArduCopter (3.1-3.3) default logging, no RATE message: motors only from RCOU at ~10 Hz.
+    "ardupilot_rcou": LogProfile("ardupilot_rcou", "ardupilot", 400.0, 50.0, 50.0, 10.0, 10.0, 10.0, 0.02, 0.0,
+                                 (30.0, 300.0), motors_from="rcou"),
     "training": LogProfile("training", "px4", 200.0, 100.0, 100.0, 100.0, 10.0, 10.0, 0.0, 0.0, (18.0, 30.0)),
 }
 
@@ -215,6 +225,11 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
                        alt="RCOU.C1,C2,C3,C4", velocity="XKF1.VN/VE/VD")
             alt_name, airborne_src = "RCOU", "EV (NOT_LANDED 28 .. LAND_COMPLETE 18 / DISARMED 11)"
         alt = Series(t_m[alt_idx], thrust_to_signal(motors[alt_idx], curve), src["alt"])
+        motor_series, motor_kind, alt_motors = Series(t_m, motors, src["motors"]), "thrust", {alt_name: alt}
+        if profile.motors_from == "rcou":
+            # No RATE message: the parser's motors are RCOU itself (PWM signal), nothing else.
+            motor_series = Series(t_m, thrust_to_signal(motors, curve), src["alt"])
+            motor_kind, alt_motors = "signal", {}
 
         t_start = float(min(t_r[0], t_m[0], t_a[0]))  # arming: the first logged instant
         t_end = float(max(t_r[-1], t_m[-1], t_a[-1]))
@@ -244,9 +259,9 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             vehicle_id=f"sim-{seed}-{i}", frame=frame,
             rates=Series(t_r, rates, src["rates"]),
             attitude=Series(t_a, att, src["attitude"]),
-            motors=Series(t_m, motors, src["motors"]), motor_kind="thrust", thrust_curve=curve,
+            motors=motor_series, motor_kind=motor_kind, thrust_curve=curve,
             velocity=Series(t_v, vel, src["velocity"]),
-            alt_motors={alt_name: alt},
+            alt_motors=alt_motors,
             armed=[(t_start, float(armed_end))], airborne=airborne, airborne_source=airborne_src,
             t_start=t_start, t_end=t_end, params=params, truth=truth,
         ))

@@ -14,7 +14,9 @@ that simulated training data looks like that airframe. Two ways to apply ρ (``r
   the rotor turns at ``ρ_i · w_i² / omega_max`` instead of ``w_i``. This also reshapes the thrust
   curve (thrust ∝ u² instead of u), so hover commands rise; it is kept to reproduce the paper.
 
-``rho=None`` means balanced (all ones); ``"random"`` draws ρ_1 = 1 and ρ_2..4 = 1 + N(0, 0.03)
+These ρ modes are the paper's experiment and ``fdlog calibrate``'s model of an airframe; the
+realistic imbalance of healthy airframes for the shipped model (CoG offset, motor tilt,
+coefficient spread) is imbalance.py. ``rho=None`` means balanced (all ones); ``"random"`` draws ρ_1 = 1 and ρ_2..4 = 1 + N(0, 0.03)
 clipped to ±0.08 per vehicle.
 """
 from __future__ import annotations
