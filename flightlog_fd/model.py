@@ -15,6 +15,9 @@ object:
     classes       list  ["healthy", "motor1", "motor2", "motor3", "motor4"] (output order)
     training      dict  free-form summary (data, epochs, seed, lam, accuracy...)
     created       str   ISO-8601 UTC time of export
+    temperature   float optional, > 0: confidence calibration of the shipped model (temperature
+                        scaling fitted on held-out simulated flights, training/build_default.py):
+                        probabilities become p_k^(1/T) / sum, i.e. softmax(logits / T); 1 if absent.
     logit_bias    list  optional, one number per class: decision offsets added to the log
                         probabilities before renormalising (p_k * exp(b_k) / sum). `fdlog
                         calibrate` sets them from the calibration flight's healthy windows so
@@ -33,6 +36,7 @@ refused); this module must not import torch (``fdlog diagnose`` installs without
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any, Optional
 
@@ -95,6 +99,10 @@ def validate_metadata(meta: Any, path: Any = None) -> dict:
         raise ModelError(path, f"feature_spec needs 'mean' and 'std' as {len(channels)} finite numbers each")
     if np.any(std <= 0):
         raise ModelError(path, "feature_spec 'std' must be positive")
+    if "temperature" in meta and not (isinstance(meta["temperature"], (int, float))
+                                      and not isinstance(meta["temperature"], bool)
+                                      and math.isfinite(meta["temperature"]) and meta["temperature"] > 0):
+        raise ModelError(path, "model metadata 'temperature' must be a positive number")
     if "logit_bias" in meta and _finite_numbers(meta["logit_bias"], len(classes)) is None:
         raise ModelError(path, f"model metadata 'logit_bias' must be {len(classes)} finite numbers")
     return meta
@@ -231,7 +239,13 @@ class FaultModel:
             self._session.run([OUTPUT_NAME], {INPUT_NAME: X[first : first + INFERENCE_BATCH]})[0]
             for first in range(0, len(X), INFERENCE_BATCH)
         ]
-        return apply_logit_bias(np.concatenate(parts), self.logit_bias).astype(np.float32, copy=False)
+        probs = apply_temperature(np.concatenate(parts), self.temperature)
+        return apply_logit_bias(probs, self.logit_bias).astype(np.float32, copy=False)
+
+    @property
+    def temperature(self) -> float:
+        """Confidence-calibration temperature (1 when the model has none)."""
+        return float(self._metadata.get("temperature", 1.0))
 
     @property
     def logit_bias(self) -> np.ndarray:
@@ -241,6 +255,16 @@ class FaultModel:
 
     def __repr__(self) -> str:
         return f"FaultModel({str(self._path)!r}, version={self.version!r}, classes={len(self.classes)})"
+
+
+def apply_temperature(probs: np.ndarray, temperature: float) -> np.ndarray:
+    """softmax(logits / T) from softmax(logits): p_k^(1/T), renormalised; unchanged for T = 1."""
+    if temperature == 1.0:
+        return probs
+    logp = np.log(np.clip(np.asarray(probs, dtype=np.float64), 1e-30, None)) / temperature
+    logp -= logp.max(axis=1, keepdims=True)
+    q = np.exp(logp)
+    return q / q.sum(axis=1, keepdims=True)
 
 
 def apply_logit_bias(probs: np.ndarray, bias: Optional[np.ndarray]) -> np.ndarray:

@@ -45,6 +45,36 @@ HEALTHY_FRACTION = 0.35
 NOISE = "real_logs"
 
 
+#: Candidate temperatures for confidence calibration (log-spaced); the NLL minimum wins.
+TEMPERATURE_GRID = np.exp(np.linspace(np.log(0.5), np.log(8.0), 81))
+
+
+def fit_temperature(probs: np.ndarray, y: np.ndarray) -> tuple[float, dict]:
+    """Temperature scaling (Guo et al. 2017) on held-out windows: the T minimising the negative
+    log-likelihood of softmax(logits / T); returns T and the NLL / expected calibration error
+    (15 confidence bins) before and after."""
+    from flightlog_fd.model import apply_temperature
+
+    def nll(p):
+        return float(-np.mean(np.log(np.clip(p[np.arange(len(y)), y], 1e-12, None))))
+
+    def ece(p, bins=15):
+        conf, pred = p.max(axis=1), p.argmax(axis=1)
+        edges = np.linspace(0, 1, bins + 1)
+        total = 0.0
+        for a, b in zip(edges[:-1], edges[1:]):
+            m = (conf > a) & (conf <= b)
+            if m.any():
+                total += m.mean() * abs(float((pred[m] == y[m]).mean()) - float(conf[m].mean()))
+        return total
+
+    scores = [nll(apply_temperature(probs, t)) for t in TEMPERATURE_GRID]
+    t_best = float(TEMPERATURE_GRID[int(np.argmin(scores))])
+    after = apply_temperature(probs, t_best)
+    return t_best, {"temperature": round(t_best, 4), "nll_before": round(nll(probs), 4), "nll_after": round(nll(after), 4),
+                    "ece_before": round(ece(probs), 4), "ece_after": round(ece(after), 4)}
+
+
 def sim_kwargs() -> dict:
     """Keyword arguments of simulate_windows for the shipped model's training and test data."""
     return dict(profiles=TRAIN_PROFILES, imbalance=IMBALANCE, eta_range=ETA_RANGE, mild_fraction=MILD_FRACTION,
@@ -114,6 +144,10 @@ def main(argv=None) -> None:
                      progress=lambda e: print(f"epoch {e.epoch} loss {e.loss:.4f} ({time.time() - t1:.0f} s)",
                                               flush=True))
     sim_acc, sim_conf = evaluate(res.model, spec.normalise(test.X), test.y)
+    from flightlog_fd.training.train import predict_proba
+
+    temperature, calibration = fit_temperature(predict_proba(res.model, spec.normalise(test.X)), test.y)
+    print(f"confidence calibration: {calibration}", flush=True)
     targets = evaluate_targets(res.model, spec)
     summary = {
         "data": f"{args.flights} simulated flights (random airframes 30 g-5 kg, quad-X and quad-+, waypoint and "
@@ -127,6 +161,7 @@ def main(argv=None) -> None:
         "seed": args.seed, "lam": 0.0, "domain_adaptation": False,
         "sim_test": {"flights": args.test_flights, "windows": len(test), "window_accuracy": sim_acc,
                      "confusion": np.asarray(sim_conf).tolist()},
+        "confidence_calibration": calibration,
         "targets": targets,
         "command": "python -m flightlog_fd.training.build_default " + " ".join(
             f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items() if k not in ("out", "cache")),
@@ -134,7 +169,7 @@ def main(argv=None) -> None:
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     export_onnx(res.model, args.out, metadata={"feature_spec": spec.to_dict(), "training": summary,
-                                                "version": "default-1"})
+                                                "version": "default-2", "temperature": temperature})
     torch.save(res.model.state_dict(), args.out.with_suffix(".pt"))
     args.out.with_suffix(".json").write_text(json.dumps(summary, indent=2))
     print(json.dumps({k: summary[k] for k in ("sim_test", "targets")}, indent=2))
