@@ -420,10 +420,13 @@ def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Fr
         if ev.effectiveness_contradicts(k):
             lo, hi = ev.motors[k - 1].effectiveness_ci
             why = (f"its effectiveness [{lo:.2f}, {hi:.2f}] is that of its neighbours")
-        elif ev.top_motor == k:
+        elif ev.top_motor == k and ev.baseline == "neighbours":
             why = (f"it {ev.summary(k)}, a pattern healthy airframes show too (it stands "
                    f"{100 * ev.single_motor_gap:.0f} % above the next motor; damage needs "
                    f"{100 * _gap_needed(ev):.0f} %)")
+        elif ev.top_motor == k:
+            why = (f"it {ev.summary(k)}; as one motor it rose {100 * ev.single_motor_gap:.1f} %, damage needs "
+                   f"{100 * _gap_needed(ev):.0f} %" + (" and the other motors moved too" if ev.not_one_motor else ""))
         else:
             why = f"the commands single out no motor like it (the highest is {words(ev.top_motor)})"
         if ev.top_motor != k and ev.pattern_supports(ev.top_motor):
@@ -448,6 +451,6 @@ def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Fr
 
 
 def _gap_needed(ev) -> float:
-    from .evidence import NEIGHBOUR_MIN_GAP, PROFILE_MIN_GAP
+    from .evidence import NEIGHBOUR_MIN_GAP, PROFILE_MIN_CHANGE
 
-    return NEIGHBOUR_MIN_GAP if ev.baseline == "neighbours" else PROFILE_MIN_GAP
+    return NEIGHBOUR_MIN_GAP if ev.baseline == "neighbours" else PROFILE_MIN_CHANGE
