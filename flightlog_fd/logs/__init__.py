@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import NotALogError
-from ..flight import Flight
+from ..flight import Flight, sanitise_flight
 
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 DATAFLASH_HEAD = b"\xa3\x95"
@@ -47,12 +47,15 @@ def sniff_format(path) -> str:
 
 
 def load_flight(path) -> Flight:
-    """Read a log into a :class:`Flight`, choosing the parser by content, not extension."""
+    """Read a log into a :class:`Flight`, choosing the parser by content, not extension.
+
+    Whatever reader made it, the Flight then passes the timestamp checks of
+    :func:`flightlog_fd.flight.sanitise_flight` (implausible samples dropped, with a warning)."""
     kind = sniff_format(path)
     if kind == "ulog":
         from .ulog import read_ulog
 
-        return read_ulog(path)
+        return sanitise_flight(read_ulog(path))
     from .dataflash import read_dataflash
 
-    return read_dataflash(path)
+    return sanitise_flight(read_dataflash(path))
