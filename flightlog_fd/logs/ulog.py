@@ -170,7 +170,7 @@ class _Topic:
     def array(self, prefix: str, count: int) -> Optional[np.ndarray]:
         """Columns ``prefix[0] .. prefix[count-1]`` as an (n, count) float64 array, or None."""
         names = [f"{prefix}[{i}]" for i in range(count)]
-        if not all(n in self.fields for n in names):
+        if not names or not all(n in self.fields for n in names):  # a damaged format may have none
             return None
         return np.column_stack([self.fields[n].astype(np.float64) for n in names])
 
