@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import NotALogError
+from ..errors import CorruptLogError, FlightLogError, NotALogError
 from ..flight import Flight, sanitise_flight
 
 ULOG_MAGIC = b"ULog\x01\x12\x35"
@@ -53,9 +53,16 @@ def load_flight(path) -> Flight:
     :func:`flightlog_fd.flight.sanitise_flight` (implausible samples dropped, with a warning)."""
     kind = sniff_format(path)
     if kind == "ulog":
-        from .ulog import read_ulog
-
-        return sanitise_flight(read_ulog(path))
-    from .dataflash import read_dataflash
-
-    return sanitise_flight(read_dataflash(path))
+        from .ulog import read_ulog as reader
+    else:
+        from .dataflash import read_dataflash as reader
+    try:
+        return sanitise_flight(reader(path))
+    except FlightLogError:
+        raise
+    except MemoryError:
+        raise CorruptLogError(path, "damaged log: decoding it ran out of memory") from None
+    except Exception as e:
+        # Last line of defence for damage no check foresaw (tests/test_fuzz.py hunts these and
+        # each one found gets its own check): one line naming the file, never a traceback.
+        raise CorruptLogError(path, f"damaged log: cannot decode it ({type(e).__name__}: {e})") from None

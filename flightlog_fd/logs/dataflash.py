@@ -382,9 +382,10 @@ def _decode(idx: _Index, name: str) -> Optional[MessageTable]:
         else:
             columns[col] = raw.astype(np.float64)
     t = None
-    if "TimeUS" in columns:
+    numeric = {col for col, ch in zip(fmt.columns, fmt.format) if ch not in STRING_CHARS and ch != "a"}
+    if "TimeUS" in numeric:
         t = columns["TimeUS"] / 1e6
-    elif "TimeMS" in columns:
+    elif "TimeMS" in numeric:
         t = columns["TimeMS"] / 1e3
     return MessageTable(name, fmt.format, t, columns, offs)
 
@@ -439,7 +440,7 @@ def _drop_implausible_times(tab: MessageTable, warnings: list[str]) -> Optional[
     bad = implausible_times(tab.t)
     if bad.any():
         warnings.append(describe_dropped(f"{tab.name} messages", tab.t, bad))
-    if "SampleUS" in tab.columns:
+    if "SampleUS" in tab.columns and tab.columns["SampleUS"].dtype.kind == "f":
         sample_t = tab.columns["SampleUS"] / 1e6
         bad_sample = implausible_times(sample_t) & ~bad
         if bad_sample.any():
@@ -561,7 +562,7 @@ def _firmware_text(tables: dict[str, MessageTable]) -> tuple[str, Optional[str],
 
 
 def _params(tables: dict[str, MessageTable]) -> dict[str, float]:
-    if "PARM" not in tables:
+    if "PARM" not in tables or not tables["PARM"].has("Name", "Value"):  # a damaged FMT renames columns
         return {}
     tab = tables["PARM"]
     # later values win: a parameter changed in flight is logged again
