@@ -60,7 +60,7 @@ SAMPLE_CASES = [
 SHARED_CASES = [
     (("real_logs", "px4", "robologs_f450_ground.ulg"), 16, 4),
     (("real_logs", "px4", "sample_appended_multiple.ulg"), 16, 4),
-    (("real_logs", "px4", "sample_log_small.ulg"), 16, 4),
+    (("real_logs", "px4", "sample_px4_events.ulg"), 16, 4),
     (("real_logs", "ardupilot", "arducopter46_truncated_80k.bin"), 16, 4),
     (("real_logs", "ardupilot", "erle_copter34_7.BIN"), 16, 4),
 ]
@@ -130,13 +130,22 @@ def timestamp_cases(name: str, data: bytes, count: int) -> list[Case]:
     rng = random.Random(f"{SEED}:timestamps:{name}")
     cut = int(len(data) * 0.6)
     head = data[:cut]
-    if name.endswith(".ulg"):
-        stamps = [pos + 5 for pos in ulog_data_messages(head)]  # size, type, msg_id, then timestamp
+    if name.lower().endswith(".ulg"):
+        # size, type, msg_id, then the uint64 timestamp: flip in its bytes 3..7
+        stamps = [(pos + 5, 3, 8) for pos in ulog_data_messages(head)]
     else:
-        stamps = [pos + 3 for pos, _, cols in dataflash_messages(head) if cols and cols[0] == "TimeUS"]
-    stamps = [p for p in stamps if p + 8 <= cut]
-    return [Case(name, "flip", rng.choice(stamps) + rng.randrange(3, 8), rng.randrange(8), cut)
-            for _ in range(count)]
+        # TimeUS (uint64): bytes 3..7; TimeMS (uint32, before ArduCopter 3.4): bytes 1..3
+        widths = {"TimeUS": (3, 8), "TimeMS": (1, 4)}
+        stamps = [(pos + 3, *widths[cols[0]]) for pos, _, cols in dataflash_messages(head)
+                  if cols and cols[0] in widths]
+    stamps = [s for s in stamps if s[0] + s[2] <= cut]
+    if not stamps:
+        return []
+    cases = []
+    for _ in range(count):
+        start, first_byte, width = rng.choice(stamps)
+        cases.append(Case(name, "flip", start + rng.randrange(first_byte, width), rng.randrange(8), cut))
+    return cases
 
 
 class _Hung(Exception):

@@ -364,6 +364,10 @@ def _decode(idx: _Index, name: str) -> Optional[MessageTable]:
     offs = offs[offs + fmt.len <= idx.data.size]  # a message cut by truncation is dropped
     if offs.size == 0:
         return None
+    if fmt.len <= HEADER_BYTES or offs.size * fmt.len > idx.data.size:
+        # the index never overlaps messages, so this only trips on a damaged FMT length: the
+        # decoded table must never be larger than the file that holds it
+        raise ValueError(f"{name}: {offs.size} messages of {fmt.len} bytes cannot fit in {idx.data.size} bytes")
     dtype = _dtype_for(fmt)
     if dtype.itemsize != fmt.len - HEADER_BYTES:
         raise ValueError(f"{name}: FMT length {fmt.len} does not match format {fmt.format!r}")
