@@ -12,7 +12,8 @@ Pipeline (every step documented where it is implemented):
      than ``min(max_gap_s, GAP_FACTOR x its median sample interval)``. No value is ever
      interpolated across a gap in ANY needed stream: the airborne interval is split there into
      separate :class:`Segment` s, and no window crosses a segment boundary. NaN samples count as
-     missing (they create gaps).
+     missing (they create gaps), and so do samples beyond ``MAX_ABS_SAMPLE`` (a flipped exponent
+     bit: no rate, angle, command or speed ratio comes near it).
    - **Bounded grids**: grid points are made only inside the stretches every needed stream
      covers (consecutive samples closer than its gap threshold), intersected with the airborne
      intervals - never over a span read from timestamps. So the grid has at most
@@ -93,6 +94,8 @@ DEFAULT_TRIM_S = 1.0
 GAP_FACTOR = 3.5
 DEFAULT_MAX_GAP_S = 0.5
 
+#: A sample value beyond this magnitude is corrupt (rad/s, rad, 0..1 commands, m/s): missing.
+MAX_ABS_SAMPLE = 1e6
 #: Most grid time (s) one flight may need: a day (no log spans more; see flight.MAX_LOG_SPAN_S).
 MAX_GRID_S = 86400.0
 
@@ -384,7 +387,7 @@ class Stream:
 def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     t = series.t
     v = series.values[:, :columns]
-    keep = np.isfinite(t) & np.all(np.isfinite(v), axis=1)
+    keep = np.isfinite(t) & np.all(np.isfinite(v) & (np.abs(v) <= MAX_ABS_SAMPLE), axis=1)
     t, v = t[keep], v[keep]
     if t.size > 1 and np.any(np.diff(t) <= 0):
         order = np.argsort(t, kind="stable")

@@ -41,6 +41,11 @@ assembled Flight (``load_flight`` calls it, whatever reader made the Flight):
   clipped to [t_start, t_end].
 
 Every dropped sample is named in ``Flight.warnings`` (stream, count, an example time).
+Measured: none of the 90 real logs in ../shared (PX4 1.x ULogs, ArduCopter 3.3-4.6 DataFlash,
+CrazyPAD, SITL) loses a sample or gets one of these warnings; a clean stream costs one ``diff``
+and one median of its intervals. Before these checks, a single flipped high bit in one
+timestamp of a log cut in flight made ``fdlog diagnose`` die with MemoryError (1.64 TiB to
+3.28 PiB grids) or run for minutes (ULog header bit 41: 13 s; bit 43: killed after 200 s).
 """
 from __future__ import annotations
 
