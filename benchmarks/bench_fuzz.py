@@ -10,11 +10,13 @@ model loaded once (and one clean diagnosis first, so no case pays for imports); 
 the number of cases, the outcomes, the mean and the worst time with its case. Prints figures
 only; the machine is shared, so read them as orders of magnitude.
 
-Measured on the 2-core shared machine (nice 10, other jobs running), 40 random cases per file,
-every sample log and every log in ../shared/real_logs (800 cases): no case failed; mean
-0.07-0.72 s per file (the 1.9 MB sample logs are the slowest), worst case 1.45 s
-(px4_motor1_damaged.ulg flip offset=378435 arg=0). Before the timestamp checks the same kind of
-case ended in MemoryError (1.64 TiB, 3.28 PiB grids), a KeyError traceback, or ran past 60 s.
+Measured with ``nice -n 10 .venv/bin/python benchmarks/bench_fuzz.py`` (defaults: 40 random +
+12 timestamp cases per file, the 10 sample logs and the 14 logs in ../shared/real_logs, 1248
+cases) on the shared 2-core machine: 0 failed; mean per file 0.025-0.43 s (the 1.9-2.1 MB sample
+ULogs are the slowest); worst case 0.83 s (px4_motor1_damaged.ulg flip offset=827 arg=7).
+Before the timestamp checks, 7 of the 12 timestamp cases of px4_motor2_damaged.ulg ended in
+MemoryError (1.64 TiB ... 3.28 PiB grids) or ran past 60 s, and damaged format definitions gave
+KeyError tracebacks.
 """
 from __future__ import annotations
 

@@ -50,19 +50,19 @@ MUTATIONS = ("truncate", "flip", "flip", "flip", "zero", "dup")
 
 #: (file, random cases, timestamp cases): the small sample logs of both formats (~0.1 s a case).
 SAMPLE_CASES = [
-    ("px4_motor2_damaged.ulg", 36, 12),
-    ("px4_motor4_damaged.ulg", 36, 12),
-    ("ardupilot_healthy.bin", 36, 12),
-    ("ardupilot_motor2_damaged.bin", 36, 12),
-    ("ardupilot_plus_motor4_damaged.bin", 36, 0),
+    ("px4_motor2_damaged.ulg", 30, 12),
+    ("px4_motor4_damaged.ulg", 30, 12),
+    ("ardupilot_healthy.bin", 30, 12),
+    ("ardupilot_motor2_damaged.bin", 30, 12),
+    ("ardupilot_plus_motor4_damaged.bin", 30, 0),
 ]
 #: Small real logs from ../shared (their path under it, random cases, timestamp cases).
 SHARED_CASES = [
-    (("real_logs", "px4", "robologs_f450_ground.ulg"), 16, 4),
-    (("real_logs", "px4", "sample_appended_multiple.ulg"), 16, 4),
-    (("real_logs", "px4", "sample_px4_events.ulg"), 16, 4),
-    (("real_logs", "ardupilot", "arducopter46_truncated_80k.bin"), 16, 4),
-    (("real_logs", "ardupilot", "erle_copter34_7.BIN"), 16, 4),
+    (("real_logs", "px4", "robologs_f450_ground.ulg"), 12, 4),
+    (("real_logs", "px4", "sample_appended_multiple.ulg"), 12, 4),
+    (("real_logs", "px4", "sample_px4_events.ulg"), 12, 4),
+    (("real_logs", "ardupilot", "arducopter46_truncated_80k.bin"), 12, 4),
+    (("real_logs", "ardupilot", "erle_copter34_7.BIN"), 12, 4),
 ]
 
 
