@@ -12,7 +12,14 @@ Pipeline (every step documented where it is implemented):
      than ``min(max_gap_s, GAP_FACTOR x its median sample interval)``. No value is ever
      interpolated across a gap in ANY needed stream: the airborne interval is split there into
      separate :class:`Segment` s, and no window crosses a segment boundary. NaN samples count as
-     missing (they create gaps).
+     missing (they create gaps), and so do samples beyond ``MAX_ABS_SAMPLE`` (a flipped exponent
+     bit: no rate, angle, command or speed ratio comes near it).
+   - **Bounded grids**: grid points are made only inside the stretches every needed stream
+     covers (consecutive samples closer than its gap threshold), intersected with the airborne
+     intervals - never over a span read from timestamps. So the grid has at most
+     ``fine rate x gap threshold`` points per sample of the rate stream, whatever a corrupted
+     timestamp says (one flipped bit once asked for a 3.28 PiB grid, another for 66 s of work);
+     more than ``MAX_GRID_S`` seconds of grid (a day) is refused as not diagnosable.
    - **Slow streams** (PX4's default ``actuator_motors`` at 10 Hz, ArduPilot ``RCOU`` at 10 Hz)
      are interpolated linearly onto the faster grid. Consequence: the motor channels are a
      piecewise-linear curve through the logged points; nothing above the stream's Nyquist
@@ -86,6 +93,11 @@ DEFAULT_TRIM_S = 1.0
 #: least ~2-3 samples lost) or longer than max_gap_s, whichever is shorter.
 GAP_FACTOR = 3.5
 DEFAULT_MAX_GAP_S = 0.5
+
+#: A sample value beyond this magnitude is corrupt (rad/s, rad, 0..1 commands, m/s): missing.
+MAX_ABS_SAMPLE = 1e6
+#: Most grid time (s) one flight may need: a day (no log spans more; see flight.MAX_LOG_SPAN_S).
+MAX_GRID_S = 86400.0
 
 #: Savitzky-Golay window (seconds) and polynomial order for the derivative and rate smoothing.
 DEFAULT_SAVGOL_WINDOW_S = 0.1
@@ -360,6 +372,14 @@ class Stream:
         ok = np.diff(self.t)[i] <= self.gap_s
         return inside & ok
 
+    def covered(self) -> list[tuple[float, float]]:
+        """Closed intervals [t_i, t_j] over which consecutive samples are no further apart than
+        the gap threshold (where :meth:`valid_at` can be true), in time order."""
+        if len(self.t) < 2:
+            return []
+        pairs_ok = np.diff(self.t) <= self.gap_s
+        return [(float(self.t[a]), float(self.t[b])) for a, b in _runs(pairs_ok)]
+
     def interp(self, tg: np.ndarray) -> np.ndarray:
         out = np.empty((tg.shape[0], self.v.shape[1]))
         for k in range(self.v.shape[1]):
@@ -370,7 +390,7 @@ class Stream:
 def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     t = series.t
     v = series.values[:, :columns]
-    keep = np.isfinite(t) & np.all(np.isfinite(v), axis=1)
+    keep = np.isfinite(t) & np.all(np.isfinite(v) & (np.abs(v) <= MAX_ABS_SAMPLE), axis=1)
     t, v = t[keep], v[keep]
     if t.size > 1 and np.any(np.diff(t) <= 0):
         order = np.argsort(t, kind="stable")
@@ -382,6 +402,41 @@ def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     else:
         gap = 0.0
     return Stream(t, v, gap)
+
+
+def _intersect_sorted(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Overlaps of two time-ordered lists of disjoint closed intervals (one linear merge)."""
+    out, i, j = [], 0, 0
+    while i < len(a) and j < len(b):
+        lo, hi = max(a[i][0], b[j][0]), min(a[i][1], b[j][1])
+        if hi >= lo:
+            out.append((lo, hi))
+        if a[i][1] < b[j][1]:
+            i += 1
+        else:
+            j += 1
+    return out
+
+
+def _grid_indices(pieces: list[tuple[float, float]], fine_hz: float) -> np.ndarray:
+    """Fine-grid indices j (t = j / fine_hz) inside the given intervals, ascending, unique."""
+    parts = [np.arange(math.ceil(lo * fine_hz - 1e-6), math.floor(hi * fine_hz + 1e-6) + 1) for lo, hi in pieces]
+    parts = [p for p in parts if p.size]
+    if not parts:
+        return np.zeros(0, dtype=np.int64)
+    return np.unique(np.concatenate(parts))
+
+
+def _split_at_jumps(runs: list[tuple[int, int]], j: np.ndarray) -> list[tuple[int, int]]:
+    """Split [start, stop) runs of grid positions wherever the grid index ``j`` skips (a run must
+    never bridge uncovered time, where no grid point was made)."""
+    jumps = np.flatnonzero(np.diff(j) != 1) + 1  # first position after each skip
+    out = []
+    for lo, hi in runs:
+        cuts = jumps[(jumps > lo) & (jumps < hi)].tolist()
+        edges = [lo, *cuts, hi]
+        out.extend(zip(edges[:-1], edges[1:]))
+    return out
 
 
 def _odd_window(seconds: float, rate_hz: float) -> int:
@@ -472,19 +527,28 @@ def resample(flight: Flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float 
     fine_hz = rate_hz * k
     n_sg = _odd_window(savgol_window_s, fine_hz)
 
+    # Where every needed stream has data: the only place grid points are made (bounded grids).
+    coverage = needed[0].covered()
+    for s in needed[1:]:
+        coverage = _intersect_sorted(coverage, s.covered())
+    covered_s = sum(hi - lo for lo, hi in coverage)
+    if covered_s > MAX_GRID_S:
+        raise NotDiagnosableError(flight.path, f"the streams cover {covered_s / 3600:.0f} h: no flight log spans "
+                                               f"more than {MAX_GRID_S / 3600:.0f} h (damaged timestamps?)")
+
     segments: list[Segment] = []
     for a, b in sorted(flight.airborne):
         t0, t1 = a + trim_s, b - trim_s
         if t1 <= t0:
             continue
-        j = np.arange(math.ceil(t0 * fine_hz - 1e-6), math.floor(t1 * fine_hz + 1e-6) + 1)
+        j = _grid_indices(_intersect_sorted(coverage, [(t0, t1)]), fine_hz)
         if j.size == 0:
             continue
         tf = j / fine_hz
         ok = np.ones(tf.shape, dtype=bool)
         for s in needed:
             ok &= s.valid_at(tf)
-        for lo, hi in _runs(ok):
+        for lo, hi in _split_at_jumps(_runs(ok), j):
             if hi - lo < n_sg:
                 continue
             tf_run, j_run = tf[lo:hi], j[lo:hi]

@@ -73,6 +73,13 @@ Frame: ``FRAME_CLASS`` (1 quad, 2 hexa, 3 octa, 4 octaquad, 5 Y6, 6 heli, 7 tri,
 numbering and arm angles (quad-X 1 front-right CCW, 2 rear-left CCW, 3 front-left CW, 4
 rear-right CW; plus 1 right, 2 left, 3 front, 4 back).
 
+Timestamps (checks and thresholds in :mod:`flightlog_fd.flight`): each decoded message type is
+checked in FILE order (``TimeUS``/``TimeMS``, and ``SampleUS`` where present) before anything is
+derived from it; messages with an implausible time (a spike out and back, a step backwards of
+more than the spike threshold) are dropped with a warning naming the type. One flipped bit in
+a ``TimeUS`` once stretched a flight to the year 36 000 and made the resampler ask for 3.28 PiB.
+Allocations are bounded by the file: every table holds at most file size / message length rows.
+
 Limits: one flight per file; a type whose ``FMT`` is redefined mid-file is decoded with its
 last definition (warned); a truncated file keeps every complete message before the damage
 (warned); unreadable bytes in the middle are skipped by pymavlink's indexer (warned with their
@@ -94,7 +101,7 @@ import numpy as np
 from . import read_head
 from ..util import intersect_intervals
 from ..errors import CorruptLogError, NotALogError
-from ..flight import Flight, Frame, Rotor, Series
+from ..flight import Flight, Frame, Rotor, Series, describe_dropped, implausible_times
 
 # --- file layout ---------------------------------------------------------------------------
 HEAD1, HEAD2 = 0xA3, 0x95
@@ -357,6 +364,10 @@ def _decode(idx: _Index, name: str) -> Optional[MessageTable]:
     offs = offs[offs + fmt.len <= idx.data.size]  # a message cut by truncation is dropped
     if offs.size == 0:
         return None
+    if fmt.len <= HEADER_BYTES or offs.size * fmt.len > idx.data.size:
+        # the index never overlaps messages, so this only trips on a damaged FMT length: the
+        # decoded table must never be larger than the file that holds it
+        raise ValueError(f"{name}: {offs.size} messages of {fmt.len} bytes cannot fit in {idx.data.size} bytes")
     dtype = _dtype_for(fmt)
     if dtype.itemsize != fmt.len - HEADER_BYTES:
         raise ValueError(f"{name}: FMT length {fmt.len} does not match format {fmt.format!r}")
@@ -375,9 +386,10 @@ def _decode(idx: _Index, name: str) -> Optional[MessageTable]:
         else:
             columns[col] = raw.astype(np.float64)
     t = None
-    if "TimeUS" in columns:
+    numeric = {col for col, ch in zip(fmt.columns, fmt.format) if ch not in STRING_CHARS and ch != "a"}
+    if "TimeUS" in numeric:
         t = columns["TimeUS"] / 1e6
-    elif "TimeMS" in columns:
+    elif "TimeMS" in numeric:
         t = columns["TimeMS"] / 1e3
     return MessageTable(name, fmt.format, t, columns, offs)
 
@@ -418,9 +430,29 @@ def _decode_all(idx: _Index, names: Iterable[str], warnings: list[str]) -> dict[
             warnings.append(f"{name} messages skipped: {e}")
             continue
         if tab is not None:
+            tab = _drop_implausible_times(tab, warnings)
+        if tab is not None:
             tables[name] = tab
     _assign_missing_times(tables)
     return tables
+
+
+def _drop_implausible_times(tab: MessageTable, warnings: list[str]) -> Optional[MessageTable]:
+    """The table without the messages whose time (file order) is implausible; None when none is left."""
+    if tab.t is None:
+        return tab
+    bad = implausible_times(tab.t)
+    if bad.any():
+        warnings.append(describe_dropped(f"{tab.name} messages", tab.t, bad))
+    if "SampleUS" in tab.columns and tab.columns["SampleUS"].dtype.kind == "f":
+        sample_t = tab.columns["SampleUS"] / 1e6
+        bad_sample = implausible_times(sample_t) & ~bad
+        if bad_sample.any():
+            warnings.append(describe_dropped(f"{tab.name}.SampleUS", sample_t, bad_sample))
+        bad |= bad_sample
+    if not bad.any():
+        return tab
+    return tab.rows(~bad) if (~bad).any() else None
 
 
 def _assign_missing_times(tables: dict[str, MessageTable]) -> None:
@@ -534,7 +566,7 @@ def _firmware_text(tables: dict[str, MessageTable]) -> tuple[str, Optional[str],
 
 
 def _params(tables: dict[str, MessageTable]) -> dict[str, float]:
-    if "PARM" not in tables:
+    if "PARM" not in tables or not tables["PARM"].has("Name", "Value"):  # a damaged FMT renames columns
         return {}
     tab = tables["PARM"]
     # later values win: a parameter changed in flight is logged again

@@ -56,6 +56,15 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
   and changes during the log of the parameters that decide how motors are read (initial values
   are used).
 
+Timestamps (see :mod:`flightlog_fd.flight` for the checks and their thresholds): every decoded
+topic instance is checked in FILE order before anything is derived from it; samples whose
+``timestamp`` is zero or implausible (a spike out and back, a step backwards) are dropped with a
+warning naming the topic. ``t_start`` is the header's start time unless it lies more than
+``MAX_SAMPLE_GAP_S`` from the first sample (then the first sample's time, warned); ``t_end`` is the
+last clean sample's time, so one corrupted timestamp can neither stretch the flight nor the
+airborne time to the year 36 000 (which made the resampler run for minutes). A topic instance
+whose format lost its ``timestamp`` field (a damaged definition) is skipped with a warning.
+
 Errors: a file pyulog cannot parse at all (bad header, unknown incompatible flags, no
 definitions) raises :class:`CorruptLogError`; a file that is not a ULog raises
 :class:`NotALogError`. A log cut short loads what was read, with a warning; logging dropouts and
@@ -77,7 +86,7 @@ import numpy as np
 from . import read_head
 from ..util import intersect_intervals  # noqa: F401  (part of this module's API)
 from ..errors import CorruptLogError, NotALogError
-from ..flight import Flight, Frame, Rotor, Series
+from ..flight import MAX_SAMPLE_GAP_S, Flight, Frame, Rotor, Series, describe_dropped, implausible_times
 
 #: Topics decoded (everything else in the file is skipped by pyulog's filter).
 ULOG_TOPICS = [
@@ -161,7 +170,7 @@ class _Topic:
     def array(self, prefix: str, count: int) -> Optional[np.ndarray]:
         """Columns ``prefix[0] .. prefix[count-1]`` as an (n, count) float64 array, or None."""
         names = [f"{prefix}[{i}]" for i in range(count)]
-        if not all(n in self.fields for n in names):
+        if not names or not all(n in self.fields for n in names):  # a damaged format may have none
             return None
         return np.column_stack([self.fields[n].astype(np.float64) for n in names])
 
@@ -214,11 +223,39 @@ def _parse(path: Path):
     return ulog, _ends_cut(data), printed.getvalue()
 
 
+def _clean_times(ulog, warnings: list[str]) -> tuple[Optional[float], Optional[float]]:
+    """Drop, in place and in file order, every sample of every decoded topic instance whose
+    timestamp is zero or implausible (:func:`~flightlog_fd.flight.implausible_times`); drop
+    instances without a ``timestamp`` field. Returns the (first, last) clean time in seconds
+    over all instances, None when there is none."""
+    kept_items, lo, hi = [], None, None
+    for d in ulog.data_list:
+        label = d.name + (f" (instance {d.multi_id})" if d.multi_id else "")
+        if "timestamp" not in d.data:
+            warnings.append(f"{label}: no timestamp field in its definition (damaged format?): topic skipped")
+            continue
+        ts = np.asarray(d.data["timestamp"]).astype(np.uint64)
+        t = ts.astype(np.float64) / US_PER_S
+        bad = implausible_times(np.where(ts > 0, t, np.nan))
+        nonzero_bad = bad & (ts > 0)
+        if nonzero_bad.any():
+            warnings.append(describe_dropped(label, t, nonzero_bad))
+        if bad.any():
+            d.data = {k: np.asarray(v)[~bad] for k, v in d.data.items()}
+            t = t[~bad]
+        if t.size:
+            lo = float(t.min()) if lo is None else min(lo, float(t.min()))
+            hi = float(t.max()) if hi is None else max(hi, float(t.max()))
+        kept_items.append(d)
+    ulog.data_list[:] = kept_items
+    return lo, hi
+
+
 def _topics(ulog, name: str) -> list[_Topic]:
     """All instances of a topic, each sorted by time with zero timestamps dropped."""
     out = []
     for d in ulog.data_list:
-        if d.name != name:
+        if d.name != name or "timestamp" not in d.data:
             continue
         ts = d.data["timestamp"].astype(np.uint64)
         keep = ts > 0
@@ -658,8 +695,13 @@ def read_ulog(path) -> Flight:
     warnings: list[str] = []
     info = ulog.msg_info_dict
     params = _params(ulog)
+    data_start, data_end = _clean_times(ulog, warnings)
     t_start = ulog.start_timestamp / US_PER_S
-    t_end = max(ulog.last_timestamp / US_PER_S, t_start)
+    if data_start is not None and abs(t_start - data_start) > MAX_SAMPLE_GAP_S:
+        warnings.append(f"header start time {t_start:.6g} s is implausible (first sample at {data_start:.2f} s): "
+                        f"using the first sample's time")
+        t_start = data_start
+    t_end = max(data_end if data_end is not None else t_start, t_start)
     if truncated:
         warnings.append(f"file is truncated (last message cut): data read up to t={t_end:.2f} s")
     if ulog.file_corruption:

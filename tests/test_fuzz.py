@@ -1,0 +1,343 @@
+"""Corrupted logs: every damaged file ends quickly in a verdict or one clear line, never a crash.
+
+Seeded mutations (truncation, single bit flips, zeroed blocks, duplicated blocks) of the sample
+logs and of a few small real logs from ../shared (skipped when absent) go through the public
+loader and the diagnosis in-process (``diagnose_path`` with the shipped model loaded once), and a
+handful through the CLI. Each case must end with a status in healthy / damaged / uncertain /
+not_diagnosable (exit code 0/1/2), without an uncaught exception, in under ``CASE_LIMIT_S``.
+Half of the offsets fall in the first ``HEAD_BYTES`` of the file (header, format definitions,
+parameters), where one flipped bit does the most damage. Every failure names the case
+(file, mutation, offset, argument) and the seed, so it reproduces with ``mutate()``.
+
+The checks are reader-agnostic: only ``flightlog_fd.load_flight`` / ``diagnose_path`` and the CLI
+are called, so whatever reader ``read_ulog`` switches on is exercised too.
+
+Two regression cases are built deterministically from sample logs: a flipped high bit in a
+DataFlash ``TimeUS`` (which made `fdlog diagnose` ask for petabytes and die with a traceback) and
+a flipped bit in a ULog header timestamp of a log that ends airborne (which took minutes).
+Typical figures: ``python benchmarks/bench_fuzz.py``.
+"""
+from __future__ import annotations
+
+import random
+import signal
+import struct
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from flightlog_fd import load_flight
+from flightlog_fd.cli import app
+from flightlog_fd.diagnose import diagnose_path
+
+from conftest import ROOT, shared_path
+
+SEED = 20240610
+SAMPLES = ROOT / "sample_logs"
+#: The issue's requirement for one corrupted file (load + diagnose); cases take ~0.1 s here.
+CASE_LIMIT_S = 10.0
+#: A case still running after this is reported as hung (SIGALRM) instead of stalling the suite.
+HANG_LIMIT_S = 60
+#: Bytes at the start of a file that hold the header, format definitions and parameters.
+HEAD_BYTES = 4096
+STATUSES = {"healthy", "damaged", "uncertain", "not_diagnosable"}
+MUTATIONS = ("truncate", "flip", "flip", "flip", "zero", "dup")
+
+#: (file, random cases, timestamp cases): the small sample logs of both formats (~0.1 s a case).
+SAMPLE_CASES = [
+    ("px4_motor2_damaged.ulg", 30, 12),
+    ("px4_motor4_damaged.ulg", 30, 12),
+    ("ardupilot_healthy.bin", 30, 12),
+    ("ardupilot_motor2_damaged.bin", 30, 12),
+    ("ardupilot_plus_motor4_damaged.bin", 30, 0),
+]
+#: Small real logs from ../shared (their path under it, random cases, timestamp cases).
+SHARED_CASES = [
+    (("real_logs", "px4", "robologs_f450_ground.ulg"), 12, 4),
+    (("real_logs", "px4", "sample_appended_multiple.ulg"), 12, 4),
+    (("real_logs", "px4", "sample_px4_events.ulg"), 12, 4),
+    (("real_logs", "ardupilot", "arducopter46_truncated_80k.bin"), 12, 4),
+    (("real_logs", "ardupilot", "erle_copter34_7.BIN"), 12, 4),
+]
+
+
+@dataclass(frozen=True)
+class Case:
+    """One mutation of one file: ``arg`` is the bit (flip) or block length (zero, dup); ``cut``
+    (when non-zero) truncates the file there first, so that the log ends in flight."""
+
+    file: str
+    mutation: str
+    offset: int
+    arg: int
+    cut: int = 0
+
+    def __str__(self) -> str:
+        cut = f" after a cut at {self.cut}" if self.cut else ""
+        return f"{self.file} {self.mutation} offset={self.offset} arg={self.arg}{cut} (seed {SEED})"
+
+
+def mutate(data: bytes, case: Case) -> bytes:
+    """The damaged bytes for ``case``."""
+    b = bytearray(data[:case.cut] if case.cut else data)
+    off = case.offset
+    if case.mutation == "truncate":
+        return bytes(b[:off])
+    if case.mutation == "flip":
+        b[off] ^= 1 << case.arg
+        return bytes(b)
+    if case.mutation == "zero":
+        end = min(len(b), off + case.arg)
+        b[off:end] = bytes(end - off)
+        return bytes(b)
+    if case.mutation == "dup":
+        return bytes(b[:off + case.arg] + b[off:off + case.arg] + b[off + case.arg:])
+    raise ValueError(case.mutation)
+
+
+def make_cases(name: str, size: int, count: int) -> list[Case]:
+    """``count`` seeded cases for a file of ``size`` bytes (same list on every run)."""
+    rng = random.Random(f"{SEED}:{name}")
+    cases = []
+    for _ in range(count):
+        mutation = rng.choice(MUTATIONS)
+        span = min(size, HEAD_BYTES) if rng.random() < 0.5 else size
+        offset = rng.randrange(1, span) if mutation == "truncate" else rng.randrange(span)
+        arg = rng.randrange(8) if mutation == "flip" else rng.choice((8, 64, 512, 4096))
+        cases.append(Case(name, mutation, offset, arg))
+    return cases
+
+
+def ulog_data_messages(data: bytes):
+    """Offsets of the ULog data ('D') messages: walked by their (size, type) headers."""
+    pos = 16
+    while pos + 3 <= len(data):
+        size, kind = struct.unpack_from("<HB", data, pos)
+        if kind == ord("D"):
+            yield pos
+        pos += 3 + size
+
+
+def timestamp_cases(name: str, data: bytes, count: int) -> list[Case]:
+    """Flipped high bits (24..63, i.e. 17 s to 292 000 years in microseconds) in the timestamps of
+    seeded data messages of a log cut at 60 % (so it ends in flight): the class of damage that
+    once made a diagnosis allocate petabytes or run for minutes."""
+    rng = random.Random(f"{SEED}:timestamps:{name}")
+    cut = int(len(data) * 0.6)
+    head = data[:cut]
+    if name.lower().endswith(".ulg"):
+        # size, type, msg_id, then the uint64 timestamp: flip in its bytes 3..7
+        stamps = [(pos + 5, 3, 8) for pos in ulog_data_messages(head)]
+    else:
+        # TimeUS (uint64): bytes 3..7; TimeMS (uint32, before ArduCopter 3.4): bytes 1..3
+        widths = {"TimeUS": (3, 8), "TimeMS": (1, 4)}
+        stamps = [(pos + 3, *widths[cols[0]]) for pos, _, cols in dataflash_messages(head)
+                  if cols and cols[0] in widths]
+    stamps = [s for s in stamps if s[0] + s[2] <= cut]
+    if not stamps:
+        return []
+    cases = []
+    for _ in range(count):
+        start, first_byte, width = rng.choice(stamps)
+        cases.append(Case(name, "flip", start + rng.randrange(first_byte, width), rng.randrange(8), cut))
+    return cases
+
+
+class _Hung(Exception):
+    pass
+
+
+def _on_alarm(signum, frame):
+    raise _Hung()
+
+
+def run_case(path: Path, model) -> tuple[str, float]:
+    """(outcome, seconds): outcome is the verdict status or "EXCEPTION ..." / "HUNG"."""
+    previous = signal.signal(signal.SIGALRM, _on_alarm)
+    signal.alarm(HANG_LIMIT_S)
+    t0 = time.perf_counter()
+    try:
+        d = diagnose_path(path, model, keep_flight=False)
+        outcome = d.verdict.status
+        if d.exit_code not in (0, 1, 2):
+            outcome = f"exit code {d.exit_code} for status {outcome}"
+    except _Hung:
+        outcome = f"HUNG (> {HANG_LIMIT_S} s)"
+    except Exception as e:  # the point of the test: report which case, not just that one failed
+        where = traceback.extract_tb(e.__traceback__)[-1]
+        outcome = f"EXCEPTION {type(e).__name__}: {str(e)[:200]} at {Path(where.filename).name}:{where.lineno}"
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    return outcome, time.perf_counter() - t0
+
+
+@pytest.fixture(scope="module")
+def model():
+    from flightlog_fd.model import FaultModel, default_model_path
+
+    model = FaultModel(default_model_path())
+    # one clean run first, so that no case is timed with the one-off imports (scipy.signal: seconds)
+    assert diagnose_path(SAMPLES / "px4_motor4_damaged.ulg", model, keep_flight=False).verdict.status in STATUSES
+    return model
+
+
+def fuzz_file(source: Path, count: int, stamp_count: int, model, tmp_path: Path) -> None:
+    data = source.read_bytes()
+    failures = []
+    cases = make_cases(source.name, len(data), count) + timestamp_cases(source.name, data, stamp_count)
+    for case in cases:
+        damaged = tmp_path / f"damaged{source.suffix}"
+        damaged.write_bytes(mutate(data, case))
+        outcome, seconds = run_case(damaged, model)
+        if outcome not in STATUSES:
+            failures.append(f"{case}: {outcome}")
+        elif seconds > CASE_LIMIT_S:
+            failures.append(f"{case}: took {seconds:.1f} s (limit {CASE_LIMIT_S:.0f} s)")
+    assert not failures, f"{len(failures)} of {len(cases)} corrupted cases failed:\n" + "\n".join(failures)
+
+
+@pytest.mark.parametrize("name,count,stamp_count", SAMPLE_CASES)
+def test_corrupted_sample_logs(name, count, stamp_count, model, tmp_path):
+    fuzz_file(SAMPLES / name, count, stamp_count, model, tmp_path)
+
+
+@pytest.mark.shared
+@pytest.mark.parametrize("parts,count,stamp_count", SHARED_CASES, ids=[p[-1] for p, _, _ in SHARED_CASES])
+def test_corrupted_real_logs(parts, count, stamp_count, model, tmp_path):
+    fuzz_file(shared_path(*parts), count, stamp_count, model, tmp_path)
+
+
+# ----------------------------------------------------------------------------- the CLI
+
+CLI_CASES = [
+    Case("px4_motor2_damaged.ulg", "truncate", 2000, 0),  # cut inside the definitions
+    Case("px4_motor2_damaged.ulg", "zero", 0, 64),  # magic bytes gone
+    Case("px4_motor2_damaged.ulg", "flip", 100, 1),  # a format definition
+    Case("ardupilot_healthy.bin", "zero", 0, 4096),  # FMT table gone
+    Case("ardupilot_healthy.bin", "truncate", 500, 0),  # cut inside the FMT table
+    Case("ardupilot_healthy.bin", "dup", 100_000, 4096),  # a replayed block
+]
+
+
+@pytest.mark.parametrize("case", CLI_CASES, ids=str)
+def test_corrupted_logs_through_the_cli(case, tmp_path):
+    damaged = tmp_path / f"damaged{Path(case.file).suffix}"
+    damaged.write_bytes(mutate((SAMPLES / case.file).read_bytes(), case))
+    res = CliRunner().invoke(app, ["diagnose", str(damaged)])
+    assert res.exit_code in (0, 1, 2), f"{case}: exit code {res.exit_code}\n{res.output}"
+    assert res.exception is None or isinstance(res.exception, SystemExit), f"{case}: {res.exception!r}"
+    assert "Traceback" not in res.output, f"{case}:\n{res.output}"
+    if res.exit_code == 2:
+        errors = [ln for ln in res.output.splitlines() if ln.startswith("fdlog: ")]
+        assert errors and all(str(damaged) in ln for ln in errors), f"{case}: no one-line error\n{res.output}"
+
+
+# ----------------------------------------------------------------------------- regressions
+
+def dataflash_messages(data: bytes):
+    """(offset, type name, column names) of every message, walked with the file's own FMT table."""
+    formats = {0x80: (89, "FMT", ["Type", "Length", "Name", "Format", "Columns"])}
+    pos = 0
+    while pos + 3 <= len(data):
+        if data[pos] != 0xA3 or data[pos + 1] != 0x95 or data[pos + 2] not in formats:
+            pos += 1
+            continue
+        length, name, columns = formats[data[pos + 2]]
+        if name == "FMT" and pos + 89 <= len(data):
+            type_id, msg_len = data[pos + 3], data[pos + 4]
+            formats[type_id] = (msg_len, data[pos + 5:pos + 9].rstrip(b"\0").decode(),
+                                data[pos + 25:pos + 89].rstrip(b"\0").decode().split(","))
+        yield pos, name, columns
+        pos += length
+
+
+def test_flipped_dataflash_timestamp_is_dropped_with_a_warning(model, tmp_path):
+    """Bit 60 of one CTUN.TimeUS in a log that ends airborne: the flight used to stretch to
+    2^60 us and the resampler to ask for petabytes (MemoryError traceback)."""
+    data = bytearray((SAMPLES / "ardupilot_motor2_damaged.bin").read_bytes()[:200_000])  # cut in flight
+    ctun = [pos for pos, name, cols in dataflash_messages(bytes(data)) if name == "CTUN" and cols[0] == "TimeUS"]
+    pos = ctun[len(ctun) // 2]
+    (before,) = struct.unpack_from("<Q", data, pos + 3)
+    data[pos + 3 + 7] ^= 1 << 4  # bit 60 of the little-endian uint64 TimeUS
+    assert struct.unpack_from("<Q", data, pos + 3)[0] == before ^ (1 << 60)
+    damaged = tmp_path / "flipped_timeus.bin"
+    damaged.write_bytes(bytes(data))
+
+    flight = load_flight(damaged)
+    assert flight.t_end - flight.t_start < 3600, (flight.t_start, flight.t_end)
+    assert all(b < flight.t_end + 1e-9 for _, b in flight.airborne)
+    assert any(w.startswith("CTUN messages: dropped 1 sample with an implausible timestamp") for w in flight.warnings), \
+        flight.warnings
+    d = diagnose_path(damaged, model, keep_flight=False)
+    assert d.verdict.status in STATUSES
+    assert any("CTUN messages: dropped 1 sample" in w for w in d.warnings)
+    res = CliRunner().invoke(app, ["diagnose", str(damaged)])
+    assert res.exit_code in (0, 1, 2), res.output
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    assert "Traceback" not in res.output
+
+
+def test_flipped_ulog_header_timestamp_finishes_quickly(model, tmp_path):
+    """Bit 43 of the ULog header's start time in a log cut while airborne: the airborne interval
+    used to run to the bogus start time (8.8e6 s) and the diagnosis took minutes."""
+    data = bytearray((SAMPLES / "px4_motor2_damaged.ulg").read_bytes()[:200_000])  # cut in flight
+    data[8 + 43 // 8] ^= 1 << (43 % 8)
+    damaged = tmp_path / "flipped_header.ulg"
+    damaged.write_bytes(bytes(data))
+
+    outcome, seconds = run_case(damaged, model)
+    assert outcome in STATUSES, outcome
+    assert seconds < CASE_LIMIT_S, f"took {seconds:.1f} s"
+    flight = load_flight(damaged)
+    assert flight.t_end - flight.t_start < 3600, (flight.t_start, flight.t_end)
+    assert any("header start time" in w and "implausible" in w for w in flight.warnings), flight.warnings
+
+
+def test_resampler_grid_is_bounded_by_the_data_not_the_airborne_span():
+    """Shared code, whatever reader made the Flight: an airborne interval reaching 10^12 s
+    builds grid points only where the streams have samples."""
+    from flightlog_fd.features import resample
+    from flightlog_fd.flight import Flight, Frame, Series
+
+    t = np.arange(0.0, 30.0, 0.004)
+    rng = np.random.default_rng(SEED)
+    rates = Series(t, rng.normal(0, 0.05, (t.size, 3)), "test rates")
+    motors = Series(t[::25], np.full((t[::25].size, 4), 0.5), "test motors")
+    flight = Flight(path="synthetic", autopilot="sim", vehicle_type="quadrotor", frame=Frame.quad_x(),
+                    rates=rates, motors=motors, airborne=[(2.0, 1e12)], t_start=0.0, t_end=1e12)
+    t0 = time.perf_counter()
+    segments = resample(flight)
+    assert time.perf_counter() - t0 < CASE_LIMIT_S
+    assert len(segments) == 1
+    assert segments[0].t[0] >= 3.0 and segments[0].t[-1] <= t[-1] + 1e-9
+
+
+def test_sanitise_flight_drops_spikes_and_clips_intervals():
+    from flightlog_fd.flight import Flight, Frame, Series, implausible_times, sanitise_flight
+
+    t = np.arange(0.0, 20.0, 0.01)
+    spiky = t.copy()
+    spiky[500] += 2.0 ** 40 / 1e6  # a flipped bit 40 in microseconds
+    spiky[900] -= 5.0  # a sample that steps back
+    bad = implausible_times(spiky)
+    assert np.flatnonzero(bad).tolist() == [500, 900]
+    assert not implausible_times(np.concatenate([t, t[-1] + 3000 + t])).any()  # a logging pause is kept
+
+    order = np.argsort(spiky)
+    flight = Flight(path="synthetic", autopilot="sim", frame=Frame.quad_x(),
+                    rates=Series(spiky[order], np.zeros((t.size, 3)), "r"),
+                    motors=Series(t, np.zeros((t.size, 4)), "m"),
+                    airborne=[(1.0, 2.0 ** 40 / 1e6)], armed=[(0.0, 2.0 ** 40 / 1e6)],
+                    t_start=0.0, t_end=2.0 ** 40 / 1e6)
+    sanitise_flight(flight)
+    assert flight.rates.t.max() < 20.0
+    assert flight.t_end == pytest.approx(t[-1])
+    assert flight.airborne == [(1.0, pytest.approx(t[-1]))]
+    assert any(w.startswith("rates (r): dropped 1 sample") for w in flight.warnings), flight.warnings
+    assert any("log end time" in w for w in flight.warnings), flight.warnings
