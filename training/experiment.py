@@ -220,6 +220,7 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
                     for m, R in results.items()},
         "peer_rule": peer,
         "command": "python -m flightlog_fd.training.experiment " + " ".join(sys.argv[1:]),
+        "code": _code_version(),
         "seconds": round(time.time() - t0, 1),
     }
     return summary
@@ -265,11 +266,26 @@ def tsne_figure(models: dict, s_test, t_set, spec: FeatureSpec, path: Path, seed
     plt.close(fig)
 
 
+def _code_version() -> str:
+    """The commit of the simulator and training code that made the table (or 'unknown')."""
+    import subprocess
+
+    try:
+        out = subprocess.run(["git", "-C", str(Path(__file__).resolve().parent), "rev-parse", "--short", "HEAD"],
+                             capture_output=True, text=True, timeout=10)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
 def write_markdown(summary: dict, path: Path) -> None:
     t = summary["target"]
     M = summary["methods"]
     L = [f"# The paper's experiment on `{t}`", "",
-         f"Made by `{summary['command']}` ({summary['seconds'] / 60:.0f} min on a 2-core CPU).", "",
+         f"Made by `{summary['command']}` ({summary['seconds'] / 60:.0f} min on a 2-core CPU) with the "
+         f"simulator and training code of commit `{summary.get('code', 'unknown')}` (regenerated after the simulator "
+         f"learned realistic airframe imbalance and torque-losing damage, and the shipped model was retrained on it; "
+         f"the paper's adjusted simulation itself is unchanged: ρ applied as weak motors, balanced otherwise).", "",
          f"Calibration: ONE healthy flight, `{summary['calibration_flight']}` (ρ = "
          f"{[round(x, 4) for x in summary['profile']['rho']]}, hover throttle "
          f"{summary['profile']['hover_throttle']:.3f}, {summary['profile']['hover_s']:.0f} s of hover). "

@@ -72,4 +72,14 @@ def crazypad_logs(shared: Path = SHARED) -> list[LabelledLog]:
 
 def available(shared: Path = SHARED) -> dict[str, bool]:
     return {"px4_sih_dev": (shared / "px4_sih_dev" / "manifest.csv").exists(),
-            "crazypad_e9": (shared / "crazypad_e9" / "manifest.csv").exists()}
+            "crazypad_e9": (shared / "crazypad_e9" / "manifest.csv").exists(),
+            "real_healthy": (shared / "real_healthy" / "logs").is_dir()}
+
+
+def real_healthy_logs(shared: Path = SHARED) -> list[LabelledLog]:
+    """Real healthy ArduCopter flights (no labelled damage): ../shared/real_healthy and the Erle
+    flights of ../shared/real_logs. For false-alarm measurements only."""
+    paths = sorted((shared / "real_healthy" / "logs").glob("*"))
+    paths += sorted((shared / "real_logs" / "ardupilot").glob("erle_copter*.BIN"))
+    return [LabelledLog(p.stem, p, {"label": 0, "motor": 0, "eta": None, "onset_s": None}, "real, healthy")
+            for p in paths]
