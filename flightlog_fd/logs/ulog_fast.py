@@ -38,7 +38,7 @@ payloads, malformed format strings, subscriptions to undefined formats, duplicat
 a 'D' record shorter than its ``msg_id``, a ``msg_id`` subscribed twice in one segment, a
 subscription whose format has no 8-byte ``timestamp`` where pyulog reads it, a 'B' message that
 is not the first message or is shorter than 40 bytes, unknown incompatible flags, appended
-offsets that go backwards, past the file end or into the definitions, and a file cut inside its
+offsets that go backwards or into the definitions, and a file cut inside its
 definitions. A format whose flattened size exceeds the largest possible record (65533 bytes) or
 nests deeper than ``MAX_NESTING`` raises :class:`~flightlog_fd.errors.CorruptLogError`
 instead (pyulog would recurse or build millions of fields). Every allocation is bounded by the
@@ -426,24 +426,27 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
         if out.incompat_flags[0] & ~1 or any(out.incompat_flags[1:]):
             raise FastULogUnsupported("unknown incompatible flag set")
     segment_starts = out.appended_offsets if (out.has_data_appended and out.appended_offsets) else []
-    if any(b <= a for a, b in zip(segment_starts, segment_starts[1:])) or any(o > n for o in segment_starts):
-        raise FastULogUnsupported("appended-data offsets out of order or past the end of the file")
-    limits = segment_starts + [n]
+    if any(b < a for a, b in zip(segment_starts, segment_starts[1:])):
+        raise FastULogUnsupported("appended-data offsets out of order")
+    limits = segment_starts + [n]  # an offset past the end (a cut file): pyulog reads to the end
 
     # ---- walk: segment 0 from the header, then each appended segment from its offset
     buf = np.frombuffer(data, dtype=np.uint8)
     u16 = _u16_view(data)
     runs = _DataRuns(data)
     chunks: list = []
-    stop = _walk(data, runs, HEADER_BYTES, limits[0], chunks)
+    stop = _walk(data, runs, HEADER_BYTES, min(limits[0], n), chunks)
+    out.truncated = limits[0] >= n and stop != n
     seg_bounds = [0]
     for start, limit in zip(segment_starts, limits[1:]):
         seg_bounds.append(sum(len(c) for c in chunks))
+        if start >= n:
+            continue
         if start < stop:
             raise FastULogUnsupported("appended-data offset inside data already read")
-        stop = _walk(data, runs, start, limit, chunks)
+        stop = _walk(data, runs, start, min(limit, n), chunks)
+        out.truncated = limit >= n and stop != n
     seg_bounds.append(sum(len(c) for c in chunks))
-    out.truncated = stop != n
     del runs
 
     msg_pos = np.concatenate(chunks) if chunks else np.zeros(0, np.int64)
@@ -453,7 +456,10 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
     # ---- definitions: up to the first 'A', 'L' or 'C' of segment 0
     starts_data = np.flatnonzero(np.isin(msg_type[:seg_bounds[1]], DATA_SECTION_START_TYPES))
     def_end = int(starts_data[0]) if len(starts_data) else seg_bounds[1]
-    if not len(starts_data) and (segment_starts or out.truncated):
+    # a cut message pyulog still sees the header of: its definitions loop parses the partial
+    # payload unless the type ends the definitions (then its data loop drops the cut message)
+    cut_ends_definitions = stop + MSG_HEADER_BYTES <= n and data[stop + 2] in DATA_SECTION_START_TYPES
+    if not len(starts_data) and (segment_starts or (out.truncated and not cut_ends_definitions)):
         raise FastULogUnsupported("file ends (or data is appended) inside the definitions section")
     def_types = msg_type[:def_end]
     bad = ~np.isin(def_types, DEFINITION_TYPES) & ((def_types == 0) | (msg_size[:def_end] == 0)
@@ -481,7 +487,7 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
             elif t == MSG_FLAG_BITS and p != HEADER_BYTES:
                 raise FastULogUnsupported("flag bits message that is not the first message")
         except (IndexError, ValueError, KeyError, OverflowError, struct.error) as e:
-            raise FastULogUnsupported(f"unparsable {chr(t)!r} definition at byte {p} ({type(e).__name__})") from None
+            raise FastULogUnsupported(f"unparsable {chr(t)!r} definition at byte {p} ({_why(e)})") from None
 
     # ---- data section, segment by segment
     sub_cache: dict = {}
@@ -544,7 +550,7 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
                 elif SYNC_BYTES in payload:  # unknown type: pyulog looks for a sync marker inside
                     raise FastULogUnsupported(f"sync marker inside an unknown message at byte {p}")
             except (IndexError, ValueError, KeyError, OverflowError, struct.error) as e:
-                raise FastULogUnsupported(f"unparsable {chr(t)!r} message at byte {p} ({type(e).__name__})") from None
+                raise FastULogUnsupported(f"unparsable {chr(t)!r} message at byte {p} ({_why(e)})") from None
 
         # 'D' records: msg_id, then one gather per wanted subscription
         d_idx = np.flatnonzero(is_data)
@@ -614,6 +620,10 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
     return out
 
 
+def _why(e: Exception) -> str:
+    return str(e) or type(e).__name__
+
+
 def _add_info_multiple(out: FastULog, payload: bytes) -> None:
     continued = payload[0]
     vtype, key, value = _info(payload[1:])
@@ -630,8 +640,8 @@ def _add_default(out: FastULog, payload: bytes) -> None:
     bits = payload[0]
     _, key, value = _info(payload[1:])
     for bit in range(8):
-        if bits & (1 << bit):
-            out.default_parameters.setdefault(bit, {})[key] = value
+        if bits & (1 << bit):  # pyulog's key is the bit's value minus one (bits 0, 1 -> 0, 1; bit 2 -> 3)
+            out.default_parameters.setdefault((1 << bit) - 1, {})[key] = value
 
 
 __all__ = ["read_ulog_fast", "read_ulog_bytes", "FastULog", "FastULogUnsupported", "TopicData"]
