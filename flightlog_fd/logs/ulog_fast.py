@@ -73,10 +73,10 @@ MAX_RECORD_BYTES = 0xFFFF - 2
 MAX_NESTING = 16
 #: pyulog treats a message of unknown type as corrupt when its size is 0 or above this.
 PYULOG_CORRUPT_SIZE = 10000
-#: Rounds of dropping 'D' candidates nobody points at (each removes most of the false ones left).
-PRUNING_ROUNDS = 2
 #: Block of the file the candidate pruning marks at a time (a bool buffer of this size is reused).
 POINTED_BLOCK_BYTES = 1 << 22
+#: Up to this many wanted subscriptions, each one's records are found by one comparison pass.
+FEW_SUBSCRIPTIONS = 24
 #: 'B' payload: 8 compat + 8 incompat flag bytes + 3 appended-data offsets (u64).
 FLAG_BITS_BYTES = 40
 
@@ -261,6 +261,11 @@ class _Subscription:
     dtype: np.dtype
     timestamp_offset: int
 
+    @property
+    def timestamp_is_field(self) -> bool:
+        return "timestamp" in self.dtype.names and self.dtype.fields["timestamp"][0] == np.dtype("<u8") \
+            and self.dtype.fields["timestamp"][1] == self.timestamp_offset
+
 
 def _subscription(payload: bytes, index: int, formats: dict, cache: dict, path) -> _Subscription:
     multi_id, msg_id = payload[0], _U16.unpack_from(payload, 1)[0]
@@ -287,26 +292,30 @@ def _subscription(payload: bytes, index: int, formats: dict, cache: dict, path) 
 class _DataRuns:
     """Runs of chained 'D' messages found with numpy, for :func:`_walk` to jump over.
 
-    Candidates are the positions whose would-be type byte is 'D' (size >= 2, inside the file) and
-    that some other candidate's ``next = pos + 3 + size`` points at (a true 'D' message is pointed
-    at by its predecessor unless that one is of another type; false candidates inside payloads
-    rarely are). In candidate order, ``nxt[i] == pos[i + 1]`` links a candidate to the next one;
-    ``run_last[i]`` is the last candidate of the linked run through ``i``. Nothing here is trusted
+    Candidates are the positions whose would-be type byte is 'D', whose ``next = pos + 3 + size``
+    holds a known type byte, and that some other candidate's ``next`` points at (a true 'D'
+    message is pointed at by its predecessor unless that one is of another type; false
+    candidates inside payloads rarely are). In candidate order, ``nxt[i] == pos[i + 1]`` links a
+    candidate to the next one; ``run_last[i]`` is the last candidate of the linked run through ``i``. Nothing here is trusted
     by itself: the walk enters a run only from a position it reached by walking, so every
-    candidate it takes is the true next message. Memory: two bool arrays of the file's length.
+    candidate it takes is the true next message. Memory: a few arrays of 8 bytes per candidate
+    (at most one candidate per byte: bounded by the file size) and a 4 MB block buffer.
     """
 
     def __init__(self, data: bytes):
         n = len(data)
         buf = np.frombuffer(data, dtype=np.uint8)
-        # a next beyond the file, or a 'D' too short for its msg_id, points at no candidate: such
-        # messages (cut or corrupt) end a run and the walk steps them itself
-        pos = np.flatnonzero(buf[2:] == MSG_DATA) if n > 2 else np.zeros(0, np.int64)
-        nxt = pos + MSG_HEADER_BYTES + _u16_view(data)[pos]
-        for _ in range(PRUNING_ROUNDS):  # each round drops candidates no other candidate points at
-            keep = _pointed_at(pos, nxt)
-            if keep.all():
-                break
+        if n < MSG_HEADER_BYTES + 2:
+            pos = nxt = np.zeros(0, np.int64)
+        else:
+            pos = np.flatnonzero(buf[2:] == MSG_DATA)
+            nxt = pos + MSG_HEADER_BYTES + _u16_view(data)[pos]
+            # the next message of a 'D' starts with a known type byte; the file's last message, cut
+            # or corrupt 'D' messages fail this and end a run: the walk steps them itself
+            inside = nxt + 2 < n
+            keep = inside & _KNOWN_TYPE[buf[np.where(inside, nxt + 2, 0)]]
+            pos, nxt = pos[keep], nxt[keep]
+            keep = _pointed_at(pos, nxt)  # drops candidates no other candidate points at
             pos, nxt = pos[keep], nxt[keep]
         self.pos, self.nxt = pos, nxt
         self.count = len(pos)
@@ -320,18 +329,21 @@ class _DataRuns:
         return i, (int(self.pos[i]) if i < self.count else -1)
 
 
+_KNOWN_TYPE = np.zeros(256, dtype=bool)
+_KNOWN_TYPE[list(DATA_SECTION_TYPES + DEFINITION_TYPES + (MSG_REMOVE_LOGGED,))] = True
+
+
 def _pointed_at(pos: np.ndarray, nxt: np.ndarray) -> np.ndarray:
     """For sorted candidate positions ``pos``: True where some candidate's ``nxt`` equals it.
 
     Done block by block with one small reusable bool buffer: a message ends at most 65538 bytes
     after it starts, so the candidates pointing into a block start in it or just before it (a
-    file-sized array would cost a page fault per 4 kB on first touch)."""
+    fresh file-sized array costs a page fault per 4 kB on first touch: slower, measured)."""
     keep = np.zeros(len(pos), dtype=bool)
     if not len(pos):
         return keep
     mark = np.zeros(POINTED_BLOCK_BYTES, dtype=bool)
-    first, last = int(pos[0]), int(pos[-1])
-    for a in range(first, last + 1, POINTED_BLOCK_BYTES):
+    for a in range(int(pos[0]), int(pos[-1]) + 1, POINTED_BLOCK_BYTES):
         b = a + POINTED_BLOCK_BYTES
         lo, mid, hi = np.searchsorted(pos, np.array([a - MSG_HEADER_BYTES - 0xFFFF, a, b]))
         targets = nxt[lo:hi]
@@ -573,14 +585,18 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
                     warned.add(mid)
                     out.printed.append(NO_SUBSCRIPTION_WARNING.format(mid))
         decoded: dict[int, np.ndarray] = {}
-        sel = np.flatnonzero(ours)
-        by_id = sel[np.argsort(d_id[sel], kind="stable")]  # file order within each msg_id
-        sorted_ids = d_id[by_id]
+        if len(subs) > FEW_SUBSCRIPTIONS:  # group the records by msg_id once (radix sort of uint16)
+            sel = np.flatnonzero(ours)
+            by_id = sel[np.argsort(d_id[sel], kind="stable")]  # file order within each msg_id
+            sorted_ids = d_id[by_id]
         for sub in subs.values():
-            a, b = np.searchsorted(sorted_ids, np.array([sub.msg_id, sub.msg_id + 1]))
-            if a == b:
+            if len(subs) > FEW_SUBSCRIPTIONS:
+                a, b = np.searchsorted(sorted_ids, np.array([sub.msg_id, sub.msg_id + 1]))
+                mine = by_id[a:b]
+            else:
+                mine = np.flatnonzero(ours & (d_id == sub.msg_id))
+            if not len(mine):
                 continue
-            mine = by_id[a:b]
             right = mine[d_size[mine] - 2 == sub.dtype.itemsize]
             if len(right) != len(mine):
                 out.file_corruption = True  # pyulog skips records of another size silently
@@ -594,9 +610,12 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
             records = np.ndarray(shape=(n - size + 1,), dtype=f"V{size}", buffer=data, strides=(1,))
             rows = records[d_pos[right] + MSG_HEADER_BYTES + 2]
             table = rows.view(sub.dtype)
-            raw = rows.view(np.uint8).reshape(-1, size)
-            stamps = np.ascontiguousarray(raw[:, sub.timestamp_offset:sub.timestamp_offset + 8]).view("<u8")
-            record_ts[d_k[right]] = stamps.reshape(-1)
+            if sub.timestamp_is_field:
+                record_ts[d_k[right]] = table["timestamp"]
+            else:  # pyulog reads 8 bytes at the offset whatever the field's type
+                raw = rows.view(np.uint8).reshape(-1, size)
+                stamps = np.ascontiguousarray(raw[:, sub.timestamp_offset:sub.timestamp_offset + 8])
+                record_ts[d_k[right]] = stamps.view("<u8").reshape(-1)
             decoded[sub.msg_id] = table
         # pyulog pops its subscriptions (last added first) into data_list, then sorts stably
         for msg_id in reversed(list(subs)):
