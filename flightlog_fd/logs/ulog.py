@@ -260,9 +260,13 @@ def _topics(ulog, name: str) -> list[_Topic]:
             continue
         ts = d.data["timestamp"].astype(np.uint64)
         keep = ts > 0
-        order = np.argsort(ts[keep], kind="stable")
-        fields = {k: np.asarray(v)[keep][order] for k, v in d.data.items()}
-        t = ts[keep][order].astype(np.float64) / US_PER_S
+        if keep.all() and bool(np.all(ts[1:] >= ts[:-1])):  # the usual case: no copy of the fields
+            fields = {k: np.asarray(v) for k, v in d.data.items()}
+            t = ts.astype(np.float64) / US_PER_S
+        else:
+            rows = np.flatnonzero(keep)[np.argsort(ts[keep], kind="stable")]
+            fields = {k: np.asarray(v)[rows] for k, v in d.data.items()}
+            t = ts[rows].astype(np.float64) / US_PER_S
         if len(t):
             out.append(_Topic(name, int(d.multi_id), t, fields))
     out.sort(key=lambda tp: tp.instance)
