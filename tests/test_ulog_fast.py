@@ -279,13 +279,24 @@ def test_impossible_formats_raise_corrupt(tmp_path, fields, error):
 
 
 def test_header_only_and_garbage_never_leak():
-    for data in (b"ULog\x01\x12\x35\x01" + b"\x00" * 8, b"ULog\x01\x12\x35\x01" + b"\x00" * 8 + b"\xff\xff",
-                 b"ULog\x01\x12\x35\x01" + b"\x00" * 8 + bytes(range(256)) * 40, b"ULog"):
+    head = SMALL.read_bytes()[:16]
+    for data in (head, head + b"\xff\xff", head + bytes(range(256)) * 40, b"ULog", head + b"D" * 100_000,
+                 head + bytes(30_000), head + b"\x02\x00D\x01\x00" * 10_000):
         try:
             fast = read_ulog_bytes(data, ULOG_TOPICS)
         except (FastULogUnsupported, FlightLogError):
             continue
         assert fast.data_list == []
+
+
+@pytest.mark.shared
+def test_cut_appended_data_log_matches_pyulog(shared):
+    """Appended-data offsets past the end of a cut file: pyulog reads to the end, so do we."""
+    data = shared("real_logs", "px4", "sample_appended_multiple.ulg").read_bytes()
+    fast = read_ulog_bytes(data, None)
+    assert fast.has_data_appended and fast.appended_offsets
+    for cut in (fast.appended_offsets[0] - 7, fast.appended_offsets[-1] + 1001, len(data) - 5):
+        assert_same_as_pyulog(data[:cut], None)
 
 
 def test_read_ulog_fast_from_path_matches_bytes():

@@ -75,6 +75,9 @@ MAX_NESTING = 16
 PYULOG_CORRUPT_SIZE = 10000
 #: Block of the file the candidate pruning marks at a time (a bool buffer of this size is reused).
 POINTED_BLOCK_BYTES = 1 << 22
+#: Above one 'D' type byte per this many bytes the file is not a real log (those have one per
+#: 30-80 bytes, random bytes one per 256): no run finding then, the walk steps every message.
+MAX_CANDIDATE_DENSITY = 8
 #: Up to this many wanted subscriptions, each one's records are found by one comparison pass.
 FEW_SUBSCRIPTIONS = 24
 #: 'B' payload: 8 compat + 8 incompat flag bytes + 3 appended-data offsets (u64).
@@ -305,10 +308,12 @@ class _DataRuns:
     def __init__(self, data: bytes):
         n = len(data)
         buf = np.frombuffer(data, dtype=np.uint8)
-        if n < MSG_HEADER_BYTES + 2:
+        is_d = buf[2:] == MSG_DATA if n >= MSG_HEADER_BYTES + 2 else np.zeros(0, dtype=bool)
+        if np.count_nonzero(is_d) > n // MAX_CANDIDATE_DENSITY:  # garbage: not worth 16 bytes a byte
             pos = nxt = np.zeros(0, np.int64)
         else:
-            pos = np.flatnonzero(buf[2:] == MSG_DATA)
+            pos = np.flatnonzero(is_d)
+            del is_d
             nxt = pos + MSG_HEADER_BYTES + _u16_view(data)[pos]
             # the next message of a 'D' starts with a known type byte; the file's last message, cut
             # or corrupt 'D' messages fail this and end a run: the walk steps them itself
@@ -600,9 +605,9 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
             right = mine[d_size[mine] - 2 == sub.dtype.itemsize]
             if len(right) != len(mine):
                 out.file_corruption = True  # pyulog skips records of another size silently
-            if not len(right) or sub.dtype.itemsize == 0:
+            if not len(right):
                 continue
-            if sub.timestamp_offset + 8 > sub.dtype.itemsize:
+            if sub.timestamp_offset + 8 > sub.dtype.itemsize:  # pyulog stops reading the file there
                 raise FastULogUnsupported(f"topic {sub.name!r} has no 8-byte timestamp where pyulog reads it")
             # the file seen as overlapping records of this size, one per byte offset: indexing
             # it with the record offsets copies exactly the records (memcpy per row)
