@@ -56,7 +56,7 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
   are used).
 
 Decoding: :mod:`flightlog_fd.logs.ulog_fast` decodes those topics straight into numpy with
-pyulog's values (about 9x faster than pyulog's full parse on a 67 MB log); what it refuses
+pyulog's values (5-8x faster than pyulog's full parse on a 67 MB log); what it refuses
 (corrupt streams pyulog re-synchronises, malformed messages; see that module) is read by
 ``pyulog`` filtered to the same topics. ``Flight.reader`` names the reader used and, for pyulog,
 why the fast one refused.

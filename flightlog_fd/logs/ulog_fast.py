@@ -53,11 +53,16 @@ type byte (none when those are denser than one per ``MAX_CANDIDATE_DENSITY`` byt
 then steps every message), decoded rows are copies of file bytes. The worst case for time is a
 file of tiny messages (e.g. zero bytes: 3-byte messages), ~0.3 s per MB.
 
-Measured (``python benchmarks/bench_load.py``, 2-core machine, numbers in the bench's
-printout): on the 600 s / 67 MB synthetic log (900k messages) pyulog's full parse ``ULog(path)``
-takes 5.2 s and this reader 0.6 s for fdlog's topics (about 9x); on the real logs in
-``../shared`` 6-20x. Values equal pyulog's (``tests/test_ulog_fast.py``: every field of every
-topic instance, parameters, info, on ``sample_logs/`` and the ULogs in ``../shared``).
+Measured (``python benchmarks/bench_load.py --ulog-only [--all-shared]``, 2-core machine shared
+with other jobs, load average 4-6, so figures vary by about 30 % between runs): on the 600 s /
+67 MB synthetic log (900k messages) pyulog's full parse ``ULog(path)`` takes 3.5-3.8 s, this
+reader 0.5-0.8 s (4.6-6.7x on fdlog's topics, 5.4-8x on every topic; 0.49 s best of 7 on every
+topic when run alone); ``read_ulog`` as a whole (with the Flight assembly) 1.2 s, 3x. On the 74
+ULogs of ``sample_logs/`` and ``../shared``: 4-15x for the 1-10 MB flight logs; 2x on the small
+logs with ~100 topics (0.4-0.5 MB), where parsing hundreds of definitions in Python is most of
+the time. Values equal pyulog's (``tests/test_ulog_fast.py``: every field of every topic
+instance, parameters, info, logged messages, dropouts, on ``sample_logs/`` and the ULogs in
+``../shared``; a differential test on damaged files: pyulog's values or a refusal).
 """
 from __future__ import annotations
 
