@@ -57,7 +57,7 @@ Measured (``python benchmarks/bench_load.py --ulog-only [--all-shared]``, 2-core
 with other jobs, load average 4-6, so figures vary by about 30 % between runs): on the 600 s /
 67 MB synthetic log (900k messages) pyulog's full parse ``ULog(path)`` takes 3.5-3.8 s, this
 reader 0.5-0.8 s (4.6-6.7x on fdlog's topics, 5.4-8x on every topic; 0.49 s best of 7 on every
-topic when run alone); ``read_ulog`` as a whole (with the Flight assembly) 1.2 s, 3x. On the 74
+topic when run alone); ``read_ulog`` as a whole (with the Flight assembly) 1.2 s, 3x. On the 76
 ULogs of ``sample_logs/`` and ``../shared``: 4-15x for the 1-10 MB flight logs; 2x on the small
 logs with ~100 topics (0.4-0.5 MB), where parsing hundreds of definitions in Python is most of
 the time. Values equal pyulog's (``tests/test_ulog_fast.py``: every field of every topic
