@@ -4,12 +4,12 @@
   needed types + assembly) against a plain pymavlink loop ``mavlink_connection(path)`` then
   ``recv_match(type=<the same message types>)`` until the end, keeping the message objects
   (no field access: a lower bound on pymavlink's cost).
-- PX4 ULog: :func:`read_ulog` (when ``flightlog_fd/logs/ulog.py`` exists) against pyulog's full
-  parse ``ULog(path)`` with no message filter.
+- PX4 ULog: the fast reader :func:`read_ulog_fast` (on fdlog's topics, and on every topic) and
+  the whole :func:`read_ulog` against pyulog's full parse ``ULog(path)`` with no message filter.
 
 Inputs: every file in ``../shared/real_logs/ardupilot`` and ``../shared/real_logs/px4`` (skipped
-when absent), plus a big synthetic flight written by :func:`write_dataflash` (and
-``write_ulog`` when available): ``--big-seconds`` (default 600) of IMU/RATE at ``--big-hz``
+when absent; ``--all-shared`` adds the SIH and crazypad ULogs), ``sample_logs/*.ulg``, plus a big
+synthetic flight written by :func:`write_dataflash` (and ``write_ulog`` when available): ``--big-seconds`` (default 600) of IMU/RATE at ``--big-hz``
 (default 400 Hz), ATT/ESC/XKF1 at 100 Hz, RCOU at 10 Hz, in a temporary folder.
 Each of our reads is the best of ``--repeat`` runs (default 3); the library loop runs once.
 Prints figures only; nothing is asserted. Run: ``python benchmarks/bench_load.py``.
@@ -99,30 +99,47 @@ def bench_dataflash(paths: list[Path], repeat: int) -> None:
 
 def bench_ulog(paths: list[Path], repeat: int) -> None:
     try:
-        from flightlog_fd.logs.ulog import read_ulog
+        from flightlog_fd.logs.ulog import ULOG_TOPICS, read_ulog
+        from flightlog_fd.logs.ulog_fast import FastULogUnsupported, read_ulog_fast
     except ImportError:
         print("\nPX4 ULog: flightlog_fd/logs/ulog.py not available, skipped")
         return
     from flightlog_fd.errors import FlightLogError
 
-    print(f"\nPX4 ULog: read_ulog vs pyulog ULog(path) (full parse)")
-    print(f"{'file':42s} {'MB':>6s} {'ours s':>8s} {'pyulog s':>9s} {'ratio':>7s}  note")
+    print("\nPX4 ULog: against pyulog ULog(path) (full parse, every topic):")
+    print("  fast = read_ulog_fast on fdlog's topics (what read_ulog uses), fast all = on every topic,")
+    print("  read_ulog = the whole Flight (fast reader + assembly); ratios are pyulog s / ours s")
+    print(f"{'file':42s} {'MB':>6s} {'pyulog s':>9s} {'fast s':>7s} {'ratio':>6s} {'all s':>7s} {'ratio':>6s} "
+          f"{'read_ulog s':>11s} {'ratio':>6s}  note")
     for p in paths:
         note = ""
 
         def ours_once():
             nonlocal note
             try:
-                read_ulog(p)
+                flight = read_ulog(p)
+                note = "" if flight.reader.startswith("fast") else flight.reader
             except FlightLogError as e:  # e.g. the VTOL sample: timed up to the refusal
                 note = f"read_ulog: {e.message}"
 
+        def fast_once(topics):
+            try:
+                read_ulog_fast(p, topics)
+            except FastULogUnsupported as e:
+                return str(e)
+            return ""
+
+        fast = best_of(lambda: fast_once(ULOG_TOPICS), repeat)
+        fast_all = best_of(lambda: fast_once(None), repeat)
+        refused = fast_once(ULOG_TOPICS)
         ours = best_of(ours_once, repeat)
         t0 = time.perf_counter()
         pyulog_full(p)
         theirs = time.perf_counter() - t0
-        print(f"{p.name[:42]:42s} {p.stat().st_size / 1e6:6.1f} {ours:8.3f} {theirs:9.3f} "
-              f"{theirs / ours:6.1f}x  {note[:60]}")
+        if refused:
+            note = f"fast reader refused: {refused}"
+        print(f"{p.name[:42]:42s} {p.stat().st_size / 1e6:6.1f} {theirs:9.3f} {fast:7.3f} {theirs / fast:5.1f}x "
+              f"{fast_all:7.3f} {theirs / fast_all:5.1f}x {ours:11.3f} {theirs / ours:5.1f}x  {note[:60]}")
 
 
 def main(argv=None) -> None:
@@ -131,10 +148,17 @@ def main(argv=None) -> None:
     ap.add_argument("--big-hz", type=float, default=400.0)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--no-big", action="store_true", help="only the shared real logs")
+    ap.add_argument("--all-shared", action="store_true",
+                    help="also every ULog of ../shared/px4_sih_dev and ../shared/crazypad_e9 (61 more files)")
+    ap.add_argument("--ulog-only", action="store_true", help="skip the DataFlash part")
     args = ap.parse_args(argv)
 
     df_paths = sorted((SHARED / "ardupilot").glob("*")) if (SHARED / "ardupilot").is_dir() else []
-    ulog_paths = sorted((SHARED / "px4").rglob("*.ulg")) if (SHARED / "px4").is_dir() else []
+    ulog_paths = sorted((ROOT / "sample_logs").glob("*.ulg"))
+    ulog_paths += sorted((SHARED / "px4").rglob("*.ulg")) if (SHARED / "px4").is_dir() else []
+    if args.all_shared:
+        for folder in (SHARED.parent / "px4_sih_dev" / "logs", SHARED.parent / "crazypad_e9" / "ulog"):
+            ulog_paths += sorted(folder.rglob("*.ulg")) if folder.is_dir() else []
     with tempfile.TemporaryDirectory() as tmp:
         if not args.no_big:
             flight = big_flight(args.big_seconds, args.big_hz)
@@ -156,7 +180,8 @@ def main(argv=None) -> None:
         if not df_paths and not ulog_paths:
             print("no logs: ../shared/real_logs is absent and --no-big was given")
             return
-        bench_dataflash(df_paths, args.repeat)
+        if not args.ulog_only:
+            bench_dataflash(df_paths, args.repeat)
         bench_ulog(ulog_paths, args.repeat)
 
 

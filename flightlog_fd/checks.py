@@ -102,6 +102,7 @@ def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
         "log": flight.path,
         "autopilot": flight.autopilot,
         "firmware": flight.firmware,
+        "reader": flight.reader,
         "vehicle_type": flight.vehicle_type,
         "vehicle_id": flight.vehicle_id,
         "frame": None if frame is None else {

@@ -211,6 +211,7 @@ class Flight:
     params: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     truth: Optional[dict] = None
+    reader: str = ""  # which decoder read the file, e.g. "fast numpy ULog reader" or "pyulog (fallback: ...)"
 
     @property
     def duration_s(self) -> float:

@@ -13,6 +13,8 @@ def print_info(console: Console, d: dict) -> None:
     console.print(f"[bold]{escape(str(d['log']))}[/bold]")
     frame = d.get("frame") or {}
     console.print(f"  autopilot  {escape(d['autopilot'])}  firmware {escape(d['firmware'] or '?')}")
+    if d.get("reader"):
+        console.print(f"  reader     {escape(d['reader'])}")
     console.print(f"  vehicle    {escape(str(d['vehicle_type']))}"
                   + (f"  id {escape(str(d['vehicle_id']))}" if d.get("vehicle_id") else ""))
     if frame:
