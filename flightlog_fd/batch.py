@@ -48,8 +48,10 @@ from .diagnose import Diagnosis, diagnose_flight
 from .errors import FlightLogError
 from .verdict import not_diagnosable
 
-#: Engine names, as ``LogResult``\\s and benchmarks report them.
+#: Engine names, as benchmarks report them.
 ENGINES = ("serial", "processes", "dask")
+#: LocalCluster workers are processes (one thread each); tests may set False (threads start faster).
+LOCAL_CLUSTER_PROCESSES = True
 
 
 @dataclass
@@ -278,7 +280,7 @@ def engine_name(jobs: int, scheduler: Optional[str], n_files: int) -> str:
 def run_batch(files: Sequence, model: Any, profile: Any = None, *, jobs: Optional[int] = None,
               scheduler: Optional[str] = None, keep_flight: bool = False,
               on_result: Optional[Callable[[LogResult], None]] = None,
-              processes: bool = True) -> list[LogResult]:
+              processes: Optional[bool] = None) -> list[LogResult]:
     """Diagnose ``files`` with ``model`` (a FaultModel) and ``profile``; results in input order.
 
     ``scheduler``: None (this machine: serial, or ``jobs`` processes; None means 1), ``"local"`` (a
@@ -299,6 +301,8 @@ def run_batch(files: Sequence, model: Any, profile: Any = None, *, jobs: Optiona
         if on_result is not None:
             on_result(r)
 
+    if processes is None:
+        processes = LOCAL_CLUSTER_PROCESSES
     engine = engine_name(jobs or 1, scheduler, len(paths))
     if engine == "dask":
         _run_dask(paths, model, profile, scheduler, jobs, keep_flight, emit, processes)
