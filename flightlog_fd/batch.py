@@ -237,7 +237,7 @@ def _dask_client(scheduler: str, jobs: Optional[int], processes: bool):
                                processes=processes, dashboard_address=None)
         return Client(cluster), cluster
     try:
-        return Client(scheduler, timeout="20s"), None
+        return Client(scheduler, timeout="10s"), None
     except (OSError, TimeoutError, ValueError) as e:
         raise FlightLogError(None, f"cannot reach the Dask scheduler at {scheduler}: {e}") from None
 
