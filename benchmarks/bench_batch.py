@@ -10,6 +10,11 @@ it used. Each engine's time is the wall time of :func:`flightlog_fd.batch.run_ba
 included (pool processes loading the model; the LocalCluster starting its scheduler and workers
 and receiving the scattered model), since that is what a user waits for. The Dask start-up alone
 is printed too. The machine is shared: compare figures from one run, not across runs.
+
+Measured 2026-11-23 (2 cores, load average 3.9-4.7 from other users; 94 distinct logs: 42
+crazypad_e9, 19 px4_sih_dev, 15 real_healthy, 3+1+4 real_logs, 10 sample_logs):
+``--jobs 2`` 13.0 s, 7.26 logs/s; ``--scheduler local`` 19.6 s, 4.80 logs/s (cluster start-up
+alone 1.7 s).
 """
 from __future__ import annotations
 
@@ -59,10 +64,15 @@ def main() -> None:
         res = run_batch(batch, model, None, **kw)
         dt = time.perf_counter() - t0
         bad = sum(r.diagnosis.verdict.status == "not_diagnosable" for r in res)
-        print(f"{label:<34} {dt:7.1f} s  {len(res) / dt:6.2f} logs/s  ({bad} not diagnosable)")
+        busy = sum(r.elapsed_s for r in res)
+        print(f"{label:<34} {dt:7.1f} s  {len(res) / dt:6.2f} logs/s  (worker time {busy:6.1f} s, "
+              f"{bad} not diagnosable)")
 
     if args.serial:
         timed("serial (1 process)")
+    import os
+
+    print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     timed("--jobs 2 (process pool)", jobs=2)
     from dask.distributed import Client, LocalCluster
 
@@ -70,6 +80,7 @@ def main() -> None:
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as c, Client(c):
         print(f"{'(LocalCluster start-up alone)':<34} {time.perf_counter() - t0:7.1f} s")
     timed("--scheduler local (2 workers)", jobs=2, scheduler="local")
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

@@ -30,7 +30,14 @@ Besides the Diagnosis, each worker returns what the results store needs from the
 not sent back unless ``keep_flight``: the log's sha256, the vehicle identity, the UTC start time
 and each motor's share of the summed thrust commands while airborne (:func:`command_shares`).
 
-Measured: see ``benchmarks/bench_batch.py`` (logs per second, --jobs 2 vs a 2-worker LocalCluster).
+Measured (``benchmarks/bench_batch.py``, 94 diagnosable logs: sample_logs + ../shared, 2 shared
+cores, load average ~4 from other users): ``--jobs 2`` 13.0 s = 7.3 logs/s; ``--scheduler local``
+with 2 worker processes 19.6 s = 4.8 logs/s, of which ~1.7 s is starting the cluster; the rest is
+Dask's per-task overhead and slower workers (summed per-log time 32.5 s against 25.5 s). On one
+machine the process pool is faster; Dask is for spreading a fleet's logs over many machines.
+
+Known limit: a per-log time limit is not enforced. pyulog 1.3.0 spins (minutes or more) on a
+ULog whose header is followed by random bytes, and such a log holds its worker.
 """
 from __future__ import annotations
 

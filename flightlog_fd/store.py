@@ -278,8 +278,8 @@ def _retrying(fn, what: str, path):
     for attempt in range(MAX_RETRIES + 1):
         try:
             return fn()
-        except sqlite3.OperationalError as e:
-            if not _is_locked(e) or attempt == MAX_RETRIES:
+        except sqlite3.Error as e:  # OperationalError (locked, disk full), DatabaseError (damaged file)...
+            if not (isinstance(e, sqlite3.OperationalError) and _is_locked(e)) or attempt == MAX_RETRIES:
                 raise StoreError(path, f"cannot {what}: {e}") from None
             time.sleep(RETRY_BASE_S * (2 ** attempt) * (0.5 + random.random()))
 
