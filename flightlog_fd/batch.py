@@ -113,8 +113,19 @@ def command_shares(flight) -> Optional[list[float]]:
     return [float(x) for x in share.mean(axis=0)]
 
 
-def diagnose_one(index: int, path, model: Any, profile: Any = None, keep_flight: bool = False) -> LogResult:
-    """Load and diagnose one log; never raises for a bad log (it becomes an error row)."""
+#: Held while a Dask task reads a log: the ULog reader captures pyulog's prints with
+#: ``contextlib.redirect_stdout``, which swaps the process-wide ``sys.stdout`` and is not
+#: thread-safe (two threads interleaving it leave ``sys.stdout`` pointing at a dead buffer). Dask
+#: workers may run several threads (``dask worker --nthreads N``, or ``processes=False``).
+_READ_LOCK = threading.Lock()
+
+
+def diagnose_one(index: int, path, model: Any, profile: Any = None, keep_flight: bool = False,
+                 read_lock: Optional[Any] = None) -> LogResult:
+    """Load and diagnose one log; never raises for a bad log (it becomes an error row).
+    ``read_lock``: held while the log is read (threaded workers; see ``_READ_LOCK``)."""
+    import contextlib
+
     from . import load_flight
     from .util import file_sha256
 
@@ -125,7 +136,8 @@ def diagnose_one(index: int, path, model: Any, profile: Any = None, keep_flight:
     except OSError:
         sha = None
     try:
-        flight = load_flight(path)
+        with read_lock if read_lock is not None else contextlib.nullcontext():
+            flight = load_flight(path)
     except FlightLogError as e:
         return LogResult(index, path, _error_diagnosis(path, e.message), log_sha256=sha,
                          elapsed_s=time.perf_counter() - t0)
@@ -232,7 +244,7 @@ def _dask_task(index: int, path: str, payload: ModelPayload, keep_flight: bool) 
         model = _cached_model(payload)
     except FlightLogError as e:
         return error_result(index, path, f"worker could not load the model: {e.message}")
-    return diagnose_one(index, path, model, payload.profile, keep_flight)
+    return diagnose_one(index, path, model, payload.profile, keep_flight, read_lock=_READ_LOCK)
 
 
 def _dask_client(scheduler: str, jobs: Optional[int], processes: bool):
