@@ -201,7 +201,7 @@ def diagnose(
             if store is not None:
                 store.close()
     results = [r.diagnosis for r in batch]
-    for e in store_errors:
+    for e in dict.fromkeys(store_errors):  # a store that fails, fails alike for every log: say it once
         _fail(e)
 
     if as_json:

@@ -106,6 +106,27 @@ print(json.dumps([[r.path, r.diagnosis.verdict.status, r.diagnosis.verdict.reaso
     assert "died" in rows[2][2]
 
 
+def test_a_dying_dask_worker_costs_one_row_not_the_batch(monkeypatch, model):
+    pytest.importorskip("dask.distributed")
+    import dask
+
+    def exit_on_motor2(index, path, payload, keep_flight):  # local: cloudpickle sends it by value
+        import os
+
+        from flightlog_fd.batch import _dask_task  # in the worker process: the real one
+
+        if "motor2" in path:
+            os._exit(3)
+        return _dask_task(index, path, payload, keep_flight)
+
+    monkeypatch.setattr(batch_mod, "_dask_task", exit_on_motor2)
+    files = _sample_files()[:4]
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        results = run_batch(files, model, None, jobs=2, scheduler="local", processes=True)
+    assert [r.diagnosis.verdict.status for r in results] == ["healthy", "damaged", "not_diagnosable", "damaged"]
+    assert "Dask worker failed" in results[2].diagnosis.verdict.reason
+
+
 def test_diagnose_without_scheduler_never_imports_dask(tmp_path):
     code = r"""
 import sys
