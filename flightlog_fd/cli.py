@@ -117,27 +117,6 @@ def _progress(console: Console, total: int, label: str):
                     console=console, transient=True, disable=total <= 1)
 
 
-_worker_state: dict = {}
-
-
-def _init_diagnose_worker(model_path, profile_path) -> None:
-    """Process-pool initializer: load the profile and the ONNX model once per worker process
-    (onnxruntime sessions cannot be pickled, and one per log would be wasted work)."""
-    from .diagnose import resolve_model
-    from .profile import Profile
-
-    profile = Profile.load(profile_path) if profile_path else None
-    _worker_state.update(profile=profile, model=resolve_model(model_path, profile))
-
-
-def _diagnose_worker(args):
-    """Process-pool worker: diagnose one log without keeping the Flight (small result to send back)."""
-    path, keep = args
-    from .diagnose import diagnose_path
-
-    return diagnose_path(path, _worker_state["model"], _worker_state["profile"], keep_flight=keep)
-
-
 @app.command()
 def diagnose(
     logs: List[Path] = typer.Argument(..., help="Log files (.ulg / .bin) or folders of them."),
@@ -147,14 +126,17 @@ def diagnose(
     csv_out: Optional[Path] = typer.Option(None, "--csv", help="Write the per-window timeline of every log to this CSV file."),
     html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
-    jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes."),
+    jobs: Optional[int] = typer.Option(None, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes (with --scheduler local: the number of Dask workers, default one per core)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd[fleet])."),
+    db: Optional[Path] = typer.Option(None, "--db", help="Append every diagnosis to this SQLite results store (see `fdlog history`)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
 ) -> None:
     """Diagnose logs: per-window timeline, flight verdict (healthy / propeller k damaged / uncertain) and reports.
 
     Exit code: 0 every log healthy, 1 damage found or uncertain, 2 invalid input or not diagnosable.
     """
-    from .diagnose import diagnose_path, resolve_model
+    from .batch import run_batch
+    from .diagnose import resolve_model
     from .profile import Profile
     from .report import terminal
 
@@ -176,25 +158,51 @@ def diagnose(
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
 
+    if scheduler is not None:
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError:
+            _fail("--scheduler needs Dask: pip install 'flightlog-fd[fleet]'")
+            raise typer.Exit(EXIT_INVALID)
+    store = run_info = None
+    if db is not None:
+        from .store import ResultStore, RunInfo
+
+        try:
+            store = ResultStore(db)
+        except FlightLogError as e:
+            _fail(e)
+            raise typer.Exit(EXIT_INVALID)
+        run_info = RunInfo.for_batch(fault_model, prof)
+
     console = _console()
     err_console = _console(stderr=True)
     keep = html_out is not None
-    results = []
+    store_errors: list[str] = []
     with _progress(err_console, len(files), "diagnosing") as bar:
         task = bar.add_task("diagnosing", total=len(files))
-        if jobs > 1 and len(files) > 1:
-            from concurrent.futures import ProcessPoolExecutor
 
-            args = [(f, keep) for f in files]
-            with ProcessPoolExecutor(max_workers=jobs, initializer=_init_diagnose_worker,
-                                     initargs=(model, profile)) as pool:
-                for d in pool.map(_diagnose_worker, args):
-                    results.append(d)
-                    bar.advance(task)
-        else:
-            for f in files:
-                results.append(diagnose_path(f, fault_model, prof, keep_flight=keep))
-                bar.advance(task)
+        def on_result(r) -> None:
+            # Runs in this process as each log finishes: the client writes the store, never a worker.
+            if store is not None:
+                try:
+                    store.add(r, run_info)
+                except FlightLogError as e:
+                    store_errors.append(str(e))
+            bar.advance(task)
+
+        try:
+            batch = run_batch(files, fault_model, prof, jobs=jobs, scheduler=scheduler, keep_flight=keep,
+                              on_result=on_result)
+        except FlightLogError as e:
+            _fail(e)
+            raise typer.Exit(EXIT_INVALID)
+        finally:
+            if store is not None:
+                store.close()
+    results = [r.diagnosis for r in batch]
+    for e in dict.fromkeys(store_errors):  # a store that fails, fails alike for every log: say it once
+        _fail(e)
 
     if as_json:
         from .report.json_report import render_json
@@ -218,7 +226,46 @@ def diagnose(
 
         write_html(results if len(results) > 1 else results[0], html_out)
     codes = [d.exit_code for d in results]
-    raise typer.Exit(EXIT_INVALID if errors or EXIT_INVALID in codes else max(codes))
+    raise typer.Exit(EXIT_INVALID if errors or store_errors or EXIT_INVALID in codes else max(codes))
+
+
+@app.command()
+def history(
+    db: Path = typer.Option(..., "--db", help="SQLite results store written by `fdlog diagnose --db`."),
+    vehicle: Optional[str] = typer.Option(None, "--vehicle", help="Only this airframe (as history lists it)."),
+    html_out: Optional[Path] = typer.Option(None, "--html", help="Also write a self-contained HTML page with a trend plot per airframe."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON for machines instead of text."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing --html file."),
+) -> None:
+    """Per airframe: its flights in time order with verdicts and each motor's figures; flags a motor drifting away from the other three.
+
+    Exit code: 0 nothing flagged, 1 a drifting motor or a damaged verdict in an airframe's latest flight, 2 bad input.
+    """
+    from .store import history_summary, iter_text_lines, load_history, render_html, summary_json
+
+    if html_out is not None and html_out.exists() and not force:
+        _fail(f"{html_out}: already exists (use --force to overwrite)")
+        raise typer.Exit(EXIT_INVALID)
+    try:
+        hist = load_history(db, vehicle)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    if vehicle is not None and not hist:
+        _fail(f"{db}: no flights of vehicle {vehicle!r}")
+        raise typer.Exit(EXIT_INVALID)
+    summary = history_summary(hist)
+    if as_json:
+        typer.echo(summary_json(summary))
+    else:
+        console = _console()
+        if not hist:
+            console.print(f"{db}: no diagnoses yet", markup=False)
+        for line in iter_text_lines(summary):
+            console.print(line, markup=False)
+    if html_out is not None:
+        html_out.write_text(render_html(summary), encoding="utf-8")
+    raise typer.Exit(EXIT_DAMAGE if summary["flagged"] else EXIT_OK)
 
 
 @app.command()

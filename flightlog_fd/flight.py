@@ -194,6 +194,10 @@ class Flight:
     firmware: str = ""
     vehicle_type: str = "unknown"  # "quadrotor", "hexarotor", "octorotor", "fixed_wing", "vtol", "unknown"...
     vehicle_id: Optional[str] = None  # hardware / system id where the log has one
+    # Where vehicle_id came from: "sys_uuid" / "ver_hw" (PX4 info; ver_hw is the board type, not
+    # one airframe), "board_uid" (ArduPilot MSG line), "BRD_SERIAL_NUM" / "SYSID_THISMAV" (params).
+    vehicle_id_source: str = ""
+    utc_start: Optional[float] = None  # POSIX seconds (UTC) at t_start, when the log has GPS/UTC time
     frame: Optional[Frame] = None
     rates: Optional[Series] = None  # (n, 3) p, q, r rad/s, FRD
     attitude: Optional[Series] = None  # (n, 2) roll, pitch rad (a third column yaw if present)

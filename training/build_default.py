@@ -72,7 +72,7 @@ def fit_temperature(probs: np.ndarray, y: np.ndarray) -> tuple[float, dict]:
     t_best = float(TEMPERATURE_GRID[int(np.argmin(scores))])
     after = apply_temperature(probs, t_best)
     return t_best, {"temperature": round(t_best, 4), "nll_before": round(nll(probs), 4), "nll_after": round(nll(after), 4),
-                    "ece_before": round(ece(probs), 4), "ece_after": round(ece(after), 4)}
+                    "ece_before": round(float(ece(probs)), 4), "ece_after": round(float(ece(after)), 4)}
 
 
 def sim_kwargs() -> dict:

@@ -44,6 +44,10 @@ multipliers are metadata that pymavlink does not apply either. pymavlink's clock
   time. The land detector alone is not trusted: the 3.4-rc Erle logs report NOT_LANDED for 20 s
   with the throttle at 1 %, and 3.3 never logs LAND_COMPLETE (there, and without NOT_LANDED
   events, the throttle alone decides: "throttle fallback"). ``airborne_source`` says which.
+- ``vehicle_id``: the board's UID line in ``MSG`` (``"CubeOrange 003A002E 31385106 39353735"``),
+  else ``BRD_SERIAL_NUM``, else ``SYSID_THISMAV`` (operator-set, 1 by default: weak);
+  ``vehicle_id_source`` says which. ``utc_start``: from the first ``GPS`` message with a 3D fix
+  (``GWk``/``GMS``, GPS time minus the leap seconds of ``GPS_LEAP_SECONDS``), else None.
 
 **RATE mixer reconstruction.** ``RATE.ROut/POut/YOut`` are the attitude controller's
 normalised roll/pitch/yaw demands handed to ``AP_Motors`` (``motors.get_roll()`` etc., plus the
@@ -209,7 +213,15 @@ FRAME_TEXT_RE = re.compile(r"^Frame:\s*([A-Z0-9_]+)")
 
 #: Messages decoded for a Flight (only these are touched).
 NEEDED_TYPES = ("PARM", "MSG", "EV", "ARM", "RATE", "IMU", "GYR", "ATT", "RCOU", "ESC",
-                *(f"ESC{k}" for k in range(1, 9)), "CTUN", "XKF1", "NKF1", "EKF1")
+                *(f"ESC{k}" for k in range(1, 9)), "CTUN", "XKF1", "NKF1", "EKF1", "GPS")
+
+#: GPS time -> UTC: the GPS epoch (1980-01-06) in POSIX seconds, and the GPS-UTC leap-second
+#: offset in force from each POSIX time on (18 s since 2017-01-01).
+GPS_EPOCH_POSIX = 315964800
+GPS_LEAP_SECONDS = ((1483228800, 18), (1435708800, 17), (1341100800, 16), (1230768000, 15),
+                    (1136073600, 14), (0, 13))
+#: GPS.Status from which the week/ms fields hold a real time (3 = 3D fix).
+GPS_TIME_MIN_STATUS = 3
 
 
 @dataclass
@@ -563,6 +575,35 @@ def _firmware_text(tables: dict[str, MessageTable]) -> tuple[str, Optional[str],
             vehicle_id = f"{m.group(1)} {m.group(2)}"
             break
     return firmware, vehicle_id, lines
+
+
+def _vehicle_id(board_uid: Optional[str], params: dict[str, float]) -> tuple[Optional[str], str]:
+    """(vehicle id, source): the board's UID line in MSG, else BRD_SERIAL_NUM, else SYSID_THISMAV
+    (the MAVLink system id: an operator-set number, 1 by default, so the weakest of the three)."""
+    if board_uid is not None:
+        return board_uid, "board_uid"
+    if params.get("BRD_SERIAL_NUM", 0) != 0:
+        return f"BRD_SERIAL_NUM {int(params['BRD_SERIAL_NUM'])}", "BRD_SERIAL_NUM"
+    if "SYSID_THISMAV" in params:
+        return f"SYSID_THISMAV {int(params['SYSID_THISMAV'])}", "SYSID_THISMAV"
+    return None, ""
+
+
+def _utc_start(tables: dict[str, MessageTable], t_start: float) -> Optional[float]:
+    """UTC (POSIX s) at ``t_start`` from the first GPS message with a 3D fix and a GPS week."""
+    gps = tables.get("GPS")
+    if gps is None or not len(gps) or not gps.has("GWk", "GMS"):
+        return None
+    ok = np.asarray(gps.columns["GWk"], dtype=np.float64) > 0
+    if "Status" in gps.columns:
+        ok &= np.asarray(gps.columns["Status"], dtype=np.float64) >= GPS_TIME_MIN_STATUS
+    idx = np.flatnonzero(ok)
+    if not idx.size:
+        return None
+    k = idx[0]
+    gps_posix = GPS_EPOCH_POSIX + float(gps.columns["GWk"][k]) * 604800.0 + float(gps.columns["GMS"][k]) / 1e3
+    leap = next(sec for since, sec in GPS_LEAP_SECONDS if gps_posix >= since)
+    return gps_posix - leap - (float(gps.t[k]) - t_start)
 
 
 def _params(tables: dict[str, MessageTable]) -> dict[str, float]:
@@ -927,8 +968,7 @@ def read_dataflash(path) -> Flight:
     firmware_line, vehicle_id, msg_lines = _firmware_text(tables)
     firmware = parse_firmware(firmware_line)
     params = _params(tables)
-    if vehicle_id is None and params.get("BRD_SERIAL_NUM", 0) != 0:
-        vehicle_id = f"BRD_SERIAL_NUM {int(params['BRD_SERIAL_NUM'])}"
+    vehicle_id, vehicle_id_source = _vehicle_id(vehicle_id, params)
     frame, vehicle_type, fclass, ftype = _frame(params, msg_lines, firmware_line)
     n_motors = frame.rotor_count or 4
 
@@ -980,6 +1020,8 @@ def read_dataflash(path) -> Flight:
         firmware=firmware_line,
         vehicle_type=vehicle_type,
         vehicle_id=vehicle_id,
+        vehicle_id_source=vehicle_id_source,
+        utc_start=_utc_start(tables, t_start),
         frame=frame,
         rates=rates,
         attitude=attitude,

@@ -15,7 +15,9 @@ rates or accelerations); column names and units follow ArduCopter >= 3.4:
   16 characters (the ``N`` field) are not written.
 - ``MSG``: the firmware line (``flight.firmware`` when it names ArduCopter >= 3.4, else
   ``WRITER_FIRMWARE``: the reader's unit and mixer conventions follow the version it reads),
-  ``Frame: QUAD/X`` and, when ``vehicle_id`` is a "board UID UID UID" string, that line.
+  ``Frame: QUAD/X`` and the board's UID line: ``vehicle_id`` itself when it is a
+  "board UID UID UID" string, else ``FDLOG_SIM`` and three 8-digit hex words of the sha256 of
+  ``vehicle_id`` (:func:`sim_board_uid`), so that simulated fleets have one id per airframe.
 - ``EV``: 10 armed / 11 disarmed at the ``armed`` interval ends; 28 NOT_LANDED / 18
   LAND_COMPLETE at the ``airborne`` interval ends.
 - ``IMU`` (TimeUS, I=0, GyrX/Y/Z rad/s) from ``rates``; ``ATT`` (Roll, Pitch, Yaw deg) from
@@ -264,6 +266,16 @@ def _esc_block(flight: Flight, params: dict[str, float], n_motors: int) -> Optio
     return _block(ESC, t, Instance=inst, RPM=e.values.reshape(-1))
 
 
+def sim_board_uid(vehicle_id: str) -> str:
+    """The MSG board-UID line written for ``vehicle_id`` (itself when it already is one)."""
+    if BOARD_UID_RE.match(vehicle_id):
+        return vehicle_id
+    import hashlib
+
+    h = hashlib.sha256(vehicle_id.encode("utf-8")).hexdigest().upper()
+    return f"FDLOG_SIM {h[0:8]} {h[8:16]} {h[16:24]}"
+
+
 def _header_blocks(flight: Flight, params: dict[str, float], firmware: str, frame_type: int,
                    formats: list[_Format]) -> list[_Block]:
     t0 = _to_us([flight.t_start])[0] if flight.t_start > 0 else np.uint64(0)
@@ -275,8 +287,8 @@ def _header_blocks(flight: Flight, params: dict[str, float], firmware: str, fram
     parm = _block(PARM, np.full(len(names), t0, dtype=np.uint64), phase=0,
                   Name=[n.encode() for n in names], Value=[params[n] for n in names])
     lines = [firmware, f"Frame: QUAD/{'X' if frame_type == FRAME_TYPE_X else 'PLUS'}"]
-    if flight.vehicle_id and BOARD_UID_RE.match(flight.vehicle_id):
-        lines.append(flight.vehicle_id)
+    if flight.vehicle_id:
+        lines.append(sim_board_uid(flight.vehicle_id))
     msg = _block(MSG, np.full(len(lines), t0, dtype=np.uint64), phase=0,
                  Message=[s[:MAX_MSG_CHARS].encode("utf-8", "replace") for s in lines])
     return [fmt_rows, parm, msg]

@@ -51,6 +51,9 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
   (PX4's land detector reports "not landed" as soon as the pilot raises the throttle on the
   ground). Without a land detector: mean motor command above ``THROTTLE_AIRBORNE_LEVEL`` for at
   least ``THROTTLE_AIRBORNE_MIN_S``, said in ``airborne_source`` and a warning.
+- ``vehicle_id``: info ``sys_uuid`` (the board's unique id), else ``ver_hw`` (the board type, not
+  one airframe); ``vehicle_id_source`` says which. ``utc_start``: info ``boot_time_utc_us`` plus
+  ``t_start``, else the first ``vehicle_gps_position``/``sensor_gps`` sample with ``time_utc_usec``.
 - ``warnings``: truncation, corrupt messages, logging dropouts, fallback sources, an assumed frame,
   and changes during the log of the parameters that decide how motors are read (initial values
   are used).
@@ -98,7 +101,7 @@ from .ulog_fast import FastULogUnsupported, read_ulog_bytes
 ULOG_TOPICS = [
     "vehicle_angular_velocity", "sensor_combined", "vehicle_attitude", "actuator_motors",
     "actuator_outputs", "esc_status", "vehicle_local_position", "vehicle_status",
-    "vehicle_land_detected", "actuator_armed",
+    "vehicle_land_detected", "actuator_armed", "vehicle_gps_position", "sensor_gps",
 ]
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 US_PER_S = 1e6
@@ -349,12 +352,32 @@ def _firmware(info: dict) -> str:
     return " ".join(parts) if len(parts) > 1 else ""
 
 
-def _vehicle_id(info: dict) -> Optional[str]:
+def _vehicle_id(info: dict) -> tuple[Optional[str], str]:
+    """(vehicle id, its source): the board's unique id ``sys_uuid``, else the board type ``ver_hw``."""
     uuid = str(info.get("sys_uuid", "") or "").strip()
     if uuid:
-        return uuid
+        return uuid, "sys_uuid"
     hw = str(info.get("ver_hw", "") or "").strip()
-    return hw or None
+    return (hw, "ver_hw") if hw else (None, "")
+
+
+def _utc_start(ulog, info: dict, t_start: float) -> Optional[float]:
+    """UTC (POSIX s) at ``t_start``: from the info ``boot_time_utc_us`` (newer PX4), else from the
+    first GPS sample with a UTC time (``time_utc_usec``), else None. ``time_ref_utc`` is only the
+    local time zone offset, not a time."""
+    boot = info.get("boot_time_utc_us")
+    if isinstance(boot, (int, np.integer)) and boot > 0:
+        return float(boot) / US_PER_S + t_start
+    for name in ("vehicle_gps_position", "sensor_gps"):
+        for top in _topics(ulog, name):
+            if not top.has("time_utc_usec"):
+                continue
+            utc = top.get("time_utc_usec").astype(np.float64)
+            ok = np.flatnonzero(utc > 0)
+            if ok.size:
+                k = ok[0]
+                return float(utc[k] / US_PER_S - (top.t[k] - t_start))
+    return None
 
 
 def _vehicle_type(params: dict, status: Optional[_Topic]) -> tuple[str, str]:
@@ -790,13 +813,16 @@ def read_ulog(path, reader: str = "auto") -> Flight:
     if armed is None:
         warnings.append("no arming state (vehicle_status / actuator_armed): armed intervals unknown")
     airborne, airborne_source = _airborne(ulog, armed, motors, t_end, warnings)
+    vehicle_id, vehicle_id_source = _vehicle_id(info)
 
     return Flight(
         path=str(path),
         autopilot="px4",
         firmware=_firmware(info),
         vehicle_type=vehicle_type,
-        vehicle_id=_vehicle_id(info),
+        vehicle_id=vehicle_id,
+        vehicle_id_source=vehicle_id_source,
+        utc_start=_utc_start(ulog, info, t_start),
         frame=frame,
         rates=rates,
         attitude=_attitude(ulog),
