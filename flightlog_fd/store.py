@@ -35,7 +35,7 @@ table, which also marks the file as an fdlog store)::
         diagnosis_id           INTEGER NOT NULL REFERENCES diagnosis(id) ON DELETE CASCADE,
         motor                  INTEGER NOT NULL,   -- 1..4
         position               TEXT,
-        command_share          REAL,   -- share of the summed thrust commands while airborne (0.25 = even)
+        command_share          REAL,   -- mean thrust command / mean of the four while airborne (1 = even)
         command_share_baseline REAL,   -- the same from the calibration profile
         effectiveness          REAL,   -- 1.0 = as effective as its neighbours
         effectiveness_ci_lo    REAL,

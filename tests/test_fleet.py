@@ -306,8 +306,9 @@ def test_motor_figures_prefers_the_diagnosis_own_motor_evidence():
     own = motor_figures(d, [0.3, 0.23, 0.23, 0.24])
     assert [round(m["model_vote"], 6) for m in own] == [0.4, 0.0, 0.0, 0.0]
     assert own[0]["command_share"] == 0.3 and own[0]["effectiveness"] is None
-    d.motors = [SimpleNamespace(motor=k, position="front", command_share=0.25, command_share_baseline=0.25,
-                                effectiveness=0.9, effectiveness_ci=(0.8, 1.0), model_vote=0.1) for k in range(1, 5)]
+    d.evidence = SimpleNamespace(motors=[SimpleNamespace(
+        motor=k, position="front", command_share=0.25, command_share_baseline=0.25, effectiveness=0.9,
+        effectiveness_ci=(0.8, 1.0), model_vote=0.1) for k in range(1, 5)])
     ev = motor_figures(d, [0.3, 0.23, 0.23, 0.24])
     assert ev[0]["effectiveness"] == 0.9 and ev[0]["effectiveness_ci_lo"] == 0.8 and ev[0]["command_share"] == 0.25
 
