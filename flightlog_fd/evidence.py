@@ -57,6 +57,12 @@ from .flight import Frame
 #: Without a profile: a motor's excess over the second-highest motor's must reach this to be a
 #: one-motor (damage) pattern rather than an airframe trim (see the module docstring).
 NEIGHBOUR_MIN_GAP = 0.25
+#: Without a profile, a one-motor gap this large is damage on its own ("overwhelming"), even when
+#: the model's windows are undecided, provided the effectiveness fit is physically consistent (the
+#: log's motor map and commands make sense): SITL η = 0.8 flights 0.31-0.32, η = 0.7 0.48-0.52;
+#: the 18 real healthy Erle flights at most 0.21 (one at 0.51 whose effectiveness fit is
+#: inconsistent: negative values, so its commands are not trusted).
+NEIGHBOUR_OVERWHELMING_GAP = 0.30
 #: With a profile: the named motor's share must have risen by this much against the baseline, in
 #: the one-motor-plus-yaw fit (re-flights of one healthy airframe move a share by <= 0.02).
 PROFILE_MIN_CHANGE = 0.04
@@ -165,6 +171,20 @@ class FlightEvidence:
         if self.baseline in ("profile", "before onset"):
             return self.single_motor_gap >= PROFILE_MIN_CHANGE
         return self.single_motor_gap >= NEIGHBOUR_MIN_GAP
+
+    @property
+    def effectiveness_consistent(self) -> bool:
+        """The effectiveness fit exists and no motor reads below ``EFFECTIVENESS_SANE_MIN``."""
+        e = self.effectiveness
+        return bool(e is not None and e.motors and np.all(np.isfinite(e.values))
+                    and np.all(e.values > EFFECTIVENESS_SANE_MIN))
+
+    def overwhelming(self) -> Optional[int]:
+        """The motor the commands alone single out beyond doubt (no profile needed), or None."""
+        if (self.baseline == "neighbours" and self.single_motor_gap >= NEIGHBOUR_OVERWHELMING_GAP
+                and self.effectiveness_consistent and not self.effectiveness_contradicts(self.top_motor)):
+            return self.top_motor
+        return None
 
     def effectiveness_contradicts(self, motor: int) -> bool:
         """An informative estimate says ``motor`` is as effective as its neighbours."""

@@ -389,6 +389,9 @@ def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Fr
       model's windows are taken for what real healthy airframes show (one motor running high from a
       trim): ``healthy`` with the reason, or ``uncertain`` when the commands clearly single out
       ANOTHER motor (model and evidence genuinely split).
+    - Without a profile, a one-motor command pattern beyond any healthy airframe's
+      (``evidence.overwhelming``) is ``damaged`` even when the model's windows were undecided or
+      healthy ("one of them is overwhelming").
     - ``uncertain`` stays uncertain only when the evidence points at the motor the model leans to
       (same tests); otherwise the windows did not consistently point at one motor and nothing
       measurable supports damage, so the flight is ``healthy``.
@@ -437,6 +440,15 @@ def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Fr
         return _with(v, status="healthy", motor=None, position=None, first_seen=None,
                      confidence=float(np.mean(p[:, HEALTHY])) if p.size else 0.0,
                      reason=f"no damage the evidence confirms: the model leaned to {words(k)}, but {why}{advice}")
+    strong = ev.overwhelming()
+    if v.status in ("uncertain", "healthy") and strong is not None:
+        first = v.evidence.run.t_start if (v.evidence is not None and v.evidence.run is not None) else None
+        return _with(v, status="damaged", motor=strong, position=_position(frame, strong),
+                     confidence=float(np.mean(p[:, strong])) if p.size else 0.0, first_seen=first,
+                     reason=f"{words(strong)} {ev.summary(strong)}, {100 * ev.single_motor_gap:.0f} % above the next "
+                            f"motor: one motor working that much harder than the other three is a damaged "
+                            f"propeller whatever the windows say (the model "
+                            f"{'leaned to it' if int(np.argmax(p[:, 1:].mean(axis=0))) + 1 == strong else 'was undecided'})")
     if v.status == "uncertain":
         lean = int(np.argmax(p[:, 1:].mean(axis=0))) + 1 if p.size else ev.top_motor
         if ev.pattern_supports(lean) and not ev.effectiveness_contradicts(lean):
