@@ -91,6 +91,9 @@ count). Errors are :mod:`flightlog_fd.errors` classes, never a library traceback
 """
 from __future__ import annotations
 
+#: What `fdlog info` names as the reader of a DataFlash log.
+READER = "numpy DataFlash reader (pymavlink's index)"
+
 import contextlib
 import io
 import math
@@ -1016,6 +1019,7 @@ def read_dataflash(path) -> Flight:
                                                        t_start, t_end, warnings)
     return Flight(
         path=path,
+        reader=READER,
         autopilot="ardupilot",
         firmware=firmware_line,
         vehicle_type=vehicle_type,
