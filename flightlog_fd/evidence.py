@@ -63,6 +63,11 @@ NEIGHBOUR_MIN_GAP = 0.25
 #: the 18 real healthy Erle flights at most 0.21 (one at 0.51 whose effectiveness fit is
 #: inconsistent: negative values, so its commands are not trusted).
 NEIGHBOUR_OVERWHELMING_GAP = 0.30
+#: With a profile, a one-motor rise this large against the calibrated baseline (and a change the
+#: one-motor-plus-yaw fit explains) is damage on its own: healthy re-flights of one airframe move
+#: a share by <= 0.02 (CrazyPAD E9 logs 01/02 against 00, SITL ~0.00); CrazyPAD 3 mm and 2+2 mm cuts
+#: rise 0.05-0.07, a SITL η = 0.9 motor ~0.1.
+PROFILE_OVERWHELMING_CHANGE = 0.05
 #: With a profile: the named motor's share must have risen by this much against the baseline, in
 #: the one-motor-plus-yaw fit (re-flights of one healthy airframe move a share by <= 0.02).
 PROFILE_MIN_CHANGE = 0.04
@@ -169,7 +174,9 @@ class FlightEvidence:
         if self.top_motor != motor or self.not_one_motor or self.drifting(motor):
             return False
         if self.baseline in ("profile", "before onset"):
-            return self.single_motor_gap >= PROFILE_MIN_CHANGE
+            # both the yaw-corrected rise and the raw change: a yaw re-trim alone never names a motor
+            return (self.single_motor_gap >= PROFILE_MIN_CHANGE
+                    and self.motors[motor - 1].command_change >= PROFILE_MIN_CHANGE)
         return self.single_motor_gap >= NEIGHBOUR_MIN_GAP
 
     @property
@@ -181,8 +188,13 @@ class FlightEvidence:
 
     def overwhelming(self) -> Optional[int]:
         """The motor the commands alone single out beyond doubt (no profile needed), or None."""
+        if self.effectiveness_contradicts(self.top_motor) or self.airframe_changed or self.not_one_motor:
+            return None
         if (self.baseline == "neighbours" and self.single_motor_gap >= NEIGHBOUR_OVERWHELMING_GAP
-                and self.effectiveness_consistent and not self.effectiveness_contradicts(self.top_motor)):
+                and self.effectiveness_consistent):
+            return self.top_motor
+        if (self.baseline == "profile" and self.single_motor_gap >= PROFILE_OVERWHELMING_CHANGE
+                and self.motors[self.top_motor - 1].command_change >= PROFILE_OVERWHELMING_CHANGE):
             return self.top_motor
         return None
 
