@@ -277,11 +277,23 @@ def _run_dask(files: list[str], model: Any, profile: Any, scheduler: str, jobs: 
         run = uuid.uuid4().hex[:8]
         futures = {client.submit(_dask_task, i, f, scattered, keep_flight, key=f"fdlog-{run}-{i}", pure=False): i
                    for i, f in enumerate(files)}
+        failed: list[int] = []
         for fut in as_completed(list(futures)):
             i = futures[fut]
             try:
                 emit(fut.result())
-            except Exception as e:  # KilledWorker (the log killed its workers), lost connection...
+            except Exception:  # KilledWorker, lost connection...: which log did it is not known yet
+                failed.append(i)
+            fut.release()
+        # A dying worker takes every task it held with it: retry those logs one at a time, so only
+        # the log that kills its worker again becomes an error row (as the process pool does).
+        for i in sorted(failed):
+            payload_again = client.scatter(payload, broadcast=True, hash=False)
+            fut = client.submit(_dask_task, i, files[i], payload_again, keep_flight, key=f"fdlog-{run}-{i}-retry",
+                                pure=False)
+            try:
+                emit(fut.result())
+            except Exception as e:
                 first = (str(e).strip().splitlines() or [""])[0][:200]
                 emit(error_result(i, files[i], f"Dask worker failed on this log: {type(e).__name__}: {first}"))
             fut.release()
