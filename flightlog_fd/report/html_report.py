@@ -248,7 +248,12 @@ def motor_panel(d: Diagnosis) -> str:
         ("<tr class=\"top\">" if d.verdict.motor is not None and r[0] == str(d.verdict.motor) else "<tr>")
         + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
     notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in (ev.notes if ev is not None else []))
-    gap = (f"motor {top} stands {100 * ev.single_motor_gap:.0f} % above the next" if ev is not None else "")
+    if ev is None:
+        gap = ""
+    elif ev.baseline == "neighbours":
+        gap = f"motor {top} stands {100 * ev.single_motor_gap:.0f} % above the next"
+    else:
+        gap = f"as one motor rising (the others falling a quarter as much), motor {top} rose {100 * ev.single_motor_gap:.0f} %"
     return (f'<div class="motors"><h3>Per-motor evidence</h3><table class="motor-panel"><tr>{head}</tr>{body}</table>'
             f'<p class="muted">Command share: mean thrust command / mean of the four (1 = even); change against '
             f'{esc(against)}; {esc(gap)}. Effectiveness: angular acceleration per unit command relative to the '
