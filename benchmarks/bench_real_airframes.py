@@ -63,6 +63,7 @@ def main() -> None:
     from flightlog_fd.errors import FlightLogError
     from flightlog_fd.model import FaultModel, default_model_path
     from flightlog_fd.training.peer_rule import peer_rule
+    from flightlog_fd.verdict import decide
 
     if not SHARED.exists():
         print(f"{SHARED} is absent: nothing to measure")
@@ -91,9 +92,6 @@ def main() -> None:
                 for v in variants[-2:]:
                     tally[(v, set_name)]["not diagnosable"] += 1
                 continue
-            run = d.verdict.evidence.run if d.verdict.evidence is not None else None  # noqa: F841
-            from flightlog_fd.verdict import decide
-
             t_s = np.array([w.t_start for w in d.windows])
             t_e = np.array([w.t_end for w in d.windows])
             probs = np.array([w.probabilities for w in d.windows])
@@ -118,7 +116,6 @@ def main() -> None:
         tally[(rule, set_name)][outcome("damaged" if r.motor else "healthy", r.motor or None, motor, eta)] += 1
 
     for set_name in args.sets.split(","):
-        n_h = sum(1 for s, *_, m, e, f in [(x[0], x[2], x[3], x[4]) for x in loaded] if False)  # noqa: F841
         print(f"\n== {set_name}")
         print(f"{'':44s} {'healthy flights: H / U / D':28s} {'damaged: right / wrong / U / H  (eta<=0.8 right)':52s} window acc")
         for v in variants:
