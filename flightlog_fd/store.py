@@ -5,47 +5,8 @@ result arrives (in the client process, also for Dask batches); ``fdlog history -
 back (:func:`load_history`, :func:`find_drift`, :func:`render_html`). Standard library ``sqlite3``.
 
 Schema (``SCHEMA_VERSION`` 1; kept in ``PRAGMA user_version`` and in the ``schema_version``
-table, which also marks the file as an fdlog store)::
-
-    CREATE TABLE schema_version (version INTEGER NOT NULL, tool_version TEXT NOT NULL);
-    CREATE TABLE diagnosis (
-        id               INTEGER PRIMARY KEY,
-        log_path         TEXT NOT NULL,    -- as given on the command line
-        log_sha256       TEXT NOT NULL,
-        vehicle          TEXT NOT NULL,    -- airframe identity (see below)
-        vehicle_source   TEXT NOT NULL,    -- sys_uuid, ver_hw, board_uid, BRD_SERIAL_NUM, SYSID_THISMAV, profile, unknown
-        autopilot        TEXT,
-        flight_start_utc TEXT,             -- ISO-8601 UTC ("2024-05-01T09:30:00Z") when the log has GPS time, else NULL
-        log_t_start_s    REAL,             -- start of the log on its own clock (s since boot)
-        airborne_s       REAL,
-        status           TEXT NOT NULL,    -- healthy | damaged | uncertain | not_diagnosable
-        motor            INTEGER,          -- 1..4 for damaged
-        confidence       REAL,
-        reason           TEXT,
-        exit_code        INTEGER NOT NULL,
-        model_version    TEXT,
-        model_sha256     TEXT NOT NULL,
-        profile_path     TEXT,
-        profile_sha256   TEXT NOT NULL,    -- '' without a profile (NULLs would never conflict)
-        tool_version     TEXT NOT NULL,
-        diagnosed_at     TEXT NOT NULL,    -- ISO-8601 UTC
-        UNIQUE (log_sha256, model_sha256, profile_sha256)
-    );
-    CREATE TABLE motor_figure (
-        diagnosis_id           INTEGER NOT NULL REFERENCES diagnosis(id) ON DELETE CASCADE,
-        motor                  INTEGER NOT NULL,   -- 1..4
-        position               TEXT,
-        command_share          REAL,   -- mean thrust command / mean of the four while airborne (1 = even)
-        command_share_baseline REAL,   -- the same from the calibration profile
-        effectiveness          REAL,   -- 1.0 = as effective as its neighbours
-        effectiveness_ci_lo    REAL,
-        effectiveness_ci_hi    REAL,
-        model_vote             REAL,   -- mean model probability that this motor is damaged
-        PRIMARY KEY (diagnosis_id, motor)
-    );
-    CREATE INDEX diagnosis_vehicle ON diagnosis (vehicle, flight_start_utc);
-    CREATE INDEX diagnosis_sha256 ON diagnosis (log_sha256);
-    CREATE INDEX diagnosis_flight_time ON diagnosis (flight_start_utc);
+table, which also marks the file as an fdlog store): :data:`SCHEMA`, the CREATE statements
+with a comment on every column that needs one.
 
 **Upsert.** Re-running the same log (same bytes) with the same model and profile replaces its
 row and motor rows instead of adding one: the key is (log sha256, model sha256, profile sha256).
@@ -117,37 +78,37 @@ SCHEMA = """
 CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL, tool_version TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS diagnosis (
     id               INTEGER PRIMARY KEY,
-    log_path         TEXT NOT NULL,
+    log_path         TEXT NOT NULL,    -- as given on the command line
     log_sha256       TEXT NOT NULL,
-    vehicle          TEXT NOT NULL,
-    vehicle_source   TEXT NOT NULL,
+    vehicle          TEXT NOT NULL,    -- airframe identity (module docstring)
+    vehicle_source   TEXT NOT NULL,    -- sys_uuid, ver_hw, board_uid, BRD_SERIAL_NUM, SYSID_THISMAV, profile, unknown
     autopilot        TEXT,
-    flight_start_utc TEXT,
-    log_t_start_s    REAL,
+    flight_start_utc TEXT,             -- ISO-8601 UTC ("2024-05-01T09:30:00Z") when the log has GPS time, else NULL
+    log_t_start_s    REAL,             -- start of the log on its own clock (s since boot)
     airborne_s       REAL,
-    status           TEXT NOT NULL,
-    motor            INTEGER,
+    status           TEXT NOT NULL,    -- healthy | damaged | uncertain | not_diagnosable
+    motor            INTEGER,          -- 1..4 for damaged
     confidence       REAL,
     reason           TEXT,
     exit_code        INTEGER NOT NULL,
     model_version    TEXT,
     model_sha256     TEXT NOT NULL,
     profile_path     TEXT,
-    profile_sha256   TEXT NOT NULL,
+    profile_sha256   TEXT NOT NULL,    -- '' without a profile (NULLs would never conflict)
     tool_version     TEXT NOT NULL,
-    diagnosed_at     TEXT NOT NULL,
+    diagnosed_at     TEXT NOT NULL,    -- ISO-8601 UTC
     UNIQUE (log_sha256, model_sha256, profile_sha256)
 );
 CREATE TABLE IF NOT EXISTS motor_figure (
     diagnosis_id           INTEGER NOT NULL REFERENCES diagnosis(id) ON DELETE CASCADE,
-    motor                  INTEGER NOT NULL,
+    motor                  INTEGER NOT NULL,   -- 1..4
     position               TEXT,
-    command_share          REAL,
-    command_share_baseline REAL,
-    effectiveness          REAL,
+    command_share          REAL,   -- mean thrust command / mean of the four while airborne (1 = even)
+    command_share_baseline REAL,   -- the same from the calibration profile
+    effectiveness          REAL,   -- 1.0 = as effective as its neighbours
     effectiveness_ci_lo    REAL,
     effectiveness_ci_hi    REAL,
-    model_vote             REAL,
+    model_vote             REAL,   -- mean model probability that this motor is damaged
     PRIMARY KEY (diagnosis_id, motor)
 );
 CREATE INDEX IF NOT EXISTS diagnosis_vehicle ON diagnosis (vehicle, flight_start_utc);
