@@ -93,6 +93,7 @@ def error_result(index: int, path: str, reason: str) -> LogResult:
 def command_shares(flight) -> Optional[list[float]]:
     """Each motor's mean thrust command (thrust proxy) while airborne divided by the mean of the
     four (1 = an even share), the convention of :class:`flightlog_fd.evidence.MotorEvidence`."""
+    from .evidence import command_shares as shares_of
     from .features import flight_thrust_proxy
 
     m = flight.motors
@@ -106,12 +107,9 @@ def command_shares(flight) -> Optional[list[float]]:
     for a, b in flight.airborne:
         mask |= (m.t >= a) & (m.t <= b)
     thrust = thrust[mask]
-    total = thrust.sum(axis=1)
-    ok = np.isfinite(total) & (total > 1e-6)
-    if not ok.any():
-        return None
-    share = 4.0 * thrust[ok] / total[ok, None]
-    return [float(x) for x in share.mean(axis=0)]
+    thrust = thrust[np.all(np.isfinite(thrust), axis=1)]
+    share, _ = shares_of([thrust])
+    return [float(x) for x in share] if np.all(np.isfinite(share)) else None
 
 
 #: Held while a Dask task reads a log: the ULog reader captures pyulog's prints with
