@@ -23,8 +23,8 @@ In steady flight the four commands have four degrees of freedom (thrust, roll, p
 moment), so a centre of mass off the middle (two ADJACENT motors high), a yaw trim or motor tilt
 (a DIAGONAL pair high) and thrust-curve spread explain any pattern of means. What a damaged
 propeller does that those do not is raise ONE motor alone: its excess over the second-highest
-motor's (``single_motor_gap``). Measured on the airborne-mean shares (``results`` of this
-session, see the note): 18 real healthy ArduCopter flights (``../shared/real_healthy``, Erle)
+motor's (``single_motor_gap``). Measured on the airborne-mean shares of the ``../shared`` flights
+(the same ones `benchmarks/bench_real_airframes.py` runs): 18 real healthy ArduCopter flights (``../shared/real_healthy``, Erle)
 show a top excess of 0.05-0.33 and a gap of 0.00-0.21 (one odd flight, 6-3-2014_6, 0.51 with an
 inconsistent effectiveness fit); PX4 SITL flights with one weak motor show gaps of 0.14-0.15 at
 η = 0.9, 0.31-0.32 at η = 0.8 and 0.48-0.52 at η = 0.7 (healthy SITL: ≤ 0.002). So without a
@@ -52,6 +52,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .effectiveness import EffectivenessEstimate
+from .features import DEFAULT_RATE_HZ
 from .flight import Frame
 
 #: Without a profile: a motor's excess over the second-highest motor's must reach this to be a
@@ -83,8 +84,6 @@ EFFECTIVENESS_SANE_MIN = 0.2
 ONSET_DRIFT_SHARE = 0.5
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
 MIN_BEFORE_ONSET_S = 10.0
-#: The feature grid rate (Hz) of the segments (features.DEFAULT_RATE_HZ).
-_GRID_HZ = 50.0
 #: With a profile: a change the one-motor-plus-yaw fit leaves this much of (L2 norm of the
 #: residual share changes) is not one motor. Measured: CrazyPAD E9 3 mm cut on motor 2 against its
 #: healthy log00: 0.028 (motor 2 +0.06, yaw re-trim +0.03); real healthy Erle flights whose
@@ -271,7 +270,7 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         before = [s.w_sq[s.t < since] for s in segments]
         after = [s.w_sq[s.t >= since] for s in segments]
         onset_drift = _drift(after)
-        if baseline is None and sum(len(b) for b in before) / _GRID_HZ >= MIN_BEFORE_ONSET_S:
+        if baseline is None and sum(len(b) for b in before) / DEFAULT_RATE_HZ >= MIN_BEFORE_ONSET_S:
             pre, pre_thr = command_shares(before)
             baseline = Baseline(share=pre, slope=np.zeros(4), throttle_ref=pre_thr, source="before onset")
         share, throttle = command_shares(after)
@@ -340,7 +339,7 @@ def _drift(blocks: Sequence[np.ndarray]) -> np.ndarray:
     """(4,) change of each motor's share from the first to the last third of the samples in
     ``blocks`` (time order): ~0 after a step (a propeller breaks once), large for a steady rise."""
     u = np.vstack([np.asarray(b, float) for b in blocks if len(b)]) if any(len(b) for b in blocks) else np.zeros((0, 4))
-    if len(u) < 3 * 50:  # under 3 s after the onset: nothing to compare
+    if len(u) < 3 * DEFAULT_RATE_HZ:  # under 3 s after the onset: nothing to compare
         return np.full(4, np.nan)
     n = len(u) // 3
     first, last = u[:n].mean(axis=0), u[-n:].mean(axis=0)
