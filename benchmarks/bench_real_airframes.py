@@ -23,7 +23,6 @@ Give the previous model with ``--model`` to get before/after figures from one ru
 from __future__ import annotations
 
 import argparse
-import csv
 import time
 from collections import Counter, defaultdict
 from pathlib import Path
@@ -36,18 +35,15 @@ SETS = ("real_logs", "real_healthy", "px4_sih_dev")
 
 def labelled_flights(sets):
     """(set, path, motor, eta) of every flight with known truth (real logs: healthy)."""
+    from flightlog_fd.training.targets import real_healthy_logs, sih_logs
+
     out = []
-    if "real_logs" in sets:
-        for p in sorted((SHARED / "real_logs" / "ardupilot").glob("erle_*.BIN")):
-            out.append(("real_logs", p, 0, 1.0))
-    if "real_healthy" in sets:
-        for p in sorted((SHARED / "real_healthy" / "logs").glob("*")):
-            out.append(("real_healthy", p, 0, 1.0))
+    for lg in real_healthy_logs(SHARED):
+        set_name = "real_logs" if lg.path.parent.parent.name == "real_logs" else "real_healthy"
+        if set_name in sets:
+            out.append((set_name, lg.path, 0, 1.0))
     if "px4_sih_dev" in sets and (SHARED / "px4_sih_dev" / "manifest.csv").exists():
-        with open(SHARED / "px4_sih_dev" / "manifest.csv", newline="") as fh:
-            for r in csv.DictReader(fh):
-                out.append(("px4_sih_dev", SHARED / "px4_sih_dev" / "logs" / f"{r['name']}.ulg",
-                            int(r["faulty_motor"]), float(r["eta"])))
+        out += [("px4_sih_dev", lg.path, lg.truth["motor"], lg.truth["eta"]) for lg in sih_logs(SHARED)]
     return out
 
 

@@ -4,24 +4,15 @@ not one `damaged`, and at least 80 % `healthy` (benchmarks/bench_real_airframes.
 same with the motor-balance rule beside it)."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from flightlog_fd.diagnose import diagnose_path, resolve_model
-
-SHARED = Path(__file__).resolve().parents[2] / "shared"
-
-
-def real_healthy_logs() -> list[Path]:
-    logs = sorted((SHARED / "real_healthy" / "logs").glob("*"))
-    logs += sorted((SHARED / "real_logs" / "ardupilot").glob("erle_copter*.BIN"))
-    return logs
+from flightlog_fd.training.targets import real_healthy_logs
 
 
 @pytest.mark.shared
 def test_no_damaged_verdict_on_real_healthy_flights():
-    logs = real_healthy_logs()
+    logs = [lg.path for lg in real_healthy_logs()]
     if not logs:
         pytest.skip("../shared/real_healthy is absent")
     model = resolve_model()
