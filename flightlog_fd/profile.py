@@ -95,15 +95,23 @@ class ImbalanceEstimate:
     source: str = "hover"  # "hover" | "steady flight" | "airborne mean"
 
 
+def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
+    """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
+    airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
+    from .features import resample
+
+    return [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ)]
+
+
 def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER_S,
-                       min_segment_s: float = HOVER_MIN_DURATION_S) -> ImbalanceEstimate:
+                       min_segment_s: float = HOVER_MIN_DURATION_S,
+                       thrust_blocks: Optional[list[np.ndarray]] = None) -> ImbalanceEstimate:
     """Motor-imbalance ratios from the steadiest flight the healthy logs hold (module docstring).
 
     Raises NotDiagnosableError (naming the logs, what was found and what would do) when the
     flights hold neither ``min_hover_s`` of steady flight nor ``MIN_AIRBORNE_S`` of airborne data.
+    ``thrust_blocks``: :func:`airborne_thrust` of the flights when the caller has it already.
     """
-    from .features import resample
-
     flights = list(flights)
     if not flights:
         raise ValueError("estimate_imbalance needs at least one flight")
@@ -128,7 +136,7 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
         return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=hover_seconds(segments),
                                  n_segments=len(segments), hover_throttle=throttle, segments=segments, source=source)
     # Whole airborne time: steady on average (module docstring).
-    chunks = [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ)]
+    chunks = thrust_blocks if thrust_blocks is not None else airborne_thrust(flights)
     airborne_s = sum(len(c) for c in chunks) / DEFAULT_RATE_HZ
     if airborne_s < MIN_AIRBORNE_S:
         names = ", ".join(Path(f.path).name if f.path else "<in-memory flight>" for f in flights)
@@ -150,14 +158,13 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
                              hover_throttle=float(mean_thrust.mean()), segments=[], source="airborne mean")
 
 
-def estimate_baseline(flights: Iterable[Flight]) -> dict:
+def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None) -> dict:
     """The healthy airframe's command shares against throttle (module docstring), as the
     profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds."""
     from .evidence import command_shares
-    from .features import resample
 
     rate = DEFAULT_RATE_HZ
-    blocks = [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=rate)]
+    blocks = thrust_blocks if thrust_blocks is not None else airborne_thrust(flights)
     share, throttle = command_shares(blocks)
     shares, throttles = [], []
     n = int(BASELINE_CHUNK_S * rate)
@@ -453,7 +460,8 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
                                         f"is {first.autopilot} {first.frame.name}")
         if fl.truth and int(fl.truth.get("label", 0) or 0) != 0:
             raise ProfileError(fl.path, "calibration logs must be healthy flights; this one is labelled damaged")
-    imbalance = estimate_imbalance(flights, min_hover_s=min_hover_s)
+    thrust_blocks = airborne_thrust(flights)
+    imbalance = estimate_imbalance(flights, min_hover_s=min_hover_s, thrust_blocks=thrust_blocks)
 
     base = spec or FeatureSpec()
     unfitted = FeatureSpec.from_dict({**base.to_dict(), "mean": None, "std": None})
@@ -471,7 +479,7 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
         autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
         firmware=first.firmware, vehicle_id=first.vehicle_id,
         rho_=imbalance.rho, rho_spread_=imbalance.rho_spread, hover_throttle_=imbalance.hover_throttle,
-        rho_source_=imbalance.source, baseline_=estimate_baseline(flights),
+        rho_source_=imbalance.source, baseline_=estimate_baseline(flights, thrust_blocks),
         hover_s_=imbalance.hover_s, n_hover_segments_=imbalance.n_segments, n_windows_=int(len(X)),
         stream_rates={k: float(np.median(v)) for k, v in rates.items()},
         feature_spec=fitted.to_dict(), source_logs=[_source_entry(fl) for fl in flights],
