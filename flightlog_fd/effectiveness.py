@@ -149,21 +149,29 @@ def _lag(u: np.ndarray, tau_s: float, rate_hz: float) -> np.ndarray:
     return y
 
 
-def _design(segments: list[Segment], tau_s: float, rate_hz: float, savgol_n: int, detrend_n: int):
-    """Detrended commands (n, 4), detrended accelerations (n, 3) and each row's time (n,)."""
-    xs, ys, ts = [], [], []
+def _usable(segments: list[Segment], savgol_n: int, detrend_n: int) -> list[Segment]:
+    return [seg for seg in segments if len(seg) >= max(savgol_n, detrend_n // 2)]
+
+
+def _detrended_acc(segments: list[Segment], detrend_n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Detrended angular accelerations (n, 3) and each row's time (n,), segments stacked."""
+    if not segments:
+        return np.zeros((0, 3)), np.zeros(0)
+    ys = [np.asarray(seg.ang_acc, dtype=np.float64) for seg in segments]
+    return np.vstack([y - _moving_average(y, detrend_n) for y in ys]), np.concatenate([seg.t for seg in segments])
+
+
+def _detrended_commands(segments: list[Segment], tau_s: float, rate_hz: float, savgol_n: int,
+                        detrend_n: int) -> np.ndarray:
+    """Lagged, smoothed and detrended thrust commands (n, 4), rows as in _detrended_acc."""
+    if not segments:
+        return np.zeros((0, 4))
+    xs = []
     for seg in segments:
-        if len(seg) < max(savgol_n, detrend_n // 2):
-            continue
         u = _lag(np.asarray(seg.w_sq, dtype=np.float64), tau_s, rate_hz)
         u = savgol_filter(u, savgol_n, SAVGOL_POLYORDER, deriv=0, axis=0)
-        y = np.asarray(seg.ang_acc, dtype=np.float64)
         xs.append(u - _moving_average(u, detrend_n))
-        ys.append(y - _moving_average(y, detrend_n))
-        ts.append(seg.t)
-    if not xs:
-        return np.zeros((0, 4)), np.zeros((0, 3)), np.zeros(0)
-    return np.vstack(xs), np.vstack(ys), np.concatenate(ts)
+    return np.vstack(xs)
 
 
 def _relative(b: np.ndarray, signs: np.ndarray) -> np.ndarray:
@@ -214,19 +222,21 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     savgol_n = _odd_window(savgol_window_s, rate_hz)
     detrend_n = max(3, int(round(DETREND_S * rate_hz)) | 1)
 
+    usable = _usable(segments, savgol_n, detrend_n)
+    Y, t = _detrended_acc(usable, detrend_n)  # the lag only changes the commands
     best = None
     for tau in MOTOR_LAG_GRID_S:
-        X, Y, t = _design(segments, tau, rate_hz, savgol_n, detrend_n)
+        X = _detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n)
         if X.shape[0] < 5 * X.shape[1]:
             continue
         coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, 3)
         resid = Y - X @ coef
         sse = float(np.sum(resid[:, :2] ** 2))  # roll/pitch decide the lag (yaw is weakly excited)
         if best is None or sse < best[0]:
-            best = (sse, tau, X, Y, t, coef)
+            best = (sse, tau, X, coef)
     if best is None:
         return EffectivenessEstimate(reason="too few samples for the fit", seconds=seconds)
-    _, tau, X, Y, t, coef = best
+    _, tau, X, coef = best
     tss = np.sum(Y ** 2, axis=0)
     r2 = tuple(float(1.0 - np.sum((Y[:, a] - X @ coef[:, a]) ** 2) / tss[a]) if tss[a] > 0 else 0.0
                for a in range(3))
