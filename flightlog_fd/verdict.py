@@ -440,6 +440,7 @@ def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Fr
         return _with(v, status="healthy", motor=None, position=None, first_seen=None,
                      confidence=float(np.mean(p[:, HEALTHY])) if p.size else 0.0,
                      reason=f"no damage the evidence confirms: the model leaned to {words(k)}, but {why}{advice}")
+    lean = int(np.argmax(p[:, 1:].mean(axis=0))) + 1 if p.size else ev.top_motor  # the model's damage class
     strong = ev.overwhelming()
     if v.status in ("uncertain", "healthy") and strong is not None:
         first = v.evidence.run.t_start if (v.evidence is not None and v.evidence.run is not None) else None
@@ -448,9 +449,8 @@ def combine_with_evidence(v: Verdict, probs, flight_evidence, frame: Optional[Fr
                      reason=f"{words(strong)} {ev.summary(strong)}, {100 * ev.single_motor_gap:.0f} % above the next "
                             f"motor: one motor working that much harder than the other three is a damaged "
                             f"propeller whatever the windows say (the model "
-                            f"{'leaned to it' if int(np.argmax(p[:, 1:].mean(axis=0))) + 1 == strong else 'was undecided'})")
+                            f"{'leaned to it' if lean == strong else 'was undecided'})")
     if v.status == "uncertain":
-        lean = int(np.argmax(p[:, 1:].mean(axis=0))) + 1 if p.size else ev.top_motor
         if ev.pattern_supports(lean) and not ev.effectiveness_contradicts(lean):
             return _with(v, reason=f"{v.reason}; {words(lean)} {ev.summary(lean)}")
         p_damage = float(np.mean(1.0 - p[:, HEALTHY])) if p.size else 0.0
