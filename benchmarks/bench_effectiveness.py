@@ -8,11 +8,14 @@ healthy ones, for the high-rate PX4 profile (250 Hz motors), ArduPilot RATE at 5
 10 Hz motor logging of PX4's default profile; then prints per profile and η: the mean and the
 largest absolute error of the damaged rotor's estimate, how often it is the weakest motor, how
 often the estimate says it is informative, the median interval width, and for healthy flights the
-largest deviation of any motor from 1. Figures only; nothing is asserted.
+largest deviation of any motor from 1; each twice, without and with the accelerometer's vertical equation (the
+same flights, one run). Figures only; nothing is asserted.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
 import time
 
 import numpy as np
@@ -21,11 +24,26 @@ ETAS = (0.6, 0.7, 0.8, 0.9, 0.95)
 PROFILES = ("px4_high", "ardupilot", "px4_default")
 
 
+@contextlib.contextmanager
+def _previous_estimator():
+    """The estimator as it was before the ground trim, the fine motor-lag search and the fine-grid
+    commands (the "before" row), by restoring its old settings for the duration."""
+    import flightlog_fd.effectiveness as eff
+    saved = (eff.EDGE_TRIM_S, eff.MOTOR_LAG_GRID_S, eff.MOTOR_LAG_REFINE_S, eff.FINE_COMMANDS)
+    eff.EDGE_TRIM_S, eff.MOTOR_LAG_GRID_S = (0.0, 0.0), (0.0, 0.02, 0.04, 0.06, 0.09, 0.13)
+    eff.MOTOR_LAG_REFINE_S, eff.FINE_COMMANDS = 0.02, False  # refine step = grid step: no refinement
+    try:
+        yield
+    finally:
+        eff.EDGE_TRIM_S, eff.MOTOR_LAG_GRID_S, eff.MOTOR_LAG_REFINE_S, eff.FINE_COMMANDS = saved
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-eta", type=int, default=4)
-    ap.add_argument("--duration", type=float, default=60.0)
+    ap.add_argument("--duration", type=float, default=60.0, help="simulated flight length, s")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--profiles", default=",".join(PROFILES))
     args = ap.parse_args()
 
     from flightlog_fd.effectiveness import estimate_effectiveness
@@ -37,29 +55,48 @@ def main() -> None:
     for eta in ETAS:
         damages += [Damage(int(rng.integers(1, 5)), eta) for _ in range(args.per_eta)]
     print(f"{len(damages)} flights per profile, {args.duration:.0f} s, random airframes, balanced motors")
-    print(f"{'profile':12s} {'eta':>5s} {'mean est':>8s} {'max |err|':>9s} {'weakest':>7s} {'informative':>11s} {'CI width':>8s}")
-    for prof in PROFILES:
+    print("inputs: 'before' = the estimator before this change (6-point lag grid, lag at the grid rate, "
+          "ground seconds kept), gyro only; 'gyro' = now, roll/pitch equations only (the accelerometer "
+          "removed from the Flight); 'gyro+acc' = now, with the accelerometer's vertical equation where "
+          "the log allows it")
+    print(f"{'profile':12s} {'inputs':8s} {'eta':>5s} {'mean est':>8s} {'max |err|':>9s} {'±0.03':>6s} "
+          f"{'weakest':>7s} {'informative':>11s} {'CI width':>8s}")
+    for prof in args.profiles.split(","):
         t0 = time.perf_counter()
         flights = simulate_flights(len(damages), damages=damages, duration_s=args.duration, profile=prof,
                                    seed=args.seed, rho=None)
         t_sim = time.perf_counter() - t0
         t0 = time.perf_counter()
-        ests = [estimate_effectiveness(f) for f in flights]
+        runs = {"gyro+acc": [estimate_effectiveness(f) for f in flights]}
         t_est = (time.perf_counter() - t0) / len(flights)
-        healthy = [e for d, e in zip(damages, ests) if d.motor == 0]
-        dev = [np.nanmax(np.abs(e.values - 1.0)) for e in healthy]
-        inf = np.mean([e.informative for e in healthy])
-        print(f"{prof:12s} {'1.00':>5s} {'':>8s} {np.max(dev):9.3f} {'':>7s} {inf:11.0%} "
-              f"{np.median([np.nanmax(e.ci[:, 1] - e.ci[:, 0]) for e in healthy]):8.3f}   (healthy: largest |e-1|)")
-        for eta in ETAS:
-            rows = [(d, e) for d, e in zip(damages, ests) if d.motor and abs(d.eta - eta) < 1e-9]
-            est = np.array([e.values[d.motor - 1] for d, e in rows])
-            weakest = np.mean([e.weakest() == d.motor for d, e in rows])
-            informative = np.mean([e.informative for _, e in rows])
-            width = np.median([e.ci[d.motor - 1, 1] - e.ci[d.motor - 1, 0] for d, e in rows])
-            print(f"{prof:12s} {eta:5.2f} {np.nanmean(est):8.3f} {np.nanmax(np.abs(est - eta)):9.3f} "
-                  f"{weakest:7.0%} {informative:11.0%} {width:8.3f}")
-        print(f"{prof:12s} simulated in {t_sim:.1f} s; estimate {1000 * t_est:.0f} ms per flight")
+        runs["gyro"] = [estimate_effectiveness(dataclasses.replace(f, accel=None)) for f in flights]
+        with _previous_estimator():
+            runs["before"] = [estimate_effectiveness(dataclasses.replace(f, accel=None)) for f in flights]
+        used = np.mean([e.used_vertical for e in runs["gyro+acc"]])
+        for inputs in ("before", "gyro", "gyro+acc"):
+            ests = runs[inputs]
+            healthy = [e for d, e in zip(damages, ests) if d.motor == 0]
+            dev = [np.nanmax(np.abs(e.values - 1.0)) for e in healthy]
+            inf = np.mean([e.informative for e in healthy])
+            print(f"{prof:12s} {inputs:8s} {'1.00':>5s} {'':>8s} {np.max(dev):9.3f} "
+                  f"{np.mean(np.array(dev) <= 0.03):6.0%} {'':>7s} {inf:11.0%} "
+                  f"{np.median([np.nanmax(e.ci[:, 1] - e.ci[:, 0]) for e in healthy]):8.3f}   "
+                  f"(healthy: largest |e-1|)")
+            within = []
+            for eta in ETAS:
+                rows = [(d, e) for d, e in zip(damages, ests) if d.motor and abs(d.eta - eta) < 1e-9]
+                est = np.array([e.values[d.motor - 1] for d, e in rows])
+                weakest = np.mean([e.weakest() == d.motor for d, e in rows])
+                informative = np.mean([e.informative for _, e in rows])
+                width = np.median([e.ci[d.motor - 1, 1] - e.ci[d.motor - 1, 0] for d, e in rows])
+                ok = np.abs(est - eta) <= 0.03
+                if eta <= 0.9:
+                    within += list(ok)
+                print(f"{prof:12s} {inputs:8s} {eta:5.2f} {np.nanmean(est):8.3f} {np.nanmax(np.abs(est - eta)):9.3f} "
+                      f"{np.mean(ok):6.0%} {weakest:7.0%} {informative:11.0%} {width:8.3f}")
+            print(f"{prof:12s} {inputs:8s} eta<=0.9: {np.mean(within):.0%} of damaged flights within ±0.03")
+        print(f"{prof:12s} vertical equation used in {used:.0%} of flights; simulated in {t_sim:.1f} s; "
+              f"estimate {1000 * t_est:.0f} ms per flight")
 
 
 if __name__ == "__main__":

@@ -24,10 +24,22 @@ healthy). Yaw (drag torque) is reported apart, because a cut tip loses drag torq
 proportion than thrust and yaw is excited far less in ordinary flight.
 
 Streams and lag: the same :func:`flightlog_fd.features.resample` as the NIF windows (50 Hz grid,
-airborne time only, gaps split segments, Savitzky-Golay ``ṗ q̇ ṙ``); the commands are passed
-through the same Savitzky-Golay smoothing as the gyro (so both sides carry the same filter) and a
-first-order motor lag whose time constant is chosen per flight from ``MOTOR_LAG_GRID_S`` by the
-best fit.
+airborne time only, gaps split segments, Savitzky-Golay ``ṗ q̇ ṙ``), without the first and last
+seconds of each airborne interval (``EDGE_TRIM_S``: the land detector's "airborne" includes
+ground contact); the commands go through the gyro's low-pass (``GYRO_CUTOFF_PARAMS``), a
+first-order motor lag whose time constant is searched per flight (``MOTOR_LAG_GRID_S``, refined
+to ``MOTOR_LAG_REFINE_S``) and the same Savitzky-Golay smoothing as the gyro, all on the gyro
+derivative's fine grid when the motors are logged faster than the grid.
+
+Vertical equation: with an accelerometer logged at ≥ ``MIN_ACCEL_RATE_FACTOR`` x the grid rate,
+the body-z specific force ``a_z = −g_z · Σ_i e_i u_i + c_z(t)`` joins roll and pitch in one joint
+fit of each motor's thrust effectiveness (:func:`_joint_thrust`): it pins the motor patterns
+that roll and pitch alone leave to the weakly excited collective and yaw commands.
+
+Known bias (``benchmarks/bench_effectiveness.py``): in closed loop the rate controller answers
+the turbulence it measures, so commands correlate with the unmeasured disturbance; on noisy
+simulated flights this pulls a damaged rotor's value toward 1 (η 0.6 / 0.7 / 0.8 read about
+0.65-0.67 / 0.77-0.79 / 0.83 at the high-rate profile). Noiseless flights are within 0.02-0.04.
 
 Confidence: a moving-block bootstrap over the flight (``BLOCK_S`` blocks, ``N_BOOTSTRAP``
 resamples, seeded) gives a 90 % interval per motor (``CI_LEVEL``). A flight with too little
@@ -52,7 +64,8 @@ import numpy as np
 from scipy.signal import lfilter, savgol_filter
 
 from .errors import FlightLogError
-from .features import DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, SAVGOL_POLYORDER, Segment, _odd_window, resample
+from .features import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
+                       Segment, _odd_window, _speed_stream, resample)
 from .flight import Flight, Frame
 
 #: Centred moving-average length (s) removed from both sides before the fit (0.3-0.5 s gave the
@@ -60,8 +73,21 @@ from .flight import Flight, Frame
 #: px4_high, 16 flights): longer than a
 #: manoeuvre's command → response (0.05-0.5 s), shorter than trims and wind changes.
 DETREND_S = 0.4
-#: Candidate first-order motor time constants (s); the best least-squares fit wins.
-MOTOR_LAG_GRID_S = (0.0, 0.02, 0.04, 0.06, 0.09, 0.13)
+#: Candidate first-order motor time constants (s); the best roll/pitch least-squares fit wins,
+#: then the search is refined around it in ``MOTOR_LAG_REFINE_S`` steps. The lag must be close:
+#: on noiseless simulated flights (realism off) the fit at the true motor time constant recovers
+#: η within 0.01 (R² 0.999), at 0.5x or 1.5x of it the damaged motor's value is off by 0.03-0.10
+#: (R² 0.95-0.98); the former 6-point grid (0, 0.02 ... 0.13 s) read η 0.6/0.7/0.8/0.9 as
+#: 0.52/0.65/0.72/0.83 on such flights.
+MOTOR_LAG_GRID_S = tuple(round(0.01 * k, 3) for k in range(16))  # 0 ... 0.15 s
+MOTOR_LAG_REFINE_S = 0.002
+#: Lag and smooth the commands on the gyro derivative's fine grid (see _fine_commands); False only
+#: for the benchmark's "before" row.
+FINE_COMMANDS = True
+#: Parameters naming the autopilot's gyro low-pass cutoff (Hz): the logged rates passed through it,
+#: the commands did not, so the commands get the same first-order low-pass before the fit (a
+#: 2nd-order filter's low-frequency delay is close enough; the lag search absorbs the rest).
+GYRO_CUTOFF_PARAMS = ("IMU_GYRO_CUTOFF", "INS_GYRO_FILTER")
 #: Bootstrap block length (s) and number of resamples; blocks keep the residuals' correlation.
 BLOCK_S = 2.0
 N_BOOTSTRAP = 200
@@ -71,8 +97,25 @@ MIN_SECONDS = 10.0
 #: An interval wider than this (relative effectiveness units) means the flight did not
 #: manoeuvre enough to say anything about that motor.
 MAX_CI_WIDTH = 0.25
+#: Seconds left out after the start and before the end of each airborne interval. The land
+#: detector's "airborne" starts before lift-off and ends after touchdown (simulated PX4 flights:
+#: 0.5-0.8 s before lift-off, 1.7-2.9 s after touchdown), and on the ground the commands no
+#: longer move the vehicle: keeping those seconds (the 1 s trim of the NIF windows) read η 0.6 /
+#: 0.7 / 0.8 / 0.9 as 0.40-0.51 / 0.55-0.60 / 0.74 / 0.83-0.90 on noiseless simulated flights,
+#: leaving them out 0.61-0.62 / 0.71 / 0.82 / 0.90-0.91 (R² 0.91 → 0.99).
+EDGE_TRIM_S = (2.0, 4.0)
 #: Seed of the bootstrap: the same log always gives the same interval.
 BOOTSTRAP_SEED = 20261123
+#: The accelerometer's vertical equation joins the fit only when the accelerometer is logged at
+#: least this many times the grid rate, so that each grid sample averages several readings (an
+#: IMU logged at the grid rate or slower aliases propeller vibration into the band: the old
+#: ArduCopter IMU logs at 24-50 Hz of ../shared gave R² 0.00-0.16 against the collective command,
+#: the 250 Hz PX4 sensor_combined of real_logs/px4/sample_px4_events 0.81), and its fit explains
+#: at least ``MIN_VERTICAL_R2`` of the detrended specific force.
+MIN_ACCEL_RATE_FACTOR = 2.0
+MIN_VERTICAL_R2 = 0.05
+#: Alternating least-squares iterations of the joint (roll, pitch, vertical) fit.
+JOINT_ITERATIONS = 30
 
 
 @dataclass
@@ -98,6 +141,8 @@ class EffectivenessEstimate:
     seconds: float = 0.0
     motor_lag_s: float = 0.0
     r2: tuple[float, float, float] = (0.0, 0.0, 0.0)  # fit quality per axis (roll, pitch, yaw)
+    vertical_r2: Optional[float] = None  # fit quality of the accelerometer's vertical equation
+    used_vertical: bool = False  # whether it joined the thrust estimate (MIN_VERTICAL_R2)
 
     @property
     def values(self) -> np.ndarray:
@@ -153,6 +198,26 @@ def _usable(segments: list[Segment], savgol_n: int, detrend_n: int) -> list[Segm
     return [seg for seg in segments if len(seg) >= max(savgol_n, detrend_n // 2)]
 
 
+def _away_from_ground(segments: list[Segment], airborne: list[tuple[float, float]]) -> list[Segment]:
+    """The segments without the first/last ``EDGE_TRIM_S`` seconds of each airborne interval."""
+    out = []
+    for seg in segments:
+        keep = np.zeros(len(seg), dtype=bool)
+        for a, b in airborne:
+            keep |= (seg.t >= a + EDGE_TRIM_S[0]) & (seg.t <= b - EDGE_TRIM_S[1])
+        if keep.all():
+            out.append(seg)
+            continue
+        idx = np.flatnonzero(keep)
+        if idx.size < 2:
+            continue
+        # Trimming only cuts the ends of a segment (it lies within one airborne interval).
+        sl = slice(int(idx[0]), int(idx[-1]) + 1)
+        out.append(Segment(t=seg.t[sl], rates=seg.rates[sl], attitude=seg.attitude[sl], motors=seg.motors[sl],
+                           w_sq=seg.w_sq[sl], ang_acc=seg.ang_acc[sl], speed_source=seg.speed_source))
+    return out
+
+
 def _detrended_acc(segments: list[Segment], detrend_n: int) -> tuple[np.ndarray, np.ndarray]:
     """Detrended angular accelerations (n, 3) and each row's time (n,), segments stacked."""
     if not segments:
@@ -161,17 +226,144 @@ def _detrended_acc(segments: list[Segment], detrend_n: int) -> tuple[np.ndarray,
     return np.vstack([y - _moving_average(y, detrend_n) for y in ys]), np.concatenate([seg.t for seg in segments])
 
 
+@dataclass
+class _FineCommands:
+    """One segment's thrust proxy on the fine grid the gyro derivative was taken on (features.resample):
+    ``u`` (m, 4) at ``fine_hz``, already through the gyro's low-pass, and the fine-grid indices of
+    the segment's grid samples."""
+
+    u: np.ndarray
+    fine_hz: float
+    on_grid: np.ndarray
+
+
+def gyro_cutoff_hz(flight: Flight) -> Optional[float]:
+    """The autopilot's gyro low-pass cutoff from the log's parameters, or None."""
+    for name in GYRO_CUTOFF_PARAMS:
+        v = flight.params.get(name)
+        if v is not None and np.isfinite(v) and v > 0:
+            return float(v)
+    return None
+
+
+def _fine_commands(flight: Flight, segments: list[Segment], rate_hz: float) -> Optional[list[_FineCommands]]:
+    """The thrust proxy of each segment on a fine grid (the motor stream's rate, at most
+    ``MAX_FINE_FACTOR`` x the grid rate), or None when the motor stream is no faster than the grid.
+
+    Why: the motor lag (10-60 ms) is as short as a 50 Hz grid step; a first-order filter run at
+    the grid rate on decimated commands misses it (noiseless simulated flights: R² 0.91 and η 0.8
+    read 0.72; at the fine rate R² 0.99)."""
+    try:
+        proxy, _ = _speed_stream(flight, "command", rate_hz, DEFAULT_MAX_GAP_S)
+    except FlightLogError:
+        return None
+    if flight.motors is None or flight.motors.rate_hz < 1.5 * rate_hz:
+        return None
+    k = int(min(MAX_FINE_FACTOR, max(1, round(flight.motors.rate_hz / rate_hz))))
+    fine_hz = rate_hz * k
+    cutoff = gyro_cutoff_hz(flight)
+    tau_gyro = 1.0 / (2.0 * np.pi * cutoff) if cutoff is not None and cutoff < fine_hz / 2 else 0.0
+    out = []
+    for seg in segments:
+        j0, j1 = int(round(seg.t[0] * fine_hz)), int(round(seg.t[-1] * fine_hz))
+        j = np.arange(j0, j1 + 1)
+        on_grid = np.rint(seg.t * fine_hz).astype(np.int64) - j0
+        if on_grid.min() < 0 or on_grid.max() >= j.size:
+            return None
+        out.append(_FineCommands(_lag(proxy.interp(j / fine_hz), tau_gyro, fine_hz), fine_hz, on_grid))
+    return out
+
+
 def _detrended_commands(segments: list[Segment], tau_s: float, rate_hz: float, savgol_n: int,
-                        detrend_n: int) -> np.ndarray:
-    """Lagged, smoothed and detrended thrust commands (n, 4), rows as in _detrended_acc."""
+                        detrend_n: int, fine: Optional[list[_FineCommands]] = None,
+                        savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S) -> np.ndarray:
+    """Lagged, smoothed and detrended thrust commands (n, 4), rows as in _detrended_acc.
+
+    With ``fine`` the lag and the smoothing run on the fine grid, with the same Savitzky-Golay
+    window as the gyro derivative, and the grid samples are taken afterwards."""
     if not segments:
         return np.zeros((0, 4))
     xs = []
-    for seg in segments:
-        u = _lag(np.asarray(seg.w_sq, dtype=np.float64), tau_s, rate_hz)
-        u = savgol_filter(u, savgol_n, SAVGOL_POLYORDER, deriv=0, axis=0)
+    for i, seg in enumerate(segments):
+        if fine is not None:
+            fc = fine[i]
+            n_fine = _odd_window(savgol_window_s, fc.fine_hz)
+            u = _lag(fc.u, tau_s, fc.fine_hz)
+            u = savgol_filter(u, min(n_fine, u.shape[0] - (1 - u.shape[0] % 2)), SAVGOL_POLYORDER, deriv=0,
+                              axis=0)[fc.on_grid]
+        else:
+            u = _lag(np.asarray(seg.w_sq, dtype=np.float64), tau_s, rate_hz)
+            u = savgol_filter(u, savgol_n, SAVGOL_POLYORDER, deriv=0, axis=0)
         xs.append(u - _moving_average(u, detrend_n))
     return np.vstack(xs)
+
+
+def _detrended_vertical(flight: Flight, segments: list[Segment], rate_hz: float, savgol_n: int,
+                        detrend_n: int) -> Optional[np.ndarray]:
+    """Detrended body-z specific force (n,) on the segments' grid, rows as in _detrended_acc, or
+    None when the log has no accelerometer fast enough (``MIN_ACCEL_RATE_FACTOR``).
+
+    Each grid sample is the mean of the accelerometer samples within half a grid step of it (an
+    anti-alias box filter), then smoothed like the commands so both sides carry the same filter."""
+    acc = flight.accel
+    if acc is None or len(acc) < 10 or not segments or acc.rate_hz < MIN_ACCEL_RATE_FACTOR * rate_hz:
+        return None
+    t_acc = acc.t
+    az = np.asarray(acc.values[:, 2], dtype=np.float64)
+    ok = np.isfinite(az) & np.isfinite(t_acc)
+    t_acc, az = t_acc[ok], az[ok]
+    if t_acc.shape[0] < 10:
+        return None
+    csum = np.concatenate([[0.0], np.cumsum(az)])
+    half = 0.5 / rate_hz
+    out = []
+    for seg in segments:
+        lo = np.searchsorted(t_acc, seg.t - half, side="left")
+        hi = np.searchsorted(t_acc, seg.t + half, side="left")
+        n = hi - lo
+        with np.errstate(invalid="ignore", divide="ignore"):
+            z = np.where(n > 0, (csum[hi] - csum[lo]) / np.maximum(n, 1), np.interp(seg.t, t_acc, az))
+        z = savgol_filter(z, savgol_n, SAVGOL_POLYORDER, deriv=0)
+        out.append(z - _moving_average(z[:, None], detrend_n)[:, 0])
+    return np.concatenate(out)
+
+
+def _joint_thrust(XtX: np.ndarray, XtY: np.ndarray, signs: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Thrust effectiveness shared by several axes, fitted jointly.
+
+    Model per axis a: ``y_a = g_a · Σ_i s_{a,i} e_i u_i``: one effectiveness ``e_i`` per motor,
+    one gain ``g_a`` per axis, both unknown (bilinear), fitted by alternating weighted least
+    squares on the normal equations. ``XtX`` (..., 4, 4) shared by the axes (same commands),
+    ``XtY`` (..., 4, A), ``signs`` (A, 4), ``weights`` (A,) = 1 / residual variance.
+    Returns e (..., 4) scaled to mean 1.
+
+    Why: a single axis pins each motor's effectiveness only along the command directions that
+    axis responds to; roll and pitch together leave the "front-right + rear-left vs the others"
+    patterns to the collective and yaw commands, which ordinary flight barely moves. The vertical
+    specific force responds to every motor with the same sign, so its roll and pitch couplings
+    (well excited) pin exactly those patterns.
+    """
+    shape = XtX.shape[:-2]
+    e = np.ones(shape + (4,))
+    n_ax = signs.shape[0]
+    for _ in range(JOINT_ITERATIONS):
+        # g-step: each axis's gain given e.
+        g = np.empty(shape + (n_ax,))
+        for a in range(n_ax):
+            de = e * signs[a]
+            num = np.einsum("...i,...i->...", de, XtY[..., a])
+            den = np.einsum("...i,...ij,...j->...", de, XtX, de)
+            g[..., a] = num / np.where(np.abs(den) > 0, den, 1.0)
+        # e-step: the effectiveness given the gains.
+        M = np.zeros(shape + (4, 4))
+        v = np.zeros(shape + (4,))
+        for a in range(n_ax):
+            D = signs[a]
+            M += weights[a] * (g[..., a] ** 2)[..., None, None] * (D[:, None] * XtX * D[None, :])
+            v += weights[a] * g[..., a][..., None] * (D * XtY[..., a])
+        e = np.linalg.solve(M + 1e-12 * np.eye(4), v[..., None])[..., 0]
+        e /= np.mean(e, axis=-1, keepdims=True)
+    return e
 
 
 def _relative(b: np.ndarray, signs: np.ndarray) -> np.ndarray:
@@ -214,6 +406,7 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
             segments = resample(flight, rate_hz=rate_hz, savgol_window_s=savgol_window_s)
         except FlightLogError as e:
             return EffectivenessEstimate(reason=e.message)
+    segments = _away_from_ground(segments, flight.airborne)
     seconds = float(sum(s.duration_s for s in segments))
     if seconds < MIN_SECONDS:
         return EffectivenessEstimate(reason=f"only {seconds:.0f} s of usable airborne data "
@@ -224,22 +417,42 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
 
     usable = _usable(segments, savgol_n, detrend_n)
     Y, t = _detrended_acc(usable, detrend_n)  # the lag only changes the commands
+    vertical = _detrended_vertical(flight, usable, rate_hz, savgol_n, detrend_n)
+    if vertical is not None:
+        Y = np.column_stack([Y, vertical])  # axes: roll, pitch, yaw, vertical
+    n_axes = Y.shape[1]
     best = None
-    for tau in MOTOR_LAG_GRID_S:
-        X = _detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n)
+
+    fine = _fine_commands(flight, usable, rate_hz) if FINE_COMMANDS else None
+
+    def try_lag(tau: float) -> None:
+        nonlocal best
+        X = _detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n, fine, savgol_window_s)
         if X.shape[0] < 5 * X.shape[1]:
-            continue
-        coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, 3)
+            return
+        coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, axes)
         resid = Y - X @ coef
         sse = float(np.sum(resid[:, :2] ** 2))  # roll/pitch decide the lag (yaw is weakly excited)
         if best is None or sse < best[0]:
             best = (sse, tau, X, coef)
+
+    for tau in MOTOR_LAG_GRID_S:
+        try_lag(tau)
+    if best is not None:
+        step = MOTOR_LAG_GRID_S[1] - MOTOR_LAG_GRID_S[0]
+        centre = best[1]
+        for k in range(1, int(round(step / MOTOR_LAG_REFINE_S))):
+            for tau in (centre - k * MOTOR_LAG_REFINE_S, centre + k * MOTOR_LAG_REFINE_S):
+                if tau > 0:
+                    try_lag(round(tau, 4))
     if best is None:
         return EffectivenessEstimate(reason="too few samples for the fit", seconds=seconds)
     _, tau, X, coef = best
     tss = np.sum(Y ** 2, axis=0)
-    r2 = tuple(float(1.0 - np.sum((Y[:, a] - X @ coef[:, a]) ** 2) / tss[a]) if tss[a] > 0 else 0.0
-               for a in range(3))
+    resid = Y - X @ coef
+    r2_all = [float(1.0 - np.sum(resid[:, a] ** 2) / tss[a]) if tss[a] > 0 else 0.0 for a in range(n_axes)]
+    r2 = tuple(r2_all[:3])
+    use_vertical = n_axes == 4 and r2_all[3] >= MIN_VERTICAL_R2
 
     # Moving-block bootstrap over the flight: per-block normal equations, summed with
     # multinomial block counts, so each resample is a 4x4 solve.
@@ -247,7 +460,7 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     _, block = np.unique(block, return_inverse=True)
     nb = int(block.max()) + 1
     XtX = np.zeros((nb, 4, 4))
-    XtY = np.zeros((nb, 4, 3))
+    XtY = np.zeros((nb, 4, n_axes))
     np.add.at(XtX, block, X[:, :, None] * X[:, None, :])
     np.add.at(XtY, block, X[:, :, None] * Y[:, None, :])
     rng = np.random.default_rng(seed)
@@ -258,12 +471,22 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
         boot = np.linalg.solve(A, B)  # (B, 4, 3)
     except np.linalg.LinAlgError:
         return EffectivenessEstimate(reason="the motor commands never varied independently", seconds=seconds)
-    b_all = np.concatenate([coef.T[None], np.transpose(boot, (0, 2, 1))], axis=0)  # (1+B, 3, 4)
+    b_all = np.concatenate([coef.T[None], np.transpose(boot, (0, 2, 1))], axis=0)[:, :3]  # (1+B, 3, 4)
     rel = _relative(b_all, signs)  # (1+B, 3, 4)
     with warnings.catch_warnings():  # a motor without a lever on an axis (quad-+) is all-NaN there
         warnings.simplefilter("ignore", RuntimeWarning)
         var = np.nanvar(rel[1:], axis=0)  # (3, 4)
-    thrust = _combine(rel[:, :2], var[None, :2].repeat(rel.shape[0], axis=0))  # (1+B, 4)
+    if use_vertical:
+        # Roll, pitch and the vertical specific force share each motor's thrust effectiveness.
+        axes = [0, 1, 3]
+        joint_signs = np.vstack([signs[:2], np.ones((1, 4))])
+        weights = 1.0 / np.maximum(np.mean(resid[:, axes] ** 2, axis=0), 1e-12)
+        XtX_all = np.concatenate([(XtX.sum(axis=0))[None], A], axis=0)  # (1+B, 4, 4)
+        XtY_all = np.concatenate([(XtY.sum(axis=0))[None], B], axis=0)[..., axes]  # (1+B, 4, 3)
+        e = _joint_thrust(XtX_all, XtY_all, joint_signs, weights)
+        thrust = np.stack([e[:, i] / np.median(np.delete(e, i, axis=1), axis=1) for i in range(4)], axis=1)
+    else:
+        thrust = _combine(rel[:, :2], var[None, :2].repeat(rel.shape[0], axis=0))  # (1+B, 4)
     lo_q, hi_q = (1.0 - CI_LEVEL) / 2.0, 1.0 - (1.0 - CI_LEVEL) / 2.0
     point = thrust[0]
     with warnings.catch_warnings():
@@ -291,4 +514,5 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     else:
         reason = f"from {seconds:.0f} s of airborne data"
     return EffectivenessEstimate(motors=motors, informative=informative, reason=reason, seconds=seconds,
-                                 motor_lag_s=float(tau), r2=r2)
+                                 motor_lag_s=float(tau), r2=r2,
+                                 vertical_r2=r2_all[3] if n_axes == 4 else None, used_vertical=use_vertical)

@@ -206,6 +206,7 @@ class Flight:
     thrust_curve: Optional[float] = None  # THR_MDL_FAC (PX4) or MOT_THST_EXPO (ArduPilot)
     esc_rpm: Optional[Series] = None  # (n, rotor_count) rpm
     velocity: Optional[Series] = None  # (n, 3) NED m/s where the log has it (hover detection)
+    accel: Optional[Series] = None  # (n, 3) accelerometer, body specific force m/s² FRD (effectiveness.py)
     alt_motors: dict[str, Series] = field(default_factory=dict)  # other motor sources, e.g. {"RCOU": ...}
     armed: list[tuple[float, float]] = field(default_factory=list)
     airborne: list[tuple[float, float]] = field(default_factory=list)
@@ -228,7 +229,7 @@ class Flight:
     def streams(self) -> list[StreamInfo]:
         """The streams present, with their measured rates (for `fdlog info`)."""
         out = []
-        for name in ("rates", "attitude", "motors", "esc_rpm", "velocity"):
+        for name in ("rates", "attitude", "motors", "esc_rpm", "velocity", "accel"):
             s = getattr(self, name)
             if s is not None:
                 out.append(StreamInfo(name, s.source, s.rate_hz, len(s)))
@@ -289,7 +290,8 @@ def describe_dropped(name: str, t: np.ndarray, bad: np.ndarray) -> str:
 
 
 def _series_fields(flight: "Flight") -> list[tuple[str, Series, Optional[str]]]:
-    out = [(name, getattr(flight, name), None) for name in ("rates", "attitude", "motors", "esc_rpm", "velocity")]
+    out = [(name, getattr(flight, name), None)
+           for name in ("rates", "attitude", "motors", "esc_rpm", "velocity", "accel")]
     out += [(f"alt_motors[{k}]", s, k) for k, s in flight.alt_motors.items()]
     return [(n, s, k) for n, s, k in out if s is not None and len(s)]
 

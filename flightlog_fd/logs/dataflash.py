@@ -32,7 +32,7 @@ multipliers are metadata that pymavlink does not apply either. pymavlink's clock
   ``alt_motors["RCOU"]`` (see below); ``motor_kind = "thrust"``.
 - ``esc_rpm`` from ``ESC`` (``Instance`` = output channel - 1) or ``ESC1..ESC8``, resampled onto
   the first motor's ESC timestamps; ``velocity`` NED m/s from ``XKF1`` (core 0), ``NKF1`` or
-  ``EKF1`` ``VN/VE/VD``.
+  ``EKF1`` ``VN/VE/VD``; ``accel`` (m/s², FRD) from the primary ``IMU``'s ``AccX/Y/Z``.
 - ``armed`` from ``EV`` 10 (armed) / 11 (disarmed), else ``ARM.ArmState``; a log that starts
   armed starts its interval at the first sample, and an arm event while already armed (a
   missing disarm, seen in 3.3 logs whose logging stops at disarm) closes the previous interval
@@ -777,6 +777,20 @@ def _esc_rpm(tables, params, n_motors) -> Optional[Series]:
     return Series(t0, np.column_stack(cols), source + " (resampled on motor 1's ESC times)")
 
 
+def _accel(tables) -> Optional[Series]:
+    """Primary IMU's accelerometer (m/s², FRD body specific force) from ``IMU.AccX/Y/Z``."""
+    if "IMU" not in tables or not tables["IMU"].has("AccX", "AccY", "AccZ"):
+        return None
+    imu = _instance(tables["IMU"])
+    if imu.t is None or not len(imu):
+        return None
+    a = np.column_stack([imu.columns[c] for c in ("AccX", "AccY", "AccZ")])
+    ok = np.isfinite(a).all(axis=1)
+    if not ok.any():
+        return None
+    return _sorted_series(imu.t[ok], a[ok], "IMU.AccX/Y/Z")
+
+
 def _velocity(tables) -> Optional[Series]:
     for name in ("XKF1", "NKF1", "EKF1"):
         if name in tables and tables[name].has("VN", "VE", "VD"):
@@ -1034,6 +1048,7 @@ def read_dataflash(path) -> Flight:
         thrust_curve=thrust_curve,
         esc_rpm=_esc_rpm(tables, params, n_motors) if frame.rotor_count else None,
         velocity=_velocity(tables),
+        accel=_accel(tables),
         alt_motors=alt_motors,
         armed=armed,
         airborne=airborne,

@@ -20,7 +20,8 @@ rates or accelerations); column names and units follow ArduCopter >= 3.4:
   ``vehicle_id`` (:func:`sim_board_uid`), so that simulated fleets have one id per airframe.
 - ``EV``: 10 armed / 11 disarmed at the ``armed`` interval ends; 28 NOT_LANDED / 18
   LAND_COMPLETE at the ``airborne`` interval ends.
-- ``IMU`` (TimeUS, I=0, GyrX/Y/Z rad/s) from ``rates``; ``ATT`` (Roll, Pitch, Yaw deg) from
+- ``IMU`` (TimeUS, I=0, GyrX/Y/Z rad/s from ``rates``, AccX/Y/Z m/s² from ``accel`` at those
+  times, NaN without one); ``ATT`` (Roll, Pitch, Yaw deg) from
   ``attitude`` (yaw 0 when absent).
 - ``RATE`` (R/P/Y deg/s, ROut/POut/YOut/AOut) at the motors' timestamps when ``motor_kind`` is
   ``"thrust"``: the outputs are the exact inverse of the reader's AP_MotorsMatrix mix (4 motors,
@@ -109,7 +110,7 @@ FMT = _Format(FMT_TYPE_ID, "FMT", "BBnNZ", ("Type", "Length", "Name", "Format", 
 PARM = _Format(129, "PARM", "QNf", ("TimeUS", "Name", "Value"))
 MSG = _Format(130, "MSG", "QZ", ("TimeUS", "Message"))
 EV = _Format(131, "EV", "QB", ("TimeUS", "Id"))
-IMU = _Format(132, "IMU", "QBfff", ("TimeUS", "I", "GyrX", "GyrY", "GyrZ"))
+IMU = _Format(132, "IMU", "QBffffff", ("TimeUS", "I", "GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"))
 ATT = _Format(133, "ATT", "Qfff", ("TimeUS", "Roll", "Pitch", "Yaw"))
 RATE = _Format(134, "RATE", "Qfffffff", ("TimeUS", "R", "ROut", "P", "POut", "Y", "YOut", "AOut"))
 RCOU = _Format(135, "RCOU", "Q" + "H" * RCOU_CHANNELS, ("TimeUS", *(f"C{k}" for k in range(1, RCOU_CHANNELS + 1))))
@@ -335,8 +336,13 @@ def write_dataflash(flight: Flight, path) -> Path:
     data: list[Optional[_Block]] = []
     if flight.rates is not None and len(flight.rates):
         r = flight.rates
+        if flight.accel is not None and len(flight.accel):  # the IMU message carries both sensors
+            acc = np.column_stack([np.interp(r.t, flight.accel.t, flight.accel.values[:, i]) for i in range(3)])
+        else:
+            acc = np.full((len(r), 3), np.nan)  # read back as "no accelerometer"
         data.append(_block(IMU, _to_us(r.t), I=np.zeros(len(r), dtype=np.uint8),
-                           GyrX=r.values[:, 0], GyrY=r.values[:, 1], GyrZ=r.values[:, 2]))
+                           GyrX=r.values[:, 0], GyrY=r.values[:, 1], GyrZ=r.values[:, 2],
+                           AccX=acc[:, 0], AccY=acc[:, 1], AccZ=acc[:, 2]))
     if flight.attitude is not None and len(flight.attitude):
         a = flight.attitude
         deg = np.degrees(a.values)

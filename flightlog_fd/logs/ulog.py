@@ -34,6 +34,7 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
 - ``esc_rpm``: ``esc_status.esc[i].esc_rpm`` (mapped to motors by ``actuator_function`` where
   logged), only when the ESCs report something non-zero.
 - ``velocity`` (NED m/s): ``vehicle_local_position.vx/vy/vz``.
+- ``accel`` (m/s², FRD body specific force): ``sensor_combined.accelerometer_m_s2``.
 - ``thrust_curve``: ``THR_MDL_FAC``; ``params``: every initial parameter as float.
 - ``frame``: ``CA_ROTOR_COUNT`` and ``CA_ROTOR{i}_PX/PY/KM`` (i 0-based = motor i+1) when the
   control allocator is in use (no ``SYS_CTRL_ALLOC = 0``), else the ``SYS_AUTOSTART`` airframe
@@ -645,6 +646,14 @@ def _esc_rpm(ulog, rotor_count: Optional[int]) -> Optional[Series]:
     return Series(esc.t, rpm, "esc_status.esc[].esc_rpm")
 
 
+def _accel(ulog) -> Optional[Series]:
+    for tp in _topics(ulog, "sensor_combined")[:1]:
+        a = tp.array("accelerometer_m_s2", 3)
+        if a is not None and np.isfinite(a).any():
+            return Series(tp.t, a, "sensor_combined.accelerometer_m_s2")
+    return None
+
+
 def _velocity(ulog) -> Optional[Series]:
     lp = _first(ulog, "vehicle_local_position")
     if lp is None or not all(lp.has(f) for f in ("vx", "vy", "vz")):
@@ -831,6 +840,7 @@ def read_ulog(path, reader: str = "auto") -> Flight:
         thrust_curve=params.get("THR_MDL_FAC"),
         esc_rpm=_esc_rpm(ulog, n_motors),
         velocity=_velocity(ulog),
+        accel=_accel(ulog),
         alt_motors=alt_motors,
         armed=armed or [],
         airborne=airborne,

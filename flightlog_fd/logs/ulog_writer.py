@@ -25,6 +25,7 @@ Topics written (PX4 field names; float32 as PX4 logs them):
   ``system_type``) at ``STATUS_RATE_HZ`` plus one message at every arming change;
 - ``vehicle_land_detected`` (``landed`` = not airborne) at ``LAND_DETECTED_RATE_HZ`` plus one at
   every change;
+- ``sensor_combined`` (``accelerometer_m_s2`` and ``gyro_rad`` interpolated to its times) if ``accel``;
 - ``vehicle_local_position`` (``vx, vy, vz`` and ``x, y, z`` integrated from them) if ``velocity``;
 - ``esc_status`` (``esc[i].esc_rpm``, ``actuator_function`` 101+i) if ``esc_rpm``.
 
@@ -99,6 +100,7 @@ FORMATS: dict[str, list[tuple[str, str, int]]] = {
                         ("uint16_t", "reversible_flags", 0), ("float", "control", ACTUATOR_MOTORS_CONTROLS)],
     "actuator_outputs": [("uint64_t", "timestamp", 0), ("uint32_t", "noutputs", 0),
                          ("float", "output", ACTUATOR_OUTPUTS_CHANNELS)],
+    "sensor_combined": [("uint64_t", "timestamp", 0), ("float", "gyro_rad", 3), ("float", "accelerometer_m_s2", 3)],
     "vehicle_attitude": [("uint64_t", "timestamp", 0), ("uint64_t", "timestamp_sample", 0), ("float", "q", 4),
                          ("float", "delta_q_reset", 4), ("uint8_t", "quat_reset_counter", 0)],
     "vehicle_status": [("uint64_t", "timestamp", 0), ("uint64_t", "armed_time", 0), ("uint64_t", "takeoff_time", 0),
@@ -119,7 +121,7 @@ FORMATS: dict[str, list[tuple[str, str, int]]] = {
 }
 #: Order of the data topics (also their msg_id order).
 DATA_TOPICS = ("vehicle_status", "vehicle_land_detected", "vehicle_angular_velocity", "vehicle_attitude",
-               "actuator_motors", "actuator_outputs", "vehicle_local_position", "esc_status")
+               "actuator_motors", "actuator_outputs", "vehicle_local_position", "esc_status", "sensor_combined")
 
 
 # ---------------------------------------------------------------- thrust model (PX4 FunctionMotors)
@@ -303,6 +305,15 @@ def _topics(flight: Flight) -> list[_TopicData]:
         xyz = flight.rates.values[:, :3]
         out.append(_TopicData("vehicle_angular_velocity", us, {
             "timestamp_sample": us, **{f"xyz[{i}]": xyz[:, i] for i in range(3)}}))
+
+    if flight.accel is not None and len(flight.accel):
+        acc = flight.accel
+        us = _us(acc.t)
+        gyro = (np.column_stack([np.interp(acc.t, flight.rates.t, flight.rates.values[:, i]) for i in range(3)])
+                if flight.rates is not None and len(flight.rates) else np.zeros((len(acc), 3)))
+        out.append(_TopicData("sensor_combined", us, {
+            **{f"gyro_rad[{i}]": gyro[:, i] for i in range(3)},
+            **{f"accelerometer_m_s2[{i}]": acc.values[:, i] for i in range(3)}}))
 
     if flight.attitude is not None and len(flight.attitude):
         a = flight.attitude.values

@@ -23,6 +23,8 @@ Model per vehicle (parameters from :class:`~flightlog_fd.sim.airframe.Airframe`)
 - roll torque ``−Σ y_i f_i``, pitch torque ``Σ x_i f_i`` (r × F with F = (0, 0, −f));
 - linear drag ``drag_lin · (wind − v)``, angular damping ``−drag_ang · ω``, gyroscopic term
   ``−ω × Iω``, and an angular-acceleration disturbance (turbulence / prop wash) from the caller;
+- accelerometer: ``QuadDynamics.specific_force`` (3, N) body-frame specific force of the last step,
+  ``(−Σ f_i·z_body + drag)/m`` seen in FRD, and ``−g`` along body z while resting on the ground;
 - ground contact: the vehicle starts landed at z = 0; while thrust cannot lift it (z ≥ 0 after a
   step) it stays level (yaw kept) with zero velocity and angular velocity; touching down clamps
   z to 0 and levels it the same way.
@@ -200,6 +202,9 @@ class QuadDynamics:
         self.drag_ang = params.drag_ang
         self.drag_lin = params.drag_lin
         self._acc = np.empty((3, params.n))
+        #: Body-frame specific force (3, N) m/s² of the last step: what an accelerometer reads.
+        self.specific_force = np.zeros((3, params.n))
+        self.specific_force[2] = -GRAVITY
         self._dq = np.empty((4, params.n))
         self._cross = np.empty((3, params.n))
 
@@ -243,6 +248,7 @@ class QuadDynamics:
         acc *= -thrust
         acc += self.drag_lin * (wind - s.vel)
         acc *= self.inv_mass
+        self._body_frame(q, acc, self.specific_force)  # the accelerometer: thrust + drag, no gravity
         acc[2] += GRAVITY
         s.vel += acc * dt
         s.pos += s.vel * dt
@@ -261,6 +267,9 @@ class QuadDynamics:
         s.landed = ground
         if ground.any():
             air = ~ground
+            # Resting on the ground the accelerometer reads the normal force: −g along body z.
+            self.specific_force *= air
+            self.specific_force[2] -= GRAVITY * ground
             s.pos[2] *= air
             s.vel *= air
             om *= air
@@ -270,3 +279,11 @@ class QuadDynamics:
             q[0] = np.where(ground, np.cos(yaw / 2.0), q[0])
             q[3] = np.where(ground, np.sin(yaw / 2.0), q[3])
         return f
+
+    @staticmethod
+    def _body_frame(q: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
+        """(3, N) NED vectors ``v`` → body frame (FRD) in ``out``, for (4, N) body-to-NED ``q``."""
+        w, x, y, z = q
+        out[0] = (1 - 2 * (y * y + z * z)) * v[0] + 2 * (x * y + w * z) * v[1] + 2 * (x * z - w * y) * v[2]
+        out[1] = 2 * (x * y - w * z) * v[0] + (1 - 2 * (x * x + z * z)) * v[1] + 2 * (y * z + w * x) * v[2]
+        out[2] = 2 * (x * z + w * y) * v[0] + 2 * (y * z - w * x) * v[1] + (1 - 2 * (x * x + y * y)) * v[2]

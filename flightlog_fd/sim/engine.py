@@ -15,7 +15,7 @@ per-vehicle loop). Time is seconds since arming (t = 0 is the first logged insta
 
 Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``attitude``
 (estimated quaternion), ``motors`` (thrust setpoints u), ``velocity`` (estimated NED m/s),
-``w_com`` (commanded rotor speed rad/s), ``w`` (actual rotor speed), ``pos`` (true NED m),
+``accel`` (accelerometer: body specific force + bias + noise, m/s² FRD), ``w_com`` (commanded rotor speed rad/s), ``w`` (actual rotor speed), ``pos`` (true NED m),
 ``thrust`` (per-rotor thrust N, of the step before), ``omega`` (true body rates rad/s), ``eta`` (rotor efficiency).
 
 The loop stops when every vehicle has disarmed and ``tail_s`` more has passed, or at ``t_max``.
@@ -36,8 +36,8 @@ from flightlog_fd.sim.missions import MissionPlan, MissionRunner
 from flightlog_fd.sim.sensors import SensorParams, Sensors
 from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_effectiveness
 
-STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "w_com": 4, "w": 4, "pos": 3,
-                 "thrust": 4, "omega": 3, "eta": 4}
+STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "accel": 3, "w_com": 4, "w": 4,
+                 "pos": 3, "thrust": 4, "omega": 3, "eta": 4}
 #: Simulated time kept after the last disarm (covers the logger's tail after disarming).
 DEFAULT_TAIL_S = 1.0
 
@@ -127,6 +127,8 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
                 v = u
             elif name == "velocity":
                 v = state.vel + sens.vel_err
+            elif name == "accel":  # specific force of the previous step, as the thrust below
+                v = sens.accelerometer(dyn.specific_force)
             elif name == "w_com":
                 v = w_com
             elif name == "w":

@@ -87,6 +87,7 @@ class LogProfile:
             if abs(k - round(k)) > 1e-9:
                 raise ValueError(f"profile {self.name}: {name} at {hz} Hz does not divide {self.sim_rate_hz} Hz")
             out[name] = int(round(k))
+        out["accel"] = out["rates"]  # the IMU logs gyro and accelerometer together (sensor_combined / IMU)
         return out
 
     @property
@@ -188,19 +189,24 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
     flights = []
     # Vehicle-major float64 copies: one pass per stream instead of a strided gather per vehicle.
     per_vehicle = {k: np.ascontiguousarray(res.data[k].transpose(1, 0, 2), dtype=np.float64)
-                   for k in ("rates", "attitude", "motors", "velocity")}
+                   for k in ("rates", "attitude", "motors", "velocity", "accel") if k in res.data}
     for i, af in enumerate(airframes):
         offset = float(rng.uniform(*profile.boot_offset_s))
         t_disarm = res.t_disarm[i]
         t_last = (t_disarm + rng.uniform(*LOG_TAIL_RANGE_S)) if np.isfinite(t_disarm) else res.t_end
 
-        def stream(name: str, hz: float) -> tuple[np.ndarray, np.ndarray]:
+        def stream(name: str, hz: float, also: Optional[str] = None) -> tuple[np.ndarray, ...]:
+            """Stamped samples of ``name`` (and of ``also``, recorded with it, on the same stamps)."""
             t_sim = res.times[name]
             m = int(np.searchsorted(t_sim, t_last + 1e-9, side="right"))
             t, keep = _stamp(t_sim[:m], offset, 1.0 / hz, profile, jitter_rng)
-            return t[keep], per_vehicle[name][i, :m][keep]
+            extra = (per_vehicle[also][i, :m][keep],) if also is not None else ()
+            return (t[keep], per_vehicle[name][i, :m][keep]) + extra
 
-        t_r, rates = stream("rates", profile.rates_hz)
+        if "accel" in per_vehicle:
+            t_r, rates, acc = stream("rates", profile.rates_hz, also="accel")
+        else:
+            (t_r, rates), acc = stream("rates", profile.rates_hz), None
         t_a, q = stream("attitude", profile.attitude_hz)
         t_m, motors = stream("motors", profile.motors_hz)
         t_v, vel = stream("velocity", profile.velocity_hz)
@@ -214,7 +220,7 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             frame = Frame(frame.name, frame.rotors, "CA_ROTOR_COUNT=4, CA_ROTORn_PX/PY/KM")
             src = dict(rates="vehicle_angular_velocity.xyz", attitude="vehicle_attitude.q",
                        motors="actuator_motors.control[0..3]", alt="actuator_outputs.output[0..3]",
-                       velocity="vehicle_local_position.vx/vy/vz")
+                       velocity="vehicle_local_position.vx/vy/vz", accel="sensor_combined.accelerometer_m_s2")
             alt_name, airborne_src = "actuator_outputs", "vehicle_land_detected"
         else:
             curve = ARDUPILOT_THST_EXPO
@@ -222,7 +228,7 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             frame = Frame(frame.name, frame.rotors, f"FRAME_CLASS=1, FRAME_TYPE={ARDUPILOT_FRAME_TYPE[af.frame]}")
             src = dict(rates="IMU.GyrX/Y/Z", attitude="ATT.Roll/Pitch/Yaw",
                        motors="RATE mixer (AOut + ROut/POut/YOut x AP_MotorsMatrix factors)",
-                       alt="RCOU.C1,C2,C3,C4", velocity="XKF1.VN/VE/VD")
+                       alt="RCOU.C1,C2,C3,C4", velocity="XKF1.VN/VE/VD", accel="IMU.AccX/Y/Z")
             alt_name, airborne_src = "RCOU", "EV (NOT_LANDED 28 .. LAND_COMPLETE 18 / DISARMED 11)"
         alt = Series(t_m[alt_idx], thrust_to_signal(motors[alt_idx], curve), src["alt"])
         motor_series, motor_kind, alt_motors = Series(t_m, motors, src["motors"]), "thrust", {alt_name: alt}
@@ -261,6 +267,7 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             attitude=Series(t_a, att, src["attitude"]),
             motors=motor_series, motor_kind=motor_kind, thrust_curve=curve,
             velocity=Series(t_v, vel, src["velocity"]),
+            accel=Series(t_r, acc, src["accel"]) if acc is not None else None,
             alt_motors=alt_motors,
             armed=[(t_start, float(armed_end))], airborne=airborne, airborne_source=airborne_src,
             t_start=t_start, t_end=t_end, params=params, truth=truth,
