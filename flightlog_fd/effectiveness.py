@@ -161,6 +161,8 @@ class EffectivenessEstimate:
         return {
             "informative": self.informative, "reason": self.reason, "seconds": round(self.seconds, 1),
             "motor_lag_s": self.motor_lag_s, "r2": [round(float(x), 3) for x in self.r2],
+            "vertical_r2": None if self.vertical_r2 is None else round(float(self.vertical_r2), 3),
+            "used_vertical": self.used_vertical,
         }
 
 
@@ -512,7 +514,8 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
         reason = (f"too little manoeuvring to estimate it: the widest interval is ±{np.nanmax(widths) / 2:.2f} "
                   f"(needs ±{MAX_CI_WIDTH / 2:.2f}); a flight with more roll/pitch changes would do")
     else:
-        reason = f"from {seconds:.0f} s of airborne data"
+        reason = f"from {seconds:.0f} s of airborne data" + (
+            f", with the accelerometer (vertical fit R² {r2_all[3]:.2f})" if use_vertical else "")
     return EffectivenessEstimate(motors=motors, informative=informative, reason=reason, seconds=seconds,
                                  motor_lag_s=float(tau), r2=r2,
                                  vertical_r2=r2_all[3] if n_axes == 4 else None, used_vertical=use_vertical)
