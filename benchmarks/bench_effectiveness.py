@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import dataclasses
 import time
 
 import numpy as np
@@ -26,16 +25,19 @@ PROFILES = ("px4_high", "ardupilot", "px4_default")
 
 @contextlib.contextmanager
 def _previous_estimator():
-    """The estimator as it was before the ground trim, the fine motor-lag search and the fine-grid
-    commands (the "before" row), by restoring its old settings for the duration."""
+    """The estimator as it was before the ground trim, the fine motor-lag search, the fine-grid
+    commands and the body-rate terms (the "before" row), by restoring its old settings."""
     import flightlog_fd.effectiveness as eff
-    saved = (eff.EDGE_TRIM_S, eff.MOTOR_LAG_GRID_S, eff.MOTOR_LAG_REFINE_S, eff.FINE_COMMANDS)
+    names = ("EDGE_TRIM_S", "MOTOR_LAG_GRID_S", "MOTOR_LAG_REFINE_S", "FINE_COMMANDS", "BODY_RATE_TERMS")
+    saved = {n: getattr(eff, n) for n in names}
     eff.EDGE_TRIM_S, eff.MOTOR_LAG_GRID_S = (0.0, 0.0), (0.0, 0.02, 0.04, 0.06, 0.09, 0.13)
     eff.MOTOR_LAG_REFINE_S, eff.FINE_COMMANDS = 0.02, False  # refine step = grid step: no refinement
+    eff.BODY_RATE_TERMS = False
     try:
         yield
     finally:
-        eff.EDGE_TRIM_S, eff.MOTOR_LAG_GRID_S, eff.MOTOR_LAG_REFINE_S, eff.FINE_COMMANDS = saved
+        for n, v in saved.items():
+            setattr(eff, n, v)
 
 
 def main() -> None:
@@ -56,9 +58,9 @@ def main() -> None:
         damages += [Damage(int(rng.integers(1, 5)), eta) for _ in range(args.per_eta)]
     print(f"{len(damages)} flights per profile, {args.duration:.0f} s, random airframes, balanced motors")
     print("inputs: 'before' = the estimator before this change (6-point lag grid, lag at the grid rate, "
-          "ground seconds kept), gyro only; 'gyro' = now, roll/pitch equations only (the accelerometer "
-          "removed from the Flight); 'gyro+acc' = now, with the accelerometer's vertical equation where "
-          "the log allows it")
+          "ground seconds kept, no body-rate terms), gyro only; 'gyro' = now, as fdlog uses it (roll/pitch "
+          "equations); 'gyro+acc' = now, with the opt-in accelerometer vertical equation where the log "
+          "allows it")
     print(f"{'profile':12s} {'inputs':8s} {'eta':>5s} {'mean est':>8s} {'max |err|':>9s} {'±0.03':>6s} "
           f"{'weakest':>7s} {'informative':>11s} {'CI width':>8s}")
     for prof in args.profiles.split(","):
@@ -67,11 +69,11 @@ def main() -> None:
                                    seed=args.seed, rho=None)
         t_sim = time.perf_counter() - t0
         t0 = time.perf_counter()
-        runs = {"gyro+acc": [estimate_effectiveness(f) for f in flights]}
+        runs = {"gyro": [estimate_effectiveness(f) for f in flights]}
         t_est = (time.perf_counter() - t0) / len(flights)
-        runs["gyro"] = [estimate_effectiveness(dataclasses.replace(f, accel=None)) for f in flights]
+        runs["gyro+acc"] = [estimate_effectiveness(f, use_accelerometer=True) for f in flights]
         with _previous_estimator():
-            runs["before"] = [estimate_effectiveness(dataclasses.replace(f, accel=None)) for f in flights]
+            runs["before"] = [estimate_effectiveness(f) for f in flights]
         used = np.mean([e.used_vertical for e in runs["gyro+acc"]])
         for inputs in ("before", "gyro", "gyro+acc"):
             ests = runs[inputs]

@@ -31,15 +31,26 @@ first-order motor lag whose time constant is searched per flight (``MOTOR_LAG_GR
 to ``MOTOR_LAG_REFINE_S``) and the same Savitzky-Golay smoothing as the gyro, all on the gyro
 derivative's fine grid when the motors are logged faster than the grid.
 
-Vertical equation: with an accelerometer logged at ≥ ``MIN_ACCEL_RATE_FACTOR`` x the grid rate,
-the body-z specific force ``a_z = −g_z · Σ_i e_i u_i + c_z(t)`` joins roll and pitch in one joint
-fit of each motor's thrust effectiveness (:func:`_joint_thrust`): it pins the motor patterns
-that roll and pitch alone leave to the weakly excited collective and yaw commands.
+Body-rate terms: the rates and their products (damping, gyroscopic ``ω × Iω``) are fitted beside
+the commands (``BODY_RATE_TERMS``).
 
-Known bias (``benchmarks/bench_effectiveness.py``): in closed loop the rate controller answers
-the turbulence it measures, so commands correlate with the unmeasured disturbance; on noisy
-simulated flights this pulls a damaged rotor's value toward 1 (η 0.6 / 0.7 / 0.8 read about
-0.65-0.67 / 0.77-0.79 / 0.83 at the high-rate profile). Noiseless flights are within 0.02-0.04.
+Vertical equation (opt-in, ``use_accelerometer=True``; the diagnosis does not use it): with an
+accelerometer logged at ≥ ``MIN_ACCEL_RATE_FACTOR`` x the grid rate, the body-z specific force
+``a_z = −g_z · Σ_i e_i u_i + c_z(t)`` joins roll and pitch in one joint fit of each motor's thrust
+effectiveness (:func:`_joint_thrust`), to pin the motor patterns that roll and pitch alone leave
+to the weakly excited collective and yaw commands. Measured with
+``benchmarks/bench_effectiveness.py`` (random airframes, px4_high), it does not earn its place:
+60 s flights, 25 % of damaged flights (η ≤ 0.9) within ±0.03 with it against 31 % without, and
+the healthy flights' largest deviation 0.090 against 0.054; 240 s flights (before the body-rate
+terms), 42 % both, 0.011 against 0.017.
+
+Known bias (``benchmarks/bench_effectiveness.py``): in closed loop the commands answer what the
+gyro measures, so they correlate with the unmeasured turbulence (which pulls a damaged rotor's
+value toward 1) and with the gyro noise (which pulls it away); on noisy simulated flights the
+net is toward 1: η 0.6 / 0.7 / 0.8 / 0.9 read 0.66 / 0.78 / 0.83 / 0.92 on average at the
+high-rate profile (60 s flights), and the bootstrap interval does not cover that bias. Without
+disturbances the estimate is within 0.01-0.04. Rate setpoints as instruments were tried (in the
+simulator): weak (first-stage R² 0.05-0.27) and no less biased.
 
 Confidence: a moving-block bootstrap over the flight (``BLOCK_S`` blocks, ``N_BOOTSTRAP``
 resamples, seeded) gives a 90 % interval per motor (``CI_LEVEL``). A flight with too little
@@ -84,6 +95,12 @@ MOTOR_LAG_REFINE_S = 0.002
 #: Lag and smooth the commands on the gyro derivative's fine grid (see _fine_commands); False only
 #: for the benchmark's "before" row.
 FINE_COMMANDS = True
+#: Fit the body-rate torques (damping, gyroscopic ω × Iω) beside the commands (_body_rate_terms).
+#: Without them a yawing vehicle's gyroscopic torque lands on the diagonal motor pairs: noiseless
+#: simulated x500 flights (η 0.6 and 0.8, each motor) read a damaged rotor +0.077 high on average
+#: (2 of 8 within ±0.03); with them +0.012 (6 of 8). Regressing on the true rotor thrusts, the
+#: fit is exact (±0.01) only with them.
+BODY_RATE_TERMS = True
 #: Parameters naming the autopilot's gyro low-pass cutoff (Hz): the logged rates passed through it,
 #: the commands did not, so the commands get the same first-order low-pass before the fit (a
 #: 2nd-order filter's low-frequency delay is close enough; the lag search absorbs the rest).
@@ -161,8 +178,6 @@ class EffectivenessEstimate:
         return {
             "informative": self.informative, "reason": self.reason, "seconds": round(self.seconds, 1),
             "motor_lag_s": self.motor_lag_s, "r2": [round(float(x), 3) for x in self.r2],
-            "vertical_r2": None if self.vertical_r2 is None else round(float(self.vertical_r2), 3),
-            "used_vertical": self.used_vertical,
         }
 
 
@@ -281,8 +296,8 @@ def _detrended_commands(segments: list[Segment], tau_s: float, rate_hz: float, s
                         savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S) -> np.ndarray:
     """Lagged, smoothed and detrended thrust commands (n, 4), rows as in _detrended_acc.
 
-    With ``fine`` the lag and the smoothing run on the fine grid, with the same Savitzky-Golay
-    window as the gyro derivative, and the grid samples are taken afterwards."""
+    With ``fine`` the lag and the smoothing run on the fine grid, with the same
+    Savitzky-Golay window as the gyro derivative, and the grid samples are taken afterwards."""
     if not segments:
         return np.zeros((0, 4))
     xs = []
@@ -298,6 +313,20 @@ def _detrended_commands(segments: list[Segment], tau_s: float, rate_hz: float, s
             u = savgol_filter(u, savgol_n, SAVGOL_POLYORDER, deriv=0, axis=0)
         xs.append(u - _moving_average(u, detrend_n))
     return np.vstack(xs)
+
+
+def _body_rate_terms(segments: list[Segment], detrend_n: int) -> Optional[np.ndarray]:
+    """Detrended (n, 6) p, q, r, q·r, p·r, p·q of the segments (rows as in _detrended_acc): the
+    rigid body's damping and gyroscopic torques, which the commands do not explain."""
+    if not segments:
+        return None
+    out = []
+    for seg in segments:
+        w = np.asarray(seg.rates, dtype=np.float64)
+        p, q, r = w[:, 0], w[:, 1], w[:, 2]
+        terms = np.column_stack([p, q, r, q * r, p * r, p * q])
+        out.append(terms - _moving_average(terms, detrend_n))
+    return np.vstack(out)
 
 
 def _detrended_vertical(flight: Flight, segments: list[Segment], rate_hz: float, savgol_n: int,
@@ -396,10 +425,13 @@ def _combine(rel: np.ndarray, var: np.ndarray) -> np.ndarray:
 def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
                            savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S,
                            segments: Optional[list[Segment]] = None,
-                           n_bootstrap: int = N_BOOTSTRAP, seed: int = BOOTSTRAP_SEED) -> EffectivenessEstimate:
+                           n_bootstrap: int = N_BOOTSTRAP, seed: int = BOOTSTRAP_SEED,
+                           use_accelerometer: bool = False) -> EffectivenessEstimate:
     """Relative per-motor effectiveness of ``flight`` (see the module docstring).
 
     ``segments`` may be given when the caller already resampled the flight at ``rate_hz``.
+    ``use_accelerometer`` adds the vertical equation (off by default: see the module docstring
+    for why it is not used by the diagnosis).
     Never raises for a flight that simply has too little data: returns ``informative=False``
     with the reason.
     """
@@ -419,7 +451,7 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
 
     usable = _usable(segments, savgol_n, detrend_n)
     Y, t = _detrended_acc(usable, detrend_n)  # the lag only changes the commands
-    vertical = _detrended_vertical(flight, usable, rate_hz, savgol_n, detrend_n)
+    vertical = _detrended_vertical(flight, usable, rate_hz, savgol_n, detrend_n) if use_accelerometer else None
     if vertical is not None:
         Y = np.column_stack([Y, vertical])  # axes: roll, pitch, yaw, vertical
     n_axes = Y.shape[1]
@@ -427,11 +459,20 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
 
     fine = _fine_commands(flight, usable, rate_hz) if FINE_COMMANDS else None
 
+    # Body-rate terms (gyroscopic ω × Iω, aerodynamic damping) are fitted beside the commands and
+    # partialled out of both sides (Frisch-Waugh), so the commands' coefficients are those of
+    # the full regression.
+    nuisance = _body_rate_terms(usable, detrend_n) if BODY_RATE_TERMS else None
+    if nuisance is not None:
+        Y = Y - nuisance @ np.linalg.lstsq(nuisance, Y, rcond=None)[0]
+
     def try_lag(tau: float) -> None:
         nonlocal best
         X = _detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n, fine, savgol_window_s)
         if X.shape[0] < 5 * X.shape[1]:
             return
+        if nuisance is not None:
+            X = X - nuisance @ np.linalg.lstsq(nuisance, X, rcond=None)[0]
         coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, axes)
         resid = Y - X @ coef
         sse = float(np.sum(resid[:, :2] ** 2))  # roll/pitch decide the lag (yaw is weakly excited)

@@ -112,8 +112,8 @@ def test_effectiveness_is_exact_without_disturbances(motor, eta):
 
 def test_accelerometer_round_trip_and_vertical_equation(tmp_path):
     """The simulator's accelerometer reads about -g along body z in flight, survives both log
-    writers and readers, and joins the effectiveness fit only when logged fast (PX4 high rate:
-    250 Hz) - not at the 50 Hz of the ArduPilot profile, where a real IMU log aliases vibration."""
+    writers and readers, and (opt-in) joins the effectiveness fit only when logged fast (PX4 high
+    rate: 250 Hz) - not at the 50 Hz of the ArduPilot profile, where a real IMU log aliases vibration."""
     from flightlog_fd.effectiveness import estimate_effectiveness
     from flightlog_fd.logs import load_flight
     from flightlog_fd.logs.dataflash_writer import write_dataflash
@@ -131,4 +131,5 @@ def test_accelerometer_round_trip_and_vertical_equation(tmp_path):
         back = load_flight(write(fl, tmp_path / name))
         assert back.accel is not None and len(back.accel) == len(acc)
         np.testing.assert_allclose(back.accel.values, acc.values, atol=1e-4)
-        assert estimate_effectiveness(back).used_vertical is used
+        assert estimate_effectiveness(back, use_accelerometer=True).used_vertical is used
+        assert not estimate_effectiveness(back).used_vertical  # opt-in only

@@ -35,9 +35,7 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
       "motor_evidence": {"baseline": "profile" | "before onset" | "neighbours",
                          "throttle": float, "top_motor": 1-4, "single_motor_gap": float,
                          "effectiveness": {"informative": bool, "reason": str, "seconds": float,
-                                           "motor_lag_s": float, "r2": [roll, pitch, yaw],
-                                           "vertical_r2": float|null,   # accelerometer's vertical equation
-                                           "used_vertical": bool} | null,  # (optional: absent before it)
+                                           "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
                          "airframe_changed": str | null, "notes": [str]} | null,
       "windows": [{"t_start": s, "t_end": s,
                    "class": 0-4,                  # the model's most probable class
@@ -144,8 +142,7 @@ JSON_SCHEMA: dict = {
                                   "required": ["informative", "reason", "seconds", "motor_lag_s", "r2"],
                                   "properties": {"informative": {"type": "boolean"}, "reason": {"type": "string"},
                                                  "seconds": _NUM, "motor_lag_s": _NUM,
-                                                 "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3},
-                                                 "vertical_r2": _NUM_OR_NULL, "used_vertical": {"type": "boolean"}}},
+                                                 "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
                 "notes": {"type": "array", "items": {"type": "string"}},
             },
