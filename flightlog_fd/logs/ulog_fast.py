@@ -102,9 +102,11 @@ MSG_PARAMETER, MSG_PARAMETER_DEFAULT, MSG_ADD_LOGGED = ord("P"), ord("Q"), ord("
 MSG_REMOVE_LOGGED, MSG_SYNC, MSG_DROPOUT = ord("R"), ord("S"), ord("O")
 MSG_LOGGING, MSG_LOGGING_TAGGED, MSG_FLAG_BITS = ord("L"), ord("C"), ord("B")
 #: Types pyulog's data-section loop knows; any other type is "unknown" there.
-DATA_SECTION_TYPES = (MSG_INFO, MSG_INFO_MULTIPLE, MSG_PARAMETER, MSG_PARAMETER_DEFAULT, MSG_ADD_LOGGED,
-                      MSG_LOGGING, MSG_LOGGING_TAGGED, MSG_DATA, MSG_DROPOUT, MSG_SYNC)
-DEFINITION_TYPES = (MSG_INFO, MSG_INFO_MULTIPLE, MSG_FORMAT, MSG_PARAMETER, MSG_PARAMETER_DEFAULT, MSG_FLAG_BITS)
+#: Stored alike wherever they appear (_add_info_like).
+INFO_LIKE_TYPES = (MSG_INFO, MSG_INFO_MULTIPLE, MSG_PARAMETER_DEFAULT)
+DATA_SECTION_TYPES = INFO_LIKE_TYPES + (MSG_PARAMETER, MSG_ADD_LOGGED, MSG_LOGGING, MSG_LOGGING_TAGGED, MSG_DATA,
+                                        MSG_DROPOUT, MSG_SYNC)
+DEFINITION_TYPES = INFO_LIKE_TYPES + (MSG_FORMAT, MSG_PARAMETER, MSG_FLAG_BITS)
 #: The first message of one of these types ends the definitions section (as in pyulog).
 DATA_SECTION_START_TYPES = (MSG_ADD_LOGGED, MSG_LOGGING, MSG_LOGGING_TAGGED)
 
@@ -487,17 +489,11 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
             if t == MSG_FORMAT:
                 fmt = _format(payload)
                 out.message_formats[fmt.name] = fmt
-            elif t == MSG_INFO:
-                vtype, key, value = _info(payload)
-                out.msg_info_dict[key] = value
-                out.msg_info_dict_types[key] = vtype
-            elif t == MSG_INFO_MULTIPLE:
-                _add_info_multiple(out, payload)
+            elif t in INFO_LIKE_TYPES:
+                _add_info_like(out, t, payload)
             elif t == MSG_PARAMETER:
                 _, key, value = _info(payload)
                 out.initial_parameters[key] = value
-            elif t == MSG_PARAMETER_DEFAULT:
-                _add_default(out, payload)
             elif t == MSG_FLAG_BITS and p != HEADER_BYTES:
                 raise FastULogUnsupported("flag bits message that is not the first message")
         except (IndexError, ValueError, KeyError, OverflowError, struct.error) as e:
@@ -544,14 +540,8 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
                     (duration,) = _U16.unpack(payload)
                     out.dropouts.append(Dropout(0, duration))
                     pending_ts.append((k, out.dropouts[-1]))
-                elif t == MSG_INFO:
-                    vtype, key, value = _info(payload)
-                    out.msg_info_dict[key] = value
-                    out.msg_info_dict_types[key] = vtype
-                elif t == MSG_INFO_MULTIPLE:
-                    _add_info_multiple(out, payload)
-                elif t == MSG_PARAMETER_DEFAULT:
-                    _add_default(out, payload)
+                elif t in INFO_LIKE_TYPES:
+                    _add_info_like(out, t, payload)
                 elif t == MSG_LOGGING:
                     level, ts = _LOGGING.unpack(payload[:9])
                     out.logged_messages.append(LoggedMessage(level, ts, _string(payload[9:])))
@@ -643,6 +633,18 @@ def read_ulog_bytes(data: bytes, topics: Optional[Iterable[str]] = None, path=No
 
 def _why(e: Exception) -> str:
     return str(e) or type(e).__name__
+
+
+def _add_info_like(out: FastULog, t: int, payload: bytes) -> None:
+    """Store a message of ``INFO_LIKE_TYPES``: the definitions and the data section carry them alike."""
+    if t == MSG_INFO:
+        vtype, key, value = _info(payload)
+        out.msg_info_dict[key] = value
+        out.msg_info_dict_types[key] = vtype
+    elif t == MSG_INFO_MULTIPLE:
+        _add_info_multiple(out, payload)
+    else:
+        _add_default(out, payload)
 
 
 def _add_info_multiple(out: FastULog, payload: bytes) -> None:
