@@ -405,7 +405,8 @@ def _joint_thrust(XtX: np.ndarray, XtY: np.ndarray, signs: np.ndarray, weights: 
 def _relative(b: np.ndarray, signs: np.ndarray) -> np.ndarray:
     """Per-axis effectiveness b/s -> relative to the median of the other three motors.
 
-    ``b`` (..., 3, 4) coefficients; returns (..., 3, 4), NaN where a motor has no lever on an axis.
+    ``b`` (..., axes, 4) coefficients, ``signs`` (axes, 4); returns the same shape, NaN where a motor
+    has no lever on an axis.
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         e = np.where(np.abs(signs) > 1e-9, b / signs, np.nan)
@@ -467,17 +468,21 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     # Body-rate terms (gyroscopic ω × Iω, aerodynamic damping) are fitted beside the commands and
     # partialled out of both sides (Frisch-Waugh), so the commands' coefficients are those of
     # the full regression.
+    # One orthonormal basis of the body-rate terms serves every candidate lag below.
     nuisance = _body_rate_terms(usable, detrend_n) if BODY_RATE_TERMS else None
-    if nuisance is not None:
-        Y = Y - nuisance @ np.linalg.lstsq(nuisance, Y, rcond=None)[0]
+    basis = np.linalg.qr(nuisance)[0] if nuisance is not None else None
+
+    def partial_out(M: np.ndarray) -> np.ndarray:
+        return M if basis is None else M - basis @ (basis.T @ M)
+
+    Y = partial_out(Y)
 
     def try_lag(tau: float) -> None:
         nonlocal best
         X = _detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n, fine, savgol_window_s)
         if X.shape[0] < 5 * X.shape[1]:
             return
-        if nuisance is not None:
-            X = X - nuisance @ np.linalg.lstsq(nuisance, X, rcond=None)[0]
+        X = partial_out(X)
         coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, axes)
         resid = Y - X @ coef
         sse = float(np.sum(resid[:, :2] ** 2))  # roll/pitch decide the lag (yaw is weakly excited)
@@ -516,7 +521,7 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     A = np.einsum("bk,kij->bij", counts, XtX) + 1e-12 * np.eye(4)
     B = np.einsum("bk,kij->bij", counts, XtY)
     try:
-        boot = np.linalg.solve(A, B)  # (B, 4, 3)
+        boot = np.linalg.solve(A, B)  # (B, 4, axes)
     except np.linalg.LinAlgError:
         return EffectivenessEstimate(reason="the motor commands never varied independently", seconds=seconds)
     b_all = np.concatenate([coef.T[None], np.transpose(boot, (0, 2, 1))], axis=0)[:, :3]  # (1+B, 3, 4)
@@ -532,7 +537,7 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
         XtX_all = np.concatenate([(XtX.sum(axis=0))[None], A], axis=0)  # (1+B, 4, 4)
         XtY_all = np.concatenate([(XtY.sum(axis=0))[None], B], axis=0)[..., axes]  # (1+B, 4, 3)
         e = _joint_thrust(XtX_all, XtY_all, joint_signs, weights)
-        thrust = np.stack([e[:, i] / np.median(np.delete(e, i, axis=1), axis=1) for i in range(4)], axis=1)
+        thrust = _relative(e[:, None, :], np.ones((1, 4)))[:, 0]  # (1+B, 4)
     else:
         thrust = _combine(rel[:, :2], var[None, :2].repeat(rel.shape[0], axis=0))  # (1+B, 4)
     lo_q, hi_q = (1.0 - CI_LEVEL) / 2.0, 1.0 - (1.0 - CI_LEVEL) / 2.0
