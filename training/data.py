@@ -173,7 +173,7 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
             r = np.asarray(rho)[done:done + n]
         flights = simulate_flights(n, airframes=afs, mission=missions[b % len(missions)], duration_s=duration_s,
                                    profile=profiles[(b // len(missions)) % len(profiles)] if profiles else profile, rho=r, rho_mode=rho_mode, seed=bseed,
-                                   imbalance=imbalance, **kw)
+                                   imbalance=imbalance, accelerometer=False, **kw)
         names = [f"sim{seed}-{b}-{i}" for i in range(n)]
         if flight_filter is not None:
             keep = [i for i, fl in enumerate(flights) if flight_filter(fl)]

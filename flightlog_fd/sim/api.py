@@ -106,11 +106,13 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
                    eta_range: tuple[float, float] = ETA_RANGE, midflight_fraction: float = MIDFLIGHT_FRACTION,
                    extra_streams: Optional[dict[str, int]] = None, imbalance: ImbalanceSpec = None,
                    mild_fraction: float = 0.0,
-                   torque_exponent_range: Optional[tuple[float, float]] = None, noise: str = "default") -> SimBatch:
+                   torque_exponent_range: Optional[tuple[float, float]] = None, noise: str = "default",
+                   accelerometer: bool = True) -> SimBatch:
     """Fly the batch and keep the raw recording (see :func:`simulate_flights` for the arguments).
 
     ``extra_streams`` maps engine stream names (engine.STREAM_FIELDS, e.g. ``"w_com"``, ``"pos"``)
-    to a decimation (record every k simulation steps) for analysis.
+    to a decimation (record every k simulation steps) for analysis. ``accelerometer=False`` leaves
+    the accelerometer out of the recording (datasets, whose windows never read it: 5-15 % faster).
     """
     if n < 1:
         raise ValueError("n must be >= 1")
@@ -127,6 +129,8 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
     sens = SensorParams.draw(afs, rng, realism=realism, vibration_gain=vibration_gain, noise=noise)
     dmg_arr = DamageArrays.build(dmg, rng)
     dec = prof.decimation()
+    if not accelerometer:
+        dec.pop("accel", None)
     if extra_streams:
         dec.update(extra_streams)
     t_max = float(plan.estimated_s.max()) * OVERTIME_FACTOR + OVERTIME_S
@@ -156,11 +160,11 @@ def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageS
                      midflight_fraction: float = MIDFLIGHT_FRACTION, imbalance: ImbalanceSpec = None,
                      mild_fraction: float = 0.0,
                      torque_exponent_range: Optional[tuple[float, float]] = None,
-                     noise: str = "default") -> list[Flight]:
+                     noise: str = "default", accelerometer: bool = True) -> list[Flight]:
     """Simulate ``n`` flights and return them as parsed-log `Flight` objects (see module docstring)."""
     batch = simulate_batch(n, airframes=airframes, damages=damages, mission=mission, duration_s=duration_s,
                            profile=profile, rho=rho, rho_mode=rho_mode, seed=seed, realism=realism,
                            vibration_gain=vibration_gain, healthy_fraction=healthy_fraction, eta_range=eta_range,
                            midflight_fraction=midflight_fraction, imbalance=imbalance, mild_fraction=mild_fraction,
-                           torque_exponent_range=torque_exponent_range, noise=noise)
+                           torque_exponent_range=torque_exponent_range, noise=noise, accelerometer=accelerometer)
     return flights_from_batch(batch)
