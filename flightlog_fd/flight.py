@@ -180,6 +180,10 @@ class StreamInfo:
     samples: int
 
 
+#: The Flight's own time-series fields (``alt_motors`` holds more), in the order `fdlog info` lists them.
+SERIES_FIELDS = ("rates", "attitude", "motors", "esc_rpm", "velocity", "accel")
+
+
 @dataclass
 class Flight:
     """One flight log, as every parser returns it and the simulator writes it.
@@ -229,7 +233,7 @@ class Flight:
     def streams(self) -> list[StreamInfo]:
         """The streams present, with their measured rates (for `fdlog info`)."""
         out = []
-        for name in ("rates", "attitude", "motors", "esc_rpm", "velocity", "accel"):
+        for name in SERIES_FIELDS:
             s = getattr(self, name)
             if s is not None:
                 out.append(StreamInfo(name, s.source, s.rate_hz, len(s)))
@@ -290,8 +294,7 @@ def describe_dropped(name: str, t: np.ndarray, bad: np.ndarray) -> str:
 
 
 def _series_fields(flight: "Flight") -> list[tuple[str, Series, Optional[str]]]:
-    out = [(name, getattr(flight, name), None)
-           for name in ("rates", "attitude", "motors", "esc_rpm", "velocity", "accel")]
+    out = [(name, getattr(flight, name), None) for name in SERIES_FIELDS]
     out += [(f"alt_motors[{k}]", s, k) for k, s in flight.alt_motors.items()]
     return [(n, s, k) for n, s, k in out if s is not None and len(s)]
 
