@@ -11,8 +11,8 @@ Steps (pure: nothing is printed, nothing imports torch):
    windows (:mod:`flightlog_fd.verdict`).
 5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
    baseline or the neighbours, :mod:`flightlog_fd.effectiveness`, the model's votes) from the same
-   resampled segments as the windows, and the flight verdict from model and evidence together
-   (:func:`flightlog_fd.verdict.combine_with_evidence`).
+   resampled segments as the windows, and the flight verdict, each motor's severity and weight
+   from the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
@@ -34,7 +34,8 @@ from .checks import diagnosability
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .phases import window_phases
-from .verdict import N_CLASSES, Verdict, VerdictSettings, combine_with_evidence, decide, not_diagnosable
+from .decision import flight_verdict
+from .verdict import N_CLASSES, Verdict, VerdictSettings, decide, not_diagnosable
 
 EXIT_HEALTHY = 0
 EXIT_DAMAGED_OR_UNCERTAIN = 1
@@ -125,6 +126,9 @@ class Diagnosis:
     flight: Optional[Flight] = field(default=None, repr=False)
     #: Per-motor evidence (:class:`flightlog_fd.evidence.FlightEvidence`); None when not diagnosable.
     evidence: Any = None
+    #: The decision model's output (:class:`flightlog_fd.decision.Decision`: per-motor severity,
+    #: LLR by source, weight); None when not diagnosable.
+    decision: Any = None
 
     @property
     def motors(self) -> list:
@@ -254,9 +258,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     run = model_verdict.evidence.run if model_verdict.evidence is not None else None
     onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
     evidence = flight_evidence(flight, win, probs, profile, since=onset)
-    verdict = combine_with_evidence(model_verdict, probs, evidence, flight.frame)
-    if evidence.airframe_changed:
-        warnings.append(f"the airframe changed since calibration: {evidence.airframe_changed}; re-calibrate")
+    verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame)
     order = np.argsort(t_start, kind="stable")
     windows = [WindowResult(float(t_start[i]), float(t_end[i]), int(np.argmax(probs[i])),
                             [float(x) for x in probs[i]], phases[i], int(verdict.window_labels[i]))
@@ -265,7 +267,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
-    return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence,
+    return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence, decision=decision,
                      diagnosability_facts=dict(check.facts), **common)
 
 
