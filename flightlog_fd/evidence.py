@@ -42,6 +42,11 @@ from .flight import Frame
 
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
 MIN_BEFORE_ONSET_S = 10.0
+#: After a mid-flight onset, a rise of a motor's share between the first and last third of the
+#: run larger than this fraction of its whole change is a drift, not a broken propeller (real
+#: "healthy" Erle flight 11-2-2015_112: motor 2 climbs from 0.58 to 0.88 PWM over 40 s before a
+#: hard landing; SITL steps: the share is flat after the onset).
+ONSET_DRIFT_SHARE = 0.5
 
 
 @dataclass
@@ -108,6 +113,18 @@ class FlightEvidence:
     notes: list[str] = field(default_factory=list)
     #: The baseline the changes are taken against (profile or before onset), None for neighbours.
     baseline_: Optional[Baseline] = None
+    #: (4,) after a mid-flight onset: each share's change from the first to the last third of it.
+    onset_drift: Optional[np.ndarray] = None
+
+    def drifting(self) -> Optional[int]:
+        """The motor whose command rose steadily after the onset rather than in one step, or None."""
+        if self.onset_drift is None:
+            return None
+        for m in self.motors:
+            d = self.onset_drift[m.motor - 1]
+            if m.command_change > 0 and np.isfinite(d) and d > ONSET_DRIFT_SHARE * m.command_change:
+                return m.motor
+        return None
 
     @property
     def effectiveness_usable(self) -> bool:
@@ -178,9 +195,11 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
     taken from the onset on, and without a profile the flight before the onset (at least
     ``MIN_BEFORE_ONSET_S`` of it) is the baseline - the same airframe, healthy, minutes earlier.
     """
+    drift = None
     if since is not None:
         before = [s.w_sq[s.t < since] for s in segments]
         after = [s.w_sq[s.t >= since] for s in segments]
+        drift = _drift(after)
         if baseline is None and sum(len(b) for b in before) / DEFAULT_RATE_HZ >= MIN_BEFORE_ONSET_S:
             pre, pre_thr = command_shares(before)
             baseline = Baseline(share=pre, slope=np.zeros(4), throttle_ref=pre_thr, source="before onset")
@@ -220,6 +239,17 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         notes.append("effectiveness: the fit is physically inconsistent (a motor below "
                      f"{EFFECTIVENESS_SANE_MIN}); not used")
     return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, top_motor=top, single_motor_gap=gap,
-                          effectiveness=effectiveness, notes=notes, baseline_=baseline)
+                          effectiveness=effectiveness, notes=notes, baseline_=baseline, onset_drift=drift)
+
+
+def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
+    """(4,) change of each motor's share from the first to the last third of the samples in
+    ``blocks`` (time order): ~0 after a step (a propeller breaks once), large for a steady rise."""
+    u = np.vstack([np.asarray(b, float) for b in blocks if len(b)]) if any(len(b) for b in blocks) else np.zeros((0, 4))
+    if len(u) < 3 * DEFAULT_RATE_HZ:  # under 3 s after the onset: nothing to compare
+        return None
+    n = len(u) // 3
+    first, last = u[:n].mean(axis=0), u[-n:].mean(axis=0)
+    return last / last.mean() - first / first.mean()
 
 

@@ -694,7 +694,3 @@ def labels_for_spans(truth: dict, t_start: np.ndarray, t_end: np.ndarray) -> np.
     out[t_end < onset] = 0
     out[(t_start < onset) & (t_end >= onset)] = AMBIGUOUS_LABEL
     return out
-    onset = float(onset)
-    out[windows.t_end < onset] = 0
-    out[(windows.t_start < onset) & (windows.t_end >= onset)] = AMBIGUOUS_LABEL
-    return out

@@ -55,7 +55,7 @@ def test_json_validates_and_holds_the_verdict():
     d = make_diagnosis()
     doc = json.loads(render_json(d))
     assert validate(doc) == []
-    assert doc["schema"] == 2 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["schema"] == 3 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
     assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
     assert doc["verdict"]["position"] == "front-left"
     assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
