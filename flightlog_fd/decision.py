@@ -328,7 +328,7 @@ def decide_flight(*, probs: np.ndarray, covered_s: float, shares: Optional[np.nd
                   spread: Optional[Sequence[float]] = None, n_flights: int = 1,
                   throttle_ratio: Optional[float] = None, throttle_spread: Optional[float] = None,
                   effectiveness=None, frame: Optional[Frame] = None,
-                  first_seen: Optional[float] = None) -> Decision:
+                  first_seen: Optional[float] = None, describe=None) -> Decision:
     """The flight's decision from every source (module docstring).
 
     ``probs`` (N, n+1): the flight's windows; ``shares`` (n,) observed command shares, mean 1; ``base_shares`` the healthy
@@ -336,7 +336,7 @@ def decide_flight(*, probs: np.ndarray, covered_s: float, shares: Optional[np.nd
     (``baseline_kind`` "neighbours"); ``spread`` the profile's per-motor drift; ``throttle_ratio``
     the flight's throttle over the profile's (``throttle_spread`` its measured relative drift);
     ``n_flights`` how many calibration flights measured ``spread``. ``first_seen`` goes into the
-    reason."""
+    reason; ``describe(k)`` gives plain words for motor k's command figures to cite there."""
     p = np.asarray(probs, float)
     n = p.shape[1] - 1
     sources: dict[str, np.ndarray] = {}
@@ -386,7 +386,8 @@ def decide_flight(*, probs: np.ndarray, covered_s: float, shares: Optional[np.nd
 
     def evidence_words(k: int) -> str:
         parts = [f"{s} {v[k - 1]:+.1f}" for s, v in sources.items()]
-        return "evidence for it (log-likelihood ratio, nats): " + ", ".join(parts)
+        cite = f"it {describe(k)}; " if describe is not None and "commands" in sources else ""
+        return cite + "evidence for it (log-likelihood ratio, nats): " + ", ".join(parts)
 
     common = dict(motors=motors, airframe_changed=airframe_changed, healthy_chi2=chi_h,
                   share_sigma=float(np.mean(sig)), sources=list(sources))
@@ -436,15 +437,16 @@ def flight_verdict(model_verdict, t_start, t_end, probs, evidence, frame: Option
     order = np.argsort(ts, kind="stable")
     run = model_verdict.evidence.run if model_verdict.evidence is not None else None
     onset = (run is not None and run.start_index > 0 and model_verdict.status == "damaged")
-    # The model's votes are weighed over the whole flight even after a mid-flight onset: the onset
-    # run is the stretch the model itself picked as most damaged, so its votes alone would count
-    # the selection as evidence (real healthy Erle 11-2-2015_112 was called damaged that way).
-    # The command shares are taken from the onset on, against the flight before it.
-    idx = order
     shares = np.array([m.command_share for m in evidence.motors])
     drifting = evidence.drifting() if onset else None
     if drifting is not None:
         shares = None  # a steady rise is not the step a broken propeller makes: not one rotor's loss
+    # After a mid-flight onset the model's votes are weighed from the onset on (the windows before
+    # it are the healthy airframe, and the shares are taken against them), unless the commands
+    # show a drift: the onset run is the stretch the model itself picked as most damaged, so
+    # without a step in the commands its votes alone would count the selection as evidence (real
+    # healthy Erle 11-2-2015_112 was called damaged that way).
+    idx = order[run.start_index:] if (onset and drifting is None) else order
     base = (None if evidence.baseline == "neighbours"
             else np.array([m.command_share_baseline for m in evidence.motors]))
     b = evidence.baseline_
@@ -455,7 +457,7 @@ def flight_verdict(model_verdict, t_start, t_end, probs, evidence, frame: Option
                       throttle_ratio=evidence.throttle_ratio,
                       throttle_spread=None if b is None else b.throttle_spread,
                       effectiveness=evidence.effectiveness, frame=frame,
-                      first_seen=first if onset else None)
+                      first_seen=first if onset else None, describe=evidence.summary)
     evidence.airframe_changed = d.airframe_changed
     if drifting is not None:
         d.reason += (f"; {_words(frame, drifting)} needed steadily more command from t={model_verdict.first_seen:.1f} s "

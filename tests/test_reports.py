@@ -85,7 +85,7 @@ def test_validator_catches_schema_violations():
     assert any("verdict.status" in e for e in errors)
     assert any("windows[0].probabilities" in e for e in errors)
     assert any("missing 'warnings'" in e for e in errors)
-    assert JSON_SCHEMA["properties"]["schema"]["const"] == 2
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 3
 
 
 # ---------------------------------------------------------------- CSV
