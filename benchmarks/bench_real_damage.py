@@ -116,6 +116,7 @@ def real_part(args) -> None:
         cases.append(("px4_sih_dev, no profile", None, [],
                       [(lg.name, grp(lg), lg.path, lg.truth["motor"]) for lg in sih]))
 
+    model_stats: dict[str, list] = defaultdict(list)
     print("\n== real flights: cells = healthy / uncertain / damaged (motors named) per group ==")
     for label, pname, cal_paths, flights in cases:
         profile = _profile(pname, cal_paths, args.profiles, tmp) if pname else None
@@ -141,6 +142,13 @@ def real_part(args) -> None:
                 m = d.decision.motors[v.motor - 1]
                 eta = f" eta-hat {m.eta_hat:.2f} [{m.eta_ci[0]:.2f}-{m.eta_ci[1]:.2f}]"
             detail.append(f"    {name}: {v.status}{' motor ' + str(v.motor) if v.motor else ''}{eta}")
+            if pname is None and d.windows:
+                from flightlog_fd.decision import PROB_FLOOR_MIX
+
+                pr = np.array([w.probabilities for w in d.windows])
+                q = (1 - PROB_FLOOR_MIX) * pr + PROB_FLOOR_MIX / pr.shape[1]
+                lr = np.log(q[:, 1:]) - np.log(q[:, :1])
+                model_stats[label].append((truth if group == "eta<=0.8" else 0, lr.mean(axis=0), float(np.median((lr - lr.mean(axis=0)).std(axis=0)))))
         groups = list(dict.fromkeys(g for _, g, _, _ in flights))
         print(f"\n{label}")
         print("  " + f"{'':20s}" + "".join(f"{g:>26s}" for g in groups) + ("   right motor" if right else ""))
@@ -149,6 +157,16 @@ def real_part(args) -> None:
             print("  " + f"{row:20s}" + "".join(f"{_cell(cells[g]):>26s}" for g in groups) + extra)
         if args.verbose:
             print("\n".join(detail))
+    print("\n== the shipped model's flight-mean window log ratios (decision.MODEL_* constants) ==")
+    for label, rows in model_stats.items():
+        if label.startswith("real healthy"):
+            allm = np.concatenate([m for _, m, _ in rows])
+            print(f"  {label}: all motors mean {allm.mean():+.2f}, sd {allm.std(ddof=1):.2f}; within-flight window "
+                  f"sd median {np.median([w for _, _, w in rows]):.2f}; most-voted motor per flight "
+                  f"{min(m.max() for _, m, _ in rows):+.2f} .. {max(m.max() for _, m, _ in rows):+.2f}")
+        if label.startswith("px4_sih_dev, no profile"):
+            dm = np.array([m[t - 1] for t, m, _ in rows if t])
+            print(f"  {label}, the damaged motor of the eta <= 0.8 flights (mid-flight onsets included): median {np.median(dm):+.2f}, sd {dm.std(ddof=1):.2f}")
 
 
 def spread_figures() -> None:

@@ -647,16 +647,6 @@ def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: boo
                    scales={k: v.tolist() for k, v in scales.items()}, segments=segments)
 
 
-def nif_windows(flight: Flight, **spec_kwargs) -> Windows:
-    """NIF windows (p_dot, q_dot, r_dot, w1_sq..w4_sq) with a default spec updated by ``spec_kwargs``."""
-    return make_windows(flight, FeatureSpec(features="nif", **spec_kwargs))
-
-
-def cf_windows(flight: Flight, **spec_kwargs) -> Windows:
-    """CF windows (roll, pitch, p, q, r, w1..w4) with a default spec updated by ``spec_kwargs``."""
-    return make_windows(flight, FeatureSpec(features="cf", **spec_kwargs))
-
-
 #: Label of a window that straddles a mid-flight fault onset (dropped in training).
 AMBIGUOUS_LABEL = -1
 

@@ -800,14 +800,6 @@ def _velocity(tables) -> Optional[Series]:
     return None
 
 
-def _clock_gaps(times: np.ndarray) -> np.ndarray:
-    """Start times of samples that follow a logging gap longer than LOGGING_GAP_S."""
-    if times.size < 2:
-        return np.zeros(0)
-    gap = np.diff(times) > LOGGING_GAP_S
-    return times[1:][gap]
-
-
 def _events(tables) -> tuple[np.ndarray, np.ndarray]:
     """(times, ids) of EV messages, time-ordered."""
     if "EV" not in tables or "Id" not in tables["EV"].columns or tables["EV"].t is None:
