@@ -4,7 +4,10 @@ Inputs: a :class:`~flightlog_fd.flight.Flight` and optionally the model's featur
 and window length decide how much airborne time is needed).
 
 Rules (each failing rule adds one reason, in the order a pilot would fix them):
-- the vehicle is a quadrotor with a known 4-rotor layout (hexa, octo, fixed-wing, VTOL are named);
+- the vehicle is a quadrotor with a known 4-rotor layout (fixed-wing and VTOL are named; a hexa,
+  octo or other n-rotor frame is told that only stopped-motor detection
+  (:func:`flightlog_fd.stopped.diagnose_stopped`) is available; a frame whose rotors cannot be
+  placed gets the reason from :mod:`flightlog_fd.frames`);
 - per-motor commands for 4 motors and body angular rates are present;
 - the rate streams are fast enough: angular rates >= ``MIN_RATES_HZ`` (the angular acceleration is a
   derivative of them), motor commands >= ``MIN_MOTORS_HZ`` (PX4's default 10 Hz logging passes);
@@ -24,6 +27,9 @@ MIN_MOTORS_HZ = 5.0
 MIN_AIRBORNE_S = 8.0
 # The verdict needs several windows to smooth over: use its own minimum so that both agree.
 from .verdict import MIN_WINDOWS  # noqa: E402
+
+#: Vehicle types whose placed n-rotor frame gets the stopped-motor-only message (readers' vehicle_type).
+MULTIROTOR_TYPES = ("quadrotor", "unknown", "multirotor", "hexarotor", "octorotor", "dodecarotor", "decarotor")
 
 DEFAULT_RATE_HZ = 50.0
 DEFAULT_WINDOW = 80
@@ -59,8 +65,12 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
     is_quad = frame is not None and frame.is_quad
     vtype = (flight.vehicle_type or "unknown").lower()
     if vtype not in ("quadrotor", "unknown", "multirotor") or not is_quad:
-        if vtype in ("quadrotor", "unknown", "multirotor") and frame is not None and frame.rotor_count and frame.rotor_count != 4:
-            reasons.append(f"not a quadrotor: {frame.rotor_count}-rotor frame ({frame.name}); fdlog diagnoses quadrotors only")
+        n = frame.rotor_count if frame is not None else 0
+        if vtype in MULTIROTOR_TYPES and frame is not None and n and n != 4:
+            reasons.append(f"{n}-rotor frame ({frame.name}): fdlog has no {n}-rotor propeller-damage model yet; "
+                           f"only stopped-motor detection is available for it")
+        elif vtype in MULTIROTOR_TYPES and frame is not None and frame.unplaced:
+            reasons.append(f"cannot place the rotors of this {frame.name} frame: {frame.unplaced}")
         elif vtype not in ("quadrotor", "unknown", "multirotor"):
             reasons.append(f"not a quadrotor: this log is from a {describe_vehicle(flight).replace('vtol', 'VTOL')}; "
                            f"fdlog diagnoses quadrotors only")
@@ -109,9 +119,13 @@ def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
             "name": frame.name,
             "rotor_count": frame.rotor_count,
             "source": frame.source,
+            "layout": frame.layout,
+            "unplaced": frame.unplaced or None,
             "motors": [
                 {"motor": i + 1, "position": frame.position(i + 1), "x": r.x, "y": r.y,
-                 "spin": "CCW" if r.spin > 0 else "CW"}
+                 "spin": "CCW" if r.spin > 0 else ("CW" if r.spin < 0 else "none"),
+                 "axis": list(r.axis),
+                 "output": frame.outputs[i] if i < len(frame.outputs) else None}
                 for i, r in enumerate(frame.rotors)
             ],
         },
