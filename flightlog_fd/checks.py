@@ -28,6 +28,10 @@ MIN_AIRBORNE_S = 8.0
 # The verdict needs several windows to smooth over: use its own minimum so that both agree.
 from .verdict import MIN_WINDOWS  # noqa: E402
 
+#: ArduPilot quad layouts diagnosed as quads: motors 1-4 where quad-X's (X, V, H) or quad-+'s sit. The
+#: other quad tables (BF_X, DJI_X, CW_X, V-/A-tail, Y4...) are placed for `fdlog info` and the
+#: stopped-motor finding only, as before they were placed at all.
+ARDUPILOT_QUAD_LAYOUTS = ("ArduPilot QUAD/X", "ArduPilot QUAD/PLUS", "ArduPilot QUAD/V", "ArduPilot QUAD/H")
 #: Vehicle types whose placed n-rotor frame gets the stopped-motor-only message (readers' vehicle_type).
 MULTIROTOR_TYPES = ("quadrotor", "unknown", "multirotor", "hexarotor", "octorotor", "dodecarotor", "decarotor")
 
@@ -78,6 +82,9 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
             reasons.append("unknown frame: the log has no rotor geometry or frame parameters")
         else:
             reasons.append(f"unsupported frame {frame.name!r}; fdlog diagnoses quad-X and quad-+ frames")
+    elif frame.layout.startswith("ArduPilot QUAD/") and frame.layout not in ARDUPILOT_QUAD_LAYOUTS:
+        reasons.append(f"unsupported frame {frame.layout}: its motor numbering is not quad-X / quad-+ (the model's "
+                       f"motor classes follow quad-X numbering); fdlog diagnoses quad-X and quad-+ frames")
     if flight.motors is None:
         reasons.append("no per-motor outputs in the log (actuator_motors / actuator_outputs / RCOU)")
     elif flight.motors.values.shape[1] < 4:

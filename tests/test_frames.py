@@ -311,3 +311,12 @@ def test_ulog_round_trip_hexa_reads_six_motors(tmp_path):
     assert back.frame.name == "hexa" and back.motors.values.shape[1] == 6
     assert [back.frame.position(k) for k in range(1, 7)] == [hexa.position(k) for k in range(1, 7)]
     np.testing.assert_allclose(back.motors.values, motors, atol=1e-6)
+
+
+@pytest.mark.parametrize("ftype, diagnosable", [(1, True), (0, True), (2, True), (3, True), (12, False),
+                                                (13, False), (14, False), (4, False), (19, False)])
+def test_only_the_quad_layouts_diagnosed_before_are_diagnosed(ftype, diagnosable):
+    d = diagnosability(_flight(ardupilot_frame(1, ftype), "quadrotor"))
+    assert d.ok is diagnosable, d.reasons
+    if not diagnosable:
+        assert d.reasons[0].startswith(f"unsupported frame ArduPilot QUAD/")

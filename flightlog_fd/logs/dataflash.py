@@ -24,7 +24,9 @@ multipliers are metadata that pymavlink does not apply either. pymavlink's clock
   ``c`` scaling).
 - ``motors``: ``RCOU`` PWM per motor, normalised with ``MOT_PWM_MIN/MAX`` (or, when those are 0,
   the throttle channel's ``RC3_MIN/MAX``, else 1000/2000) and clipped to 0..1, motor k taken
-  from the output whose ``SERVOn_FUNCTION`` is 33+k-1 (82.. for motors 9..12); before 3.5 (no
+  from the output whose ``SERVOn_FUNCTION`` is 33+k-1 (82.. for motors 9..12) as logged at the
+  start (an output re-assigned in flight is warned about, not followed: its ESC stays wired to
+  that motor); n = the frame's rotor count (6 on a hexa, RCOU C1..C14); before 3.5 (no
   ``SERVOn_FUNCTION``) outputs 1..n are motors 1..n; a plane's RCOU is used only through
   those lift-motor functions. ``motor_kind = "signal"``; spin min/max are not removed.
   When ``RATE`` carries the mixer inputs at a higher rate than ``RCOU`` (ArduCopter logs RCOU
@@ -72,10 +74,12 @@ since ArduCopter 3.4 introduced it) for firmware >= 3.4, else ``None`` (3.3 used
 piecewise ``MOT_TCRV_*`` curve), with a warning.
 
 Frame: ``FRAME_CLASS`` (1 quad, 2 hexa, 3 octa, 4 octaquad, 5 Y6, 6 heli, 7 tri, ...) and
-``FRAME_TYPE`` (0 plus, 1 X, 2 V, 3 H, ...), or the pre-3.5 ``FRAME`` parameter (0 plus, 1 X,
+``FRAME_TYPE`` (0 plus, 1 X, 2 V, 3 H, ..., 14 CW_X), or the pre-3.5 ``FRAME`` parameter (0 plus, 1 X,
 2 V, 3 H) with the class from the ``Frame: QUAD`` startup message. Rotors use ArduPilot's
 numbering and arm angles (quad-X 1 front-right CCW, 2 rear-left CCW, 3 front-left CW, 4
-rear-right CW; plus 1 right, 2 left, 3 front, 4 back).
+rear-right CW; plus 1 right, 2 left, 3 front, 4 back); every other class/type comes from the
+firmware's motor tables in :mod:`flightlog_fd.frames` (``Frame.unplaced`` says why when none
+applies), and ``Frame.outputs`` holds each motor's output channel.
 
 Timestamps (checks and thresholds in :mod:`flightlog_fd.flight`): each decoded message type is
 checked in FILE order (``TimeUS``/``TimeMS``, and ``SampleUS`` where present) before anything is

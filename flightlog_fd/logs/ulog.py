@@ -39,7 +39,10 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
 - ``frame``: ``CA_ROTOR_COUNT`` and ``CA_ROTOR{i}_PX/PY/KM`` (i 0-based = motor i+1) when the
   control allocator is in use (no ``SYS_CTRL_ALLOC = 0``), else the ``SYS_AUTOSTART`` airframe
   range (4xxx/10xxx quad-X, 5xxx quad-+, 6xxx/7xxx/11xxx hexa, 8xxx/9xxx/12xxx octo, 13xxx VTOL,
-  2xxx/3xxx fixed wing), else quad-X assumed for ``MAV_TYPE`` 2, with a warning. A 4-rotor
+  2xxx/3xxx fixed wing; the hexa/octo/coaxial ranges get PX4's mixer geometry from
+  :mod:`flightlog_fd.frames`), else quad-X assumed for ``MAV_TYPE`` 2, with a warning. n-rotor
+  control-allocation frames get rotor names, thrust axes (``CA_ROTORn_AX/AY/AZ``) and, when every
+  rotor has a coaxial partner, the name ``y6``/``octaquad``. A 4-rotor
   layout is ``quad_x``/``quad_plus`` only when its positions match PX4's motor numbering,
   otherwise ``quad_other``; spin directions that differ from the convention give a warning.
 - ``vehicle_type`` from ``MAV_TYPE`` (else ``vehicle_status.system_type``/``vehicle_type``);
