@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .flight import Flight
+from .stopped import diagnose_stopped
 
 #: Below this the derivative of the gyro no longer resolves a quad's attitude dynamics (a few Hz).
 MIN_RATES_HZ = 15.0
@@ -148,6 +149,11 @@ def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
         "streams": [
             {"name": s.name, "source": s.source, "rate_hz": round(s.rate_hz, 2), "samples": s.samples}
             for s in flight.streams()
+        ],
+        "stopped_motors": [
+            {"motor": f.motor, "t_start": round(f.t_start, 3), "t_end": round(f.t_end, 3), "evidence": f.evidence,
+             "source": f.source}
+            for f in diagnose_stopped(flight)
         ],
         "diagnosable": d.ok,
         "reasons": d.reasons,

@@ -264,10 +264,12 @@ def test_info_prints_the_geometry(shared):
     assert [m["position"] for m in d["frame"]["motors"]] == ["front-right", "right", "rear-right", "rear-left",
                                                              "left", "front-left"]
     assert [m["output"] for m in d["frame"]["motors"]] == [1, 2, 3, 4, 5, 6]
+    assert [(m["motor"], round(m["t_start"], 2)) for m in d["stopped_motors"]] == [(1, 80.98)]
     assert d["reasons"] == ["6-rotor frame (hexa): fdlog has no 6-rotor propeller-damage model yet; "
                             "only stopped-motor detection is available for it"]
     res = CliRunner().invoke(app, ["info", str(path)])
     assert "ArduPilot HEXA/CW_X" in res.stdout and "rear-right" in res.stdout and "thrust axis" in res.stdout
+    assert "motor 1 at t=80.98 s" in res.stdout
 
 
 def _flight(frame: Frame, vehicle_type: str) -> Flight:

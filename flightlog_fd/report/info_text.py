@@ -40,6 +40,9 @@ def print_info(console: Console, d: dict) -> None:
     console.print(t)
     for w in d.get("warnings", []):
         console.print(f"  [yellow]warning[/yellow] {escape(w)}")
+    for m in d.get("stopped_motors", []):
+        console.print(f"  [red]stopped[/red]    motor {m['motor']} at t={m['t_start']:.2f} s for "
+                      f"{m['t_end'] - m['t_start']:.1f} s: {escape(m['evidence'])}")
     console.print(f"  verdict    {verdict}")
     console.print()
 
