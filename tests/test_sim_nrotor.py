@@ -71,3 +71,24 @@ def test_simulated_hexa_written_as_ulog_reads_back(tmp_path):
     assert back.frame.name == "hexa" and back.vehicle_type == "hexarotor" and back.motors.values.shape[1] == 6
     assert [back.frame.position(k) for k in range(1, 7)] == [f.frame.position(k) for k in range(1, 7)]
     assert len(nif_windows(back, n_motors=6)) > 5
+
+
+def test_cli_simulates_a_hexa_and_refuses_what_it_cannot_write(tmp_path):
+    from typer.testing import CliRunner
+
+    from flightlog_fd.cli import app
+
+    run = CliRunner()
+    out = tmp_path / "h.ulg"
+    res = run.invoke(app, ["simulate", "-o", str(out), "--frame", "hexa_x", "--motor", "5", "--eta", "0.7",
+                           "--duration", "20", "--seed", "3"])
+    assert res.exit_code == 0, res.output
+    res = run.invoke(app, ["info", "--json", str(out)])
+    assert '"name": "hexa"' in res.stdout and '"layout": "PX4 control allocation"' in res.stdout
+    for args, words in ((["--frame", "hexa_x", "-f", "dataflash"], "quadrotors only"),
+                        (["--frame", "octo_x", "--motor", "9"], "1..8"),
+                        (["--frame", "hexa_x", "--rho", "1,1,1,1"], "needs 6 values"),
+                        (["--frame", "hexa_v"], "--frame must be one of")):
+        res = run.invoke(app, ["simulate", "-o", str(tmp_path / "x.bin" if "dataflash" in args else tmp_path / "x.ulg"),
+                               *args])
+        assert res.exit_code == 2 and words in res.output, (args, res.output)

@@ -1,4 +1,9 @@
-"""Quadrotor airframes for the simulator: physical parameters, controller gains, presets, randomisation.
+"""Multirotor airframes for the simulator: physical parameters, controller gains, presets, randomisation.
+
+Frames: quad-X and quad-+ (``FRAMES``) and the n-rotor ``N_ROTOR_FRAMES`` (hexa X/+, octo X/+,
+coaxial octaquad X) with the autopilots' motor numbering from :mod:`flightlog_fd.frames`; one
+batch flies one rotor count. ``preset(name, "hexa_x")`` keeps the preset's thrust-to-weight
+ratio (each of n rotors gets 4/n of a quad rotor's thrust).
 
 Units: SI throughout. Mass kg, inertia kg·m² (body FRD principal axes, diagonal), arm length m
 (rotor centre to vehicle centre), rotor thrust ``k_f * w**2`` N with ``w`` in rad/s, rotor drag
