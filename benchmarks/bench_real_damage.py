@@ -151,10 +151,10 @@ def real_part(args) -> None:
                 model_stats[label].append((truth if group == "eta<=0.8" else 0, lr.mean(axis=0), float(np.median((lr - lr.mean(axis=0)).std(axis=0)))))
         groups = list(dict.fromkeys(g for _, g, _, _ in flights))
         print(f"\n{label}")
-        print("  " + f"{'':20s}" + "".join(f"{g:>26s}" for g in groups) + ("   right motor" if right else ""))
+        print("  " + f"{'':20s}" + "".join(f"{g:>30s}" for g in groups) + ("   right motor" if right else ""))
         for row, cells in rows.items():
             extra = f"   {right[row]}" if right and row in right else ("   -" if right else "")
-            print("  " + f"{row:20s}" + "".join(f"{_cell(cells[g]):>26s}" for g in groups) + extra)
+            print("  " + f"{row:20s}" + "".join(f"{_cell(cells[g]):>30s}" for g in groups) + extra)
         if args.verbose:
             print("\n".join(detail))
     print("\n== the shipped model's flight-mean window log ratios (decision.MODEL_* constants) ==")

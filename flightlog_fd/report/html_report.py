@@ -44,7 +44,7 @@ LINE_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
 CLASS_COLOURS = ("#2e7d32", "#d62728", "#9467bd", "#ff7f0e", "#1f77b4")  # healthy, motors 1-4
 SHADE_COLOURS = {0: "#e8f5e9", 1: "#ffebee", 2: "#ffebee", 3: "#ffebee", 4: "#ffebee",
                  UNCERTAIN_LABEL: "#fff8e1"}
-STATUS_COLOURS = {"healthy": "#2e7d32", "damaged": "#c62828", "uncertain": "#ef6c00",
+STATUS_COLOURS = {"healthy": "#2e7d32", "damaged": "#c62828", "stopped": "#c62828", "uncertain": "#ef6c00",
                   "not_diagnosable": "#6a1b9a"}
 
 CSS = """

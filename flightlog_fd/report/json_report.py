@@ -16,8 +16,8 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
       "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
-      "verdict": {"status": "healthy" | "damaged" | "uncertain" | "not_diagnosable",
-                  "motor": 1-4 | null,            # autopilot numbering
+      "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
+                  "motor": 1-n | null,            # autopilot numbering (n = the frame's rotor count)
                   "position": "front-right" | ... | null,
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
@@ -49,6 +49,8 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
                    "probabilities": [p0, p1, p2, p3, p4],
                    "phase": "hover" | "climb" | "descent" | "manoeuvre" | "unknown",
                    "smoothed_class": -1..4}],     # the verdict's label: -1 uncertain
+      "stopped_motors": [{"motor": 1-n, "t_start": s, "t_end": s,   # "motor k stopped" while airborne,
+                          "evidence": str, "source": str}],        # any frame (status "stopped")
       "warnings": [str],
       "exit_code": 0 | 1 | 2
     }
@@ -71,6 +73,8 @@ from .. import __version__
 from ..diagnose import Diagnosis
 
 SCHEMA_VERSION = 3
+#: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
+MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
 PROB_DECIMALS = 4
 TIME_DECIMALS = 3
@@ -107,8 +111,8 @@ JSON_SCHEMA: dict = {
             "type": "object",
             "required": ["status", "motor", "position", "confidence", "first_seen", "reason"],
             "properties": {
-                "status": {"enum": ["healthy", "damaged", "uncertain", "not_diagnosable"]},
-                "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": 4},
+                "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
+                "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
                 "position": _STR_OR_NULL,
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
@@ -179,6 +183,13 @@ JSON_SCHEMA: dict = {
                 },
             },
         },
+        "stopped_motors": {
+            "type": "array",
+            "items": {"type": "object", "required": ["motor", "t_start", "t_end", "evidence", "source"],
+                      "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                     "t_start": _NUM, "t_end": _NUM, "evidence": {"type": "string"},
+                                     "source": {"type": "string"}}},
+        },
         "warnings": {"type": "array", "items": {"type": "string"}},
         "exit_code": {"enum": [0, 1, 2]},
     },
@@ -234,6 +245,9 @@ def to_dict(d: Diagnosis) -> dict:
         "windows": [{"t_start": round(w.t_start, TIME_DECIMALS), "t_end": round(w.t_end, TIME_DECIMALS),
                      "class": w.cls, "probabilities": [round(x, PROB_DECIMALS) for x in w.probabilities],
                      "phase": w.phase, "smoothed_class": w.label} for w in d.windows],
+        "stopped_motors": [{"motor": int(x.motor), "t_start": round(float(x.t_start), TIME_DECIMALS),
+                            "t_end": round(float(x.t_end), TIME_DECIMALS), "evidence": x.evidence,
+                            "source": x.source} for x in d.stopped],
         "warnings": list(d.warnings),
         "exit_code": d.exit_code,
     }

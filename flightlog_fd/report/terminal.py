@@ -33,7 +33,7 @@ TIMELINE_WIDTH = 60
 LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", 1: "1", 2: "2", 3: "3", 4: "4"}
 LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", 1: "bold red", 2: "bold red",
                 3: "bold red", 4: "bold red"}
-STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "uncertain": "bold yellow",
+STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "stopped": "bold red", "uncertain": "bold yellow",
                  "not_diagnosable": "bold magenta"}
 CLASS_NAMES = ("healthy", "motor 1", "motor 2", "motor 3", "motor 4")
 
@@ -54,6 +54,8 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         return f"No propeller damage found, confidence {v.confidence:.2f} ({n} windows{covered})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
+    if v.status == "stopped":
+        return f"Motor {_motor_words(v.motor, v.position)} stopped in flight at t={v.first_seen:.1f} s"
     return f"Not diagnosable: {v.reason}"
 
 
@@ -182,7 +184,7 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
     v = diagnosis.verdict
     parts: list = [Text(diagnosis.log, style="bold"),
                    Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
-    if v.status in ("damaged", "healthy", "uncertain") and v.reason:
+    if v.status in ("damaged", "healthy", "uncertain", "stopped") and v.reason:
         parts.append(Text(f"  {v.reason}", style="dim"))
     line = facts_line(diagnosis)
     if line:
