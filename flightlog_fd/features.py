@@ -29,7 +29,8 @@ Pipeline (every step documented where it is implemented):
      emulation does this); the damage signature (a persistent offset of one motor's share) is
      slow and survives.
 2. **Angular acceleration** (p_dot, q_dot, r_dot, rad/s^2): a Savitzky-Golay derivative
-   (``scipy.signal.savgol_filter``, ``polyorder`` 2, ``deriv=1``) over ``savgol_window_s``
+   (``scipy.signal.savgol_filter``'s numbers, ``polyorder`` 2, ``deriv=1``, from
+   :func:`flightlog_fd.filters.savgol_at`, which computes only the samples kept) over ``savgol_window_s``
    (default 0.1 s). Why: a plain finite difference multiplies gyro noise by ~sqrt(2)/dt
    (at 250 Hz, 6 deg/s of noise becomes ~37 rad/s^2); a local least-squares slope over 0.1 s
    cuts the noise gain by ~sqrt(6 / N^3) while keeping amplitude and phase of the slow dynamics
@@ -77,9 +78,9 @@ from typing import Optional
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy.signal import savgol_filter
 
 from .errors import MissingDataError, NotDiagnosableError, UnsupportedVehicleError
+from .filters import savgol_at
 from .flight import Flight, Series
 
 #: Version of the feature definition; bump when a change alters the numbers a model sees.
@@ -446,7 +447,32 @@ def _grid_indices(pieces: list[tuple[float, float]], fine_hz: float) -> np.ndarr
     parts = [p for p in parts if p.size]
     if not parts:
         return np.zeros(0, dtype=np.int64)
-    return np.unique(np.concatenate(parts))
+    j = np.concatenate(parts)
+    # the pieces are time-ordered and disjoint, so j is already ascending and unique unless two
+    # pieces meet within the rounding tolerance (np.unique hashes: 0.1-0.3 s on a 600 s 400 Hz log)
+    return j if j.size < 2 or bool(np.all(np.diff(j) > 0)) else np.unique(j)
+
+
+def _valid_everywhere(needed: list[Stream], tf: np.ndarray, pieces: list[tuple[float, float]]) -> np.ndarray:
+    """``AND(s.valid_at(tf) for s in needed)`` for grid times ``tf`` made inside ``pieces`` (the
+    intersection of every needed stream's covered intervals, see _grid_indices).
+
+    A time strictly inside a piece lies strictly inside a covered interval of every stream, where
+    valid_at is true; so only the grid points at or next to a piece's ends are tested (the same
+    test), instead of a binary search of every fine grid point in every stream."""
+    ok = np.ones(tf.shape, dtype=bool)
+    if tf.size == 0:
+        return ok
+    ends = np.array([x for piece in pieces for x in piece], dtype=np.float64)
+    left = np.searchsorted(tf, ends, side="left")
+    right = np.searchsorted(tf, ends, side="right")
+    cand = np.unique(np.clip(np.concatenate([left - 1, left, right]), 0, tf.size - 1))
+    sub = tf[cand]
+    good = np.ones(cand.shape, dtype=bool)
+    for s in needed:
+        good &= s.valid_at(sub)
+    ok[cand] = good
+    return ok
 
 
 def _split_at_jumps(runs: list[tuple[int, int]], j: np.ndarray) -> list[tuple[int, int]]:
@@ -542,25 +568,34 @@ def _check_n_rotor_frame(flight: Flight, n_motors: int) -> None:
                                                    f"{frame.name} with {frame.rotor_count} rotors")
 
 
-def resample(flight: Flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float = DEFAULT_MAX_GAP_S,
+def resample(flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float = DEFAULT_MAX_GAP_S,
              trim_s: float = DEFAULT_TRIM_S, savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S,
              need_attitude: bool = False, speed_source: str = "command", n_motors: int = 4) -> list[Segment]:
     """Gap-free airborne :class:`Segment` s on a uniform grid at ``rate_hz`` (see module docstring).
 
+    ``flight``: a Flight or a :class:`~flightlog_fd.prepared.PreparedFlight` (which computes each
+    setting once and shares the list: callers must not modify it).
     Needed streams: rates, motors (or ESC rpm) and, if ``need_attitude``, attitude; a gap in any
     of them splits the segment. Raises MissingDataError / UnsupportedVehicleError when a needed
     stream is absent or the vehicle does not have ``n_motors`` rotors (4: a quadrotor); returns []
     when nothing is airborne.
     """
+    from .prepared import PreparedFlight
+
+    return PreparedFlight.of(flight).segments(rate_hz, max_gap_s, trim_s, savgol_window_s, need_attitude,
+                                              speed_source, n_motors)
+
+
+def _resample(prep, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
+              need_attitude: bool, speed_source: str, n_motors: int) -> list[Segment]:
+    """:func:`resample` on a PreparedFlight's cleaned streams (called once per setting)."""
+    flight = prep.flight
     _check_streams(flight, need_attitude, n_motors)
-    rates = clean_stream(flight.rates, max_gap_s, 3)
-    speed, source = _speed_stream(flight, speed_source, rate_hz, max_gap_s, n_motors)
-    motors = clean_stream(flight.motors, max_gap_s, n_motors)
-    attitude = None
-    if flight.attitude is not None and len(flight.attitude) >= 2 and flight.attitude.values.shape[1] >= 2:
-        attitude = clean_stream(flight.attitude, max_gap_s, 2)
-        # Unwrap (after NaNs are gone) so interpolation between +179 and -179 deg avoids 0.
-        attitude.v = np.unwrap(attitude.v, axis=0)
+    rates = prep.clean("rates", max_gap_s, 3)
+    speed, source = prep.speed_stream(speed_source, rate_hz, max_gap_s, n_motors)
+    motors = prep.clean("motors", max_gap_s, n_motors)
+    # Unwrapped (after NaNs are gone) so interpolation between +179 and -179 deg avoids 0.
+    attitude = prep.attitude(max_gap_s)
     needed = [rates, speed, motors] + ([attitude] if need_attitude else [])
 
     # Fine grid for the derivative: an integer multiple of the model rate, so that every model
@@ -583,29 +618,30 @@ def resample(flight: Flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float 
         t0, t1 = a + trim_s, b - trim_s
         if t1 <= t0:
             continue
-        j = _grid_indices(_intersect_sorted(coverage, [(t0, t1)]), fine_hz)
+        pieces = _intersect_sorted(coverage, [(t0, t1)])
+        j = _grid_indices(pieces, fine_hz)
         if j.size == 0:
             continue
         tf = j / fine_hz
-        ok = np.ones(tf.shape, dtype=bool)
-        for s in needed:
-            ok &= s.valid_at(tf)
+        ok = _valid_everywhere(needed, tf, pieces)
         for lo, hi in _split_at_jumps(_runs(ok), j):
             if hi - lo < n_sg:
                 continue
             tf_run, j_run = tf[lo:hi], j[lo:hi]
-            w_fine = rates.interp(tf_run)
-            dt = 1.0 / fine_hz
-            smooth = savgol_filter(w_fine, n_sg, SAVGOL_POLYORDER, deriv=0, axis=0)
-            dwdt = savgol_filter(w_fine, n_sg, SAVGOL_POLYORDER, deriv=1, delta=dt, axis=0)
             on_grid = (j_run % k) == 0
             if np.count_nonzero(on_grid) < 2:
                 continue
+            w_fine = rates.interp(tf_run)
+            dt = 1.0 / fine_hz
+            # the filters' values at the grid samples only (the fine samples between are dropped)
+            keep = np.flatnonzero(on_grid)
+            smooth = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=0)
+            dwdt = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=1, delta=dt)
             tg = j_run[on_grid] / fine_hz
             att = (attitude.interp(tg) if attitude is not None else np.full((tg.size, 2), np.nan))
             att = (att + np.pi) % (2 * np.pi) - np.pi
-            segments.append(Segment(t=tg, rates=smooth[on_grid], attitude=att, motors=motors.interp(tg),
-                                    w_sq=speed.interp(tg), ang_acc=dwdt[on_grid], speed_source=source))
+            segments.append(Segment(t=tg, rates=smooth, attitude=att, motors=motors.interp(tg),
+                                    w_sq=speed.interp(tg), ang_acc=dwdt, speed_source=source))
     return segments
 
 
@@ -636,15 +672,20 @@ def _empty_windows(spec: FeatureSpec, source: str, reason: str, n_segments: int 
                    n_segments=n_segments, segment_s=segment_s, reason=reason)
 
 
-def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: bool = False) -> Windows:
-    """Windows (before standardisation) of one flight, following ``spec``.
+def make_windows(flight, spec: Optional[FeatureSpec] = None, strict: bool = False) -> Windows:
+    """Windows (before standardisation) of one flight (a Flight or a
+    :class:`~flightlog_fd.prepared.PreparedFlight`, whose segments it then shares), following ``spec``.
 
     Returns an empty :class:`Windows` with ``reason`` set when the flight yields none, or raises
     NotDiagnosableError with that reason when ``strict``. Raises MissingDataError /
     UnsupportedVehicleError when a needed stream is absent or the vehicle is not a quadrotor.
     """
+    from .prepared import PreparedFlight
+
     spec = spec or FeatureSpec()
-    segments = resample(flight, spec.rate_hz, spec.max_gap_s, spec.trim_s, spec.savgol_window_s,
+    prep = PreparedFlight.of(flight)
+    flight = prep.flight
+    segments = resample(prep, spec.rate_hz, spec.max_gap_s, spec.trim_s, spec.savgol_window_s,
                         need_attitude=(spec.features == "cf"), speed_source=spec.speed_source,
                         n_motors=spec.n_motors)
     source = segments[0].speed_source if segments else spec.speed_source

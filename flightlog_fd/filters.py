@@ -1,0 +1,182 @@
+"""Savitzky-Golay and first-order lag filters in numpy, evaluated only where they are needed.
+
+What: :func:`savgol_at` gives ``scipy.signal.savgol_filter(x, n, p, deriv, delta, axis=0,
+mode="interp")[idx]`` bit for bit (the same coefficients from ``scipy.linalg.lstsq``, the same
+symmetric summation order as ``scipy.ndimage.correlate1d``, the same polynomial edge fits) while
+computing only the rows ``idx``; :func:`lag` and :func:`lag_at_grid` give the first-order lag of
+:func:`flightlog_fd.effectiveness` (``lfilter([1-a], [1, -a], u, zi=a*u[0])``) within float noise.
+
+Why: ``scipy.signal`` costs 0.6-1.6 s to import on this project's machines (it imports
+``scipy.stats``), more than a whole diagnosis, and the features only keep every k-th sample of a
+filter run at k x the model rate (k up to 8), so filtering every fine sample wastes 7/8 of the work.
+``scipy.linalg`` (used for the coefficients) costs 0.06-0.12 s more once ``scipy.ndimage`` is in.
+
+Limits: ``mode="interp"`` only, odd windows, ``x`` 1-D or 2-D along axis 0.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+from math import factorial
+
+import numpy as np
+
+#: Symmetry tolerance of scipy.ndimage's correlate1d (DBL_EPSILON): within it a filter is summed
+#: as symmetric (x[-j] + x[j]) * w[j] or antisymmetric (x[-j] - x[j]) * w[j].
+_SYMMETRY_EPS = np.finfo(np.float64).eps
+#: A lag term smaller than this fraction of the signal is below float64 resolution and dropped.
+LAG_TRUNCATION = 1e-18
+
+
+def _lstsq(a: np.ndarray, b: np.ndarray, cond: float) -> tuple[np.ndarray, int]:
+    from scipy.linalg import lstsq  # light once scipy.ndimage (flight.py) is loaded
+
+    c, _, rank, _ = lstsq(a, b, cond=cond)
+    return c, int(rank)
+
+
+@lru_cache(maxsize=64)
+def savgol_coeffs(window_length: int, polyorder: int, deriv: int = 0, delta: float = 1.0) -> np.ndarray:
+    """``scipy.signal.savgol_coeffs(window_length, polyorder, deriv, delta)`` (use="conv"), same bits."""
+    if polyorder >= window_length:
+        raise ValueError("polyorder must be less than window_length.")
+    if deriv > polyorder:
+        return np.zeros(window_length)
+    halflen, rem = divmod(window_length, 2)
+    pos = halflen if rem else halflen - 0.5
+    x = np.flip(np.arange(-pos, window_length - pos, dtype=np.float64))
+    A = x ** np.arange(polyorder + 1, dtype=np.float64).reshape(-1, 1)
+    y = np.zeros(polyorder + 1)
+    y[deriv] = float(factorial(deriv)) / (delta ** deriv)
+    coeffs, _ = _lstsq(A, y, np.finfo(np.float64).eps * max(A.shape))
+    coeffs.setflags(write=False)
+    return coeffs
+
+
+def _polyfit_edge(xe: np.ndarray, polyorder: int, deriv: int, delta: float, positions: np.ndarray) -> np.ndarray:
+    """scipy.signal's ``_fit_edge``: fit a polynomial to the rows of ``xe`` (n, C) at 0..n-1 and
+    evaluate its ``deriv``-th derivative at ``positions`` (same operations, same bits)."""
+    n = xe.shape[0]
+    xs = np.arange(0, n, dtype=xe.dtype)
+    order = polyorder + 1
+    lhs = xs[:, None] ** np.flip(np.arange(order, dtype=xs.dtype))[None, :]
+    scale = np.sqrt(np.sum(lhs * lhs, axis=0))
+    lhs /= scale
+    c, _ = _lstsq(lhs, xe, n * np.finfo(xs.dtype).eps)
+    c = (c.T / scale).T
+    if deriv > 0:
+        m = c.shape[0]
+        if m <= deriv:
+            c = np.zeros_like(c[:1])
+        else:
+            dp = np.array(c[:-deriv], copy=True)
+            for k in range(deriv):
+                dp *= np.arange(m - k - 1, deriv - k - 1, -1, dtype=c.dtype).reshape((m - deriv,) + (1,) * (c.ndim - 1))
+            c = dp
+    pos = np.asarray(positions, dtype=c.dtype).reshape(-1, 1)
+    y = np.zeros_like(pos)
+    for j in range(c.shape[0]):
+        y = y * pos + c[j]
+    return y / (delta ** deriv)
+
+
+def savgol_at(x: np.ndarray, window_length: int, polyorder: int, idx: np.ndarray, deriv: int = 0,
+              delta: float = 1.0) -> np.ndarray:
+    """``savgol_filter(x, window_length, polyorder, deriv, delta, axis=0, mode="interp")[idx]``.
+
+    ``x`` (m,) or (m, C) float64, ``idx`` integer rows in 0..m-1 (any order). Cost: O(len(idx) x
+    window) instead of O(m x window)."""
+    x = np.asarray(x, dtype=np.float64)
+    one_d = x.ndim == 1
+    if one_d:
+        x = x[:, None]
+    m = x.shape[0]
+    n = int(window_length)
+    if n > m:
+        raise ValueError("If mode is 'interp', window_length must be less than or equal to the size of x.")
+    idx = np.asarray(idx, dtype=np.int64)
+    out = np.empty((idx.size, x.shape[1]))
+    fw = savgol_coeffs(n, polyorder, deriv, delta)[::-1]  # convolve1d correlates with the reversed taps
+    size1 = n // 2
+    size2 = n - size1 - 1
+    sym = 0
+    if n & 1:
+        sym = 1
+        for i in range(1, n // 2 + 1):
+            if abs(fw[i + size1] - fw[size1 - i]) > _SYMMETRY_EPS:
+                sym = 0
+                break
+        if sym == 0:
+            sym = -1
+            for i in range(1, n // 2 + 1):
+                if abs(fw[size1 + i] + fw[size1 - i]) > _SYMMETRY_EPS:
+                    sym = 0
+                    break
+    half = n // 2
+    inner = (idx >= half) & (idx <= m - 1 - half)
+    p = idx[inner]
+    if p.size:
+        if sym != 0:
+            acc = x[p] * fw[size1]
+            for jj in range(-size1, 0):
+                a, b = x[p + jj], x[p - jj]
+                acc += ((a + b) if sym > 0 else (a - b)) * fw[size1 + jj]
+        else:
+            acc = x[p + size2] * fw[size1 + size2]
+            for jj in range(-size1, size2):
+                acc += x[p + jj] * fw[size1 + jj]
+        out[inner] = acc
+    head = idx < half
+    if np.any(head):
+        vals = _polyfit_edge(x[:n], polyorder, deriv, delta, np.arange(0, half))
+        out[head] = vals[idx[head]]
+    tail = idx > m - 1 - half
+    if np.any(tail):
+        vals = _polyfit_edge(x[m - n:], polyorder, deriv, delta, np.arange(n - half, n))
+        out[tail] = vals[idx[tail] - (m - half)]
+    return out[:, 0] if one_d else out
+
+
+def savgol_edge_matrix(n: int, polyorder: int, positions: np.ndarray) -> np.ndarray:
+    """(len(positions), n) matrix E with ``E @ y[:n]`` = the polynomial edge fit of ``y`` at
+    ``positions`` (deriv 0), i.e. savgol_filter's "interp" edge values as a linear map."""
+    return _polyfit_edge(np.eye(n), polyorder, 0, 1.0, np.asarray(positions))
+
+
+def lag_coefficient(tau_s: float, rate_hz: float) -> float:
+    """a = exp(-1 / (tau x rate)) of the discrete first-order lag; 0 for tau <= 0 (no lag)."""
+    return float(np.exp(-1.0 / (tau_s * rate_hz))) if tau_s > 0 else 0.0
+
+
+def scan(x: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """y[i] = A * y[i-1] + x[i] along axis 0 (y[-1] = 0) for per-column factors ``A`` (last axis,
+    0 <= A < 1), by doubling; terms below ``LAG_TRUNCATION`` of the signal are dropped."""
+    y = np.array(x, dtype=np.float64, copy=True)
+    A = np.asarray(A, dtype=np.float64)
+    n = y.shape[0]
+    d = 1
+    Ad = A.copy()
+    while d < n:
+        live = Ad > LAG_TRUNCATION
+        if not np.any(live):
+            break
+        if np.all(live):
+            y[d:] += Ad * y[:-d]
+        else:
+            cols = np.flatnonzero(live)
+            y[d:, ..., cols] += Ad[cols] * y[:-d, ..., cols]
+        Ad = Ad * Ad
+        d *= 2
+    return y
+
+
+def lag(u: np.ndarray, tau_s: float, rate_hz: float) -> np.ndarray:
+    """First-order lag of each column of ``u`` (m, C) started at its first value: the values of
+    ``scipy.signal.lfilter([1-a], [1, -a], u, axis=0, zi=a*u[0])`` within float noise."""
+    u = np.asarray(u, dtype=np.float64)
+    if tau_s <= 0:
+        return u
+    a = lag_coefficient(tau_s, rate_hz)
+    y = scan((1.0 - a) * u, np.full(u.shape[1:], a))
+    # the initial state a*u[0] decays as a^(i+1)
+    decay = a ** np.arange(1, u.shape[0] + 1, dtype=np.float64)
+    return y + decay.reshape((-1,) + (1,) * (u.ndim - 1)) * u[0]

@@ -1,0 +1,102 @@
+"""One prepared flight per diagnosis: what the windows, the phases, the hover finder and the
+effectiveness fit share, derived once.
+
+What: :class:`PreparedFlight` wraps a :class:`~flightlog_fd.flight.Flight` and memoises the
+work every consumer used to redo on its own: the cleaned streams (rates, motors, attitude
+unwrapped, velocity), the thrust-proxy stream (:func:`flightlog_fd.features.flight_thrust_proxy`),
+the airborne :class:`~flightlog_fd.features.Segment` s on a model grid (one list per resampling
+setting), the gyro low-pass cutoff and the effectiveness fit's fine-grid commands (keyed by the
+segments they were made for).
+
+Inputs: a Flight that is not changed afterwards (the memo does not watch it). Every function
+that takes a Flight for these steps (``features.resample``/``make_windows``,
+``effectiveness.estimate_effectiveness``, ``hover.hover_segments``) also takes a PreparedFlight;
+given a plain Flight it prepares one for that call only, with the same numbers.
+
+Why: a 600 s high-rate log was resampled, cleaned and filtered three to twenty-five times per
+diagnosis (windows, effectiveness's 24 candidate lags, hover), which made ``diagnose`` 3-6x the
+time to load the log (``benchmarks/bench_diagnose.py``).
+
+Limits: memory grows with the settings asked for (one segment list per setting: a 600 s flight
+at 50 Hz is ~2 MB each).
+"""
+from __future__ import annotations
+
+from typing import Any, Callable, Hashable, Optional, Union
+
+import numpy as np
+
+from .flight import Flight
+
+
+class PreparedFlight:
+    """A flight and its derived streams, each computed on first use (see the module docstring)."""
+
+    def __init__(self, flight: Flight) -> None:
+        if isinstance(flight, PreparedFlight):
+            raise TypeError("already prepared")
+        self.flight = flight
+        self._memo: dict = {}
+
+    @classmethod
+    def of(cls, flight: Union[Flight, "PreparedFlight"]) -> "PreparedFlight":
+        """``flight`` itself when it is prepared already, else a new PreparedFlight for it."""
+        return flight if isinstance(flight, PreparedFlight) else cls(flight)
+
+    def memo(self, key: Hashable, make: Callable[[], Any]) -> Any:
+        """The value stored under ``key``, made by ``make()`` the first time."""
+        try:
+            return self._memo[key]
+        except KeyError:
+            value = self._memo[key] = make()
+            return value
+
+    # ------------------------------------------------------------------ streams
+    def clean(self, name: str, max_gap_s: float, columns: int):
+        """``features.clean_stream(flight.<name>, max_gap_s, columns)``, memoised (do not modify it)."""
+        from .features import clean_stream
+
+        return self.memo(("clean", name, max_gap_s, columns),
+                         lambda: clean_stream(getattr(self.flight, name), max_gap_s, columns))
+
+    def attitude(self, max_gap_s: float):
+        """The cleaned roll/pitch stream unwrapped (see features.resample), or None without one."""
+        def make():
+            from .features import Stream
+
+            att = self.flight.attitude
+            if att is None or len(att) < 2 or att.values.shape[1] < 2:
+                return None
+            s = self.clean("attitude", max_gap_s, 2)
+            return Stream(s.t, np.unwrap(s.v, axis=0), s.gap_s)
+        return self.memo(("attitude", max_gap_s), make)
+
+    def speed_stream(self, speed_source: str, rate_hz: float, max_gap_s: float, n_motors: int = 4):
+        """``features._speed_stream`` (the thrust-proxy stream and its source), memoised."""
+        from .features import _speed_stream
+
+        return self.memo(("speed", speed_source, rate_hz, max_gap_s, n_motors),
+                         lambda: _speed_stream(self.flight, speed_source, rate_hz, max_gap_s, n_motors))
+
+    # ------------------------------------------------------------------ grids
+    def segments(self, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
+                 need_attitude: bool = False, speed_source: str = "command", n_motors: int = 4) -> list:
+        """``features.resample`` with these settings, computed once (shared list: do not modify)."""
+        from .features import _resample
+
+        key = ("segments", float(rate_hz), float(max_gap_s), float(trim_s), float(savgol_window_s),
+               bool(need_attitude), speed_source, int(n_motors))
+        return self.memo(key, lambda: _resample(self, float(rate_hz), max_gap_s, trim_s, savgol_window_s,
+                                                need_attitude, speed_source, n_motors))
+
+    @property
+    def gyro_cutoff_hz(self) -> Optional[float]:
+        """The autopilot's gyro low-pass cutoff (Hz) from the log's parameters, or None."""
+        from .effectiveness import gyro_cutoff_hz
+
+        return self.memo("gyro_cutoff_hz", lambda: gyro_cutoff_hz(self.flight))
+
+
+def prepare(flight: Union[Flight, PreparedFlight]) -> PreparedFlight:
+    """:meth:`PreparedFlight.of`: prepare ``flight`` once and pass the result to every step."""
+    return PreparedFlight.of(flight)
