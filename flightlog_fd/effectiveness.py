@@ -77,12 +77,13 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
-from scipy.signal import lfilter, savgol_filter
 
 from .errors import FlightLogError
 from .features import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
-                       Segment, _odd_window, _speed_stream, resample)
+                       Segment, _odd_window, resample)
+from .filters import LAG_TRUNCATION, lag, lag_coefficient, savgol_at, savgol_coeffs, savgol_edge_matrix, scan
 from .flight import Flight, Frame
+from .prepared import PreparedFlight
 
 #: Centred moving-average length (s) removed from both sides before the fit (0.3-0.5 s gave the
 #: smallest error on simulated flights with known η: rmse 0.05 against 0.08 at 1 s and 0.10 at 2 s,
@@ -100,6 +101,14 @@ MOTOR_LAG_REFINE_S = 0.002
 #: Lag and smooth the commands on the gyro derivative's fine grid (see _fine_commands); False only
 #: for the benchmark's "before" row.
 FINE_COMMANDS = True
+#: Search the candidate lags all at once (_SegmentLags: the same numbers within float noise,
+#: 1.3 s -> 0.05 s on a 600 s 400 Hz DataFlash log); False searches them one at a time.
+BATCHED_LAG_SEARCH = True
+#: Condition number of a lag's normal equations below which they are solved directly; above it
+#: (collinear commands) that lag gets a least-squares solve, as every lag did before. At 1e8 the
+#: normal equations lose at most ~8 of float64's 16 digits, far below the residual differences
+#: between candidate lags.
+MAX_NORMAL_COND = 1e8
 #: Fit the body-rate torques (damping, gyroscopic ω × Iω) beside the commands (_body_rate_terms).
 #: Without them a yawing vehicle's gyroscopic torque lands on the diagonal motor pairs: noiseless
 #: simulated x500 flights (η 0.6 and 0.8, each motor) read a damaged rotor +0.077 high on average
@@ -195,25 +204,31 @@ def axis_signs(frame: Optional[Frame]) -> np.ndarray:
     return s / np.where(scale > 0, scale, 1.0)
 
 
-def _moving_average(x: np.ndarray, n: int) -> np.ndarray:
-    """Centred moving average along axis 0 with edge-shrinking windows (same length as x)."""
+def _moving_average(x: np.ndarray, n: int, axis: int = 0) -> np.ndarray:
+    """Centred moving average along ``axis`` with edge-shrinking windows (same shape as x)."""
     if n <= 1:
         return x.copy()
-    c = np.vstack([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
-    i = np.arange(x.shape[0])
-    lo = np.clip(i - n // 2, 0, x.shape[0])
-    hi = np.clip(i + n // 2 + 1, 0, x.shape[0])
-    return (c[hi] - c[lo]) / (hi - lo)[:, None]
+    if axis != 0:
+        return np.moveaxis(_moving_average(np.moveaxis(x, axis, 0), n, 0), 0, axis)
+    m = x.shape[0]
+    h = n // 2
+    c = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
+    out = np.empty(x.shape)
+    if m > 2 * h:  # full windows: slices (the same sums as the edge rows' gathered ones)
+        out[h:m - h] = (c[2 * h + 1:] - c[:m - 2 * h]) / float(2 * h + 1)
+        edge = np.r_[0:h, m - h:m]
+    else:
+        edge = np.arange(m)
+    lo = np.clip(edge - h, 0, m)
+    hi = np.clip(edge + h + 1, 0, m)
+    out[edge] = (c[hi] - c[lo]) / (hi - lo).reshape((-1,) + (1,) * (x.ndim - 1))
+    return out
 
 
 def _lag(u: np.ndarray, tau_s: float, rate_hz: float) -> np.ndarray:
-    """First-order lag (time constant ``tau_s``) of each column, started at its first value."""
-    if tau_s <= 0:
-        return u
-    a = np.exp(-1.0 / (tau_s * rate_hz))
-    zi = (a * u[0])[None, :]
-    y, _ = lfilter([1.0 - a], [1.0, -a], u, axis=0, zi=zi)
-    return y
+    """First-order lag (time constant ``tau_s``) of each column, started at its first value
+    (:func:`flightlog_fd.filters.lag`: ``lfilter``'s values within float noise, without scipy.signal)."""
+    return lag(u, tau_s, rate_hz)
 
 
 def _usable(segments: list[Segment], savgol_n: int, detrend_n: int) -> list[Segment]:
@@ -268,22 +283,25 @@ def gyro_cutoff_hz(flight: Flight) -> Optional[float]:
     return None
 
 
-def _fine_commands(flight: Flight, segments: list[Segment], rate_hz: float) -> Optional[list[_FineCommands]]:
+def _fine_commands(flight, segments: list[Segment], rate_hz: float) -> Optional[list[_FineCommands]]:
     """The thrust proxy of each segment on a fine grid (the motor stream's rate, at most
     ``MAX_FINE_FACTOR`` x the grid rate), or None when the motor stream is no faster than the grid.
+    ``flight``: a Flight or a PreparedFlight (whose thrust-proxy stream and gyro cutoff it reuses).
 
     Why: the motor lag (10-60 ms) is as short as a 50 Hz grid step; a first-order filter run at
     the grid rate on decimated commands misses it (noiseless simulated flights: R² 0.91 and η 0.8
     read 0.72; at the fine rate R² 0.99)."""
+    prep = PreparedFlight.of(flight)
+    flight = prep.flight
     try:
-        proxy, _ = _speed_stream(flight, "command", rate_hz, DEFAULT_MAX_GAP_S)
+        proxy, _ = prep.speed_stream("command", rate_hz, DEFAULT_MAX_GAP_S)
     except FlightLogError:
         return None
     if flight.motors is None or flight.motors.rate_hz < 1.5 * rate_hz:
         return None
     k = int(min(MAX_FINE_FACTOR, max(1, round(flight.motors.rate_hz / rate_hz))))
     fine_hz = rate_hz * k
-    cutoff = gyro_cutoff_hz(flight)
+    cutoff = prep.gyro_cutoff_hz
     tau_gyro = 1.0 / (2.0 * np.pi * cutoff) if cutoff is not None and cutoff < fine_hz / 2 else 0.0
     out = []
     for seg in segments:
@@ -302,7 +320,9 @@ def _detrended_commands(segments: list[Segment], tau_s: float, rate_hz: float, s
     """Lagged, smoothed and detrended thrust commands (n, 4), rows as in _detrended_acc.
 
     With ``fine`` the lag and the smoothing run on the fine grid, with the same
-    Savitzky-Golay window as the gyro derivative, and the grid samples are taken afterwards."""
+    Savitzky-Golay window as the gyro derivative, and the grid samples are taken afterwards.
+    The definition, one lag at a time: :class:`_LagSearch` computes the same numbers (within
+    float noise) for many lags at once."""
     if not segments:
         return np.zeros((0, 4))
     xs = []
@@ -311,13 +331,128 @@ def _detrended_commands(segments: list[Segment], tau_s: float, rate_hz: float, s
             fc = fine[i]
             n_fine = _odd_window(savgol_window_s, fc.fine_hz)
             u = _lag(fc.u, tau_s, fc.fine_hz)
-            u = savgol_filter(u, min(n_fine, u.shape[0] - (1 - u.shape[0] % 2)), SAVGOL_POLYORDER, deriv=0,
-                              axis=0)[fc.on_grid]
+            u = savgol_at(u, min(n_fine, u.shape[0] - (1 - u.shape[0] % 2)), SAVGOL_POLYORDER, fc.on_grid)
         else:
             u = _lag(np.asarray(seg.w_sq, dtype=np.float64), tau_s, rate_hz)
-            u = savgol_filter(u, savgol_n, SAVGOL_POLYORDER, deriv=0, axis=0)
+            u = savgol_at(u, savgol_n, SAVGOL_POLYORDER, np.arange(u.shape[0]))
         xs.append(u - _moving_average(u, detrend_n))
     return np.vstack(xs)
+
+
+class _SegmentLags:
+    """One segment's commands ``u`` (m, C) on a grid at ``rate_hz`` of which every k-th sample
+    (0, k, ..., m-1) is kept: ``smoothed(taus)`` = Savitzky-Golay(``n``) of the first-order lag of
+    ``u`` at the kept samples, for many time constants at once, i.e.
+    ``savgol_filter(lag(u, tau), n, 2)[::k]`` for each tau, within float noise.
+
+    How: both filters are linear and time-invariant, so away from the ends (where savgol_filter
+    fits polynomials) the lag of the smoothed commands equals the smoothing of the lagged ones
+    (the lag starts from u[0], as if u had been constant before). The smoothing then runs once;
+    the lag, sampled every k, is ``V_i = a^k V_(i-1) + (1-a) Σ_l a^l s[g_i - l]``: a k-tap
+    contraction for all lags in one product and a doubling scan at the grid rate. The end samples
+    are the polynomial fits of the lagged commands there, computed from their exact sums.
+    """
+
+    def __init__(self, u: np.ndarray, rate_hz: float, n: int, k: int) -> None:
+        from scipy.ndimage import correlate1d  # loaded by flight.py anyway
+
+        self.u = u = np.asarray(u, dtype=np.float64)
+        self.rate_hz, self.n, self.k = rate_hz, n, k
+        m = u.shape[0]
+        h = n // 2
+        self.ng = (m - 1) // k + 1
+        self.i0 = -(-h // k)  # first kept sample with a full smoothing window
+        self.i1 = (m - 1 - h) // k  # last one
+        c = savgol_coeffs(n, SAVGOL_POLYORDER)[::-1]
+        self.sigma = float(np.sum(c))
+        if self.i1 >= self.i0:
+            g1 = self.i1 * k
+            pad = np.concatenate([np.repeat(u[:1], 2 * h, axis=0), u[:g1 + h + 1]])
+            # s[r] = smoothed u_ext at r - h, r = 0 .. g1 + h (u_ext = u[0] before the start)
+            self.s = correlate1d(pad, c, axis=0, mode="constant")[h:h + g1 + h + 1]
+        self.head_pos = np.arange(0, min(self.i0, self.ng)) * k
+        self.tail_pos = np.arange(max(self.i1 + 1, self.i0), self.ng) * k
+        self.E_head = savgol_edge_matrix(n, SAVGOL_POLYORDER, self.head_pos) if self.head_pos.size else None
+        self.E_tail = (savgol_edge_matrix(n, SAVGOL_POLYORDER, self.tail_pos - (m - n))
+                       if self.tail_pos.size else None)
+
+    def smoothed(self, taus) -> np.ndarray:
+        """(len(taus), ng, C) smoothed lagged commands at the kept samples."""
+        u, n, k = self.u, self.n, self.k
+        m, C = u.shape
+        h = n // 2
+        a = np.array([lag_coefficient(t, self.rate_hz) for t in taus])
+        out = np.empty((a.size, self.ng, C))
+        if self.i1 >= self.i0:
+            i0, i1 = self.i0, self.i1
+            g0 = i0 * k
+            L0 = g0 + h + 1
+            w0 = (1.0 - a)[None, :] * a[None, :] ** np.arange(L0)[:, None]  # (L0, T)
+            x = np.empty((a.size, i1 - i0 + 1, C))
+            x[:, 0] = (self.s[L0 - 1::-1].T @ w0).T + self.sigma * (a ** L0)[:, None] * u[0][None, :]
+            if i1 > i0:
+                nb = i1 - i0
+                blocks = self.s[L0:L0 + nb * k].reshape(nb, k, C).transpose(1, 0, 2).reshape(k, nb * C)
+                wb = (1.0 - a)[:, None] * a[:, None] ** np.arange(k - 1, -1, -1)[None, :]  # (T, k)
+                x[:, 1:] = (wb @ blocks).reshape(a.size, nb, C)
+            for t in range(a.size):  # y[i] = a^k y[i-1] + x[i], each lag on its own contiguous block
+                out[t, i0:i1 + 1] = scan(x[t], np.float64(a[t] ** k))
+        if self.E_head is not None:
+            out[:, :self.head_pos.size] = np.einsum("pr,rct->tpc", self.E_head, self._lagged(0, n, a))
+        if self.E_tail is not None:
+            out[:, self.ng - self.tail_pos.size:] = np.einsum("pr,rct->tpc", self.E_tail, self._lagged(m - n, n, a))
+        return out
+
+    def _lagged(self, p0: int, count: int, a: np.ndarray) -> np.ndarray:
+        """(count, C, T) lag of u at samples p0 .. p0+count-1 for each coefficient in ``a``,
+        from its exact sum y[p] = (1-a) Σ_{j<=p} a^(p-j) u[j] + a^(p+1) u[0] (terms below
+        LAG_TRUNCATION of the signal dropped)."""
+        u = self.u
+        if p0 == 0:
+            prev = np.repeat(u[0][:, None], a.size, axis=1)  # y[-1] = u[0]
+        else:
+            amax = float(np.max(a))
+            span = p0 if amax <= 0 else min(p0, int(np.ceil(np.log(LAG_TRUNCATION) / np.log(amax))) + 1)
+            d = np.arange(span - 1, -1, -1)[:, None]  # p0-1 - j for j = p0-span .. p0-1
+            prev = u[p0 - span:p0].T @ ((1.0 - a)[None, :] * a[None, :] ** d) + u[0][:, None] * (a ** p0)[None, :]
+        r = np.arange(count)
+        d = r[:, None] - r[None, :]
+        W = np.where(d[..., None] >= 0, (1.0 - a) * a ** np.maximum(d, 0)[..., None], 0.0)  # (count, count, T)
+        y = np.einsum("rlt,lc->rct", W, u[p0:p0 + count])
+        y += (a[None, :] ** (r[:, None] + 1))[:, None, :] * prev[None, :, :]
+        return y
+
+
+def _lag_search_inputs(segments: list[Segment], rate_hz: float, savgol_n: int,
+                       fine: Optional[list[_FineCommands]], savgol_window_s: float) -> Optional[list[_SegmentLags]]:
+    """One :class:`_SegmentLags` per segment, or None when a segment's kept samples are not every
+    k-th fine sample from the first to the last (then the lags are searched one at a time)."""
+    out = []
+    for i, seg in enumerate(segments):
+        if fine is not None:
+            fc = fine[i]
+            u, hz = fc.u, fc.fine_hz
+            n = min(_odd_window(savgol_window_s, hz), u.shape[0] - (1 - u.shape[0] % 2))
+            kept = fc.on_grid
+        else:
+            u, hz, n = np.asarray(seg.w_sq, dtype=np.float64), rate_hz, savgol_n
+            kept = np.arange(u.shape[0])
+        k = int(kept[1] - kept[0]) if kept.size > 1 else 1
+        if kept.size < 2 or k < 1 or kept[0] != 0 or kept[-1] != u.shape[0] - 1 or \
+                not np.array_equal(kept, np.arange(kept.size) * k) or n > u.shape[0] or n <= SAVGOL_POLYORDER:
+            return None
+        out.append(_SegmentLags(u, hz, n, k))
+    return out
+
+
+def _detrended_commands_many(lags: list[_SegmentLags], taus: np.ndarray, detrend_n: int) -> np.ndarray:
+    """(T, n, 4) :func:`_detrended_commands` for each of ``taus`` (within float noise)."""
+    xs = []
+    for sl in lags:
+        v = sl.smoothed(taus)  # (T, ng, C)
+        v -= _moving_average(v, detrend_n, axis=1)
+        xs.append(v)
+    return xs[0] if len(xs) == 1 else np.concatenate(xs, axis=1)
 
 
 def _body_rate_terms(segments: list[Segment], detrend_n: int) -> Optional[np.ndarray]:
@@ -359,7 +494,7 @@ def _detrended_vertical(flight: Flight, segments: list[Segment], rate_hz: float,
         n = hi - lo
         with np.errstate(invalid="ignore", divide="ignore"):
             z = np.where(n > 0, (csum[hi] - csum[lo]) / np.maximum(n, 1), np.interp(seg.t, t_acc, az))
-        z = savgol_filter(z, savgol_n, SAVGOL_POLYORDER, deriv=0)
+        z = savgol_at(z, savgol_n, SAVGOL_POLYORDER, np.arange(z.shape[0]))
         out.append(z - _moving_average(z[:, None], detrend_n)[:, 0])
     return np.concatenate(out)
 
@@ -428,12 +563,13 @@ def _combine(rel: np.ndarray, var: np.ndarray) -> np.ndarray:
         return np.where(den > 0, num / den, np.nan)
 
 
-def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
+def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
                            savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S,
                            segments: Optional[list[Segment]] = None,
                            n_bootstrap: int = N_BOOTSTRAP, seed: int = BOOTSTRAP_SEED,
                            use_accelerometer: bool = False) -> EffectivenessEstimate:
-    """Relative per-motor effectiveness of ``flight`` (see the module docstring).
+    """Relative per-motor effectiveness of ``flight`` (a Flight or a
+    :class:`~flightlog_fd.prepared.PreparedFlight`, see the module docstring).
 
     ``segments`` may be given when the caller already resampled the flight at ``rate_hz``.
     ``use_accelerometer`` adds the vertical equation (off by default: see the module docstring
@@ -441,9 +577,11 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     Never raises for a flight that simply has too little data: returns ``informative=False``
     with the reason.
     """
+    prep = PreparedFlight.of(flight)
+    flight = prep.flight
     if segments is None:
         try:
-            segments = resample(flight, rate_hz=rate_hz, savgol_window_s=savgol_window_s)
+            segments = resample(prep, rate_hz=rate_hz, savgol_window_s=savgol_window_s)
         except FlightLogError as e:
             return EffectivenessEstimate(reason=e.message)
     segments = _away_from_ground(segments, flight.airborne)
@@ -463,7 +601,7 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     n_axes = Y.shape[1]
     best = None
 
-    fine = _fine_commands(flight, usable, rate_hz) if FINE_COMMANDS else None
+    fine = _fine_commands(prep, usable, rate_hz) if FINE_COMMANDS else None
 
     # Body-rate terms (gyroscopic ω × Iω, aerodynamic damping) are fitted beside the commands and
     # partialled out of both sides (Frisch-Waugh), so the commands' coefficients are those of
@@ -477,29 +615,60 @@ def estimate_effectiveness(flight: Flight, *, rate_hz: float = DEFAULT_RATE_HZ,
 
     Y = partial_out(Y)
 
-    def try_lag(tau: float) -> None:
-        nonlocal best
-        X = _detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n, fine, savgol_window_s)
-        if X.shape[0] < 5 * X.shape[1]:
-            return
-        X = partial_out(X)
-        coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, axes)
-        resid = Y - X @ coef
-        sse = float(np.sum(resid[:, :2] ** 2))  # roll/pitch decide the lag (yaw is weakly excited)
-        if best is None or sse < best[0]:
-            best = (sse, tau, X, coef)
+    lags = _lag_search_inputs(usable, rate_hz, savgol_n, fine, savgol_window_s) if BATCHED_LAG_SEARCH else None
+    n_rows = sum(len(seg) for seg in usable)
 
-    for tau in MOTOR_LAG_GRID_S:
-        try_lag(tau)
+    def commands(taus: list[float]) -> np.ndarray:
+        """(T, n, 4) detrended commands, one block per candidate lag (body-rate terms not yet out)."""
+        if lags is None:
+            return np.stack([_detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n, fine, savgol_window_s)
+                             for tau in taus], axis=0)
+        return _detrended_commands_many(lags, np.asarray(taus, dtype=np.float64), detrend_n)
+
+    def try_lags(taus: list[float]) -> None:
+        """The roll/pitch residual of each candidate (in order; the first smallest wins, as one
+        lstsq per lag did), from the normal equations of all lags at once with the body-rate terms
+        partialled out through their Gram blocks (X'X - (Q'X)'(Q'X)); lstsq where ill-posed."""
+        nonlocal best
+        if not taus or n_rows < 5 * 4:
+            return
+        X = commands(taus)
+        Xt = X.transpose(0, 2, 1)
+        XtX = np.matmul(Xt, X)
+        P = None
+        if basis is not None:
+            P = np.matmul(basis.T, X)  # (T, k, 4)
+            XtX -= np.matmul(P.transpose(0, 2, 1), P)
+        Yrp = np.ascontiguousarray(Y[:, :2])  # partialled out already: X'Y = X_perp'Y
+        XtY = np.matmul(Xt, Yrp)
+        yy = float(np.sum(Yrp ** 2))
+        cond = np.linalg.cond(XtX)
+        for i, tau in enumerate(taus):
+            if cond[i] < MAX_NORMAL_COND:
+                c = np.linalg.solve(XtX[i], XtY[i])
+                sse = yy - float(np.sum(XtY[i] * c))  # roll/pitch decide the lag (yaw is weakly excited)
+            else:
+                Xi = X[i] if P is None else X[i] - basis @ P[i]
+                c = np.linalg.lstsq(Xi, Yrp, rcond=None)[0]
+                sse = float(np.sum((Yrp - Xi @ c) ** 2))
+            if best is None or sse < best[0]:
+                best = (sse, tau, X[i] if P is None else X[i] - basis @ P[i])
+
+    try_lags(list(MOTOR_LAG_GRID_S))
     if best is not None:
         step = MOTOR_LAG_GRID_S[1] - MOTOR_LAG_GRID_S[0]
         centre = best[1]
+        refine = []
         for k in range(1, int(round(step / MOTOR_LAG_REFINE_S))):
             for tau in (centre - k * MOTOR_LAG_REFINE_S, centre + k * MOTOR_LAG_REFINE_S):
                 if tau > 0:
-                    try_lag(round(tau, 4))
+                    refine.append(round(tau, 4))
+        try_lags(refine)
     if best is None:
         return EffectivenessEstimate(reason="too few samples for the fit", seconds=seconds)
+    X = np.ascontiguousarray(best[2])
+    coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, axes)
+    best = (best[0], best[1], X, coef)
     _, tau, X, coef = best
     tss = np.sum(Y ** 2, axis=0)
     resid = Y - X @ coef

@@ -163,7 +163,11 @@ def scan(x: np.ndarray, A: np.ndarray) -> np.ndarray:
             y[d:] += Ad * y[:-d]
         else:
             cols = np.flatnonzero(live)
-            y[d:, ..., cols] += Ad[cols] * y[:-d, ..., cols]
+            if cols[-1] - cols[0] + 1 == cols.size:  # a run of columns (ascending time constants)
+                sl = slice(int(cols[0]), int(cols[-1]) + 1)
+                y[d:, ..., sl] += Ad[sl] * y[:-d, ..., sl]
+            else:
+                y[d:, ..., cols] += Ad[cols] * y[:-d, ..., cols]
         Ad = Ad * Ad
         d *= 2
     return y
