@@ -34,6 +34,7 @@ from .checks import diagnosability
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .phases import window_phases
+from .prepared import PreparedFlight
 from .decision import flight_verdict
 from .stopped import diagnose_stopped
 from .verdict import N_CLASSES, Verdict, VerdictSettings, decide, not_diagnosable
@@ -259,7 +260,8 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
             spec = FeatureSpec.from_dict(model.feature_spec)
         except ValueError as e:
             raise ModelError(getattr(model, "path", None), f"bad feature spec in the model: {e}") from None
-        win = make_windows(flight, spec)
+        prepared = PreparedFlight(flight)  # built once: the windows, phases and evidence share it
+        win = make_windows(prepared, spec)
         if len(win.t_start) == 0:
             return _not_diagnosable(log, win.reason or "no complete window of airborne data",
                                     diagnosability_facts=dict(check.facts), **common)
@@ -269,11 +271,11 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
 
     t_start = np.asarray(win.t_start, dtype=np.float64)
     t_end = np.asarray(win.t_end, dtype=np.float64)
-    phases = window_phases(flight, t_start, t_end)
+    phases = window_phases(prepared, t_start, t_end)
     model_verdict = decide(t_start, t_end, probs, settings=settings, frame=flight.frame)
     run = model_verdict.evidence.run if model_verdict.evidence is not None else None
     onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
-    evidence = flight_evidence(flight, win, probs, profile, since=onset)
+    evidence = flight_evidence(prepared, win, probs, profile, since=onset)
     verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame)
     if stops:  # a motor that stopped in the air outranks any propeller verdict
         verdict = stopped_verdict(stops, flight.frame, verdict)
@@ -308,14 +310,17 @@ def stopped_verdict(stops: list, frame: Any, underneath: Optional[Verdict] = Non
     return v
 
 
-def flight_evidence(flight: Flight, windows: Any, probs: np.ndarray, profile: Any = None,
+def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None,
                     since: Optional[float] = None):
-    """Per-motor evidence of one flight from the windows' own resampled segments (the flight is
-    resampled once) and the profile's baseline, if any; ``since`` = a mid-flight damage onset."""
+    """Per-motor evidence of one flight (a Flight or the diagnosis's PreparedFlight) from the
+    windows' own resampled segments (the flight is resampled once) and the profile's baseline,
+    if any; ``since`` = a mid-flight damage onset."""
     from .effectiveness import estimate_effectiveness
     from .evidence import build_evidence
 
-    eff = estimate_effectiveness(flight, rate_hz=windows.spec.rate_hz, savgol_window_s=windows.spec.savgol_window_s,
+    prepared = PreparedFlight.of(flight)
+    flight = prepared.flight
+    eff = estimate_effectiveness(prepared, rate_hz=windows.spec.rate_hz, savgol_window_s=windows.spec.savgol_window_s,
                                  segments=windows.segments)
     baseline = profile.baseline() if profile is not None else None
     return build_evidence(windows.segments, probs, flight.frame, eff, baseline, since=since)

@@ -81,7 +81,7 @@ import numpy as np
 from .errors import FlightLogError
 from .features import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
                        Segment, _odd_window, resample)
-from .filters import LAG_TRUNCATION, lag, lag_coefficient, savgol_at, savgol_coeffs, savgol_edge_matrix, scan
+from .filters import LAG_TRUNCATION, lag, lag_coefficient, savgol_at, savgol_coeffs, savgol_edge_matrix, scan_inplace
 from .flight import Flight, Frame
 from .prepared import PreparedFlight
 
@@ -208,20 +208,24 @@ def _moving_average(x: np.ndarray, n: int, axis: int = 0) -> np.ndarray:
     """Centred moving average along ``axis`` with edge-shrinking windows (same shape as x)."""
     if n <= 1:
         return x.copy()
-    if axis != 0:
-        return np.moveaxis(_moving_average(np.moveaxis(x, axis, 0), n, 0), 0, axis)
-    m = x.shape[0]
+    m = x.shape[axis]
     h = n // 2
-    c = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
+
+    def along(sl) -> tuple:
+        return (slice(None),) * axis + (sl,)
+
+    shape = list(x.shape)
+    shape[axis] = 1
+    c = np.concatenate([np.zeros(shape), np.cumsum(x, axis=axis)], axis=axis)
     out = np.empty(x.shape)
     if m > 2 * h:  # full windows: slices (the same sums as the edge rows' gathered ones)
-        out[h:m - h] = (c[2 * h + 1:] - c[:m - 2 * h]) / float(2 * h + 1)
+        out[along(slice(h, m - h))] = (c[along(slice(2 * h + 1, None))] - c[along(slice(0, m - 2 * h))]) / float(2 * h + 1)
         edge = np.r_[0:h, m - h:m]
     else:
         edge = np.arange(m)
     lo = np.clip(edge - h, 0, m)
     hi = np.clip(edge + h + 1, 0, m)
-    out[edge] = (c[hi] - c[lo]) / (hi - lo).reshape((-1,) + (1,) * (x.ndim - 1))
+    out[along(edge)] = (c[along(hi)] - c[along(lo)]) / (hi - lo).reshape((-1,) + (1,) * (x.ndim - 1 - axis))
     return out
 
 
@@ -370,6 +374,9 @@ class _SegmentLags:
             pad = np.concatenate([np.repeat(u[:1], 2 * h, axis=0), u[:g1 + h + 1]])
             # s[r] = smoothed u_ext at r - h, r = 0 .. g1 + h (u_ext = u[0] before the start)
             self.s = correlate1d(pad, c, axis=0, mode="constant")[h:h + g1 + h + 1]
+            # the k samples before each kept one (after the first), as (k, blocks x C) for one product
+            nb, L0 = self.i1 - self.i0, self.i0 * k + h + 1
+            self.blocks = self.s[L0:L0 + nb * k].reshape(nb, k, -1).transpose(1, 0, 2).reshape(k, -1)
         self.head_pos = np.arange(0, min(self.i0, self.ng)) * k
         self.tail_pos = np.arange(max(self.i1 + 1, self.i0), self.ng) * k
         self.E_head = savgol_edge_matrix(n, SAVGOL_POLYORDER, self.head_pos) if self.head_pos.size else None
@@ -388,15 +395,13 @@ class _SegmentLags:
             g0 = i0 * k
             L0 = g0 + h + 1
             w0 = (1.0 - a)[None, :] * a[None, :] ** np.arange(L0)[:, None]  # (L0, T)
-            x = np.empty((a.size, i1 - i0 + 1, C))
-            x[:, 0] = (self.s[L0 - 1::-1].T @ w0).T + self.sigma * (a ** L0)[:, None] * u[0][None, :]
+            out[:, i0] = (self.s[L0 - 1::-1].T @ w0).T + self.sigma * (a ** L0)[:, None] * u[0][None, :]
             if i1 > i0:
                 nb = i1 - i0
-                blocks = self.s[L0:L0 + nb * k].reshape(nb, k, C).transpose(1, 0, 2).reshape(k, nb * C)
                 wb = (1.0 - a)[:, None] * a[:, None] ** np.arange(k - 1, -1, -1)[None, :]  # (T, k)
-                x[:, 1:] = (wb @ blocks).reshape(a.size, nb, C)
+                out[:, i0 + 1:i1 + 1] = (wb @ self.blocks).reshape(a.size, nb, C)
             for t in range(a.size):  # y[i] = a^k y[i-1] + x[i], each lag on its own contiguous block
-                out[t, i0:i1 + 1] = scan(x[t], np.float64(a[t] ** k))
+                scan_inplace(out[t, i0:i1 + 1], a[t] ** k)
         if self.E_head is not None:
             out[:, :self.head_pos.size] = np.einsum("pr,rct->tpc", self.E_head, self._lagged(0, n, a))
         if self.E_tail is not None:

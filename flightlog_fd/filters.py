@@ -173,6 +173,18 @@ def scan(x: np.ndarray, A: np.ndarray) -> np.ndarray:
     return y
 
 
+def scan_inplace(y: np.ndarray, A: float) -> np.ndarray:
+    """:func:`scan` with one factor ``A`` for all columns, overwriting ``y`` (and returning it)."""
+    n = y.shape[0]
+    d = 1
+    Ad = float(A)
+    while d < n and Ad > LAG_TRUNCATION:
+        y[d:] += Ad * y[:-d]
+        Ad *= Ad
+        d *= 2
+    return y
+
+
 def lag(u: np.ndarray, tau_s: float, rate_hz: float) -> np.ndarray:
     """First-order lag of each column of ``u`` (m, C) started at its first value: the values of
     ``scipy.signal.lfilter([1-a], [1, -a], u, axis=0, zi=a*u[0])`` within float noise."""
@@ -180,7 +192,9 @@ def lag(u: np.ndarray, tau_s: float, rate_hz: float) -> np.ndarray:
     if tau_s <= 0:
         return u
     a = lag_coefficient(tau_s, rate_hz)
-    y = scan((1.0 - a) * u, np.full(u.shape[1:], a))
-    # the initial state a*u[0] decays as a^(i+1)
-    decay = a ** np.arange(1, u.shape[0] + 1, dtype=np.float64)
-    return y + decay.reshape((-1,) + (1,) * (u.ndim - 1)) * u[0]
+    y = scan_inplace((1.0 - a) * u, a)
+    # the initial state a*u[0] decays as a^(i+1) (below LAG_TRUNCATION after `live` samples)
+    live = min(u.shape[0], int(np.ceil(np.log(LAG_TRUNCATION) / np.log(a))) + 1)
+    decay = a ** np.arange(1, live + 1, dtype=np.float64)
+    y[:live] += decay.reshape((-1,) + (1,) * (u.ndim - 1)) * u[0]
+    return y

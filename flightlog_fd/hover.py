@@ -42,8 +42,9 @@ from typing import Optional
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from .features import DEFAULT_MAX_GAP_S, DEFAULT_SAVGOL_WINDOW_S, DEFAULT_TRIM_S, clean_stream, flight_thrust_proxy, resample
+from .features import DEFAULT_MAX_GAP_S, DEFAULT_SAVGOL_WINDOW_S, DEFAULT_TRIM_S, flight_thrust_proxy, resample
 from .flight import Flight
+from .prepared import PreparedFlight
 
 #: Grid rate (Hz) of the steadiness tests.
 HOVER_GRID_HZ = 50.0
@@ -83,7 +84,7 @@ def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
     return uniform_filter1d(x, size=n, axis=0, mode="nearest")
 
 
-def _steady_mask(flight: Flight, t: np.ndarray, rates: np.ndarray, ang_acc: np.ndarray, w_sq: np.ndarray,
+def _steady_mask(flight, t: np.ndarray, rates: np.ndarray, ang_acc: np.ndarray, w_sq: np.ndarray,
                  attitude: np.ndarray, n: int, max_rate_rms: float, max_tilt: float, max_speed: float) -> np.ndarray:
     rate_rms = np.sqrt(_moving_mean(np.sum(rates * rates, axis=1), n))
     mean_acc = np.linalg.norm(_moving_mean(ang_acc, n), axis=1)
@@ -97,8 +98,10 @@ def _steady_mask(flight: Flight, t: np.ndarray, rates: np.ndarray, ang_acc: np.n
     if np.all(np.isfinite(attitude)):
         tilt = np.abs(_moving_mean(attitude, n))
         level = np.all(tilt <= max_tilt, axis=1)
+    prep = flight
+    flight = prep.flight
     if flight.velocity is not None and len(flight.velocity) >= 2 and flight.velocity.values.shape[1] >= 3:
-        vel = clean_stream(flight.velocity, DEFAULT_MAX_GAP_S, 3)
+        vel = prep.clean("velocity", DEFAULT_MAX_GAP_S, 3)
         has_vel = vel.valid_at(t)
         if np.any(has_vel):
             speed = np.linalg.norm(vel.interp(t), axis=1)
@@ -108,15 +111,19 @@ def _steady_mask(flight: Flight, t: np.ndarray, rates: np.ndarray, ang_acc: np.n
     return ok & level
 
 
-def hover_segments(flight: Flight, min_duration_s: float = HOVER_MIN_DURATION_S,
+def hover_segments(flight, min_duration_s: float = HOVER_MIN_DURATION_S,
                    max_rate_rms: float = HOVER_MAX_RATE_RMS, max_tilt_rad: float = HOVER_MAX_TILT_RAD,
                    max_speed_m_s: float = HOVER_MAX_SPEED_M_S, trim_s: float = DEFAULT_TRIM_S) -> list[HoverSegment]:
-    """Steady hover segments of ``flight`` (see module docstring). [] when there is none.
+    """Steady hover segments of ``flight`` (a Flight or a :class:`~flightlog_fd.prepared.PreparedFlight`,
+    whose 50 Hz segments - the NIF windows' own at the default spec - it reuses; see module
+    docstring). [] when there is none.
 
     Raises MissingDataError / UnsupportedVehicleError (from resample) when the rates or motors are
     absent or the vehicle is not a quadrotor.
     """
-    segments = resample(flight, HOVER_GRID_HZ, DEFAULT_MAX_GAP_S, trim_s, DEFAULT_SAVGOL_WINDOW_S,
+    prep = PreparedFlight.of(flight)
+    flight = prep.flight
+    segments = resample(prep, HOVER_GRID_HZ, DEFAULT_MAX_GAP_S, trim_s, DEFAULT_SAVGOL_WINDOW_S,
                         need_attitude=False, speed_source="command")
     n = max(1, int(round(HOVER_WINDOW_S * HOVER_GRID_HZ)))
     min_points = int(np.ceil(min_duration_s * HOVER_GRID_HZ)) + 1
@@ -126,7 +133,7 @@ def hover_segments(flight: Flight, min_duration_s: float = HOVER_MIN_DURATION_S,
     for seg in segments:
         if len(seg) < min_points:
             continue
-        mask = _steady_mask(flight, seg.t, seg.rates, seg.ang_acc, seg.w_sq, seg.attitude, n,
+        mask = _steady_mask(prep, seg.t, seg.rates, seg.ang_acc, seg.w_sq, seg.attitude, n,
                             max_rate_rms, max_tilt_rad, max_speed_m_s)
         d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
         for lo, hi in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):

@@ -45,29 +45,47 @@ HOVER_MAX_HSPEED_M_S = 1.0
 COLLECTIVE_CLIMB_DELTA = 0.08
 
 
-def _window_mean(series: Optional[Series], a: float, b: float, cols=None) -> Optional[np.ndarray]:
-    """Mean of the series' columns over [a, b]; None if the window holds no sample."""
+def _window_sums(values: np.ndarray, t: np.ndarray, ts: np.ndarray, te: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per window [ts, te] the sum of ``values`` rows whose time lies inside, and their count.
+
+    One ``np.add.reduceat`` over all windows (rows added in order, as ``np.mean`` over axis 0
+    does) instead of one slice per window: 742 windows cost ~40 ms of Python before."""
+    i0 = np.searchsorted(t, ts, side="left")
+    i1 = np.searchsorted(t, te, side="right")
+    ext = np.concatenate([values, np.zeros((1,) + values.shape[1:], dtype=values.dtype)])  # index len(t) is valid
+    idx = np.empty(2 * ts.size, dtype=np.intp)
+    idx[0::2], idx[1::2] = i0, i1
+    sums = np.add.reduceat(ext, idx, axis=0)[0::2] if ts.size else np.zeros((0,) + values.shape[1:])
+    return sums, i1 - i0
+
+
+def _window_means(series: Optional[Series], ts: np.ndarray, te: np.ndarray, cols=None) -> Optional[tuple]:
+    """(means (W, C), has (W,)): each window's column means over [a, b] (``has`` False where the
+    window holds no sample); None without the series."""
     if series is None or len(series) == 0:
         return None
-    i0, i1 = np.searchsorted(series.t, a, side="left"), np.searchsorted(series.t, b, side="right")
-    if i1 <= i0:
-        return None
-    v = series.values[i0:i1] if cols is None else series.values[i0:i1, cols]
-    return np.mean(v, axis=0)
+    v = series.values if cols is None else series.values[:, cols]
+    sums, n = _window_sums(np.asarray(v, dtype=np.float64), series.t, ts, te)
+    has = n > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        means = sums / np.where(has, n, 1)[:, None]
+    return means, has
 
 
-def _window_rms(series: Optional[Series], a: float, b: float, cols) -> Optional[float]:
+def _window_rms(series: Optional[Series], ts: np.ndarray, te: np.ndarray, cols) -> Optional[tuple]:
+    """(rms (W,), has (W,)) of the 2-norm of the columns ``cols`` per window; None without the series."""
     if series is None or len(series) == 0:
         return None
-    i0, i1 = np.searchsorted(series.t, a, side="left"), np.searchsorted(series.t, b, side="right")
-    if i1 <= i0:
-        return None
-    v = series.values[i0:i1, cols]
-    return float(np.sqrt(np.mean(np.sum(v * v, axis=1))))
+    v = series.values[:, cols]
+    sums, n = _window_sums(np.sum(v * v, axis=1), series.t, ts, te)
+    has = n > 0
+    return np.sqrt(sums / np.where(has, n, 1)), has
 
 
-def window_phases(flight: Flight, t_start: Sequence[float], t_end: Sequence[float]) -> list[str]:
-    """One phase per window (see the module docstring for the rules and thresholds)."""
+def window_phases(flight, t_start: Sequence[float], t_end: Sequence[float]) -> list[str]:
+    """One phase per window (see the module docstring for the rules and thresholds).
+    ``flight``: a Flight or a :class:`~flightlog_fd.prepared.PreparedFlight`."""
+    flight = getattr(flight, "flight", flight)  # a PreparedFlight's own Flight
     ts = np.asarray(t_start, dtype=np.float64).reshape(-1)
     te = np.asarray(t_end, dtype=np.float64).reshape(-1)
     rates = flight.rates
@@ -77,30 +95,31 @@ def window_phases(flight: Flight, t_start: Sequence[float], t_end: Sequence[floa
 
     collective = np.full(ts.shape, np.nan)
     if n_motors:  # also where velocity exists: it may have gaps the motors do not
-        for i, (a, b) in enumerate(zip(ts, te)):
-            m = _window_mean(motors, a, b)
-            if m is not None:
-                collective[i] = float(np.mean(m))
+        got = _window_means(motors, ts, te)
+        if got is not None:
+            m, has = got
+            collective[has] = m[has].mean(axis=1)
     hover_collective = float(np.nanmedian(collective)) if np.any(np.isfinite(collective)) else np.nan
 
+    rms = _window_rms(rates, ts, te, [0, 1]) if rates is not None and rates.values.shape[1] >= 2 else None
+    vel = _window_means(velocity, ts, te, [0, 1, 2]) if velocity is not None else None
     phases: list[str] = []
-    for i, (a, b) in enumerate(zip(ts, te)):
-        rp_rms = _window_rms(rates, a, b, [0, 1]) if rates is not None and rates.values.shape[1] >= 2 else None
+    for i in range(ts.size):
+        rp_rms = float(rms[0][i]) if rms is not None and rms[1][i] else None
         if rp_rms is not None and rp_rms > MANOEUVRE_RATE_RMS_RAD_S:
             phases.append("manoeuvre")
             continue
-        if velocity is not None:
-            v = _window_mean(velocity, a, b, [0, 1, 2])
-            if v is not None:
-                if v[2] < -CLIMB_SPEED_M_S:
-                    phases.append("climb")
-                elif v[2] > CLIMB_SPEED_M_S:
-                    phases.append("descent")
-                elif float(np.hypot(v[0], v[1])) > HOVER_MAX_HSPEED_M_S:
-                    phases.append("manoeuvre")
-                else:
-                    phases.append("hover")
-                continue
+        if vel is not None and vel[1][i]:
+            v = vel[0][i]
+            if v[2] < -CLIMB_SPEED_M_S:
+                phases.append("climb")
+            elif v[2] > CLIMB_SPEED_M_S:
+                phases.append("descent")
+            elif float(np.hypot(v[0], v[1])) > HOVER_MAX_HSPEED_M_S:
+                phases.append("manoeuvre")
+            else:
+                phases.append("hover")
+            continue
         if np.isfinite(collective[i]) and np.isfinite(hover_collective) and hover_collective > 0:
             rel = (collective[i] - hover_collective) / hover_collective
             phases.append("climb" if rel > COLLECTIVE_CLIMB_DELTA
