@@ -211,21 +211,24 @@ def _moving_average(x: np.ndarray, n: int, axis: int = 0) -> np.ndarray:
     m = x.shape[axis]
     h = n // 2
 
-    def along(sl) -> tuple:
-        return (slice(None),) * axis + (sl,)
+    def along(i) -> tuple:
+        return (slice(None),) * axis + (i,)
 
     shape = list(x.shape)
-    shape[axis] = 1
-    c = np.concatenate([np.zeros(shape), np.cumsum(x, axis=axis)], axis=axis)
+    shape[axis] = m + 1
+    c = np.zeros(shape)
+    np.cumsum(x, axis=axis, out=c[along(slice(1, None))])
     out = np.empty(x.shape)
-    if m > 2 * h:  # full windows: slices (the same sums as the edge rows' gathered ones)
-        out[along(slice(h, m - h))] = (c[along(slice(2 * h + 1, None))] - c[along(slice(0, m - 2 * h))]) / float(2 * h + 1)
-        edge = np.r_[0:h, m - h:m]
+    if m > 2 * h:  # full windows: slices (the same sums and divisor as the edge rows below)
+        mid = out[along(slice(h, m - h))]
+        np.subtract(c[along(slice(2 * h + 1, None))], c[along(slice(0, m - 2 * h))], out=mid)
+        mid /= float(2 * h + 1)
+        edges = [*range(h), *range(m - h, m)]
     else:
-        edge = np.arange(m)
-    lo = np.clip(edge - h, 0, m)
-    hi = np.clip(edge + h + 1, 0, m)
-    out[along(edge)] = (c[along(hi)] - c[along(lo)]) / (hi - lo).reshape((-1,) + (1,) * (x.ndim - 1 - axis))
+        edges = range(m)
+    for e in edges:
+        lo, hi = max(e - h, 0), min(e + h + 1, m)
+        out[along(e)] = (c[along(hi)] - c[along(lo)]) / float(hi - lo)
     return out
 
 
@@ -688,8 +691,13 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     nb = int(block.max()) + 1
     XtX = np.zeros((nb, 4, 4))
     XtY = np.zeros((nb, 4, n_axes))
-    np.add.at(XtX, block, X[:, :, None] * X[:, None, :])
-    np.add.at(XtY, block, X[:, :, None] * Y[:, None, :])
+    starts = np.flatnonzero(np.r_[True, np.diff(block) != 0])
+    if np.all(np.diff(block) >= 0) and starts.size == nb:  # time-ordered rows: one reduceat per matrix
+        XtX[:] = np.add.reduceat(X[:, :, None] * X[:, None, :], starts, axis=0)
+        XtY[:] = np.add.reduceat(X[:, :, None] * Y[:, None, :], starts, axis=0)
+    else:
+        np.add.at(XtX, block, X[:, :, None] * X[:, None, :])
+        np.add.at(XtY, block, X[:, :, None] * Y[:, None, :])
     rng = np.random.default_rng(seed)
     counts = rng.multinomial(nb, np.full(nb, 1.0 / nb), size=n_bootstrap).astype(np.float64)  # (B, nb)
     A = np.einsum("bk,kij->bij", counts, XtX) + 1e-12 * np.eye(4)
