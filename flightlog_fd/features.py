@@ -380,10 +380,14 @@ class Stream:
     t: np.ndarray
     v: np.ndarray
     gap_s: float
+    #: median sample interval (s) when clean_stream already computed it
+    median_dt: Optional[float] = None
 
     @property
     def rate_hz(self) -> float:
-        return 0.0 if len(self.t) < 2 else float(1.0 / np.median(np.diff(self.t)))
+        if len(self.t) < 2:
+            return 0.0
+        return float(1.0 / (self.median_dt if self.median_dt is not None else np.median(np.diff(self.t))))
 
     def valid_at(self, tg: np.ndarray) -> np.ndarray:
         """True where ``tg`` lies between two samples that are not separated by a gap."""
@@ -413,18 +417,20 @@ class Stream:
 def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     t = series.t
     v = series.values[:, :columns]
-    keep = np.isfinite(t) & np.all(np.isfinite(v) & (np.abs(v) <= MAX_ABS_SAMPLE), axis=1)
-    t, v = t[keep], v[keep]
-    if t.size > 1 and np.any(np.diff(t) <= 0):
+    keep = np.isfinite(t) & np.all(np.abs(v) <= MAX_ABS_SAMPLE, axis=1)  # NaN and inf fail the test
+    if not keep.all():  # (a clean stream keeps the series' own arrays: never modified)
+        t, v = t[keep], v[keep]
+    dt = np.diff(t)
+    if t.size > 1 and np.any(dt <= 0):
         order = np.argsort(t, kind="stable")
         t, v = t[order], v[order]
         t, first = np.unique(t, return_index=True)
         v = v[first]
+        dt = np.diff(t)
     if t.size > 1:
-        gap = min(max_gap_s, GAP_FACTOR * float(np.median(np.diff(t))))
-    else:
-        gap = 0.0
-    return Stream(t, v, gap)
+        med = np.median(dt)
+        return Stream(t, v, min(max_gap_s, GAP_FACTOR * float(med)), med)
+    return Stream(t, v, 0.0)
 
 
 def _intersect_sorted(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:

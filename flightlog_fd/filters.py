@@ -115,15 +115,24 @@ def savgol_at(x: np.ndarray, window_length: int, polyorder: int, idx: np.ndarray
     inner = (idx >= half) & (idx <= m - 1 - half)
     p = idx[inner]
     if p.size:
+        step = int(p[1] - p[0]) if p.size > 1 else 1
+        if step > 0 and p[-1] == p[0] + step * (p.size - 1) and np.all(np.diff(p) == step):
+            lo, hi = int(p[0]), int(p[-1]) + 1
+
+            def at(shift: int) -> np.ndarray:  # x[p + shift] as a strided view (no gather)
+                return x[lo + shift:hi + shift:step]
+        else:
+            def at(shift: int) -> np.ndarray:
+                return x[p + shift]
         if sym != 0:
-            acc = x[p] * fw[size1]
+            acc = at(0) * fw[size1]
             for jj in range(-size1, 0):
-                a, b = x[p + jj], x[p - jj]
+                a, b = at(jj), at(-jj)
                 acc += ((a + b) if sym > 0 else (a - b)) * fw[size1 + jj]
         else:
-            acc = x[p + size2] * fw[size1 + size2]
+            acc = at(size2) * fw[size1 + size2]
             for jj in range(-size1, size2):
-                acc += x[p + jj] * fw[size1 + jj]
+                acc += at(jj) * fw[size1 + jj]
         out[inner] = acc
     head = idx < half
     if np.any(head):

@@ -68,7 +68,7 @@ class PreparedFlight:
             if att is None or len(att) < 2 or att.values.shape[1] < 2:
                 return None
             s = self.clean("attitude", max_gap_s, 2)
-            return Stream(s.t, np.unwrap(s.v, axis=0), s.gap_s)
+            return Stream(s.t, np.unwrap(s.v, axis=0), s.gap_s, s.median_dt)
         return self.memo(("attitude", max_gap_s), make)
 
     def speed_stream(self, speed_source: str, rate_hz: float, max_gap_s: float, n_motors: int = 4):
