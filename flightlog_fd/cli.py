@@ -241,7 +241,8 @@ def history(
 
     Exit code: 0 nothing flagged, 1 a drifting motor or a damaged verdict in an airframe's latest flight, 2 bad input.
     """
-    from .store import history_summary, iter_text_lines, load_history, render_html, summary_json
+    from .history import history_summary, iter_text_lines, render_html, summary_json
+    from .store import load_history
 
     if html_out is not None and html_out.exists() and not force:
         _fail(f"{html_out}: already exists (use --force to overwrite)")
@@ -305,7 +306,12 @@ def calibrate(
 
             if output.exists() and not force:
                 raise FlightLogError(output, "already exists (use --force to overwrite)")
-            profile = calibrate_profile(files)
+            from . import load_flight
+            from .model import FaultModel, default_model_path
+
+            calib_flights = [load_flight(f) for f in files]
+            profile = calibrate_profile(calib_flights)
+            profile.fit_analyzers(calib_flights, FaultModel(default_model_path()))
             profile.save(output, overwrite=force)
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn

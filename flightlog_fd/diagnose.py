@@ -274,7 +274,9 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     run = model_verdict.evidence.run if model_verdict.evidence is not None else None
     onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
     evidence = flight_evidence(flight, win, probs, profile, since=onset)
-    verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame)
+    verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame, flight=flight,
+                                       profile=profile, segments=win.segments,
+                                       model_sha256=str(getattr(model, "sha256", "") or ""))
     if stops:  # a motor that stopped in the air outranks any propeller verdict
         verdict = stopped_verdict(stops, flight.frame, verdict)
     order = np.argsort(t_start, kind="stable")

@@ -37,7 +37,7 @@ import numpy as np
 
 from .effectiveness import EffectivenessEstimate
 from .features import DEFAULT_RATE_HZ
-from .decision import EFFECTIVENESS_SANE_MIN, effectiveness_usable
+from .analyzers.effectiveness import EFFECTIVENESS_SANE_MIN, effectiveness_usable
 from .flight import Frame
 
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.

@@ -49,6 +49,14 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
                    "probabilities": [p0, p1, p2, p3, p4],
                    "phase": "hover" | "climb" | "descent" | "manoeuvre" | "unknown",
                    "smoothed_class": -1..4}],     # the verdict's label: -1 uncertain
+      "analyzers": [{"analyzer": "model" | "commands" | "throttle" | "effectiveness" | ...,
+                     "abstained": str | null,            # why it had nothing to say
+                     "notes": [str],
+                     "findings": [{"motor": 1-n, "name": str, "value": float|null, "unit": str,
+                                   "interval": [lo, hi]|null, "baseline": float|null,
+                                   "direction": "up" | "down" | "",   # which way damage moves it
+                                   "llr": float|null,                 # its weight in the decision, nats
+                                   "text": str, "analyzer": str}]}],
       "stopped_motors": [{"motor": 1-n, "t_start": s, "t_end": s,   # "motor k stopped" while airborne,
                           "evidence": str, "source": str}],        # any frame (status "stopped")
       "warnings": [str],
@@ -183,6 +191,25 @@ JSON_SCHEMA: dict = {
                 },
             },
         },
+        "analyzers": {
+            "type": "array",
+            "items": {"type": "object", "required": ["analyzer", "abstained", "notes", "findings"],
+                      "properties": {
+                          "analyzer": {"type": "string"}, "abstained": _STR_OR_NULL,
+                          "notes": {"type": "array", "items": {"type": "string"}},
+                          "findings": {"type": "array", "items": {
+                              "type": "object",
+                              "required": ["analyzer", "motor", "name", "value", "unit", "interval", "baseline",
+                                           "direction", "llr", "text"],
+                              "properties": {
+                                  "analyzer": {"type": "string"},
+                                  "motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                  "name": {"type": "string"}, "value": _NUM_OR_NULL, "unit": {"type": "string"},
+                                  "interval": {"type": ["array", "null"], "items": _NUM_OR_NULL,
+                                               "minItems": 2, "maxItems": 2},
+                                  "baseline": _NUM_OR_NULL, "direction": {"enum": ["up", "down", ""]},
+                                  "llr": _NUM_OR_NULL, "text": {"type": "string"}}}}}},
+        },
         "stopped_motors": {
             "type": "array",
             "items": {"type": "object", "required": ["motor", "t_start", "t_end", "evidence", "source"],
@@ -245,6 +272,7 @@ def to_dict(d: Diagnosis) -> dict:
         "windows": [{"t_start": round(w.t_start, TIME_DECIMALS), "t_end": round(w.t_end, TIME_DECIMALS),
                      "class": w.cls, "probabilities": [round(x, PROB_DECIMALS) for x in w.probabilities],
                      "phase": w.phase, "smoothed_class": w.label} for w in d.windows],
+        "analyzers": [r.as_dict() for r in (d.decision.results if d.decision is not None else [])],
         "stopped_motors": [{"motor": int(x.motor), "t_start": round(float(x.t_start), TIME_DECIMALS),
                             "t_end": round(float(x.t_end), TIME_DECIMALS), "evidence": x.evidence,
                             "source": x.source} for x in d.stopped],
