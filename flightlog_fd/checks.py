@@ -128,6 +128,9 @@ def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
             {"name": s.name, "source": s.source, "rate_hz": round(s.rate_hz, 2), "samples": s.samples}
             for s in flight.streams()
         ],
+        # ESC gaps counted within the armed time (telemetry before arming is not expected)
+        "esc": None if flight.esc is None else flight.esc.describe(
+            *((flight.armed[0][0], flight.armed[-1][1]) if flight.armed else (None, None))),
         "diagnosable": d.ok,
         "reasons": d.reasons,
         "warnings": list(flight.warnings),

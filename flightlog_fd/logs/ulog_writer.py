@@ -30,7 +30,7 @@ Topics written (PX4 field names; float32 as PX4 logs them):
 - ``esc_status`` from ``esc`` (per slot ``esc_index``: ``esc_rpm``, ``esc_current``,
   ``esc_voltage``, ``esc_temperature``, ``timestamp`` of the slot's last report,
   ``actuator_function`` 100 + motor, bit i of ``esc_online_flags``), one message at every time
-  any ESC reported, each slot holding its last report (PX4 publishes that way); with
+  any ESC reported (one per round when the ESCs report in rounds), each slot holding its last report; with
   ``esc_layout="legacy"`` the esc_report of PX4 < 1.13 (no ``actuator_function``: slot i is
   motor i+1). Else from ``esc_rpm`` (``esc[i].esc_rpm``, ``actuator_function`` 101+i).
 
@@ -291,7 +291,12 @@ def _esc_status(flight: Flight, esc_layout: str) -> _TopicData:
     chans = flight.esc.channels
     if max(c.esc_index if c.esc_index >= 0 else c.motor - 1 for c in chans) >= ESC_SLOTS:
         raise ValueError(f"write_ulog: esc_status has {ESC_SLOTS} slots")
-    times = np.unique(np.concatenate([c.t for c in chans]))
+    lengths = {len(c) for c in chans}
+    rounds = np.max([c.t for c in chans], axis=0) if len(lengths) == 1 else None
+    if rounds is not None and rounds.size > 1 and np.all(np.min([c.t for c in chans], axis=0)[1:] > rounds[:-1]):
+        times = rounds  # one message per telemetry round, as PX4's DShot driver publishes
+    else:
+        times = np.unique(np.concatenate([c.t for c in chans]))
     us = _us(times)
     online = np.zeros(times.size, dtype=np.int64)
     vals: dict[str, np.ndarray] = {"counter": np.arange(times.size) % 65536,
