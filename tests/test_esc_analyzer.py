@@ -108,3 +108,14 @@ def test_rpm_only_telemetry_still_scores(same_airframe):
     assert all(np.isnan(x.value) and x.abstain == "no current telemetry" for x in cur)
     # the rpm lift alone (about 1.5 % here) is weak evidence, but it points at motor 3
     assert max(a.llr, key=a.llr.get) == 3
+
+
+@pytest.mark.parametrize("name,motor", [("px4_esc_motor2_damaged.ulg", 2), ("ardupilot_esc_motor3_damaged.bin", 3)])
+def test_sample_logs_with_esc_telemetry(name, motor):
+    from pathlib import Path
+
+    f = load_flight(Path(__file__).resolve().parents[1] / "sample_logs" / name)
+    assert f.esc is not None and f.esc.motors == [1, 2, 3, 4] and set(f.esc.quantities()) == {
+        "rpm", "current", "voltage", "temperature"}
+    a = analyze_esc(f)
+    assert a.motor_named() == motor, a.llr
