@@ -91,13 +91,13 @@ HEALTHY_SPREAD_COV = ((HEALTHY_SPREAD_STD[0] ** 2, HEALTHY_SPREAD_CORR * HEALTHY
 #: std of the change a 0.35 %, d 0.59 %.
 PROFILE_SPREAD_FLOOR = (0.0035, 0.0059)
 #: Offset per unit of lost torque ℓ = -log η_torque, (a, d). Measured (same run, 64 damaged
-#: flights, η 0.6-0.9): median a/ℓ +0.092 (the motor's load droop at hover), d/ℓ -0.951 (d
+#: flights, η 0.6-0.9): median a/ℓ +0.073 (the motor's load droop at hover), d/ℓ -0.968 (d
 #: follows the torque; the no-load current keeps it just short of 1).
-DAMAGE_DIRECTION = (0.092, -0.951)
+DAMAGE_DIRECTION = (0.073, -0.968)
 #: Per-motor llr (nats) above which :meth:`EscAnalysis.motor_named` names a motor: 6 nats is a
 #: healthy motor 3.5 standard deviations along the damage direction (2e-4 per motor if the
-#: spread were Gaussian); the largest healthy llr of the `--measure` run is given in its output
-#: and in the README's benchmark figures.
+#: spread were Gaussian). The `--measure` run's largest healthy llr: 4.5 nats (48 healthy and
+#: trim-changed flights, no profile; p99 4.0).
 DECISION_LLR = 6.0
 
 
