@@ -183,3 +183,31 @@ def test_eight_motor_esc_channels_model():
     d = esc.describe(0.0, 10.0)
     # 5 s without telemetry after the last sample is a gap
     assert d["motors"][0]["gaps"] == [[4.9, 10.0]] and d["quantities"] == ["rpm"]
+
+
+def test_ulog_eight_motor_esc_status(tmp_path):
+    from flightlog_fd.flight import Rotor
+
+    ang = np.radians(22.5 + 45 * np.arange(8))
+    octo = Frame("octo", tuple(Rotor(float(np.cos(a)), float(np.sin(a)), 1 if i % 2 else -1) for i, a in enumerate(ang)),
+                 "test")
+    chans = esc_channels(n=8)
+    f = flight_with_esc(chans)
+    f.frame, f.vehicle_type = octo, "octorotor"
+    f.motors = Series(f.motors.t, np.tile(f.motors.values, (1, 2)), "sim")
+    g = load_flight(write_ulog(f, tmp_path / "octo.ulg"))
+    assert g.frame.rotor_count == 8 and g.esc.motors == list(range(1, 9))
+    assert_same_fresh(g.esc, chans, atol=2e-5 * 16)
+
+
+def test_sanitise_drops_an_implausible_esc_timestamp():
+    from flightlog_fd.flight import sanitise_flight
+
+    chans = esc_channels()
+    t = chans[1].t.copy()
+    t[200] += 2.0 ** 30 * 1e-6 * 4096  # one flipped high bit in a µs timestamp
+    chans[1] = EscChannel(2, np.sort(t), chans[1].rpm, chans[1].current, chans[1].voltage, chans[1].temperature,
+                          esc_index=1, source="sim")
+    f = sanitise_flight(flight_with_esc(chans))
+    assert any("esc motor 2" in w for w in f.warnings)
+    assert f.esc.channel(2).t.max() < T1 + 1 and len(f.esc.channel(2)) == len(chans[1]) - 1
