@@ -104,6 +104,7 @@ def run(per_cell: int, seed: int, measure: bool) -> None:
     print(f"{'eta':>5} {'ESC Hz':>7} {'right motor':>12} {'wrong motor':>12} {'nothing':>8} {'abstained':>9}"
           f"   {'with profile: right':>20}")
     damaged_llr_ratio, total_ok, total_n, profile_ok = [], 0, 0, {}
+    sweep_damaged: dict[float, list[float]] = {}  # per eta: the right motor's llr when it is the largest, else 0
     for eta in ETAS:
         for rate in RATES:
             pairs = damaged_set(eta, rate, per_cell, seed)
@@ -115,6 +116,8 @@ def run(per_cell: int, seed: int, measure: bool) -> None:
                 if a.abstain:
                     abst += 1
                     continue
+                k = f.truth["motor"]
+                sweep_damaged.setdefault(eta, []).append(a.llr[k] if max(a.llr, key=a.llr.get) == k else 0.0)
                 named = a.motor_named()
                 k = f.truth["motor"]
                 if named == k:
@@ -173,6 +176,13 @@ def run(per_cell: int, seed: int, measure: bool) -> None:
     print(f"trim changed after calibration (CoG / yaw trim), false alarms without profile: {fa_t}/{n_t} "
           f"(largest llr {max(trim_llr):.1f}), against the calibration flight's baseline: {fa_tp}/{n_t} "
           f"(largest llr {max(trim_llr_p):.1f})")
+    thresholds = (4.0, 6.0, 8.0, 10.0, 12.0, 15.0)
+    print("\nllr threshold sweep (no profile): right motor named per eta / false alarms on healthy + trim-changed")
+    print(f"{'llr >':>6} " + " ".join(f"{'eta ' + format(e, 'g'):>8}" for e in ETAS) + f" {'false alarms':>13}")
+    quiet = np.array(healthy_llr + trim_llr)
+    for th in thresholds:
+        print(f"{th:6.1f} " + " ".join(f"{np.mean(np.array(sweep_damaged[e]) > th):8.0%}" for e in ETAS)
+              + f" {int(np.sum(quiet > th)):6d}/{quiet.size}")
     if measure:
         o = np.concatenate(offsets)  # (flights*motors, 2)
         print("\n--measure: healthy offsets against the other motors (natural log):")

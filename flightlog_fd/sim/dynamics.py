@@ -42,6 +42,7 @@ import numpy as np
 
 from flightlog_fd.flight import Frame
 from flightlog_fd.sim.airframe import GRAVITY, Airframe
+from flightlog_fd.sim.esc import loaded_speed
 
 
 @dataclass
@@ -240,8 +241,6 @@ class QuadDynamics:
         dt = self.dt
         w = s.w
         if self.motor_a0 is not None:
-            from flightlog_fd.sim.esc import loaded_speed
-
             load = self.torque_rel * effectiveness * (1.0 if drag_ratio is None else drag_ratio)
             w_com = loaded_speed(w_com, load, self.motor_a0, self.motor_kv)
         w += self.motor_alpha * (w_com - w)
