@@ -4,7 +4,10 @@ Inputs: a :class:`~flightlog_fd.flight.Flight` and optionally the model's featur
 and window length decide how much airborne time is needed).
 
 Rules (each failing rule adds one reason, in the order a pilot would fix them):
-- the vehicle is a quadrotor with a known 4-rotor layout (hexa, octo, fixed-wing, VTOL are named);
+- the vehicle is a quadrotor with a known 4-rotor layout (fixed-wing and VTOL are named; a hexa,
+  octo or other n-rotor frame is told that only stopped-motor detection
+  (:func:`flightlog_fd.stopped.diagnose_stopped`) is available; a frame whose rotors cannot be
+  placed gets the reason from :mod:`flightlog_fd.frames`);
 - per-motor commands for 4 motors and body angular rates are present;
 - the rate streams are fast enough: angular rates >= ``MIN_RATES_HZ`` (the angular acceleration is a
   derivative of them), motor commands >= ``MIN_MOTORS_HZ`` (PX4's default 10 Hz logging passes);
@@ -15,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .flight import Flight
+from .stopped import diagnose_stopped
 
 #: Below this the derivative of the gyro no longer resolves a quad's attitude dynamics (a few Hz).
 MIN_RATES_HZ = 15.0
@@ -24,6 +28,13 @@ MIN_MOTORS_HZ = 5.0
 MIN_AIRBORNE_S = 8.0
 # The verdict needs several windows to smooth over: use its own minimum so that both agree.
 from .verdict import MIN_WINDOWS  # noqa: E402
+
+#: ArduPilot quad layouts diagnosed as quads: motors 1-4 where quad-X's (X, V, H) or quad-+'s sit. The
+#: other quad tables (BF_X, DJI_X, CW_X, V-/A-tail, Y4...) are placed for `fdlog info` and the
+#: stopped-motor finding only, as before they were placed at all.
+ARDUPILOT_QUAD_LAYOUTS = ("ArduPilot QUAD/X", "ArduPilot QUAD/PLUS", "ArduPilot QUAD/V", "ArduPilot QUAD/H")
+#: Vehicle types whose placed n-rotor frame gets the stopped-motor-only message (readers' vehicle_type).
+MULTIROTOR_TYPES = ("quadrotor", "unknown", "multirotor", "hexarotor", "octorotor", "dodecarotor", "decarotor")
 
 DEFAULT_RATE_HZ = 50.0
 DEFAULT_WINDOW = 80
@@ -59,8 +70,12 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
     is_quad = frame is not None and frame.is_quad
     vtype = (flight.vehicle_type or "unknown").lower()
     if vtype not in ("quadrotor", "unknown", "multirotor") or not is_quad:
-        if vtype in ("quadrotor", "unknown", "multirotor") and frame is not None and frame.rotor_count and frame.rotor_count != 4:
-            reasons.append(f"not a quadrotor: {frame.rotor_count}-rotor frame ({frame.name}); fdlog diagnoses quadrotors only")
+        n = frame.rotor_count if frame is not None else 0
+        if vtype in MULTIROTOR_TYPES and frame is not None and n and n != 4:
+            reasons.append(f"{n}-rotor frame ({frame.name}): fdlog has no {n}-rotor propeller-damage model yet; "
+                           f"only stopped-motor detection is available for it")
+        elif vtype in MULTIROTOR_TYPES and frame is not None and frame.unplaced:
+            reasons.append(f"cannot place the rotors of this {frame.name} frame: {frame.unplaced}")
         elif vtype not in ("quadrotor", "unknown", "multirotor"):
             reasons.append(f"not a quadrotor: this log is from a {describe_vehicle(flight).replace('vtol', 'VTOL')}; "
                            f"fdlog diagnoses quadrotors only")
@@ -68,6 +83,9 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
             reasons.append("unknown frame: the log has no rotor geometry or frame parameters")
         else:
             reasons.append(f"unsupported frame {frame.name!r}; fdlog diagnoses quad-X and quad-+ frames")
+    elif frame.layout.startswith("ArduPilot QUAD/") and frame.layout not in ARDUPILOT_QUAD_LAYOUTS:
+        reasons.append(f"unsupported frame {frame.layout}: its motor numbering is not quad-X / quad-+ (the model's "
+                       f"motor classes follow quad-X numbering); fdlog diagnoses quad-X and quad-+ frames")
     if flight.motors is None:
         reasons.append("no per-motor outputs in the log (actuator_motors / actuator_outputs / RCOU)")
     elif flight.motors.values.shape[1] < 4:
@@ -109,9 +127,13 @@ def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
             "name": frame.name,
             "rotor_count": frame.rotor_count,
             "source": frame.source,
+            "layout": frame.layout,
+            "unplaced": frame.unplaced or None,
             "motors": [
                 {"motor": i + 1, "position": frame.position(i + 1), "x": r.x, "y": r.y,
-                 "spin": "CCW" if r.spin > 0 else "CW"}
+                 "spin": "CCW" if r.spin > 0 else ("CW" if r.spin < 0 else "none"),
+                 "axis": list(r.axis),
+                 "output": frame.outputs[i] if i < len(frame.outputs) else None}
                 for i, r in enumerate(frame.rotors)
             ],
         },
@@ -127,6 +149,11 @@ def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
         "streams": [
             {"name": s.name, "source": s.source, "rate_hz": round(s.rate_hz, 2), "samples": s.samples}
             for s in flight.streams()
+        ],
+        "stopped_motors": [
+            {"motor": f.motor, "t_start": round(f.t_start, 3), "t_end": round(f.t_end, 3), "evidence": f.evidence,
+             "source": f.source}
+            for f in diagnose_stopped(flight)
         ],
         # ESC gaps counted within the armed time (telemetry before arming is not expected)
         "esc": None if flight.esc is None else flight.esc.describe(

@@ -122,7 +122,7 @@ def diagnose(
     logs: List[Path] = typer.Argument(..., help="Log files (.ulg / .bin) or folders of them."),
     profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate` (its adapted model is used)."),
     model: Optional[Path] = typer.Option(None, "--model", "-m", help="ONNX model to use instead of the profile's or the shipped one."),
-    as_json: bool = typer.Option(False, "--json", help="Print the versioned JSON report (schema 1) instead of text."),
+    as_json: bool = typer.Option(False, "--json", help="Print the versioned JSON report (schema 3, see flightlog_fd/report/json_report.py) instead of text."),
     csv_out: Optional[Path] = typer.Option(None, "--csv", help="Write the per-window timeline of every log to this CSV file."),
     html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
@@ -362,8 +362,17 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
 
     if fmt not in FORMATS:
         raise FlightLogError(out, f"unknown format {fmt!r}: use ulog or dataflash")
-    if not 0 <= motor <= 4:
-        raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..4, got {motor}")
+    from .sim.airframe import N_ROTOR_FRAMES, SIM_FRAMES
+
+    if frame is not None and frame not in SIM_FRAMES:
+        raise FlightLogError(out, f"--frame must be one of {', '.join(SIM_FRAMES)}, got {frame!r}")
+    rotors = 4 if frame is None or frame not in N_ROTOR_FRAMES else preset("x500", frame).rotor_count
+    if frame in N_ROTOR_FRAMES and fmt != "ulog":
+        raise FlightLogError(out, f"the DataFlash writer writes quadrotors only: use --format ulog for {frame}")
+    if not 0 <= motor <= rotors:
+        raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..{rotors}, got {motor}")
+    if rho is not None and len(rho) != rotors:
+        raise FlightLogError(out, f"--rho needs {rotors} values (one per rotor), got {len(rho)}")
     if motor and not 0.0 < eta < 1.0:
         raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {eta}")
     profile_name = log_profile or ("px4_high" if fmt == "ulog" else "ardupilot_fast")
@@ -386,7 +395,7 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
     # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
     eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
-    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque) if motor else Damage()
+    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
     flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
                                duration_s=duration, profile=profile_name, rho=rho, seed=seed,
                                esc=esc_rate, imbalance="random" if esc_rate else None)
@@ -415,8 +424,9 @@ def simulate(
     out: Path = typer.Option(..., "--output", "-o", help="Output log file (or folder when --count > 1)."),
     fmt: str = typer.Option("ulog", "--format", "-f", help="ulog (PX4) or dataflash (ArduPilot)."),
     airframe: str = typer.Option("x500", help="Airframe preset (x500, f450, crazyflie, sih, heavy) or 'random'."),
-    frame: Optional[str] = typer.Option(None, help="Fly the preset as quad_x or quad_plus."),
-    motor: int = typer.Option(0, help="Damaged propeller 1..4, or 0 for a healthy flight."),
+    frame: Optional[str] = typer.Option(None, help="Fly the preset as quad_x, quad_plus, hexa_x, hexa_plus, octo_x, "
+                                                   "octo_plus or octaquad_x (n-rotor frames: --format ulog)."),
+    motor: int = typer.Option(0, help="Damaged propeller 1..n (4 on a quad), or 0 for a healthy flight."),
     eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor)."),
     onset: Optional[float] = typer.Option(None, help="Damage starts this many seconds after arming (default: from take-off)."),
     duration: float = typer.Option(60.0, help="Planned flight time, seconds."),
@@ -430,15 +440,15 @@ def simulate(
                                              "temperature per motor) at this rate, 10-100 Hz, on a realistically "
                                              "unbalanced airframe."),
 ) -> None:
-    """Simulate quadrotor flights, healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
+    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
     rho_list = None
     if rho:
         try:
             rho_list = [float(x) for x in rho.split(",")]
         except ValueError:
             rho_list = []
-        if len(rho_list) != 4 or min(rho_list) <= 0:
-            _fail(f"--rho must be four positive numbers, got {rho!r}")
+        if len(rho_list) < 3 or min(rho_list) <= 0:
+            _fail(f"--rho must be one positive number per rotor (four on a quad), got {rho!r}")
             raise typer.Exit(EXIT_INVALID)
     try:
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,

@@ -11,8 +11,8 @@ Steps (pure: nothing is printed, nothing imports torch):
    windows (:mod:`flightlog_fd.verdict`).
 5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
    baseline or the neighbours, :mod:`flightlog_fd.effectiveness`, the model's votes) from the same
-   resampled segments as the windows, and the flight verdict from model and evidence together
-   (:func:`flightlog_fd.verdict.combine_with_evidence`).
+   resampled segments as the windows, and the flight verdict, each motor's severity and weight
+   from the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
@@ -34,7 +34,9 @@ from .checks import diagnosability
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .phases import window_phases
-from .verdict import N_CLASSES, Verdict, VerdictSettings, combine_with_evidence, decide, not_diagnosable
+from .decision import flight_verdict
+from .stopped import diagnose_stopped
+from .verdict import N_CLASSES, Verdict, VerdictSettings, decide, not_diagnosable
 
 EXIT_HEALTHY = 0
 EXIT_DAMAGED_OR_UNCERTAIN = 1
@@ -125,6 +127,17 @@ class Diagnosis:
     flight: Optional[Flight] = field(default=None, repr=False)
     #: Per-motor evidence (:class:`flightlog_fd.evidence.FlightEvidence`); None when not diagnosable.
     evidence: Any = None
+    #: The decision model's output (:class:`flightlog_fd.decision.Decision`: per-motor severity,
+    #: LLR by source, weight); None when not diagnosable.
+    decision: Any = None
+    #: "motor k stopped" findings (:class:`flightlog_fd.stopped.StoppedMotor`), on any frame.
+    stopped: list = field(default_factory=list)
+
+    @property
+    def airframe_changed_note(self) -> str:
+        """The decision model's "airframe changed" finding in words, or ''."""
+        a = getattr(self.decision, "airframe_changed", None)
+        return f"Airframe change since calibration: {a}." if a else ""
 
     @property
     def motors(self) -> list:
@@ -136,7 +149,7 @@ class Diagnosis:
         status = self.verdict.status
         if status == "healthy":
             return EXIT_HEALTHY
-        if status in ("damaged", "uncertain"):
+        if status in ("damaged", "uncertain", "stopped"):
             return EXIT_DAMAGED_OR_UNCERTAIN
         return EXIT_NOT_DIAGNOSABLE
 
@@ -225,9 +238,16 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     common = dict(facts=facts, model=model_info(model, profile), profile=profile_info(profile),
                   warnings=warnings, flight=flight if keep_flight else None)
 
+    stops = diagnose_stopped(flight)
     check = diagnosability(flight, model.feature_spec)
     if not check.ok:
-        return _not_diagnosable(log, check.reason, diagnosability_facts=dict(check.facts), **common)
+        if stops:  # a frame without a damage model (hexa, octo) still gets its stopped motors
+            return Diagnosis(log=log, verdict=stopped_verdict(stops, flight.frame), stopped=stops,
+                             diagnosability_facts=dict(check.facts), **common)
+        reason = check.reason
+        if flight.frame is not None and flight.frame.rotor_count > 4 and not flight.frame.unplaced:
+            reason += "; no motor stopped while airborne"
+        return _not_diagnosable(log, reason, diagnosability_facts=dict(check.facts), **common)
     if profile is None:  # only worth saying when a verdict follows
         warnings.append(NO_PROFILE_WARNING if is_shipped_model(model) else NO_PROFILE_OWN_MODEL_WARNING)
     try:
@@ -254,9 +274,9 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     run = model_verdict.evidence.run if model_verdict.evidence is not None else None
     onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
     evidence = flight_evidence(flight, win, probs, profile, since=onset)
-    verdict = combine_with_evidence(model_verdict, probs, evidence, flight.frame)
-    if evidence.airframe_changed:
-        warnings.append(f"the airframe changed since calibration: {evidence.airframe_changed}; re-calibrate")
+    verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame)
+    if stops:  # a motor that stopped in the air outranks any propeller verdict
+        verdict = stopped_verdict(stops, flight.frame, verdict)
     order = np.argsort(t_start, kind="stable")
     windows = [WindowResult(float(t_start[i]), float(t_end[i]), int(np.argmax(probs[i])),
                             [float(x) for x in probs[i]], phases[i], int(verdict.window_labels[i]))
@@ -265,8 +285,27 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
-    return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence,
-                     diagnosability_facts=dict(check.facts), **common)
+    return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence, decision=decision,
+                     stopped=stops, diagnosability_facts=dict(check.facts), **common)
+
+
+def stopped_verdict(stops: list, frame: Any, underneath: Optional[Verdict] = None) -> Verdict:
+    """The "stopped" verdict for the earliest stopped motor (a motor or ESC failure, not a damaged
+    propeller); the propeller verdict it replaces, if any, is kept in the reason."""
+    from .stopped import describe
+
+    first = stops[0]
+    others = "".join(f"; also {describe(s)}" for s in stops[1:])
+    was = (f"; the propeller diagnosis alone said {underneath.status}"
+           + (f" (motor {underneath.motor})" if underneath.motor else "") if underneath is not None else "")
+    v = Verdict(status="stopped", motor=first.motor,
+                position=frame.position(first.motor) if frame is not None else None, confidence=1.0,
+                first_seen=first.t_start,
+                reason=f"{describe(first)}{others}: check motor {first.motor}, its ESC, wiring and output "
+                       f"assignment before the next flight{was}",
+                evidence=underneath.evidence if underneath is not None else None,
+                window_labels=underneath.window_labels if underneath is not None else [])
+    return v
 
 
 def flight_evidence(flight: Flight, windows: Any, probs: np.ndarray, profile: Any = None,

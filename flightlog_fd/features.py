@@ -62,9 +62,12 @@ Pipeline (every step documented where it is implemented):
 
 Channel order: NIF ``p_dot, q_dot, r_dot, w1_sq, w2_sq, w3_sq, w4_sq``; CF ``roll, pitch, p, q,
 r, w1, w2, w3, w4`` (w = sqrt of the thrust proxy). Motor k is column k-1 (autopilot numbering).
+``FeatureSpec.n_motors`` (default 4) gives n motor channels, ``w1_sq .. wn_sq`` / ``w1 .. wn``, for
+hexa- and octocopters: the paper's method is the same for n rotors. A quad spec (n = 4) builds
+exactly the windows it always did and its dict carries no ``n_motors`` key.
 
-Limits: quadrotors only (4 motor columns). Windows carry no label; :func:`window_labels` gives
-them from ``Flight.truth``.
+Limits: the frame's rotor count must equal the spec's ``n_motors`` (a quad spec refuses a hexa,
+as before). Windows carry no label; :func:`window_labels` gives them from ``Flight.truth``.
 """
 from __future__ import annotations
 
@@ -126,6 +129,18 @@ ESC_RPM_MIN_VALID_FRACTION = 0.9
 
 NIF_CHANNELS = ("p_dot", "q_dot", "r_dot", "w1_sq", "w2_sq", "w3_sq", "w4_sq")
 CF_CHANNELS = ("roll", "pitch", "p", "q", "r", "w1", "w2", "w3", "w4")
+#: Motor counts a spec may ask for (tricopter to dodecacopter).
+MIN_MOTORS, MAX_MOTORS = 3, 12
+
+
+def nif_channels(n_motors: int = 4) -> tuple[str, ...]:
+    """NIF channel names for ``n_motors`` motors (p_dot, q_dot, r_dot, w1_sq .. wn_sq)."""
+    return NIF_CHANNELS[:3] + tuple(f"w{k}_sq" for k in range(1, n_motors + 1))
+
+
+def cf_channels(n_motors: int = 4) -> tuple[str, ...]:
+    """CF channel names for ``n_motors`` motors (roll, pitch, p, q, r, w1 .. wn)."""
+    return CF_CHANNELS[:5] + tuple(f"w{k}" for k in range(1, n_motors + 1))
 TRANSFORMS = ("scale_free", "raw")
 SPEED_SOURCES = ("command", "esc_rpm", "auto")
 
@@ -150,11 +165,16 @@ class FeatureSpec:
     mean: Optional[np.ndarray] = None
     std: Optional[np.ndarray] = None
     version: int = FEATURE_VERSION
+    n_motors: int = 4
 
     def __post_init__(self) -> None:
         if self.features not in ("nif", "cf"):
             raise ValueError(f"features must be 'nif' or 'cf', not {self.features!r}")
-        expected = NIF_CHANNELS if self.features == "nif" else CF_CHANNELS
+        if isinstance(self.n_motors, bool) or not isinstance(self.n_motors, (int, np.integer)) \
+                or not MIN_MOTORS <= int(self.n_motors) <= MAX_MOTORS:
+            raise ValueError(f"n_motors must be an integer {MIN_MOTORS}..{MAX_MOTORS}, not {self.n_motors!r}")
+        self.n_motors = int(self.n_motors)
+        expected = nif_channels(self.n_motors) if self.features == "nif" else cf_channels(self.n_motors)
         if not self.channels:
             self.channels = expected
         self.channels = tuple(self.channels)
@@ -231,6 +251,8 @@ class FeatureSpec:
             "mean": None if self.mean is None else [float(x) for x in self.mean],
             "std": None if self.std is None else [float(x) for x in self.std],
             "version": self.version,
+            # quad specs (every model and profile written before n-rotor windows) stay as they were
+            **({"n_motors": self.n_motors} if self.n_motors != 4 else {}),
         }
 
     @classmethod
@@ -258,8 +280,8 @@ class Segment:
     t: np.ndarray  # (n,) s, log clock
     rates: np.ndarray  # (n, 3) p, q, r rad/s (Savitzky-Golay smoothed)
     attitude: np.ndarray  # (n, 2) roll, pitch rad (NaN when the log has no attitude)
-    motors: np.ndarray  # (n, 4) commands 0..1 as logged
-    w_sq: np.ndarray  # (n, 4) thrust proxy (see thrust_proxy)
+    motors: np.ndarray  # (n, n_motors) commands 0..1 as logged
+    w_sq: np.ndarray  # (n, n_motors) thrust proxy (see thrust_proxy)
     ang_acc: np.ndarray  # (n, 3) rad/s^2
     speed_source: str = "command"
 
@@ -456,36 +478,40 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), stops.tolist()))
 
 
-def _speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: float) -> tuple[Stream, str]:
-    """The thrust-proxy stream (n, 4) and which source it came from."""
+def _speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: float,
+                  n_motors: int = 4) -> tuple[Stream, str]:
+    """The thrust-proxy stream (n, n_motors) and which source it came from."""
+    n = n_motors
     use_rpm = False
-    if speed_source in ("esc_rpm", "auto") and flight.esc_rpm is not None and flight.esc_rpm.values.shape[1] >= 4:
+    if speed_source in ("esc_rpm", "auto") and flight.esc_rpm is not None and flight.esc_rpm.values.shape[1] >= n:
         rpm = flight.esc_rpm
         airborne = np.zeros(len(rpm), dtype=bool)
         for a, b in flight.airborne:
             airborne |= (rpm.t >= a) & (rpm.t <= b)
-        vals = rpm.values[airborne, :4]
+        vals = rpm.values[airborne, :n]
         valid_fraction = float(np.mean(np.all(vals > 0, axis=1))) if vals.size else 0.0
         use_rpm = rpm.rate_hz >= rate_hz / 2.0 and valid_fraction >= ESC_RPM_MIN_VALID_FRACTION
     if speed_source == "esc_rpm" and not use_rpm:
         raise MissingDataError(flight.path, "speed_source 'esc_rpm' asked for, but the log has no usable ESC rpm "
-                                            f"(needs 4 motors at >= {rate_hz / 2:g} Hz, non-zero in flight)")
+                                            f"(needs {n} motors at >= {rate_hz / 2:g} Hz, non-zero in flight)")
     if use_rpm:
-        rpm = flight.esc_rpm.values[:, :4].astype(np.float64)
+        rpm = flight.esc_rpm.values[:, :n].astype(np.float64)
         rpm = np.where(rpm > 0, rpm, np.nan)  # telemetry dropouts read as 0: treat as missing
         top = np.nanmax(rpm) if np.any(np.isfinite(rpm)) else 1.0
-        s = clean_stream(Series(flight.esc_rpm.t, (rpm / top) ** 2, flight.esc_rpm.source), max_gap_s, 4)
+        s = clean_stream(Series(flight.esc_rpm.t, (rpm / top) ** 2, flight.esc_rpm.source), max_gap_s, n)
         return s, "esc_rpm"
     m = flight.motors
-    s = clean_stream(Series(m.t, flight_thrust_proxy(flight, m.values[:, :4]), m.source), max_gap_s, 4)
+    s = clean_stream(Series(m.t, flight_thrust_proxy(flight, m.values[:, :n]), m.source), max_gap_s, n)
     return s, "command"
 
 
-def _check_streams(flight: Flight, need_attitude: bool) -> None:
+def _check_streams(flight: Flight, need_attitude: bool, n_motors: int = 4) -> None:
     # "unknown": the parser could not tell; the motor column count decides below.
     quad_names = ("quad_x", "quad_plus", "quad_other", "unknown")
     frame = flight.frame
-    if frame is not None and (frame.name not in quad_names or frame.rotor_count not in (0, 4)):
+    if n_motors != 4:
+        _check_n_rotor_frame(flight, n_motors)
+    elif frame is not None and (frame.name not in quad_names or frame.rotor_count not in (0, 4)):
         rotors = f" with {frame.rotor_count} rotors" if frame.rotor_count else ""
         raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; this log is a {frame.name}{rotors}")
     if flight.rates is None or len(flight.rates) < 2:
@@ -494,26 +520,42 @@ def _check_streams(flight: Flight, need_attitude: bool) -> None:
         raise MissingDataError(flight.path, f"the angular-rate stream has {flight.rates.values.shape[1]} axes, not 3")
     if flight.motors is None or len(flight.motors) < 2:
         raise MissingDataError(flight.path, "no motor output stream in this log")
-    if flight.motors.values.shape[1] != 4:
-        raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; the log has "
+    if flight.motors.values.shape[1] != n_motors:
+        if n_motors == 4:
+            raise UnsupportedVehicleError(flight.path, f"this tool diagnoses quadrotors; the log has "
+                                                       f"{flight.motors.values.shape[1]} motor outputs")
+        raise UnsupportedVehicleError(flight.path, f"these features are for {n_motors} motors; the log has "
                                                    f"{flight.motors.values.shape[1]} motor outputs")
     if need_attitude and (flight.attitude is None or len(flight.attitude) < 2 or flight.attitude.values.shape[1] < 2):
         raise MissingDataError(flight.path, "no attitude stream in this log (the CF features need roll and pitch)")
 
 
+def _check_n_rotor_frame(flight: Flight, n_motors: int) -> None:
+    """An n-rotor spec (n != 4) needs a placed frame with n rotors (or none the reader could tell)."""
+    frame = flight.frame
+    if frame is None or frame.rotor_count == 0:
+        if frame is not None and frame.unplaced:
+            raise UnsupportedVehicleError(flight.path, f"cannot place the rotors of this {frame.name}: {frame.unplaced}")
+        return
+    if frame.rotor_count != n_motors:
+        raise UnsupportedVehicleError(flight.path, f"these features are for {n_motors} rotors; this log is a "
+                                                   f"{frame.name} with {frame.rotor_count} rotors")
+
+
 def resample(flight: Flight, rate_hz: float = DEFAULT_RATE_HZ, max_gap_s: float = DEFAULT_MAX_GAP_S,
              trim_s: float = DEFAULT_TRIM_S, savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S,
-             need_attitude: bool = False, speed_source: str = "command") -> list[Segment]:
+             need_attitude: bool = False, speed_source: str = "command", n_motors: int = 4) -> list[Segment]:
     """Gap-free airborne :class:`Segment` s on a uniform grid at ``rate_hz`` (see module docstring).
 
     Needed streams: rates, motors (or ESC rpm) and, if ``need_attitude``, attitude; a gap in any
     of them splits the segment. Raises MissingDataError / UnsupportedVehicleError when a needed
-    stream is absent or the vehicle is not a quadrotor; returns [] when nothing is airborne.
+    stream is absent or the vehicle does not have ``n_motors`` rotors (4: a quadrotor); returns []
+    when nothing is airborne.
     """
-    _check_streams(flight, need_attitude)
+    _check_streams(flight, need_attitude, n_motors)
     rates = clean_stream(flight.rates, max_gap_s, 3)
-    speed, source = _speed_stream(flight, speed_source, rate_hz, max_gap_s)
-    motors = clean_stream(flight.motors, max_gap_s, 4)
+    speed, source = _speed_stream(flight, speed_source, rate_hz, max_gap_s, n_motors)
+    motors = clean_stream(flight.motors, max_gap_s, n_motors)
     attitude = None
     if flight.attitude is not None and len(flight.attitude) >= 2 and flight.attitude.values.shape[1] >= 2:
         attitude = clean_stream(flight.attitude, max_gap_s, 2)
@@ -603,7 +645,8 @@ def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: boo
     """
     spec = spec or FeatureSpec()
     segments = resample(flight, spec.rate_hz, spec.max_gap_s, spec.trim_s, spec.savgol_window_s,
-                        need_attitude=(spec.features == "cf"), speed_source=spec.speed_source)
+                        need_attitude=(spec.features == "cf"), speed_source=spec.speed_source,
+                        n_motors=spec.n_motors)
     source = segments[0].speed_source if segments else spec.speed_source
     seg_s = float(sum(len(s) for s in segments) / spec.rate_hz)
     usable = [i for i, s in enumerate(segments) if len(s) >= spec.window]
@@ -625,7 +668,7 @@ def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: boo
     if spec.transform == "scale_free":
         scales["ang_acc"] = robust_scale(np.concatenate([s.ang_acc for s in segments]), ANG_ACC_SCALE_FLOOR)
         scales["rates"] = robust_scale(np.concatenate([s.rates for s in segments]), RATE_SCALE_FLOOR)
-    motor_ch = slice(3, 7) if spec.features == "nif" else slice(5, 9)
+    motor_ch = slice(3, 3 + spec.n_motors) if spec.features == "nif" else slice(5, 5 + spec.n_motors)
 
     xs, t0s, t1s, segidx = [], [], [], []
     T, S = spec.window, spec.stride
@@ -647,16 +690,6 @@ def make_windows(flight: Flight, spec: Optional[FeatureSpec] = None, strict: boo
                    scales={k: v.tolist() for k, v in scales.items()}, segments=segments)
 
 
-def nif_windows(flight: Flight, **spec_kwargs) -> Windows:
-    """NIF windows (p_dot, q_dot, r_dot, w1_sq..w4_sq) with a default spec updated by ``spec_kwargs``."""
-    return make_windows(flight, FeatureSpec(features="nif", **spec_kwargs))
-
-
-def cf_windows(flight: Flight, **spec_kwargs) -> Windows:
-    """CF windows (roll, pitch, p, q, r, w1..w4) with a default spec updated by ``spec_kwargs``."""
-    return make_windows(flight, FeatureSpec(features="cf", **spec_kwargs))
-
-
 #: Label of a window that straddles a mid-flight fault onset (dropped in training).
 AMBIGUOUS_LABEL = -1
 
@@ -676,13 +709,14 @@ def window_labels(flight: Flight, windows: Windows, truth: Optional[dict] = None
 def labels_for_spans(truth: dict, t_start: np.ndarray, t_end: np.ndarray) -> np.ndarray:
     """(N,) class per time span [t_start, t_end] (log clock) from a truth dict.
 
-    ``truth["label"]`` (0..4, falling back on ``truth["motor"]``) applies from ``truth["onset_s"]``
-    (log-clock seconds; None or absent = from the start). Spans ending before the onset are
-    healthy (0); spans straddling it are -1.
+    ``truth["label"]`` (0..n, falling back on ``truth["motor"]``; n = ``truth["rotor_count"]``,
+    default 4) applies from ``truth["onset_s"]`` (log-clock seconds; None or absent = from the
+    start). Spans ending before the onset are healthy (0); spans straddling it are -1.
     """
     label = truth.get("label", truth.get("motor"))
-    if label is None or int(label) not in range(5):
-        raise ValueError(f"truth label must be 0..4, not {label!r}")
+    n = int(truth.get("rotor_count", 4))
+    if label is None or int(label) not in range(n + 1):
+        raise ValueError(f"truth label must be 0..{n}, not {label!r}")
     label = int(label)
     t_start = np.asarray(t_start, dtype=np.float64)
     t_end = np.asarray(t_end, dtype=np.float64)
@@ -693,8 +727,4 @@ def labels_for_spans(truth: dict, t_start: np.ndarray, t_end: np.ndarray) -> np.
     onset = float(onset)
     out[t_end < onset] = 0
     out[(t_start < onset) & (t_end >= onset)] = AMBIGUOUS_LABEL
-    return out
-    onset = float(onset)
-    out[windows.t_end < onset] = 0
-    out[(windows.t_start < onset) & (windows.t_end >= onset)] = AMBIGUOUS_LABEL
     return out

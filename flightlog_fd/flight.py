@@ -114,12 +114,16 @@ class Series:
 
 @dataclass(frozen=True)
 class Rotor:
-    """One rotor: position in the body frame (metres or arm-length units; x forward, y right)
-    and spin direction (+1 counter-clockwise seen from above, as PX4's positive ``CA_ROTORn_KM``)."""
+    """One rotor: position in the body frame (metres or arm-length units; x forward, y right),
+    spin direction (+1 counter-clockwise seen from above, as PX4's positive ``CA_ROTORn_KM``),
+    thrust ``axis`` (unit vector, body FRD; vertical = (0, 0, -1)) and a plain-words ``name``
+    ("mid-front-right", "front-right top"; empty: :meth:`Frame.position` derives one)."""
 
     x: float
     y: float
     spin: int
+    axis: tuple[float, float, float] = (0.0, 0.0, -1.0)
+    name: str = ""
 
 
 @dataclass
@@ -127,13 +131,19 @@ class Frame:
     """Rotor layout in the autopilot's motor numbering (``rotors[0]`` is motor 1).
 
     ``name`` is ``"quad_x"``, ``"quad_plus"``, ``"quad_other"`` for a 4-rotor layout that is
-    neither, or a description of a vehicle we cannot diagnose (``"hexa"``, ``"octo"``,
-    ``"fixed_wing"``, ``"vtol"``...). ``source`` says how it was determined.
+    neither, ``"hexa"``, ``"octo"``, ``"octaquad"``, ``"y6"``... for n-rotor frames (see
+    :mod:`flightlog_fd.frames`), or a vehicle without a motor matrix (``"fixed_wing"``,
+    ``"vtol"``...). ``source`` says how it was determined, ``layout`` the firmware table used
+    ("ArduPilot HEXA/CW_X"), ``outputs`` the 1-based output channel of each motor where the log
+    maps them, and ``unplaced`` why the rotors could not be placed (empty when they were).
     """
 
     name: str
     rotors: tuple[Rotor, ...] = ()
     source: str = ""
+    layout: str = ""
+    outputs: tuple[int, ...] = ()
+    unplaced: str = ""
 
     @property
     def rotor_count(self) -> int:
@@ -151,6 +161,8 @@ class Frame:
             return QUAD_PLUS_POSITIONS[motor - 1]
         if 1 <= motor <= self.rotor_count:
             r = self.rotors[motor - 1]
+            if r.name:
+                return r.name
             fb = "front" if r.x > 1e-6 else ("rear" if r.x < -1e-6 else "")
             lr = "right" if r.y > 1e-6 else ("left" if r.y < -1e-6 else "")
             return "-".join(p for p in (fb, lr) if p) or "centre"

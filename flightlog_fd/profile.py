@@ -21,7 +21,7 @@ of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
   airframe's airborne-mean command shares, the same quantity `diagnose` measures (so their
   biases cancel), as a line in throttle fitted over ``BASELINE_CHUNK_S`` chunks when the chunks
   span at least ``BASELINE_MIN_THROTTLE_RANGE`` of throttle (else flat).
-- :class:`Profile` is a versioned JSON file (``"schema": 1``): airframe identity (autopilot,
+- :class:`Profile` is a versioned JSON file (``"schema"``: ``PROFILE_SCHEMA``): airframe identity (autopilot,
   frame name, firmware, vehicle_id, rotor count), the learned values (trailing underscore:
   ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
   ``n_windows_``), the streams' rates, the :class:`~flightlog_fd.features.FeatureSpec` with the
@@ -54,9 +54,10 @@ from .flight import Flight
 from .hover import HOVER_MAX_RATE_RMS, HOVER_MAX_SPEED_M_S, HOVER_MIN_DURATION_S, HoverSegment, hover_seconds, hover_segments
 
 #: Profile file format version; :meth:`Profile.load` reads this one and the older ones in
-#: ``READABLE_SCHEMAS`` (schema 1 has no ``baseline_``: it is derived from rho_).
-PROFILE_SCHEMA = 2
-READABLE_SCHEMAS = (1, 2)
+#: ``READABLE_SCHEMAS`` (schema 1 has no ``baseline_``: it is derived from rho_; schema 2 has no
+#: flight-to-flight ``baseline_.spread``: the decision model's default drift is used).
+PROFILE_SCHEMA = 3
+READABLE_SCHEMAS = (1, 2, 3)
 #: Steady flight of any kind (for rho when there is too little hover): rates, tilt and duration
 #: relaxed, speed free. A cruise at constant speed and a gentle climb are balanced flight too.
 STEADY_MAX_RATE_RMS = 0.5  # rad/s
@@ -158,13 +159,26 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
                              hover_throttle=float(mean_thrust.mean()), segments=[], source="airborne mean")
 
 
-def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None) -> dict:
+def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None,
+                      per_flight: Optional[list[list[np.ndarray]]] = None) -> dict:
     """The healthy airframe's command shares against throttle (module docstring), as the
-    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds."""
+    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds,
+    and with two or more flights ``spread`` (4,): each motor's flight-to-flight standard deviation
+    of its share, and ``throttle_spread``: the relative one of the throttle (the decision model's
+    drift noise; ``per_flight`` = each flight's thrust blocks)."""
     from .evidence import command_shares
 
     rate = DEFAULT_RATE_HZ
-    blocks = thrust_blocks if thrust_blocks is not None else airborne_thrust(flights)
+    flights = list(flights)
+    if per_flight is None and thrust_blocks is None:
+        per_flight = [airborne_thrust([fl]) for fl in flights]
+    blocks = thrust_blocks if thrust_blocks is not None else [b for pf in per_flight for b in pf]
+    spread = throttle_spread = None
+    if per_flight is not None and sum(1 for pf in per_flight if pf) >= 2:
+        each = [command_shares(pf) for pf in per_flight if pf]
+        spread = [float(x) for x in np.std([sh for sh, _ in each], axis=0, ddof=1)]
+        thr = np.array([th for _, th in each])
+        throttle_spread = float(np.std(thr, ddof=1) / np.mean(thr))
     share, throttle = command_shares(blocks)
     shares, throttles = [], []
     n = int(BASELINE_CHUNK_S * rate)
@@ -181,7 +195,9 @@ def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np
     seconds = sum(len(b) for b in blocks) / rate
     return {"share": [float(x) for x in share], "slope": [float(x) for x in slope], "throttle_ref": float(throttle),
             "throttle_range": [rng[0], rng[1]], "seconds": round(float(seconds), 1),
-            "source": "airborne mean of the thrust-command shares"}
+            "source": "airborne mean of the thrust-command shares",
+            "n_flights": len(per_flight) if per_flight is not None else len(flights),
+            "spread": spread, "throttle_spread": throttle_spread}
 
 
 @dataclass
@@ -253,8 +269,11 @@ class Profile:
 
         b = self.baseline_
         if b:
+            spread = b.get("spread")
             return Baseline(share=np.asarray(b["share"], float), slope=np.asarray(b["slope"], float),
-                            throttle_ref=float(b["throttle_ref"]), source=str(b.get("source", "")))
+                            throttle_ref=float(b["throttle_ref"]), source=str(b.get("source", "")),
+                            spread=None if spread is None else np.asarray(spread, float),
+                            throttle_spread=b.get("throttle_spread"), n_flights=int(b.get("n_flights", 1)))
         share = self.rho_ ** 2
         return Baseline(share=share / share.mean(), slope=np.zeros(4), throttle_ref=float(self.hover_throttle_),
                         source="from rho_ (schema 1 profile)")
@@ -326,6 +345,13 @@ class Profile:
                 raise bad(f"baseline_.share values must be within 0..4, got {share}")
             if not _is_number(base.get("throttle_ref")) or not 0.0 < base["throttle_ref"] <= 1.5:
                 raise bad("baseline_.throttle_ref must be a number in (0, 1.5]")
+            if base.get("spread") is not None:
+                spread_v = _number_list(base.get("spread"), n, "baseline_.spread", bad)
+                if any(x < 0 for x in spread_v):
+                    raise bad("baseline_.spread values must be >= 0")
+            ts = base.get("throttle_spread")
+            if ts is not None and (not _is_number(ts) or ts < 0):
+                raise bad("baseline_.throttle_spread must be null or a number >= 0")
         if "rho_source_" in d and d["rho_source_"] not in ("hover", "steady flight", "airborne mean"):
             raise bad(f"rho_source_ must be hover, steady flight or airborne mean, not {d['rho_source_']!r}")
         kw = {k: d[k] for k in _REQUIRED_KEYS + _OPTIONAL_KEYS if k in d}
@@ -460,7 +486,8 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
                                         f"is {first.autopilot} {first.frame.name}")
         if fl.truth and int(fl.truth.get("label", 0) or 0) != 0:
             raise ProfileError(fl.path, "calibration logs must be healthy flights; this one is labelled damaged")
-    thrust_blocks = airborne_thrust(flights)
+    per_flight = [airborne_thrust([fl]) for fl in flights]
+    thrust_blocks = [b for pf in per_flight for b in pf]
     imbalance = estimate_imbalance(flights, min_hover_s=min_hover_s, thrust_blocks=thrust_blocks)
 
     base = spec or FeatureSpec()
@@ -479,7 +506,7 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
         autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
         firmware=first.firmware, vehicle_id=first.vehicle_id,
         rho_=imbalance.rho, rho_spread_=imbalance.rho_spread, hover_throttle_=imbalance.hover_throttle,
-        rho_source_=imbalance.source, baseline_=estimate_baseline(flights, thrust_blocks),
+        rho_source_=imbalance.source, baseline_=estimate_baseline(flights, thrust_blocks, per_flight),
         hover_s_=imbalance.hover_s, n_hover_segments_=imbalance.n_segments, n_windows_=int(len(X)),
         stream_rates={k: float(np.median(v)) for k, v in rates.items()},
         feature_spec=fitted.to_dict(), source_logs=[_source_entry(fl) for fl in flights],

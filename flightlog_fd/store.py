@@ -86,7 +86,7 @@ CREATE TABLE IF NOT EXISTS diagnosis (
     flight_start_utc TEXT,             -- ISO-8601 UTC ("2024-05-01T09:30:00Z") when the log has GPS time, else NULL
     log_t_start_s    REAL,             -- start of the log on its own clock (s since boot)
     airborne_s       REAL,
-    status           TEXT NOT NULL,    -- healthy | damaged | uncertain | not_diagnosable
+    status           TEXT NOT NULL,    -- healthy | damaged | stopped | uncertain | not_diagnosable
     motor            INTEGER,          -- 1..4 for damaged
     confidence       REAL,
     reason           TEXT,

@@ -45,10 +45,6 @@ class WindowSet:
     def __len__(self) -> int:
         return int(len(self.y))
 
-    def subset(self, mask: np.ndarray) -> "WindowSet":
-        return WindowSet(self.X[mask], self.y[mask], self.flight[mask], self.t_start[mask], self.t_end[mask],
-                         self.eta[mask], self.names)
-
     def healthy(self) -> np.ndarray:
         return self.X[self.y == 0]
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import numpy as np
@@ -343,8 +343,3 @@ def evaluate(model: DCNN, X: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarr
     np.add.at(confusion, (y, predicted), 1)
     accuracy = float((predicted == y).mean()) if len(y) else float("nan")
     return accuracy, confusion
-
-
-def history_dicts(history: list[EpochStats]) -> list[dict]:
-    """History as plain dicts (for JSON / pandas)."""
-    return [asdict(h) for h in history]

@@ -24,7 +24,9 @@ multipliers are metadata that pymavlink does not apply either. pymavlink's clock
   ``c`` scaling).
 - ``motors``: ``RCOU`` PWM per motor, normalised with ``MOT_PWM_MIN/MAX`` (or, when those are 0,
   the throttle channel's ``RC3_MIN/MAX``, else 1000/2000) and clipped to 0..1, motor k taken
-  from the output whose ``SERVOn_FUNCTION`` is 33+k-1 (82.. for motors 9..12); before 3.5 (no
+  from the output whose ``SERVOn_FUNCTION`` is 33+k-1 (82.. for motors 9..12) as logged at the
+  start (an output re-assigned in flight is warned about, not followed: its ESC stays wired to
+  that motor); n = the frame's rotor count (6 on a hexa, RCOU C1..C14); before 3.5 (no
   ``SERVOn_FUNCTION``) outputs 1..n are motors 1..n; a plane's RCOU is used only through
   those lift-motor functions. ``motor_kind = "signal"``; spin min/max are not removed.
   When ``RATE`` carries the mixer inputs at a higher rate than ``RCOU`` (ArduCopter logs RCOU
@@ -74,10 +76,12 @@ since ArduCopter 3.4 introduced it) for firmware >= 3.4, else ``None`` (3.3 used
 piecewise ``MOT_TCRV_*`` curve), with a warning.
 
 Frame: ``FRAME_CLASS`` (1 quad, 2 hexa, 3 octa, 4 octaquad, 5 Y6, 6 heli, 7 tri, ...) and
-``FRAME_TYPE`` (0 plus, 1 X, 2 V, 3 H, ...), or the pre-3.5 ``FRAME`` parameter (0 plus, 1 X,
+``FRAME_TYPE`` (0 plus, 1 X, 2 V, 3 H, ..., 14 CW_X), or the pre-3.5 ``FRAME`` parameter (0 plus, 1 X,
 2 V, 3 H) with the class from the ``Frame: QUAD`` startup message. Rotors use ArduPilot's
 numbering and arm angles (quad-X 1 front-right CCW, 2 rear-left CCW, 3 front-left CW, 4
-rear-right CW; plus 1 right, 2 left, 3 front, 4 back).
+rear-right CW; plus 1 right, 2 left, 3 front, 4 back); every other class/type comes from the
+firmware's motor tables in :mod:`flightlog_fd.frames` (``Frame.unplaced`` says why when none
+applies), and ``Frame.outputs`` holds each motor's output channel.
 
 Timestamps (checks and thresholds in :mod:`flightlog_fd.flight`): each decoded message type is
 checked in FILE order (``TimeUS``/``TimeMS``, and ``SampleUS`` where present) before anything is
@@ -111,6 +115,7 @@ from . import read_head
 from ..util import intersect_intervals
 from ..errors import CorruptLogError, NotALogError
 from ..flight import Flight, Frame, Rotor, Series, describe_dropped, implausible_times
+from ..frames import ardupilot_frame, ardupilot_mixer_factors, ardupilot_motor_channels
 
 # --- file layout ---------------------------------------------------------------------------
 HEAD1, HEAD2 = 0xA3, 0x95
@@ -505,14 +510,15 @@ def parse_firmware(text: str) -> Optional[tuple[int, int, int]]:
 
 def mixer_factors(frame_class: int, frame_type: int) -> Optional[np.ndarray]:
     """(n_motors, 3) roll, pitch, yaw factors of AP_MotorsMatrix (ArduCopter >= 3.4), or None
-    for frames without a layout here.
+    for frames without a motor table (quad X/+/V/H and hexa/octa X/+ from ``MOTOR_LAYOUTS``,
+    every other table from :mod:`flightlog_fd.frames`).
 
     ``roll = cos(angle + 90 deg)``, ``pitch = cos(angle)``, ``yaw`` = the layout's yaw factor,
     each axis normalised to a largest magnitude of 0.5 (``normalise_rpy_factors``).
     """
     layout = MOTOR_LAYOUTS.get((int(frame_class), int(frame_type)))
     if layout is None:
-        return None
+        return ardupilot_mixer_factors(frame_class, frame_type)  # every other AP_MotorsMatrix table
     ang = np.radians([a for a, _ in layout])
     fac = np.column_stack([np.cos(ang + np.pi / 2), np.cos(ang), [y for _, y in layout]]).astype(np.float64)
     # cos(90 deg) in float is 6e-17, not 0: snap so "no roll authority" stays exactly 0
@@ -542,15 +548,9 @@ def pwm_range(params: dict[str, float]) -> tuple[float, float, str]:
 
 
 def motor_output_channels(params: dict[str, float], n_motors: int) -> tuple[list[int], str]:
-    """1-based output channel of motors 1..n: from SERVOn_FUNCTION (33.. = motor 1..), else 1..n."""
-    by_motor: dict[int, int] = {}
-    for name, value in params.items():
-        m = re.fullmatch(r"SERVO(\d+)_FUNCTION", name)
-        if m and int(value) in MOTOR_FUNCTIONS:
-            by_motor.setdefault(MOTOR_FUNCTIONS[int(value)], int(m.group(1)))
-    if all(k in by_motor for k in range(1, n_motors + 1)):
-        return [by_motor[k] for k in range(1, n_motors + 1)], "SERVOn_FUNCTION"
-    return list(range(1, n_motors + 1)), "outputs 1..n (no SERVOn_FUNCTION motor mapping)"
+    """1-based output channel of motors 1..n: from SERVOn_FUNCTION (33.. = motor 1..), else 1..n
+    (:func:`flightlog_fd.frames.ardupilot_motor_channels`)."""
+    return ardupilot_motor_channels(params, n_motors)
 
 
 def thrust_to_signal(thrust: np.ndarray, expo: float) -> np.ndarray:
@@ -620,6 +620,35 @@ def _params(tables: dict[str, MessageTable]) -> dict[str, float]:
     return {str(n): float(v) for n, v in zip(tab.columns["Name"], tab.columns["Value"])}
 
 
+def _motor_function_params(tables: dict[str, MessageTable], params: dict[str, float],
+                           warnings: list[str]) -> dict[str, float]:
+    """``params`` with every SERVOn_FUNCTION at its FIRST logged value: the outputs are wired to
+    the motors as configured when the flight started, and a re-assignment during the log (the
+    SITL hexa set switches a motor's output to RC pass-through to stop it) is warned about, not
+    followed. Other parameters keep their last value, as before."""
+    if "PARM" not in tables or not tables["PARM"].has("Name", "Value"):
+        return params
+    tab = tables["PARM"]
+    first: dict[str, tuple[float, float]] = {}
+    out = dict(params)
+    order = np.argsort(tab.t, kind="stable") if tab.t is not None else np.arange(len(tab))
+    for i in order:
+        name, value = str(tab.columns["Name"][i]), float(tab.columns["Value"][i])
+        if not name.startswith("SERVO") or not name.endswith("_FUNCTION"):
+            continue
+        t = float(tab.t[i]) if tab.t is not None else float("nan")
+        if name not in first:
+            first[name] = (value, t)
+            out[name] = value
+        elif int(value) != int(first[name][0]) and int(first[name][0]) in MOTOR_FUNCTIONS:
+            motor = MOTOR_FUNCTIONS[int(first[name][0])]
+            warnings.append(f"{name} changed from {int(first[name][0])} (motor {motor}) to {int(value)} at "
+                            f"t={t:.2f} s: that output stops following the mixer for motor {motor} from then on "
+                            f"(the start-of-flight wiring is used)")
+            first[name] = (value, t)
+    return out
+
+
 def _frame(params: dict[str, float], msg_lines: list[str], firmware_line: str) -> tuple[Frame, str, int, int]:
     """(Frame, vehicle_type, frame_class, frame_type); class/type -1 when unknown."""
     fw = firmware_line
@@ -649,7 +678,8 @@ def _frame(params: dict[str, float], msg_lines: list[str], firmware_line: str) -
             fclass = 1  # per-frame builds before 3.5 without a "Frame:" line: quad is the default build
         source = f"'Frame:' message (class {fclass}), FRAME={ftype}"
     if fclass == 0:
-        return Frame("undefined", (), source + " (FRAME_CLASS 0: not configured)"), "unknown", fclass, ftype
+        return (Frame("undefined", (), source + " (FRAME_CLASS 0: not configured)",
+                      unplaced="FRAME_CLASS 0: the frame was never configured"), "unknown", fclass, ftype)
     vehicle = FRAME_CLASS_VEHICLE.get(fclass, "unknown")
     layout = MOTOR_LAYOUTS.get((fclass, ftype))
     rotors: tuple[Rotor, ...] = ()
@@ -657,13 +687,18 @@ def _frame(params: dict[str, float], msg_lines: list[str], firmware_line: str) -
         rotors = tuple(
             Rotor(_snap(math.cos(math.radians(a))), _snap(math.sin(math.radians(a))), 1 if y > 0 else -1)
             for a, y in layout)
+    table = ardupilot_frame(fclass, ftype, source)
     if fclass == 1:
         if layout is not None and ftype in QUAD_FRAME_NAMES:
             ref = Frame.quad_x() if ftype == FRAME_TYPE_X else Frame.quad_plus()
-            return Frame(ref.name, ref.rotors, source), vehicle, fclass, ftype
-        return Frame("quad_other", rotors, source + " (not X or +)"), vehicle, fclass, ftype
-    name = FRAME_CLASS_NAMES.get(fclass, f"frame class {fclass}")
-    return Frame(name, rotors, source), vehicle, fclass, ftype
+            return Frame(ref.name, ref.rotors, source, layout=table.layout), vehicle, fclass, ftype
+        if layout is None:  # BF_X, DJI_X, CW_X, V-tail...: the firmware's table (flightlog_fd.frames)
+            rotors, unplaced = table.rotors, table.unplaced
+        else:
+            unplaced = ""
+        return (Frame("quad_other", rotors, source + " (not X or +)", layout=table.layout, unplaced=unplaced),
+                vehicle, fclass, ftype)
+    return table, vehicle, fclass, ftype  # hexa, octo, octaquad, Y6... (flightlog_fd.frames)
 
 
 def _snap(x: float) -> float:
@@ -926,14 +961,6 @@ def _velocity(tables) -> Optional[Series]:
     return None
 
 
-def _clock_gaps(times: np.ndarray) -> np.ndarray:
-    """Start times of samples that follow a logging gap longer than LOGGING_GAP_S."""
-    if times.size < 2:
-        return np.zeros(0)
-    gap = np.diff(times) > LOGGING_GAP_S
-    return times[1:][gap]
-
-
 def _events(tables) -> tuple[np.ndarray, np.ndarray]:
     """(times, ids) of EV messages, time-ordered."""
     if "EV" not in tables or "Id" not in tables["EV"].columns or tables["EV"].t is None:
@@ -1124,7 +1151,8 @@ def read_dataflash(path) -> Flight:
                                   f"ATT.{'/'.join(cols)} (deg -> rad)")
 
     multirotor = frame.rotor_count > 0 or "Copter" in firmware_line
-    rcou = _rcou(tables, params, n_motors, warnings, multirotor)
+    wiring = _motor_function_params(tables, params, warnings)
+    rcou = _rcou(tables, wiring, n_motors, warnings, multirotor)
     mixed = _rate_mixer(tables, fclass, ftype, firmware, n_motors)
     alt_motors: dict[str, Series] = {}
     if mixed is not None and (rcou is None or mixed.rate_hz > rcou.rate_hz * RATE_TIE_RATIO):
@@ -1135,6 +1163,8 @@ def read_dataflash(path) -> Flight:
         motors, motor_kind = rcou, "signal"
     if motors is None:
         warnings.append("no motor outputs (RCOU) in this log")
+    if frame.rotor_count and rcou is not None:
+        frame.outputs = tuple(motor_output_channels(wiring, n_motors)[0])
 
     if "MOT_THST_EXPO" in params:
         thrust_curve: Optional[float] = params["MOT_THST_EXPO"]
@@ -1172,8 +1202,8 @@ def read_dataflash(path) -> Flight:
         motors=motors,
         motor_kind=motor_kind,
         thrust_curve=thrust_curve,
-        esc_rpm=_esc_rpm(tables, params, n_motors) if frame.rotor_count else None,
-        esc=esc_telemetry(tables, params, n_motors, warnings, idx.name_to_id) if frame.rotor_count else None,
+        esc_rpm=_esc_rpm(tables, wiring, n_motors) if frame.rotor_count else None,
+        esc=esc_telemetry(tables, wiring, n_motors, warnings, idx.name_to_id) if frame.rotor_count else None,
         velocity=_velocity(tables),
         accel=_accel(tables),
         alt_motors=alt_motors,

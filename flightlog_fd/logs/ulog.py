@@ -40,7 +40,10 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
 - ``frame``: ``CA_ROTOR_COUNT`` and ``CA_ROTOR{i}_PX/PY/KM`` (i 0-based = motor i+1) when the
   control allocator is in use (no ``SYS_CTRL_ALLOC = 0``), else the ``SYS_AUTOSTART`` airframe
   range (4xxx/10xxx quad-X, 5xxx quad-+, 6xxx/7xxx/11xxx hexa, 8xxx/9xxx/12xxx octo, 13xxx VTOL,
-  2xxx/3xxx fixed wing), else quad-X assumed for ``MAV_TYPE`` 2, with a warning. A 4-rotor
+  2xxx/3xxx fixed wing; the hexa/octo/coaxial ranges get PX4's mixer geometry from
+  :mod:`flightlog_fd.frames`), else quad-X assumed for ``MAV_TYPE`` 2, with a warning. n-rotor
+  control-allocation frames get rotor names, thrust axes (``CA_ROTORn_AX/AY/AZ``) and, when every
+  rotor has a coaxial partner, the name ``y6``/``octaquad``. A 4-rotor
   layout is ``quad_x``/``quad_plus`` only when its positions match PX4's motor numbering,
   otherwise ``quad_other``; spin directions that differ from the convention give a warning.
 - ``vehicle_type`` from ``MAV_TYPE`` (else ``vehicle_status.system_type``/``vehicle_type``);
@@ -98,6 +101,7 @@ from ..util import intersect_intervals  # noqa: F401  (part of this module's API
 from ..errors import CorruptLogError, FlightLogError, NotALogError
 from ..flight import MAX_SAMPLE_GAP_S, Flight, Frame, Rotor, Series, describe_dropped, implausible_times
 from .ulog_fast import FastULogUnsupported, read_ulog_bytes
+from ..frames import name_rotors, px4_autostart_frame, px4_ca_rotors
 
 #: Topics decoded (everything else in the file is skipped by pyulog's filter).
 ULOG_TOPICS = [
@@ -149,6 +153,8 @@ FRAMES_FOR_VEHICLE_TYPE = {
     "fixed_wing": ("fixed_wing",), "vtol": ("vtol",), "tricopter": ("tri",), "helicopter": ("helicopter",),
 }
 ROTOR_COUNT_NAMES = {3: "tri", 6: "hexa", 8: "octo"}
+#: Frame names when every rotor has a coaxial partner (same PX/PY): Y6 and octo-quad (X8).
+COAXIAL_ROTOR_COUNT_NAMES = {6: "y6", 8: "octaquad"}
 ROTOR_COUNT_FOR_VEHICLE_TYPE = {"quadrotor": 4, "hexarotor": 6, "octorotor": 8, "tricopter": 3}
 #: A rotor is "on an axis" when its off-axis coordinate is below this fraction of its arm length.
 AXIS_TOLERANCE = 0.2
@@ -458,7 +464,11 @@ def _frame_from_ca(params: dict, vehicle_type: str, warnings: list[str]) -> Opti
         return Frame("fixed_wing", rotors_t, source)
     if n == 4:
         return _classify_quad(rotors_t, source, warnings)
-    return Frame(ROTOR_COUNT_NAMES.get(n, f"{n}_rotor"), rotors_t, source)
+    placed, _ = px4_ca_rotors(params)  # same positions and spins, plus names and thrust axes
+    placed = placed or name_rotors(rotors_t)
+    coaxial = n > 0 and all(any(abs(a.x - b.x) + abs(a.y - b.y) < 1e-3 for b in placed if b is not a) for a in placed)
+    name = COAXIAL_ROTOR_COUNT_NAMES.get(n) if coaxial else None
+    return Frame(name or ROTOR_COUNT_NAMES.get(n, f"{n}_rotor"), placed, source, layout="PX4 control allocation")
 
 
 def _autostart_frame_name(autostart: int) -> Optional[str]:
@@ -480,7 +490,11 @@ def _frame(params: dict, vehicle_type: str, warnings: list[str]) -> Optional[Fra
             return Frame("quad_x", Frame.quad_x().rotors, src)
         if by_autostart == "quad_plus":
             return Frame("quad_plus", Frame.quad_plus().rotors, src)
-        return Frame(by_autostart, (), src)
+        legacy = px4_autostart_frame(autostart)  # hexa/octo/coaxial mixer geometries
+        if legacy is not None:
+            return legacy
+        return Frame(by_autostart, (), src, unplaced=f"SYS_AUTOSTART {autostart} is a {by_autostart} airframe, "
+                                                     f"not a multirotor motor matrix")
     if vehicle_type == "quadrotor":
         why = (f"SYS_AUTOSTART {autostart} is not a quadrotor airframe" if autostart
                else "no SYS_AUTOSTART or CA_ROTOR parameters")
@@ -488,7 +502,10 @@ def _frame(params: dict, vehicle_type: str, warnings: list[str]) -> Optional[Fra
         return Frame("quad_x", Frame.quad_x().rotors, "MAV_TYPE 2 (quad-X assumed)")
     if vehicle_type in ("hexarotor", "octorotor", "fixed_wing", "vtol", "tricopter", "helicopter"):
         name = {"hexarotor": "hexa", "octorotor": "octo", "tricopter": "tri"}.get(vehicle_type, vehicle_type)
-        return Frame(name, (), "MAV_TYPE")
+        why = (f"MAV_TYPE says {vehicle_type} but neither CA_ROTOR* parameters nor a known SYS_AUTOSTART "
+               f"airframe give its motor layout" if name in ("hexa", "octo")
+               else f"a {vehicle_type.replace('_', '-')} is not a multirotor motor matrix")
+        return Frame(name, (), "MAV_TYPE", unplaced=why)
     return None
 
 

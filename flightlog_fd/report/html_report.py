@@ -44,7 +44,7 @@ LINE_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
 CLASS_COLOURS = ("#2e7d32", "#d62728", "#9467bd", "#ff7f0e", "#1f77b4")  # healthy, motors 1-4
 SHADE_COLOURS = {0: "#e8f5e9", 1: "#ffebee", 2: "#ffebee", 3: "#ffebee", 4: "#ffebee",
                  UNCERTAIN_LABEL: "#fff8e1"}
-STATUS_COLOURS = {"healthy": "#2e7d32", "damaged": "#c62828", "uncertain": "#ef6c00",
+STATUS_COLOURS = {"healthy": "#2e7d32", "damaged": "#c62828", "stopped": "#c62828", "uncertain": "#ef6c00",
                   "not_diagnosable": "#6a1b9a"}
 
 CSS = """
@@ -242,22 +242,20 @@ def motor_panel(d: Diagnosis) -> str:
     ev = d.evidence
     against = {"profile": "calibration", "before onset": "the flight before the onset",
                "neighbours": "the other three motors"}.get(getattr(ev, "baseline", ""), "")
-    top = ev.top_motor if ev is not None else None
     head = "".join(f"<th>{esc(h)}</th>" for h in MOTOR_HEADERS)
     body = "".join(
         ("<tr class=\"top\">" if d.verdict.motor is not None and r[0] == str(d.verdict.motor) else "<tr>")
         + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
     notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in (ev.notes if ev is not None else []))
-    if ev is None:
-        gap = ""
-    elif ev.baseline == "neighbours":
-        gap = f"motor {top} stands {100 * ev.single_motor_gap:.0f} % above the next"
-    else:
-        gap = f"as one motor rising (the others falling a quarter as much), motor {top} rose {100 * ev.single_motor_gap:.0f} %"
+    if d.airframe_changed_note:
+        notes += f'<p class="muted">{esc(d.airframe_changed_note)}</p>'
     return (f'<div class="motors"><h3>Per-motor evidence</h3><table class="motor-panel"><tr>{head}</tr>{body}</table>'
             f'<p class="muted">Command share: mean thrust command / mean of the four (1 = even); change against '
-            f'{esc(against)}; {esc(gap)}. Effectiveness: angular acceleration per unit command relative to the '
-            f'other three (1 = as they). Model vote: mean probability that this propeller is damaged.</p>{notes}</div>')
+            f'{esc(against)}. Thrust: the share of its normal thrust each rotor gives, fitted from the steady '
+            f'command pattern (90 % interval). Effectiveness: angular acceleration per unit command relative to '
+            f'the other three (1 = as they; a dash when the flight did not manoeuvre enough). Model vote: mean '
+            f'probability that this propeller is damaged. Weight: the decision model\'s probability that this '
+            f'rotor lost thrust, from all of them; the shaded windows are the model\'s alone.</p>{notes}</div>')
 
 
 def log_section(d: Diagnosis) -> str:

@@ -21,6 +21,7 @@ def print_info(console: Console, d: dict) -> None:
         motors = ", ".join(f"{m['motor']} {m['position']} {m['spin']}" for m in frame.get("motors", []))
         console.print(f"  frame      {escape(frame['name'])} ({frame['rotor_count']} rotors; {escape(motors)})"
                       f"  [dim]from {escape(frame.get('source') or '?')}[/dim]")
+        _print_geometry(console, frame)
     else:
         console.print("  frame      unknown")
     console.print(f"  duration   {d['duration_s']:.1f} s  (t={d['t_start']:.2f}..{d['t_end']:.2f} s on the log clock)")
@@ -53,5 +54,32 @@ def print_info(console: Console, d: dict) -> None:
         console.print(e)
     for w in d.get("warnings", []):
         console.print(f"  [yellow]warning[/yellow] {escape(w)}")
+    for m in d.get("stopped_motors", []):
+        console.print(f"  [red]stopped[/red]    motor {m['motor']} at t={m['t_start']:.2f} s for "
+                      f"{m['t_end'] - m['t_start']:.1f} s: {escape(m['evidence'])}")
     console.print(f"  verdict    {verdict}")
     console.print()
+
+
+def _print_geometry(console: Console, frame: dict) -> None:
+    """The rotor table (position, x/y, spin, thrust axis when tilted, output channel), or why the
+    rotors could not be placed."""
+    if frame.get("unplaced"):
+        console.print(f"  geometry   [red]cannot place the rotors[/red]: {escape(frame['unplaced'])}")
+        return
+    motors = frame.get("motors") or []
+    if not motors:
+        return
+    if frame.get("layout"):
+        console.print(f"  geometry   {escape(frame['layout'])}  [dim](x forward, y right; spin seen from above)[/dim]")
+    t = Table(show_header=True, header_style="bold", box=None, pad_edge=False, padding=(0, 1))
+    for col, just in (("  motor", "right"), ("position", "left"), ("x", "right"), ("y", "right"),
+                      ("spin", "left"), ("thrust axis", "left"), ("output", "right")):
+        t.add_column(col, justify=just)
+    for m in motors:
+        axis = m.get("axis") or [0.0, 0.0, -1.0]
+        tilted = abs(axis[0]) > 1e-6 or abs(axis[1]) > 1e-6
+        t.add_row(str(m["motor"]), escape(m["position"]), f"{m['x']:+.3f}", f"{m['y']:+.3f}", m["spin"],
+                  ("(" + ", ".join(f"{a:+.2f}" for a in axis) + ")") if tilted else "up",
+                  str(m["output"]) if m.get("output") is not None else "-")
+    console.print(t)

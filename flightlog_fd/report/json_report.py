@@ -1,4 +1,4 @@
-"""JSON report, schema version 2 (``fdlog diagnose --json``).
+"""JSON report, schema version 3 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals.
@@ -6,7 +6,7 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
 .. code-block:: text
 
     {
-      "schema": 2,
+      "schema": 3,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -16,8 +16,8 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
       "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
-      "verdict": {"status": "healthy" | "damaged" | "uncertain" | "not_diagnosable",
-                  "motor": 1-4 | null,            # autopilot numbering
+      "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
+                  "motor": 1-n | null,            # autopilot numbering (n = the frame's rotor count)
                   "position": "front-right" | ... | null,
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
@@ -31,17 +31,26 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
                   "command_change": float,                # share - baseline, or - mean of the other three
                   "effectiveness": float|null,            # relative to the other three (1 = as they)
                   "effectiveness_ci": [lo, hi]|null,      # 90 % block-bootstrap interval
-                  "model_vote": 0-1}],                    # mean model probability "this propeller damaged"
+                  "model_vote": 0-1,                      # mean model probability "this propeller damaged"
+                  "eta_hat": float|null,                  # thrust efficiency from steady flight (1 = healthy)
+                  "eta_ci": [lo, hi]|null,                # its 90 % interval
+                  "weight": 0-1|null,                     # the decision's posterior "this rotor lost thrust"
+                  "llr": float|null,                      # total log-likelihood ratio, nats
+                  "llr_by_source": {"model": float, "commands": float, "effectiveness": float}|null}],
       "motor_evidence": {"baseline": "profile" | "before onset" | "neighbours",
                          "throttle": float, "top_motor": 1-4, "single_motor_gap": float,
                          "effectiveness": {"informative": bool, "reason": str, "seconds": float,
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
-                         "airframe_changed": str | null, "notes": [str]} | null,
+                         "airframe_changed": str | null, "notes": [str],
+                         "decision": {"sources": [str], "healthy_chi2": float|null,
+                                      "share_sigma": float|null} | null} | null,
       "windows": [{"t_start": s, "t_end": s,
                    "class": 0-4,                  # the model's most probable class
                    "probabilities": [p0, p1, p2, p3, p4],
                    "phase": "hover" | "climb" | "descent" | "manoeuvre" | "unknown",
                    "smoothed_class": -1..4}],     # the verdict's label: -1 uncertain
+      "stopped_motors": [{"motor": 1-n, "t_start": s, "t_end": s,   # "motor k stopped" while airborne,
+                          "evidence": str, "source": str}],        # any frame (status "stopped")
       "warnings": [str],
       "exit_code": 0 | 1 | 2
     }
@@ -49,8 +58,9 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
 :data:`JSON_SCHEMA` is the same as a JSON Schema (draft 2020-12) dict; :func:`validate` checks a
 document against it without needing the ``jsonschema`` package (it implements exactly the
 keywords the schema uses). Adding a field is a compatible change; renaming or removing one
-bumps ``schema``. Schema 2 (this one) added ``motors`` and ``motor_evidence`` and changed what
-the verdict means: it now rests on the model AND the per-motor evidence (``verdict.reason`` cites it).
+bumps ``schema``. Schema 2 added ``motors`` and ``motor_evidence``; schema 3 (this one) gives the
+verdict to the one decision model (:mod:`flightlog_fd.decision`) and adds each motor's severity
+(``eta_hat``, ``eta_ci``), its decision weight and log-likelihood ratios.
 """
 from __future__ import annotations
 
@@ -62,7 +72,9 @@ import numpy as np
 from .. import __version__
 from ..diagnose import Diagnosis
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
+#: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
+MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
 PROB_DECIMALS = 4
 TIME_DECIMALS = 3
@@ -99,8 +111,8 @@ JSON_SCHEMA: dict = {
             "type": "object",
             "required": ["status", "motor", "position", "confidence", "first_seen", "reason"],
             "properties": {
-                "status": {"enum": ["healthy", "damaged", "uncertain", "not_diagnosable"]},
-                "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": 4},
+                "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
+                "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
                 "position": _STR_OR_NULL,
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
@@ -126,6 +138,11 @@ JSON_SCHEMA: dict = {
                     "effectiveness": _NUM_OR_NULL,
                     "effectiveness_ci": {"type": ["array", "null"], "items": _NUM_OR_NULL, "minItems": 2, "maxItems": 2},
                     "model_vote": _PROB,
+                    "eta_hat": _NUM_OR_NULL,
+                    "eta_ci": {"type": ["array", "null"], "items": _NUM_OR_NULL, "minItems": 2, "maxItems": 2},
+                    "weight": {"type": ["number", "null"], "minimum": 0, "maximum": 1},
+                    "llr": _NUM_OR_NULL,
+                    "llr_by_source": {"type": ["object", "null"]},
                 },
             },
         },
@@ -145,6 +162,10 @@ JSON_SCHEMA: dict = {
                                                  "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
                 "notes": {"type": "array", "items": {"type": "string"}},
+                "decision": {"type": ["object", "null"],
+                             "required": ["sources", "healthy_chi2", "share_sigma"],
+                             "properties": {"sources": {"type": "array", "items": {"type": "string"}},
+                                            "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL}},
             },
         },
         "windows": {
@@ -162,6 +183,13 @@ JSON_SCHEMA: dict = {
                 },
             },
         },
+        "stopped_motors": {
+            "type": "array",
+            "items": {"type": "object", "required": ["motor", "t_start", "t_end", "evidence", "source"],
+                      "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                     "t_start": _NUM, "t_end": _NUM, "evidence": {"type": "string"},
+                                     "source": {"type": "string"}}},
+        },
         "warnings": {"type": "array", "items": {"type": "string"}},
         "exit_code": {"enum": [0, 1, 2]},
     },
@@ -175,11 +203,22 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
     return {"baseline": ev.baseline, "throttle": None if not np.isfinite(ev.throttle) else round(float(ev.throttle), 4),
             "top_motor": int(ev.top_motor), "single_motor_gap": round(float(ev.single_motor_gap), 4),
             "effectiveness": None if ev.effectiveness is None else ev.effectiveness.as_dict(),
-            "airframe_changed": ev.airframe_changed, "notes": list(ev.notes)}
+            "airframe_changed": ev.airframe_changed, "notes": list(ev.notes),
+            "decision": None if d.decision is None else {
+                "sources": list(d.decision.sources),
+                "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
+                "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4)}}
+
+
+def _motors(d: Diagnosis) -> list[dict]:
+    """Per motor: the evidence figures and, from the decision model, severity, weight and LLRs."""
+    dec = {m.motor: m.as_dict() for m in (d.decision.motors if d.decision is not None else [])}
+    empty = {"eta_hat": None, "eta_ci": None, "weight": None, "llr": None, "llr_by_source": None}
+    return [{**m.as_dict(), **{k: v for k, v in dec.get(m.motor, empty).items() if k != "motor"}} for m in d.motors]
 
 
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-2 object for one diagnosis."""
+    """The schema-3 object for one diagnosis."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
     ev = v.evidence
     return {
@@ -201,11 +240,14 @@ def to_dict(d: Diagnosis) -> dict:
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),
             "share": [round(x, PROB_DECIMALS) for x in ev.smoothed_share],
             "abstained": round(ev.abstained_share, PROB_DECIMALS)},
-        "motors": [m.as_dict() for m in d.motors],
+        "motors": _motors(d),
         "motor_evidence": _motor_evidence(d),
         "windows": [{"t_start": round(w.t_start, TIME_DECIMALS), "t_end": round(w.t_end, TIME_DECIMALS),
                      "class": w.cls, "probabilities": [round(x, PROB_DECIMALS) for x in w.probabilities],
                      "phase": w.phase, "smoothed_class": w.label} for w in d.windows],
+        "stopped_motors": [{"motor": int(x.motor), "t_start": round(float(x.t_start), TIME_DECIMALS),
+                            "t_end": round(float(x.t_end), TIME_DECIMALS), "evidence": x.evidence,
+                            "source": x.source} for x in d.stopped],
         "warnings": list(d.warnings),
         "exit_code": d.exit_code,
     }

@@ -33,7 +33,7 @@ TIMELINE_WIDTH = 60
 LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", 1: "1", 2: "2", 3: "3", 4: "4"}
 LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", 1: "bold red", 2: "bold red",
                 3: "bold red", 4: "bold red"}
-STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "uncertain": "bold yellow",
+STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "stopped": "bold red", "uncertain": "bold yellow",
                  "not_diagnosable": "bold magenta"}
 CLASS_NAMES = ("healthy", "motor 1", "motor 2", "motor 3", "motor 4")
 
@@ -54,6 +54,8 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         return f"No propeller damage found, confidence {v.confidence:.2f} ({n} windows{covered})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
+    if v.status == "stopped":
+        return f"Motor {_motor_words(v.motor, v.position)} stopped in flight at t={v.first_seen:.1f} s"
     return f"Not diagnosable: {v.reason}"
 
 
@@ -124,23 +126,39 @@ def facts_line(diagnosis: Diagnosis) -> str:
 
 
 def motor_rows(diagnosis: Diagnosis) -> list[list[str]]:
-    """The per-motor evidence as text cells (shared by the terminal and HTML panels):
-    motor, position, command share, change against the baseline, effectiveness [90 % CI], model vote."""
+    """The per-motor evidence as text cells (shared by the terminal and HTML panels): motor,
+    position, command share, change against the baseline, thrust (severity eta-hat [90 % CI] from
+    the decision model), effectiveness [90 % CI] (a dash when the fit is uninformative: the reason
+    is in the notes), model vote, and the decision's weight."""
     rows = []
     ev = diagnosis.evidence
+    dec = {m.motor: m for m in (diagnosis.decision.motors if diagnosis.decision is not None else [])}
     for m in diagnosis.motors:
         eff = "-"
-        if m.effectiveness is not None and m.effectiveness_ci is not None and abs(m.effectiveness) < 100:
-            eff = f"{m.effectiveness:.2f} [{m.effectiveness_ci[0]:.2f}-{m.effectiveness_ci[1]:.2f}]"
-            if ev is not None and not ev.effectiveness_usable:
-                eff += "*"
+        usable = ev is not None and ev.effectiveness_usable
+        if usable and m.effectiveness is not None and m.effectiveness_ci is not None:
+            eff = f"{m.effectiveness:.2f} {_short(m.effectiveness_ci[0])}-{_short(m.effectiveness_ci[1])}"
         base = "-" if m.command_share_baseline is None else f"{m.command_share_baseline:.3f}"
+        d = dec.get(m.motor)
+        thrust = weight = "-"
+        if d is not None and d.eta_hat is not None:
+            thrust = f"{100 * d.eta_hat:.0f} ({100 * d.eta_ci[0]:.0f}-{100 * d.eta_ci[1]:.0f})"
+        if d is not None:
+            weight = f"{d.weight:.2f}"
         rows.append([str(m.motor), m.position or "-", f"{m.command_share:.3f}", base,
-                     f"{100 * m.command_change:+.1f} %", eff, f"{m.model_vote:.2f}"])
+                     f"{100 * m.command_change:+.1f}%", thrust, eff, f"{m.model_vote:.2f}", weight])
     return rows
 
 
-MOTOR_HEADERS = ("motor", "position", "share", "baseline", "change", "effectiveness (90 % CI)", "vote")
+def _short(x: float) -> str:
+    """0.77 -> ".77", 1.02 -> "1.02" (narrow interval bounds for an 80-column table)."""
+    t = f"{x:.2f}"
+    return t[1:] if t.startswith("0.") else t
+
+
+#: Column heads; thrust = eta-hat in % of normal thrust (90 % interval), effect. = effectiveness
+#: (90 % interval), weight = the decision model's probability that the rotor lost thrust.
+MOTOR_HEADERS = ("motor", "position", "share", "base", "change", "thrust %", "effect.", "vote", "weight")
 
 
 def motor_panel(diagnosis: Diagnosis) -> Table:
@@ -149,11 +167,15 @@ def motor_panel(diagnosis: Diagnosis) -> Table:
     against = {"profile": "calibration", "before onset": "the flight before the onset",
                "neighbours": "the other three"}.get(getattr(ev, "baseline", ""), "")
     t = Table(title=f"per-motor evidence (change against {against})", title_justify="left", box=None,
-              padding=(0, 1), title_style="dim")
-    for h in MOTOR_HEADERS:
-        t.add_column(h, justify="left" if h in ("position", "effectiveness (90 % CI)") else "right", no_wrap=True)
-    for row in motor_rows(diagnosis):
-        t.add_row(*row)
+              padding=(0, 1), pad_edge=False, title_style="dim")
+    rows = motor_rows(diagnosis)
+    # without a baseline the column is all dashes: leave it out so the table fits 80 columns
+    keep = [i for i, h in enumerate(MOTOR_HEADERS) if not (h == "base" and all(r[i] == "-" for r in rows))]
+    for i in keep:
+        h = MOTOR_HEADERS[i]
+        t.add_column(h, justify="left" if h in ("position", "thrust %", "effect.") else "right", no_wrap=True)
+    for row in rows:
+        t.add_row(*[row[i] for i in keep])
     return t
 
 
@@ -162,7 +184,7 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
     v = diagnosis.verdict
     parts: list = [Text(diagnosis.log, style="bold"),
                    Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
-    if v.status in ("damaged", "healthy", "uncertain") and v.reason:
+    if v.status in ("damaged", "healthy", "uncertain", "stopped") and v.reason:
         parts.append(Text(f"  {v.reason}", style="dim"))
     line = facts_line(diagnosis)
     if line:

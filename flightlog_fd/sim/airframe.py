@@ -1,4 +1,9 @@
-"""Quadrotor airframes for the simulator: physical parameters, controller gains, presets, randomisation.
+"""Multirotor airframes for the simulator: physical parameters, controller gains, presets, randomisation.
+
+Frames: quad-X and quad-+ (``FRAMES``) and the n-rotor ``N_ROTOR_FRAMES`` (hexa X/+, octo X/+,
+coaxial octaquad X) with the autopilots' motor numbering from :mod:`flightlog_fd.frames`; one
+batch flies one rotor count. ``preset(name, "hexa_x")`` keeps the preset's thrust-to-weight
+ratio (each of n rotors gets 4/n of a quad rotor's thrust).
 
 Units: SI throughout. Mass kg, inertia kg·m² (body FRD principal axes, diagonal), arm length m
 (rotor centre to vehicle centre), rotor thrust ``k_f * w**2`` N with ``w`` in rad/s, rotor drag
@@ -31,13 +36,21 @@ scaling: arm ∝ m^(1/3), inertia = c·m·l² (c 0.15-0.35), thrust-to-weight 1.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, replace
+from typing import Optional, Sequence
 
 import numpy as np
 
 GRAVITY = 9.80665  # m/s²
 
-#: Frames the simulator flies (see flightlog_fd.flight.Frame for the motor geometry).
+#: Quadrotor frames the simulator flies (see flightlog_fd.flight.Frame for the motor geometry).
 FRAMES = ("quad_x", "quad_plus")
+#: n-rotor frames: name -> ArduPilot (FRAME_CLASS, FRAME_TYPE) whose motor table (flightlog_fd.frames)
+#: gives the geometry and numbering; PX4's hex_x / hex_plus / octa_x / octa_plus / octa_cox
+#: geometries number the motors the same way.
+N_ROTOR_FRAMES = {"hexa_x": (2, 1), "hexa_plus": (2, 0), "octo_x": (3, 1), "octo_plus": (3, 0),
+                  "octaquad_x": (4, 1)}
+#: Every frame the simulator flies.
+SIM_FRAMES = FRAMES + tuple(N_ROTOR_FRAMES)
 
 # Random-airframe ranges (documented in the module docstring).
 RANDOM_MASS_RANGE_KG = (0.03, 5.0)
@@ -81,7 +94,7 @@ class Airframe:
     """A quadrotor's physical parameters and controller gains (SI units; see module docstring)."""
 
     name: str
-    frame: str  # "quad_x" | "quad_plus"
+    frame: str  # "quad_x" | "quad_plus" | one of N_ROTOR_FRAMES ("hexa_x", "octaquad_x"...)
     mass: float
     inertia: tuple[float, float, float]
     arm: float
@@ -96,8 +109,8 @@ class Airframe:
     gains: Gains = field(default=None)  # type: ignore[assignment]  # filled by __post_init__
 
     def __post_init__(self) -> None:
-        if self.frame not in FRAMES:
-            raise ValueError(f"frame must be one of {FRAMES}, got {self.frame!r}")
+        if self.frame not in SIM_FRAMES:
+            raise ValueError(f"frame must be one of {SIM_FRAMES}, got {self.frame!r}")
         if self.gains is None:
             object.__setattr__(self, "gains", tune_gains(self))
 
@@ -107,13 +120,31 @@ class Airframe:
         return self.k_f * self.omega_max ** 2
 
     @property
+    def rotor_count(self) -> int:
+        return 4 if self.frame in FRAMES else len(self.geometry().rotors)
+
+    def geometry(self):
+        """:class:`~flightlog_fd.flight.Frame` of this airframe, rotors at ``arm`` metres."""
+        from flightlog_fd.flight import Frame, Rotor
+        from flightlog_fd.frames import ardupilot_frame
+
+        if self.frame == "quad_x":
+            return Frame.quad_x(self.arm)
+        if self.frame == "quad_plus":
+            return Frame.quad_plus(self.arm)
+        table = ardupilot_frame(*N_ROTOR_FRAMES[self.frame])
+        r0 = max(float(np.hypot(r.x, r.y)) for r in table.rotors)
+        rotors = tuple(Rotor(r.x * self.arm / r0, r.y * self.arm / r0, r.spin, name=r.name) for r in table.rotors)
+        return Frame(table.name, rotors, "simulated", layout=table.layout)
+
+    @property
     def thrust_to_weight(self) -> float:
-        return 4.0 * self.thrust_max / (self.mass * GRAVITY)
+        return float(self.rotor_count) * self.thrust_max / (self.mass * GRAVITY)
 
     @property
     def hover_command(self) -> float:
         """Thrust setpoint u (0..1) of each motor in a balanced hover."""
-        return self.mass * GRAVITY / (4.0 * self.thrust_max)
+        return self.mass * GRAVITY / (float(self.rotor_count) * self.thrust_max)
 
     @property
     def torque_ratio(self) -> float:
@@ -181,18 +212,30 @@ PRESETS: dict[str, Airframe] = {
 
 
 def preset(name: str, frame: str | None = None) -> Airframe:
-    """A preset airframe by name, optionally flown as another frame ("quad_x" | "quad_plus")."""
+    """A preset airframe by name, optionally flown as another frame ("quad_x" | "quad_plus" | an
+    n-rotor frame: then each rotor gets 4/n of the quad's thrust and drag torque, so the
+    thrust-to-weight ratio and hover throttle stay the preset's)."""
     try:
         af = PRESETS[name]
     except KeyError:
         raise ValueError(f"unknown airframe preset {name!r}; known: {sorted(PRESETS)}") from None
     if frame is not None and frame != af.frame:
         af = replace(af, frame=frame, name=f"{name}_{frame}")
+        if frame in N_ROTOR_FRAMES:
+            scale = 4.0 / af.rotor_count
+            af = replace(af, k_f=af.k_f * scale, k_tau=af.k_tau * scale, gains=None)
     return af
 
 
-def random_airframes(n: int, rng: np.random.Generator) -> list[Airframe]:
-    """``n`` physically consistent random quadrotors from 30 g to 5 kg (see module docstring)."""
+def random_airframes(n: int, rng: np.random.Generator, frames: Optional[Sequence[str]] = None) -> list[Airframe]:
+    """``n`` physically consistent random quadrotors from 30 g to 5 kg (see module docstring);
+    with ``frames`` (names from SIM_FRAMES) each draws its frame uniformly from them instead, the
+    per-rotor thrust sized so the thrust-to-weight ratio is drawn from the same range. Without
+    ``frames`` the draws are exactly the quadrotor ones."""
+    if frames is not None:
+        bad = [f for f in frames if f not in SIM_FRAMES]
+        if bad or not frames:
+            raise ValueError(f"frames must be names from {SIM_FRAMES}, got {list(frames)!r}")
     out = []
     lo, hi = np.log(RANDOM_MASS_RANGE_KG[0]), np.log(RANDOM_MASS_RANGE_KG[1])
     for i in range(n):
@@ -210,6 +253,12 @@ def random_airframes(n: int, rng: np.random.Generator) -> list[Airframe]:
         drag_lin = 0.3 * mass ** (2.0 / 3.0) * rng.uniform(0.5, 2.0)
         drag_ang = ixx * rng.uniform(0.2, 1.5)
         frame = "quad_plus" if rng.uniform() < RANDOM_QUAD_PLUS_FRACTION else "quad_x"
+        if frames is not None:
+            frame = str(frames[int(rng.integers(len(frames)))])
+            if frame in N_ROTOR_FRAMES:
+                probe = _make("probe", frame, mass, (ixx, iyy, izz), arm, thrust_max, torque_ratio, motor_tau,
+                              omega_max, drag_lin, drag_ang)
+                thrust_max = twr * mass * GRAVITY / probe.rotor_count
         cutoff = float(np.clip(40.0 * (mass / 1.0) ** -0.15, 25.0, 90.0))
         out.append(_make(f"random_{i}", frame, mass, (ixx, iyy, izz), arm, thrust_max, torque_ratio, motor_tau,
                          omega_max, drag_lin, drag_ang, gyro_cutoff_hz=cutoff))

@@ -131,11 +131,14 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
     plan = plan_missions(n, mission, duration_s, rng)
     dmg = _resolve_damages(n, damages, afs, plan, rng, healthy_fraction, eta_range, midflight_fraction,
                            mild_fraction=mild_fraction, torque_exponent_range=torque_exponent_range)
-    rho_arr = resolve_rho(rho, n, rng)
+    n_rot = afs[0].rotor_count
+    if any(a.rotor_count != n_rot for a in afs):
+        raise ValueError(f"one batch flies one rotor count; got {sorted({a.rotor_count for a in afs})}")
+    rho_arr = resolve_rho(rho, n, rng, n_rot)
     # Drawn from a child generator so that adding an imbalance leaves every other draw unchanged.
     imbs = resolve_imbalances(imbalance, afs, np.random.default_rng([seed, 5]))
     sens = SensorParams.draw(afs, rng, realism=realism, vibration_gain=vibration_gain, noise=noise)
-    dmg_arr = DamageArrays.build(dmg, rng)
+    dmg_arr = DamageArrays.build(dmg, rng, n_rot)
     dec = prof.decimation()
     if not accelerometer:
         dec.pop("accel", None)

@@ -80,7 +80,7 @@ class ControllerGains:
         t_max = params.thrust_max
         roll_auth = t_max * np.abs(params.rotor_y).sum(axis=0) / 2.0
         pitch_auth = t_max * np.abs(params.rotor_x).sum(axis=0) / 2.0
-        yaw_auth = 2.0 * params.k_tau * params.omega_max ** 2
+        yaw_auth = (0.5 * params.n_rotors) * params.k_tau * params.omega_max ** 2
         auth = np.stack([roll_auth, pitch_auth, yaw_auth]) / params.inertia
         return cls(
             rate_kp=arr(lambda x: x.rate_kp), rate_ki=arr(lambda x: x.rate_ki), rate_kd=arr(lambda x: x.rate_kd),
@@ -96,30 +96,31 @@ class ControllerGains:
 
 
 def mixer_matrices(params: VehicleParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Nominal allocation: per-rotor thrust = T/4 + m_roll·τx + m_pitch·τy + m_yaw·τz.
+    """Nominal allocation: per-rotor thrust = T/R + m_roll·τx + m_pitch·τy + m_yaw·τz (R rotors).
 
-    Returns ``(m_roll, m_pitch, m_yaw)``, each (4, N) in newtons per N·m, from the inverse of the
-    effectiveness matrix with rows [1…1; −y_i; x_i; spin_i·k_tau/k_f].
+    Returns ``(m_roll, m_pitch, m_yaw)``, each (R, N) in newtons per N·m, from the inverse of the
+    effectiveness matrix with rows [1…1; −y_i; x_i; spin_i·k_tau/k_f] (a quad), or its
+    pseudo-inverse (the least-squares allocation, as PX4's control allocator) for R != 4.
     """
-    n = params.n
-    b = np.empty((n, 4, 4))
+    n, r = params.n, params.n_rotors
+    b = np.empty((n, 4, r))
     b[:, 0, :] = 1.0
     b[:, 1, :] = -params.rotor_y.T
     b[:, 2, :] = params.rotor_x.T
     b[:, 3, :] = params.spin.T * (params.k_tau / params.k_f)[:, None]
-    binv = np.linalg.inv(b)  # (N, 4 rotors, 4 inputs)
+    binv = np.linalg.inv(b) if r == 4 else np.linalg.pinv(b)  # (N, R rotors, 4 inputs)
     return binv[:, :, 1].T.copy(), binv[:, :, 2].T.copy(), binv[:, :, 3].T.copy()
 
 
 def mix(thrust: np.ndarray, torque: np.ndarray, m_roll: np.ndarray, m_pitch: np.ndarray, m_yaw: np.ndarray,
         thrust_max: np.ndarray, airmode: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-motor thrust setpoints u (4, N) in 0..1 from collective thrust (N,) N and torque (3, N) N·m.
+    """Per-motor thrust setpoints u (R, N) in 0..1 from collective thrust (N,) N and torque (3, N) N·m.
 
     Returns ``(u, rp_saturated, yaw_saturated)``. ``airmode`` (N,) bool: shift the collective up
     to keep roll/pitch authority at low thrust (off on the ground, as PX4).
     """
     inv_tmax = 1.0 / thrust_max
-    u_coll = 0.25 * thrust * inv_tmax
+    u_coll = (0.25 if m_roll.shape[0] == 4 else 1.0 / m_roll.shape[0]) * thrust * inv_tmax
     u_rp = (m_roll * (torque[0] * inv_tmax)) + (m_pitch * (torque[1] * inv_tmax))
     u_y = m_yaw * (torque[2] * inv_tmax)
 

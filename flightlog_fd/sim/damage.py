@@ -67,20 +67,22 @@ BASE_IMBALANCE_RANGE = (0.01, 0.04)
 
 @dataclass(frozen=True)
 class Damage:
-    """One vehicle's propeller condition. ``motor`` 0 = healthy, 1..4 = damaged motor."""
+    """One vehicle's propeller condition. ``motor`` 0 = healthy, 1..``rotors`` = damaged motor
+    (``rotors`` 4 on a quad, 6 on a hexa...)."""
 
     motor: int = 0
     eta: float = 1.0
     onset_s: Optional[float] = None  # s after arming; None = damaged from take-off
     eta_torque: Optional[float] = None  # drag-torque efficiency; None = same as eta
+    rotors: int = 4
 
     def __post_init__(self) -> None:
         if self.eta_torque is not None and not 0.0 < self.eta_torque <= 1.0:
             raise ValueError(f"eta_torque must be in (0, 1], got {self.eta_torque}")
         if self.motor == 0 and self.eta_torque not in (None, 1.0):
             raise ValueError("a healthy vehicle (motor 0) has eta_torque 1.0")
-        if not 0 <= self.motor <= 4:
-            raise ValueError(f"motor must be 0 (healthy) or 1..4, got {self.motor}")
+        if not 0 <= self.motor <= self.rotors:
+            raise ValueError(f"motor must be 0 (healthy) or 1..{self.rotors}, got {self.motor}")
         if not 0.0 < self.eta <= 1.0:
             raise ValueError(f"eta must be in (0, 1], got {self.eta}")
         if self.motor == 0 and self.eta != 1.0:
@@ -104,9 +106,12 @@ def min_feasible_eta(af: Airframe) -> float:
     """Smallest η this airframe flies with (see module docstring): hover command of the damaged
     motor ≤ ``MAX_DAMAGED_COMMAND`` and the damage torque tilting it ≤ ``MAX_STATIC_TILT_DEG`` at
     lift-off, before the rate integrator takes the torque over."""
-    lever = af.arm if af.frame == "quad_plus" else af.arm / np.sqrt(2.0)
+    if af.frame in ("quad_x", "quad_plus"):
+        lever = af.arm if af.frame == "quad_plus" else af.arm / np.sqrt(2.0)
+    else:  # n rotors: a rotor on an axis has the whole arm as its lever (the worst case)
+        lever = af.arm
     # Angular acceleration per unit of lost efficiency at hover, on the weaker roll/pitch axis.
-    alpha_per_loss = af.mass * GRAVITY / 4.0 * lever / min(af.inertia[0], af.inertia[1])
+    alpha_per_loss = af.mass * GRAVITY / float(af.rotor_count) * lever / min(af.inertia[0], af.inertia[1])
     g = af.gains
     loss_max = np.radians(MAX_STATIC_TILT_DEG) * g.rate_kp[0] * g.att_p[0] / alpha_per_loss
     return float(max(af.hover_command / MAX_DAMAGED_COMMAND, 1.0 - loss_max))
@@ -126,7 +131,7 @@ def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np
         if rng.uniform() < healthy_fraction:
             out.append(HEALTHY)
             continue
-        motor = int(rng.integers(1, 5))
+        motor = int(rng.integers(1, af.rotor_count + 1))
         # An airframe too weak for any η in the range gets the mildest one (never η = 1 with a label).
         rng_eta = mild_eta_range if (mild_fraction > 0 and rng.uniform() < mild_fraction) else eta_range
         lo = min(max(rng_eta[0], min_feasible_eta(af)), rng_eta[1])
@@ -137,7 +142,7 @@ def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np
         onset = None
         if rng.uniform() < midflight_fraction:
             onset = float(rng.uniform(*MIDFLIGHT_WINDOW) * planned)
-        out.append(Damage(motor, eta, onset, eta_torque))
+        out.append(Damage(motor, eta, onset, eta_torque, rotors=af.rotor_count))
     return out
 
 
@@ -145,23 +150,26 @@ def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np
 class DamageArrays:
     """Damage of N vehicles as arrays for the time loop."""
 
-    eta: np.ndarray  # (N, 4) thrust efficiency of each rotor once damaged (1 for healthy rotors)
+    eta: np.ndarray  # (N, R) thrust efficiency of each rotor once damaged (1 for healthy rotors)
     onset: np.ndarray  # (N,) s after arming (0 = from the start)
-    imbalance_base: np.ndarray  # (N, 4) residual imbalance of each propeller
-    eta_torque: Optional[np.ndarray] = None  # (N, 4) drag-torque efficiency once damaged (None: = eta)
+    imbalance_base: np.ndarray  # (N, R) residual imbalance of each propeller
+    eta_torque: Optional[np.ndarray] = None  # (N, R) drag-torque efficiency once damaged (None: = eta)
 
     @classmethod
-    def build(cls, damages: Sequence[Damage], rng: np.random.Generator) -> "DamageArrays":
+    def build(cls, damages: Sequence[Damage], rng: np.random.Generator, n_rotors: int = 4) -> "DamageArrays":
         n = len(damages)
-        eta = np.ones((n, 4))
-        eta_torque = np.ones((n, 4))
+        bad = [d.motor for d in damages if d.motor > n_rotors]
+        if bad:
+            raise ValueError(f"damaged motor {bad[0]} on a {n_rotors}-rotor vehicle")
+        eta = np.ones((n, n_rotors))
+        eta_torque = np.ones((n, n_rotors))
         onset = np.zeros(n)
         for i, d in enumerate(damages):
             if d.motor:
                 eta[i, d.motor - 1] = d.eta
                 eta_torque[i, d.motor - 1] = d.torque_eta
                 onset[i] = d.onset_s if d.onset_s is not None else 0.0
-        return cls(eta=eta, onset=onset, imbalance_base=rng.uniform(*BASE_IMBALANCE_RANGE, size=(n, 4)),
+        return cls(eta=eta, onset=onset, imbalance_base=rng.uniform(*BASE_IMBALANCE_RANGE, size=(n, n_rotors)),
                    eta_torque=None if np.array_equal(eta_torque, eta) else eta_torque)
 
     def eta_at(self, t: float) -> np.ndarray:

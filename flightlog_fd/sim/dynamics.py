@@ -40,7 +40,6 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from flightlog_fd.flight import Frame
 from flightlog_fd.sim.airframe import GRAVITY, Airframe
 from flightlog_fd.sim.esc import loaded_speed
 
@@ -51,9 +50,9 @@ class VehicleParams:
 
     mass: np.ndarray  # (N,) kg
     inertia: np.ndarray  # (3, N) kg·m²
-    rotor_x: np.ndarray  # (4, N) m, forward
-    rotor_y: np.ndarray  # (4, N) m, right
-    spin: np.ndarray  # (4, N) +1 CCW / −1 CW
+    rotor_x: np.ndarray  # (R, N) m, forward (R rotors: 4 on a quad, 6 on a hexa...)
+    rotor_y: np.ndarray  # (R, N) m, right
+    spin: np.ndarray  # (R, N) +1 CCW / −1 CW
     k_f: np.ndarray  # (N,)
     k_tau: np.ndarray  # (N,)
     motor_tau: np.ndarray  # (N,) s
@@ -72,6 +71,10 @@ class VehicleParams:
         return int(self.mass.shape[0])
 
     @property
+    def n_rotors(self) -> int:
+        return int(self.rotor_x.shape[0])
+
+    @property
     def thrust_max(self) -> np.ndarray:
         """(N,) maximum thrust of one healthy rotor, N."""
         return self.k_f * self.omega_max ** 2
@@ -79,8 +82,11 @@ class VehicleParams:
     @classmethod
     def from_airframes(cls, airframes: Sequence[Airframe]) -> "VehicleParams":
         rx, ry, sp = [], [], []
+        counts = {af.rotor_count for af in airframes}
+        if len(counts) > 1:
+            raise ValueError(f"one batch flies one rotor count; got {sorted(counts)}")
         for af in airframes:
-            frame = Frame.quad_x(af.arm) if af.frame == "quad_x" else Frame.quad_plus(af.arm)
+            frame = af.geometry()
             rx.append([r.x for r in frame.rotors])
             ry.append([r.y for r in frame.rotors])
             sp.append([r.spin for r in frame.rotors])
@@ -107,15 +113,16 @@ class VehicleParams:
 
     def rotor_k_f(self) -> np.ndarray:
         """(4, N) thrust coefficient of each rotor."""
-        return self.k_f * (np.ones((4, self.n)) if self.thrust_scale is None else self.thrust_scale)
+        return self.k_f * (np.ones((self.n_rotors, self.n)) if self.thrust_scale is None else self.thrust_scale)
 
     def rotor_k_tau(self) -> np.ndarray:
         """(4, N) drag-torque coefficient of each rotor."""
-        return self.k_tau * (np.ones((4, self.n)) if self.torque_scale is None else self.torque_scale)
+        return self.k_tau * (np.ones((self.n_rotors, self.n)) if self.torque_scale is None else self.torque_scale)
 
     def rotor_motor_tau(self) -> np.ndarray:
         """(4, N) motor time constant of each rotor, s."""
-        return self.motor_tau * (np.ones((4, self.n)) if self.motor_tau_scale is None else self.motor_tau_scale)
+        return self.motor_tau * (np.ones((self.n_rotors, self.n)) if self.motor_tau_scale is None
+                                 else self.motor_tau_scale)
 
     def torque_matrix(self) -> np.ndarray:
         """(3, 4, N): body torque = Σ_i G[:, i] · (s_i w_i²) (roll, pitch from thrust; yaw from drag
@@ -139,17 +146,17 @@ class RigidBodyState:
     vel: np.ndarray  # (3, N) NED m/s
     quat: np.ndarray  # (4, N) w, x, y, z body→NED
     omega: np.ndarray  # (3, N) body FRD rad/s
-    w: np.ndarray  # (4, N) rotor speeds rad/s
+    w: np.ndarray  # (R, N) rotor speeds rad/s
     landed: np.ndarray  # (N,) bool
 
     @classmethod
-    def on_ground(cls, n: int, yaw: Optional[np.ndarray] = None) -> "RigidBodyState":
+    def on_ground(cls, n: int, yaw: Optional[np.ndarray] = None, n_rotors: int = 4) -> "RigidBodyState":
         yaw = np.zeros(n) if yaw is None else np.asarray(yaw, dtype=np.float64)
         quat = np.zeros((4, n))
         quat[0] = np.cos(yaw / 2.0)
         quat[3] = np.sin(yaw / 2.0)
         return cls(pos=np.zeros((3, n)), vel=np.zeros((3, n)), quat=quat, omega=np.zeros((3, n)),
-                   w=np.zeros((4, n)), landed=np.ones(n, dtype=bool))
+                   w=np.zeros((n_rotors, n)), landed=np.ones(n, dtype=bool))
 
 
 def quat_to_euler(q: np.ndarray) -> np.ndarray:
@@ -212,10 +219,10 @@ class QuadDynamics:
         #: Load-dependent motor speed (sim/esc.py): None = the rotor reaches its commanded speed.
         self.motor_a0: Optional[np.ndarray] = None
         self.motor_kv: Optional[np.ndarray] = None
-        self.torque_rel = np.ones((4, params.n)) if params.torque_scale is None else params.torque_scale
+        self.torque_rel = np.ones_like(self.k_tau_rotor) if params.torque_scale is None else params.torque_scale
 
     def set_motor_model(self, a0: np.ndarray, kv_scale: np.ndarray) -> None:
-        """Use the load-dependent motor model of sim/esc.py (``a0`` (N,) s/rad, ``kv_scale`` (4, N))."""
+        """Use the load-dependent motor model of sim/esc.py (``a0`` (N,) s/rad, ``kv_scale`` (R, N))."""
         self.motor_a0 = np.asarray(a0, dtype=np.float64)
         self.motor_kv = np.asarray(kv_scale, dtype=np.float64)
 

@@ -42,6 +42,8 @@ from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_ef
 
 STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "accel": 3, "w_com": 4, "w": 4,
                  "pos": 3, "thrust": 4, "omega": 3, "eta": 4, "torque": 4}
+#: Streams with one column per rotor (STREAM_FIELDS gives a quad's 4; a hexa records 6).
+ROTOR_STREAMS = ("motors", "w_com", "w", "thrust", "eta", "torque")
 #: Simulated time kept after the last disarm (covers the logger's tail after disarming).
 DEFAULT_TAIL_S = 1.0
 
@@ -72,16 +74,17 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
         if name not in STREAM_FIELDS:
             raise ValueError(f"unknown stream {name!r}; known: {sorted(STREAM_FIELDS)}")
     vp = VehicleParams.from_airframes(airframes)
-    n = vp.n
+    n, n_rot = vp.n, vp.n_rotors
+    fields = {k: (n_rot if k in ROTOR_STREAMS else c) for k, c in STREAM_FIELDS.items()}
     dyn = QuadDynamics(vp if imbalance is None else vp.with_imbalance(imbalance), dt)
     if motor_model is not None:
         dyn.set_motor_model(motor_model.a0, motor_model.kv_scale)
     ctrl = CascadeController(airframes, vp, dt)
     sens = Sensors(sensor_params, vp, dt, ctrl.dt_outer, rng)
     runner = MissionRunner(plan)
-    state = RigidBodyState.on_ground(n, yaw=plan.home_yaw)
+    state = RigidBodyState.on_ground(n, yaw=plan.home_yaw, n_rotors=n_rot)
     rho_t = rho.T.copy()
-    unbalance = physical_effectiveness(rho_t) if rho_mode == "physical" else np.ones((4, n))
+    unbalance = physical_effectiveness(rho_t) if rho_mode == "physical" else np.ones((n_rot, n))
     eta_full = damage.eta.T.copy()
     # Drag-torque efficiency relative to the thrust efficiency of each damaged rotor (None: equal).
     drag_full = None if damage.eta_torque is None else (damage.eta_torque / damage.eta).T.copy()
@@ -92,15 +95,15 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     n_max = int(np.ceil(t_max / dt))
     # Recording buffers sized for the longest possible run; pages never written are never
     # committed by the OS, so an early stop costs no memory.
-    rec = {k: np.empty((n_max // d + 2, n, STREAM_FIELDS[k]), np.float32) for k, d in decimation.items()}
+    rec = {k: np.empty((n_max // d + 2, n, fields[k]), np.float32) for k, d in decimation.items()}
     rec_t = {k: np.empty(n_max // d + 2) for k, d in decimation.items()}
     count = dict.fromkeys(decimation, 0)
     t_all_done = None
     mode = np.zeros(n, dtype=np.int64)
-    eta = np.ones((4, n))
+    eta = np.ones((n_rot, n))
     eff = unbalance.copy()
     wind = sens.wind
-    thrust = np.zeros((4, n))
+    thrust = np.zeros((n_rot, n))
     t = 0.0
     for i in range(n_max + 1):
         t = i * dt

@@ -76,14 +76,14 @@ class EscParams:
 
     rate_hz: float
     droop_full: float
-    kv_scale: tuple[float, float, float, float]
+    kv_scale: tuple[float, ...]  # one per rotor
     pole_pairs: int
     cells: int
     kv_si: float  # nominal Kv, rad/s per volt
     no_load_current_a: float
-    current_gain: tuple[float, float, float, float]
-    current_offset_a: tuple[float, float, float, float]
-    latency_frac: tuple[float, float, float, float]  # each ESC's report latency, fraction of an interval
+    current_gain: tuple[float, ...]
+    current_offset_a: tuple[float, ...]
+    latency_frac: tuple[float, ...]  # each ESC's report latency, fraction of an interval
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -101,7 +101,8 @@ def random_esc_params(af: Airframe, rng: np.random.Generator, rate_hz: Optional[
     """Random motors/ESCs for ``af`` (see module docstring); ``rate_hz`` None draws one in RATE_RANGE_HZ."""
     rate = float(rng.uniform(*RATE_RANGE_HZ)) if rate_hz is None else float(rate_hz)
     droop = float(rng.uniform(*DROOP_FULL_RANGE))
-    kv = 1.0 + np.clip(rng.normal(0.0, KV_STD, 4), -KV_CLIP, KV_CLIP)
+    r = int(getattr(af, "rotor_count", 4))
+    kv = 1.0 + np.clip(rng.normal(0.0, KV_STD, r), -KV_CLIP, KV_CLIP)
     cells = cells_for(af)
     w_nl_max = af.omega_max / (1.0 - droop)
     kv_si = w_nl_max / (cells * CELL_V_START)
@@ -110,10 +111,10 @@ def random_esc_params(af: Airframe, rng: np.random.Generator, rate_hz: Optional[
     return EscParams(rate_hz=rate, droop_full=droop, kv_scale=tuple(float(x) for x in kv),
                      pole_pairs=int(rng.choice(POLE_PAIRS)), cells=cells, kv_si=float(kv_si),
                      no_load_current_a=float(NO_LOAD_CURRENT_FRACTION * hover_current),
-                     current_gain=tuple(float(x) for x in 1.0 + rng.normal(0.0, CURRENT_GAIN_STD, 4)),
-                     current_offset_a=tuple(float(x) for x in rng.normal(0.0, CURRENT_OFFSET_FRAC, 4)
+                     current_gain=tuple(float(x) for x in 1.0 + rng.normal(0.0, CURRENT_GAIN_STD, r)),
+                     current_offset_a=tuple(float(x) for x in rng.normal(0.0, CURRENT_OFFSET_FRAC, r)
                                             * max(hover_current, 0.05)),
-                     latency_frac=tuple(float(x) for x in rng.uniform(0.0, 1.0, 4)))
+                     latency_frac=tuple(float(x) for x in rng.uniform(0.0, 1.0, r)))
 
 
 def resolve_esc(spec: EscSpec, airframes: Sequence[Airframe], rng: np.random.Generator) -> Optional[list[EscParams]]:
@@ -140,7 +141,7 @@ def resolve_esc(spec: EscSpec, airframes: Sequence[Airframe], rng: np.random.Gen
 @dataclass
 class MotorArrays:
     """What the dynamics needs of the ESC model, component-major: droop coefficient a0 (N,) s/rad
-    and KV scale (4, N)."""
+    and KV scale (R, N)."""
 
     a0: np.ndarray
     kv_scale: np.ndarray
@@ -152,7 +153,7 @@ class MotorArrays:
 
 
 def loaded_speed(w_com: np.ndarray, load: np.ndarray, a0: np.ndarray, kv: np.ndarray) -> np.ndarray:
-    """Steady rotor speed (4, N) for commanded speeds ``w_com`` of the nominal motor, relative
+    """Steady rotor speed (R, N) for commanded speeds ``w_com`` of the nominal motor, relative
     torque coefficients ``load`` and KV scales ``kv`` (see module docstring)."""
     w_nl = kv * (w_com + a0 * w_com * w_com)
     a = a0 * np.maximum(load, 1e-6) * kv * kv
@@ -162,7 +163,7 @@ def loaded_speed(w_com: np.ndarray, load: np.ndarray, a0: np.ndarray, kv: np.nda
 def esc_telemetry(t_rec: np.ndarray, w: np.ndarray, torque: np.ndarray, p: EscParams, offset: float,
                   t_last: float, rng: np.random.Generator, jitter_frac: float = 0.02) -> EscTelemetry:
     """One vehicle's :class:`~flightlog_fd.flight.EscTelemetry` from its recorded rotor speeds
-    ``w`` (M, 4) rad/s and drag torques ``torque`` (M, 4) N·m at sim times ``t_rec`` (M,) s since
+    ``w`` (M, R) rad/s and drag torques ``torque`` (M, R) N·m at sim times ``t_rec`` (M,) s since
     arming, decimated to the ESC rate, on the log clock (``offset`` s after boot)."""
     base_dt = float(np.median(np.diff(t_rec))) if t_rec.size > 1 else 0.01
     step = max(1, int(round(1.0 / (p.rate_hz * base_dt))))
@@ -176,7 +177,7 @@ def esc_telemetry(t_rec: np.ndarray, w: np.ndarray, torque: np.ndarray, p: EscPa
     hover_i = max(float(np.median(current[current > 0])) if np.any(current > 0) else 1.0, 1e-3)
     alpha = 1.0 - np.exp(-interval / TEMP_TAU_S)
     chans = []
-    for k in range(4):
+    for k in range(ws.shape[1]):
         rpm = ws[:, k] * 60.0 / (2.0 * np.pi) * (1.0 + RPM_NOISE_FRAC * rng.standard_normal(idx.size))
         rpm_step = ERPM_STEP / p.pole_pairs
         rpm = np.round(np.maximum(rpm, 0.0) / rpm_step) * rpm_step

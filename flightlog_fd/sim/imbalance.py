@@ -109,10 +109,11 @@ class AirframeImbalance:
     motor_tau_scale: tuple[float, float, float, float] = _ONES
 
     def __post_init__(self) -> None:
+        r = len(self.motor_tilt_rad)  # 4 on a quad; an n-rotor airframe gives n everywhere
         for name in ("motor_tilt_rad", "thrust_scale", "torque_scale", "motor_tau_scale"):
             v = getattr(self, name)
-            if len(v) != 4:
-                raise ValueError(f"{name} needs 4 values, got {len(v)}")
+            if len(v) != r or r < 3:
+                raise ValueError(f"{name} needs {max(r, 4)} values, got {len(v)}")
             object.__setattr__(self, name, tuple(float(x) for x in v))
         if len(self.cog_offset) != 2:
             raise ValueError("cog_offset needs (x, y)")
@@ -128,6 +129,13 @@ class AirframeImbalance:
 
 BALANCED = AirframeImbalance()
 
+
+def balanced(n_rotors: int = 4) -> AirframeImbalance:
+    """A perfectly balanced airframe with ``n_rotors`` rotors (BALANCED for a quad)."""
+    if n_rotors == 4:
+        return BALANCED
+    return AirframeImbalance((0.0, 0.0), (0.0,) * n_rotors, (1.0,) * n_rotors, (1.0,) * n_rotors, (1.0,) * n_rotors)
+
 ImbalanceSpec = Union[None, str, AirframeImbalance, Sequence[Optional[AirframeImbalance]]]
 
 
@@ -141,10 +149,9 @@ def _scaled(imb: AirframeImbalance, k: float) -> AirframeImbalance:
 
 
 def hover_commands(af: Airframe, imb: AirframeImbalance) -> np.ndarray:
-    """(4,) steady hover thrust setpoints of ``af`` with ``imb`` (static force/moment balance)."""
-    from flightlog_fd.flight import Frame
-
-    frame = Frame.quad_x(af.arm) if af.frame == "quad_x" else Frame.quad_plus(af.arm)
+    """(R,) steady hover thrust setpoints of ``af`` with ``imb`` (static force/moment balance; for
+    R != 4 rotors the least-squares one, as the simulator's allocation)."""
+    frame = af.geometry()
     x = np.array([r.x for r in frame.rotors]) - imb.cog_offset[0] * af.arm
     y = np.array([r.y for r in frame.rotors]) - imb.cog_offset[1] * af.arm
     spin = np.array([r.spin for r in frame.rotors], dtype=float)
@@ -155,7 +162,9 @@ def hover_commands(af: Airframe, imb: AirframeImbalance) -> np.ndarray:
     # Rows: total thrust, roll, pitch, yaw per unit command (u · thrust_max = healthy thrust).
     a = np.stack([ts, -y * ts, x * ts, spin * af.torque_ratio * qs + r * np.sin(tilt) * ts])
     rhs = np.array([af.mass * 9.80665 / af.thrust_max, 0.0, 0.0, 0.0])
-    return np.linalg.solve(a, rhs)
+    if a.shape[1] == 4:
+        return np.linalg.solve(a, rhs)
+    return np.linalg.pinv(a) @ rhs
 
 
 def random_imbalances(airframes: Sequence[Airframe], rng: np.random.Generator) -> list[AirframeImbalance]:
@@ -165,11 +174,12 @@ def random_imbalances(airframes: Sequence[Airframe], rng: np.random.Generator) -
         s = rng.uniform(*SEVERITY_RANGE)
         ang = rng.uniform(-np.pi, np.pi)
         c = s * rng.uniform(0.0, COG_MAX_ARM_FRACTION)
-        tilt = np.radians(np.clip(s * (rng.normal(0.0, TILT_COMMON_STD_DEG) + rng.normal(0.0, TILT_MOTOR_STD_DEG, 4)),
+        r = af.rotor_count
+        tilt = np.radians(np.clip(s * (rng.normal(0.0, TILT_COMMON_STD_DEG) + rng.normal(0.0, TILT_MOTOR_STD_DEG, r)),
                                   -TILT_CLIP_DEG, TILT_CLIP_DEG))
-        ts = 1.0 + np.clip(s * rng.normal(0.0, COEF_STD, 4), -COEF_CLIP, COEF_CLIP)
-        qs = 1.0 + np.clip(s * rng.normal(0.0, COEF_STD, 4), -COEF_CLIP, COEF_CLIP)
-        tau = 1.0 + np.clip(rng.normal(0.0, MOTOR_TAU_STD, 4), -MOTOR_TAU_CLIP, MOTOR_TAU_CLIP)
+        ts = 1.0 + np.clip(s * rng.normal(0.0, COEF_STD, r), -COEF_CLIP, COEF_CLIP)
+        qs = 1.0 + np.clip(s * rng.normal(0.0, COEF_STD, r), -COEF_CLIP, COEF_CLIP)
+        tau = 1.0 + np.clip(rng.normal(0.0, MOTOR_TAU_STD, r), -MOTOR_TAU_CLIP, MOTOR_TAU_CLIP)
         imb = AirframeImbalance((c * np.cos(ang), c * np.sin(ang)), tuple(tilt), tuple(ts), tuple(qs), tuple(tau))
         # Keep the hover flyable with margin: shrink the draw until the highest motor fits.
         for _ in range(6):
@@ -185,7 +195,7 @@ def resolve_imbalances(spec: ImbalanceSpec, airframes: Sequence[Airframe],
     """None (balanced) / "random" / one AirframeImbalance for all / a list of n (None = balanced)."""
     n = len(airframes)
     if spec is None:
-        return [BALANCED] * n
+        return [balanced(af.rotor_count) for af in airframes]
     if isinstance(spec, str):
         if spec != "random":
             raise ValueError(f"imbalance must be None, 'random', an AirframeImbalance or a list, got {spec!r}")

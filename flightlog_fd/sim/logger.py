@@ -52,9 +52,15 @@ from flightlog_fd.sim.engine import BatchResult
 FIRMWARE = "flightlog-fd sim"
 ARDUPILOT_THST_EXPO = 0.65
 ARDUPILOT_PWM_MIN, ARDUPILOT_PWM_MAX = 1000.0, 2000.0
-PX4_SYS_AUTOSTART = {"quad_x": 4001, "quad_plus": 5001}
+PX4_SYS_AUTOSTART = {"quad_x": 4001, "quad_plus": 5001,
+                     # PX4 generic n-rotor airframes (ROMFS airframes 6001 hexa X, 7001 hexa +,
+                     # 8001 octo X, 9001 octo +, 12001 octo coaxial)
+                     "hexa_x": 6001, "hexa_plus": 7001, "octo_x": 8001, "octo_plus": 9001, "octaquad_x": 12001}
 PX4_SIH_AUTOSTART = 10040  # PX4's SIH quadrotor airframe (sihsim_quadx)
 ARDUPILOT_FRAME_TYPE = {"quad_x": 1, "quad_plus": 0}
+#: MAV_TYPE per rotor count (2 quadrotor, 13 hexarotor, 14 octorotor) and Flight.vehicle_type.
+PX4_MAV_TYPE = {4: 2.0, 6: 13.0, 8: 14.0}
+VEHICLE_TYPE = {4: "quadrotor", 6: "hexarotor", 8: "octorotor"}
 LOG_TAIL_RANGE_S = (0.5, 1.0)  # logging continues this long after disarm (PX4 SIH logs: ~1 s)
 #: PX4's land detector reports "not landed" shortly after the take-off command / thrust ramp start.
 LAND_DETECTOR_TAKEOFF_DELAY_S = (0.1, 0.3)
@@ -152,11 +158,11 @@ def _us(t: float) -> float:
 
 
 def px4_params(af: Airframe) -> dict[str, float]:
-    frame = Frame.quad_x(af.arm) if af.frame == "quad_x" else Frame.quad_plus(af.arm)
+    frame = af.geometry()
     p: dict[str, float] = {
         "SYS_AUTOSTART": float(PX4_SIH_AUTOSTART if af.name == "sih" else PX4_SYS_AUTOSTART[af.frame]),
-        "MAV_TYPE": 2.0,
-        "CA_ROTOR_COUNT": 4.0,
+        "MAV_TYPE": PX4_MAV_TYPE[af.rotor_count],
+        "CA_ROTOR_COUNT": float(af.rotor_count),
         "THR_MDL_FAC": float(af.thr_mdl_fac),
         "MPC_THR_HOVER": float(round(af.hover_command, 3)),
         "IMU_GYRO_CUTOFF": float(af.gyro_cutoff_hz),
@@ -168,10 +174,18 @@ def px4_params(af: Airframe) -> dict[str, float]:
     return p
 
 
+def _ardupilot_frame(af: Airframe) -> tuple[int, int]:
+    """(FRAME_CLASS, FRAME_TYPE) of a simulated airframe."""
+    from flightlog_fd.sim.airframe import N_ROTOR_FRAMES
+
+    return N_ROTOR_FRAMES[af.frame] if af.frame in N_ROTOR_FRAMES else (1, ARDUPILOT_FRAME_TYPE[af.frame])
+
+
 def ardupilot_params(af: Airframe) -> dict[str, float]:
+    fclass, ftype = _ardupilot_frame(af)
     return {
-        "FRAME_CLASS": 1.0,
-        "FRAME_TYPE": float(ARDUPILOT_FRAME_TYPE[af.frame]),
+        "FRAME_CLASS": float(fclass),
+        "FRAME_TYPE": float(ftype),
         "MOT_PWM_MIN": ARDUPILOT_PWM_MIN,
         "MOT_PWM_MAX": ARDUPILOT_PWM_MAX,
         "MOT_THST_EXPO": ARDUPILOT_THST_EXPO,
@@ -213,22 +227,25 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
         att = quat_to_euler(q / np.linalg.norm(q, axis=1, keepdims=True))
         alt_idx = np.arange(0, t_m.shape[0], profile.alt_every)
 
-        frame = Frame.quad_x(af.arm) if af.frame == "quad_x" else Frame.quad_plus(af.arm)
+        frame = af.geometry()
+        nr = af.rotor_count
         if px4:
             curve = float(af.thr_mdl_fac)
             params = px4_params(af)
-            frame = Frame(frame.name, frame.rotors, "CA_ROTOR_COUNT=4, CA_ROTORn_PX/PY/KM")
+            frame = Frame(frame.name, frame.rotors, f"CA_ROTOR_COUNT={nr}, CA_ROTORn_PX/PY/KM", layout=frame.layout)
             src = dict(rates="vehicle_angular_velocity.xyz", attitude="vehicle_attitude.q",
-                       motors="actuator_motors.control[0..3]", alt="actuator_outputs.output[0..3]",
+                       motors=f"actuator_motors.control[0..{nr - 1}]", alt=f"actuator_outputs.output[0..{nr - 1}]",
                        velocity="vehicle_local_position.vx/vy/vz", accel="sensor_combined.accelerometer_m_s2")
             alt_name, airborne_src = "actuator_outputs", "vehicle_land_detected"
         else:
             curve = ARDUPILOT_THST_EXPO
             params = ardupilot_params(af)
-            frame = Frame(frame.name, frame.rotors, f"FRAME_CLASS=1, FRAME_TYPE={ARDUPILOT_FRAME_TYPE[af.frame]}")
+            fclass, ftype = _ardupilot_frame(af)
+            frame = Frame(frame.name, frame.rotors, f"FRAME_CLASS={fclass}, FRAME_TYPE={ftype}", layout=frame.layout)
             src = dict(rates="IMU.GyrX/Y/Z", attitude="ATT.Roll/Pitch/Yaw",
                        motors="RATE mixer (AOut + ROut/POut/YOut x AP_MotorsMatrix factors)",
-                       alt="RCOU.C1,C2,C3,C4", velocity="XKF1.VN/VE/VD", accel="IMU.AccX/Y/Z")
+                       alt="RCOU." + ",".join(f"C{k}" for k in range(1, nr + 1)), velocity="XKF1.VN/VE/VD",
+                       accel="IMU.AccX/Y/Z")
             alt_name, airborne_src = "RCOU", "EV (NOT_LANDED 28 .. LAND_COMPLETE 18 / DISARMED 11)"
         alt = Series(t_m[alt_idx], thrust_to_signal(motors[alt_idx], curve), src["alt"])
         motor_series, motor_kind, alt_motors = Series(t_m, motors, src["motors"]), "thrust", {alt_name: alt}
@@ -258,10 +275,12 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             "touchdown_s": _us(res.t_touchdown[i] + offset) if np.isfinite(res.t_touchdown[i]) else None,
             "log_start_boot_s": offset,
         }
+        if nr != 4:
+            truth["rotor_count"] = nr  # labels 0..n (features.labels_for_spans); quads keep their truth
         if extra_truth is not None:
             truth.update(extra_truth[i])
         flights.append(Flight(
-            path=None, autopilot=profile.autopilot, firmware=FIRMWARE, vehicle_type="quadrotor",
+            path=None, autopilot=profile.autopilot, firmware=FIRMWARE, vehicle_type=VEHICLE_TYPE.get(nr, "multirotor"),
             vehicle_id=f"sim-{seed}-{i}", frame=frame,
             rates=Series(t_r, rates, src["rates"]),
             attitude=Series(t_a, att, src["attitude"]),

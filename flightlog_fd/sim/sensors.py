@@ -158,10 +158,11 @@ class Sensors:
         self.turb_std = sp.turbulence_std.T.copy()
         self.gyro_filt = np.zeros((3, n))
         # Vibration phasors (sin, cos of each rotor's phase), rotated each step by w·dt.
-        phase = rng.uniform(0.0, 2 * np.pi, size=(4, n))
+        r = vp.rotor_x.shape[0]
+        phase = rng.uniform(0.0, 2 * np.pi, size=(r, n))
         self.vib_s, self.vib_c = np.sin(phase), np.cos(phase)
-        self.rot_s, self.rot_c = np.zeros((4, n)), np.ones((4, n))
-        self.vib_amp = np.zeros((4, n))
+        self.rot_s, self.rot_c = np.zeros((r, n)), np.ones((r, n))
+        self.vib_amp = np.zeros((r, n))
         arm = np.hypot(vp.rotor_x, vp.rotor_y)
         self.vib_yaw_x = VIBRATION_YAW_SHARE * vp.rotor_x / arm
         self.vib_yaw_y = VIBRATION_YAW_SHARE * vp.rotor_y / arm

@@ -32,21 +32,22 @@ RANDOM_RHO_CLIP = 0.08
 RhoSpec = Union[None, str, np.ndarray, list, tuple]
 
 
-def resolve_rho(rho: RhoSpec, n: int, rng: np.random.Generator) -> np.ndarray:
-    """(n, 4) unbalance ratios from None / "random" / (4,) / (n, 4)."""
+def resolve_rho(rho: RhoSpec, n: int, rng: np.random.Generator, n_rotors: int = 4) -> np.ndarray:
+    """(n, R) unbalance ratios from None / "random" / (R,) / (n, R); R = ``n_rotors`` (4: a quad)."""
+    r = n_rotors
     if rho is None:
-        return np.ones((n, 4))
+        return np.ones((n, r))
     if isinstance(rho, str):
         if rho != "random":
             raise ValueError(f"rho must be None, 'random' or an array, got {rho!r}")
-        dev = np.clip(rng.normal(0.0, RANDOM_RHO_STD, size=(n, 4)), -RANDOM_RHO_CLIP, RANDOM_RHO_CLIP)
+        dev = np.clip(rng.normal(0.0, RANDOM_RHO_STD, size=(n, r)), -RANDOM_RHO_CLIP, RANDOM_RHO_CLIP)
         dev[:, 0] = 0.0
         return 1.0 + dev
     arr = np.asarray(rho, dtype=np.float64)
-    if arr.shape == (4,):
+    if arr.shape == (r,):
         arr = np.tile(arr, (n, 1))
-    if arr.shape != (n, 4):
-        raise ValueError(f"rho must have shape (4,) or ({n}, 4), got {arr.shape}")
+    if arr.shape != (n, r):
+        raise ValueError(f"rho must have shape ({r},) or ({n}, {r}), got {arr.shape}")
     if np.any(arr <= 0):
         raise ValueError("rho must be positive")
     return arr

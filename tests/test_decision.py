@@ -1,0 +1,145 @@
+"""The decision model: mixer physics and severity, each source's LLR, and every verdict branch's
+reason (decision.decide_flight)."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from flightlog_fd import decision as D
+from flightlog_fd.flight import Frame
+
+
+def window_probs(motor: int, p_motor: float, n: int = 60) -> np.ndarray:
+    """n windows giving ``p_motor`` to class ``motor`` and the rest to healthy."""
+    p = np.full((n, 5), 0.01)
+    p[:, motor] = p_motor
+    if motor != 0:
+        p[:, 0] = 1.0 - p[:, 1:].sum(axis=1)
+    return p / p.sum(axis=1, keepdims=True)
+
+
+def damaged_shares(base, motor, eta, m=1.0, frame=None):
+    frame = frame or Frame.quad_x()
+    rows = D._mixer_rows(frame, 4)
+    u = D.predicted_commands(np.asarray(base, float), rows, motor, eta, m)
+    return u / u.mean(), u.mean() / np.mean(base)
+
+
+@pytest.mark.parametrize("motor", [1, 2, 3, 4])
+def test_one_weak_rotor_closed_loop_pattern(motor):
+    """Quad X, even trim: the diagonal partner (same spin) needs eta times the weak rotor's command
+    (equal thrusts on a diagonal hold roll and pitch); with m = 1 the other pair matches it too."""
+    s, thr = damaged_shares(np.ones(4), motor, 0.7)
+    partner = {1: 2, 2: 1, 3: 4, 4: 3}[motor]
+    assert s[partner - 1] / s[motor - 1] == pytest.approx(0.7, abs=1e-9)
+    assert np.argmax(s) == motor - 1 and thr > 1.0  # the lost thrust is made up: the throttle rises
+    s2, _ = damaged_shares(np.ones(4), motor, 0.7, m=0.4)
+    others = [k for k in range(4) if k not in (motor - 1, partner - 1)]
+    assert s2[others[0]] > s[others[0]]  # less torque loss: the other pair stays closer to the weak rotor
+
+
+@pytest.mark.parametrize("frame", [Frame.quad_x(), Frame.quad_plus()])
+@pytest.mark.parametrize("eta", [0.6, 0.75, 0.9])
+def test_severity_fit_recovers_eta_against_an_uneven_baseline(frame, eta):
+    base = np.array([0.95, 1.08, 0.92, 1.05])
+    s, thr = damaged_shares(base, 3, eta, m=1.25, frame=frame)
+    chi_h, fits = D.severity_fit(s, base, np.full(4, D.DEFAULT_DRIFT_SIGMA), frame, thr)
+    assert fits[2].eta_hat == pytest.approx(eta, abs=0.02)
+    assert fits[2].eta_ci[0] <= eta <= fits[2].eta_ci[1]
+    assert fits[2].llr == max(f.llr for f in fits)
+    healthy_chi, healthy_fits = D.severity_fit(base / base.mean(), base, np.full(4, 0.03), frame, 1.0)
+    assert healthy_chi == pytest.approx(0.0, abs=1e-9) and all(f.llr < 0 for f in healthy_fits)
+    assert all(f.eta_hat >= 0.97 for f in healthy_fits)
+
+
+def test_model_llr_counts_correlated_windows_once_per_decorrelation_time():
+    damaged = window_probs(2, 0.8)
+    long = D.model_llr(damaged, covered_s=600.0)
+    short = D.model_llr(damaged, covered_s=20.0)
+    assert np.argmax(long) == 1 and long[1] > 0
+    # 600 s of the same votes is NOT 30 times the evidence of 20 s: the between-flight spread caps it
+    assert long[1] < 3 * max(short[1], 0.1)
+    healthy = D.model_llr(window_probs(0, 0.9), covered_s=60.0)
+    assert np.all(healthy < 0)
+
+
+def test_effectiveness_llr_only_when_informative_and_sane():
+    def est(values, informative=True, width=0.05):
+        v = np.asarray(values, float)
+        return SimpleNamespace(values=v, ci=np.stack([v - width, v + width], axis=1), informative=informative,
+                               motors=list(range(4)))
+    llr = D.effectiveness_llr(est([0.7, 1.0, 1.0, 1.0]))
+    assert llr[0] > 2 and np.all(llr[1:] < 0)
+    assert D.effectiveness_llr(est([0.7, 1.0, 1.0, 1.0], informative=False)) is None
+    assert D.effectiveness_llr(est([-1.0, 1.0, 1.0, 1.0])) is None  # inconsistent fit: never used
+
+
+def test_pooled_drift_sigma():
+    assert D.pooled_sigma(None, 1, 0.03) == 0.03
+    assert D.pooled_sigma(0.005, 2, 0.03) == pytest.approx(np.sqrt((3 * 0.03 ** 2 + 0.005 ** 2) / 4))
+    assert D.share_sigma("neighbours", None, 4)[0] == D.NEIGHBOUR_SHARE_SIGMA
+    assert D.share_sigma("before onset", None, 4)[0] == D.ONSET_BASELINE_SIGMA
+    assert D.share_sigma("profile", [0.01] * 4, 4, n_flights=4)[0] < D.DEFAULT_DRIFT_SIGMA
+
+
+BASE = np.array([0.95, 1.08, 0.92, 1.05])
+
+
+def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, **kw):
+    return D.decide_flight(probs=probs, covered_s=60.0, shares=np.asarray(shares, float),
+                           base_shares=None if base is None else base / base.mean(), baseline_kind=kind,
+                           throttle_ratio=ratio if kind == "profile" else None, frame=Frame.quad_x(), **kw)
+
+
+def test_branch_damaged_names_the_motor_its_severity_and_inspection():
+    s, thr = damaged_shares(BASE, 3, 0.75, m=0.5)
+    d = decide(window_probs(3, 0.6), s, ratio=thr, first_seen=12.0)
+    assert d.status == "damaged" and d.motor == 3
+    assert "motor 3 (front-left) lost thrust from t=12.0 s" in d.reason
+    assert "about 75 % of its normal thrust" in d.reason and "inspect propeller 3" in d.reason
+    assert "re-calibrate" not in d.reason and d.airframe_changed is None
+    assert d.motors[2].weight > 0.9 and d.motors[2].eta_hat == pytest.approx(0.75, abs=0.03)
+
+
+def test_branch_uncertain_weak_names_the_motor_to_inspect():
+    s, thr = damaged_shares(BASE, 2, 0.90)
+    d = decide(window_probs(2, 0.5), s, ratio=thr)
+    assert d.status == "uncertain" and d.motor is None, d.reason
+    assert "motor 2 (rear-left) may have lost thrust" in d.reason and "inspect propeller 2" in d.reason
+
+
+def test_branch_uncertain_split_names_both_motors():
+    p = np.tile([0.10, 0.42, 0.03, 0.03, 0.42], (60, 1))  # the windows split between motors 1 and 4
+    d = decide(p, BASE / BASE.mean())
+    assert d.status == "uncertain", d.reason
+    assert "motor 1 (front-right)" in d.reason and "motor 4 (rear-right)" in d.reason
+    assert "cannot tell them apart" in d.reason and "propellers" in d.reason
+
+
+def test_branch_airframe_changed_only_when_no_rotor_explains_it():
+    moved = BASE * np.array([1.10, 0.90, 1.10, 0.90])  # centre of mass moved forward: front pair up
+    d = decide(window_probs(0, 0.9), moved / moved.mean(), ratio=1.0)
+    assert d.status == "uncertain" and d.airframe_changed and "re-calibrate" in d.reason
+    assert "no rotor explains the change" in d.reason
+    # a throttle rise alone with one rotor's pattern is what a weak rotor does: not an airframe change
+    s, thr = damaged_shares(BASE, 4, 0.7)
+    d = decide(window_probs(4, 0.5), s, ratio=thr)
+    assert d.airframe_changed is None and d.status == "damaged" and d.motor == 4
+    # the model's windows all confidently healthy outweigh the commands (each source is capped)
+    assert decide(window_probs(0, 0.95), s, ratio=thr).status != "damaged"
+
+
+def test_branch_healthy_says_the_strongest_case():
+    d = decide(window_probs(0, 0.9), BASE / BASE.mean())
+    assert d.status == "healthy" and "no rotor lost thrust" in d.reason and "nats" in d.reason
+
+
+def test_without_a_profile_a_trim_is_not_damage_but_a_large_one_motor_loss_is():
+    trim = np.array([1.08, 0.92, 1.08, 0.92])  # centre of mass forward: healthy airframes show this
+    d = decide(window_probs(1, 0.4), trim, base=None, kind="neighbours")
+    assert d.status == "healthy", d.reason
+    s, _ = damaged_shares(np.ones(4), 2, 0.65)
+    d = decide(window_probs(2, 0.7), s, base=None, kind="neighbours")
+    assert d.status == "damaged" and d.motor == 2
