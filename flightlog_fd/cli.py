@@ -342,13 +342,20 @@ def calibrate(
 
 
 FORMATS = {"ulog": ".ulg", "dataflash": ".bin"}
+#: eta_torque = eta ** this for simulated flights with ESC telemetry (see simulate_to_files).
+ESC_SAMPLE_TORQUE_EXPONENT = 1.3
 
 
 def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe: str = "x500",
                       frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
                       duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
-                      rho: Optional[list[float]] = None, seed: int = 0, force: bool = False) -> list[tuple[Path, dict]]:
+                      rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
+                      esc_rate: Optional[float] = None) -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
+
+    ``esc_rate`` (Hz): add ESC telemetry (rpm, current, voltage, temperature per motor) at that
+    rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
+    loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py).
 
     ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
     Existing files are never overwritten unless ``force``.
@@ -389,9 +396,15 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         af = [preset(airframe, frame)] * count if airframe != "random" else None
     except ValueError as e:
         raise FlightLogError(None, str(e)) from None
-    damage = Damage(motor, eta if motor else 1.0, onset, rotors=rotors) if motor else Damage()
+    if esc_rate is not None and not 10.0 <= esc_rate <= 100.0:
+        raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
+    # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
+    # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
+    eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
+    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
     flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
-                               duration_s=duration, profile=profile_name, rho=rho, seed=seed)
+                               duration_s=duration, profile=profile_name, rho=rho, seed=seed,
+                               esc=esc_rate, imbalance="random" if esc_rate else None)
     if count > 1:
         out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -429,6 +442,9 @@ def simulate(
     count: int = typer.Option(1, min=1, help="Number of flights (written into the --output folder)."),
     seed: int = typer.Option(0, help="Random seed: the same seed gives the same flight."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
+    esc_rate: Optional[float] = typer.Option(None, "--esc-rate", help="Add ESC telemetry (rpm, current, voltage, "
+                                             "temperature per motor) at this rate, 10-100 Hz, on a realistically "
+                                             "unbalanced airframe."),
 ) -> None:
     """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
     rho_list = None
@@ -443,7 +459,7 @@ def simulate(
     try:
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
                                     onset=onset, duration=duration, mission=mission, log_profile=log_profile,
-                                    rho=rho_list, seed=seed, force=force)
+                                    rho=rho_list, seed=seed, force=force, esc_rate=esc_rate)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)

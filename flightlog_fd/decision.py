@@ -2,15 +2,15 @@
 
 For each motor k it weighs "rotor k lost thrust" against "healthy, with this airframe's normal
 trim drift": the log-likelihood ratios (LLR, nats) of the registered analyzers'
-(:mod:`flightlog_fd.analyzers`) findings are summed per motor, each analyzer's total capped
-(``analyzers.base.SOURCE_LLR_CAP``). The sources today: the model's window votes, the command
+(:mod:`flightlog_fd.analyzers`) findings are summed per motor, each analyzer's total clipped to
+its ``llr_cap`` (``analyzers.base.SOURCE_LLR_CAP`` unless the analyzer says otherwise). The sources today: the model's window votes, the command
 shares (mixer-physics severity fit, which also gives each rotor's thrust eta-hat), the throttle
 against calibration, and the effectiveness fit when it is informative. Their noise figures are
 measured and written beside their constants in their own modules.
 
 The flight's verdict, confidence and reason come from here alone (:func:`decide`): ``damaged``
 when the best motor's total LLR reaches ``DAMAGED_LLR`` and beats the runner-up by
-``SEPARATION_LLR`` and the command pattern supports it (``COMMANDS_SUPPORT_MIN_LLR``);
+``SEPARATION_LLR`` and its command share rose against its baseline (a weak rotor must need more);
 ``uncertain`` from ``UNCERTAIN_LLR`` (the reason names the motor to inspect,
 or the two it cannot tell apart); ``healthy`` below. "Airframe changed" (re-calibrate) is said
 only when the shares moved beyond the drift AND no single rotor explains the move; a motor whose
@@ -39,12 +39,11 @@ SEPARATION_LLR = 2.0
 #: From this total LLR the flight is "uncertain" and the reason names what to inspect: half a nat
 #: above that largest healthy total (3.1), so those 18 flights stay healthy.
 UNCERTAIN_LLR = 3.5
-#: A damaged verdict needs the command pattern to support the motor (its LLR above this) whenever
-#: the command analyzer weighed in: a rotor that lost thrust must need more command in closed
-#: loop (physics, not a fitted figure), so a motor the model names while its command did not rise
-#: is at most "uncertain". (CrazyPAD E9 cut_M3_2mm logs 03-05 with a profile: the adapted model
-#: leans to motor 1, whose command fell; the cut propeller is motor 2.)
-COMMANDS_SUPPORT_MIN_LLR = 0.0
+#: A damaged verdict needs the named motor's command share to have risen against its baseline
+#: whenever the command analyzer weighed in: a rotor that lost thrust must need more command in
+#: closed loop (physics, not a fitted figure), so a motor named while its command fell is at most
+#: "uncertain". (CrazyPAD E9 cut_M3_2mm logs 03-05 with a profile: the adapted model leans to
+#: motor 1, whose command fell; the cut propeller is motor 2.)
 #: Chi-square (per share degree of freedom) above which the healthy hypothesis fails: the shares
 #: moved beyond the drift (p < 0.01 with 3 degrees of freedom: 11.3 / 3).
 AIRFRAME_CHANGE_CHI2_PER_DOF = 3.8
@@ -166,13 +165,13 @@ def decide(results: Sequence[AnalyzerResult], n_motors: int, frame: Optional[Fra
                         share_sigma=None if cmd is None else cmd.extra.get("share_sigma"),
                         sources=list(sources), results=list(results))
 
-    commands = sources.get("commands")
-    unsupported = commands is not None and commands[best] <= COMMANDS_SUPPORT_MIN_LLR
+    share = _finding(results, "commands", "share", kb)
+    unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
     if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
-                    f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command did "
-                    f"not rise as a rotor that lost thrust must ({commands[best]:+.1f} nats from the command "
-                    f"pattern); {evidence_words(kb)}; inspect propeller {kb} and the others")
+                    f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
+                    f"did not rise as a rotor that lost thrust must ({share.value:.3f} against {share.baseline:.3f}); "
+                    f"{evidence_words(kb)}; inspect propeller {kb} and the others")
     if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
         since = f" from t={first_seen:.1f} s" if first_seen is not None else ""
         sev = severity_words(kb)

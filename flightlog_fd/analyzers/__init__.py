@@ -10,7 +10,8 @@ results store iterate over the findings, so none of them names an analyzer's fie
 
 Registered (in this order): ``model`` (:mod:`.model_votes`), ``commands``
 (:mod:`.command_shares`, with each rotor's thrust eta-hat), ``throttle`` (:mod:`.throttle`),
-``effectiveness`` (:mod:`.effectiveness`).
+``effectiveness`` (:mod:`.effectiveness`), ``esc`` (:mod:`.esc`: rpm per command and current per
+rpm² from ESC telemetry).
 
 How to add an analyzer
 ----------------------
@@ -33,6 +34,7 @@ from typing import Sequence
 from .base import Analyzer, AnalyzerResult, Context, Finding
 from .command_shares import CommandShares
 from .effectiveness import Effectiveness
+from .esc import Esc
 from .model_votes import ModelVotes
 from .throttle import Throttle
 
@@ -42,6 +44,7 @@ REGISTRY: list[Analyzer] = [
     CommandShares(),
     Throttle(),
     Effectiveness(),
+    Esc(),
 ]
 
 
@@ -51,9 +54,11 @@ def run_analyzers(ctx: Context, analyzers: Sequence[Analyzer] | None = None) -> 
     out = []
     for a in (REGISTRY if analyzers is None else analyzers):
         try:
-            out.append(a.analyze(ctx))
+            r = a.analyze(ctx)
         except (ValueError, ArithmeticError, IndexError, KeyError) as e:
-            out.append(AnalyzerResult(a.id, abstained=f"failed: {e}"))
+            r = AnalyzerResult(a.id, abstained=f"failed: {e}")
+        r.llr_cap = a.llr_cap
+        out.append(r)
     return out
 
 

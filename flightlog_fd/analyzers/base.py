@@ -61,16 +61,18 @@ class AnalyzerResult:
     abstained: Optional[str] = None  # the reason, when it had nothing to say
     notes: list[str] = field(default_factory=list)
     extra: dict = field(default_factory=dict)  # analyzer-specific figures (e.g. the healthy chi-square)
+    llr_cap: float = SOURCE_LLR_CAP  # set from the analyzer by run_analyzers
 
     def llr(self, n_motors: int) -> Optional[np.ndarray]:
-        """(n,) summed, capped LLR of this analyzer's weighed findings; None if it weighs nothing."""
+        """(n,) summed LLR of this analyzer's weighed findings, clipped to +-``llr_cap``; None if it
+        weighs nothing."""
         out = np.zeros(n_motors)
         weighed = False
         for f in self.findings:
             if f.llr is not None and np.isfinite(f.llr) and 1 <= f.motor <= n_motors:
                 out[f.motor - 1] += f.llr
                 weighed = True
-        return np.clip(out, -SOURCE_LLR_CAP, SOURCE_LLR_CAP) if weighed else None
+        return np.clip(out, -self.llr_cap, self.llr_cap) if weighed else None
 
     def as_dict(self) -> dict:
         return {"analyzer": self.analyzer, "abstained": self.abstained, "notes": list(self.notes),
@@ -110,6 +112,8 @@ class Analyzer(ABC):
     description: str = ""
     #: Flight streams it needs (attribute names of Flight); it abstains when one is missing.
     requires: tuple[str, ...] = ()
+    #: Its LLR per motor is clipped to +- this before the decision sums the sources.
+    llr_cap: float = SOURCE_LLR_CAP
 
     def missing(self, flight: Any) -> Optional[str]:
         """The reason to abstain when a required stream is absent, else None."""

@@ -221,7 +221,7 @@ class CommandShares(Analyzer):
                                     f"{m.command_share:.3f} {100 * (m.command_share / base - 1):+.0f}%"))
             lo, hi = ff.eta_ci
             findings.append(Finding(self.id, k + 1, "thrust", ff.eta_hat, "of normal", ff.eta_ci, 1.0, "down", None,
-                                    f"{100 * ff.eta_hat:.0f} ({100 * lo:.0f}-{100 * hi:.0f})%"))
+                                    f"{100 * ff.eta_hat:.0f} ({100 * lo:.0f}-{100 * hi:.0f})"))
         return AnalyzerResult(self.id, findings, extra={
             "baseline": ev.baseline, "healthy_chi2": chi_full, "fit_chi2": [f.chi2 for f in fits_full],
             "share_sigma": float(np.mean(sig)), "with_throttle": ev.throttle_ratio is not None})

@@ -154,7 +154,13 @@ def motor_table(diagnosis: Diagnosis) -> tuple[list[str], list[list[str]]]:
 #: change against the baseline; thrust % = eta-hat with its 90 % interval; effect. = relative
 #: effectiveness with its 90 % interval; weight = the decision's probability that the rotor lost thrust.
 FINDING_HEADERS = {"share": "share", "thrust": "thrust %", "effectiveness": "effect.", "vote": "vote",
-                   "throttle": "throttle"}
+                   "throttle": "thr.", "rpm_per_command": "rpm/cmd", "current_per_rpm2": "A/rpm2",
+                   "esc_damage": "esc"}
+
+
+def short_position(position: str) -> str:
+    """"front-right" -> "FR", "rear" -> "R": an 80-column table's position column."""
+    return "".join(w[0].upper() for w in position.replace(" ", "-").split("-") if w) or position
 
 
 def analyzer_notes(diagnosis: Diagnosis) -> list[str]:
@@ -175,12 +181,13 @@ def motor_panel(diagnosis: Diagnosis) -> Table:
     against = {"profile": "calibration", "before onset": "the flight before the onset",
                "neighbours": "an even split"}.get(getattr(ev, "baseline", ""), "")
     t = Table(title=f"per-motor findings (commands against {against})", title_justify="left", box=None,
-              padding=(0, 1), pad_edge=False, title_style="dim")
+              padding=(0, 0, 0, 1), pad_edge=False, title_style="dim")
     headers, rows = motor_table(diagnosis)
+    headers = ["pos" if h == "position" else h for h in headers]
     for h in headers:
-        t.add_column(h, justify="left" if h in ("position", "share", "thrust %", "effect.") else "right", no_wrap=True)
+        t.add_column(h, justify="left" if h in ("pos", "share", "thrust %", "effect.") else "right", no_wrap=True)
     for row in rows:
-        t.add_row(*row)
+        t.add_row(*[short_position(c) if i == 1 and c != "-" else c for i, c in enumerate(row)])
     return t
 
 
