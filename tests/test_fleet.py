@@ -169,9 +169,9 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
         rows = c.execute("SELECT log_path, vehicle, vehicle_source, status, motor FROM diagnosis ORDER BY log_path").fetchall()
         n_motor_rows = c.execute("SELECT COUNT(*) FROM motor_figure").fetchone()[0]
         assert c.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
-            # every analyzer's findings came back from the Dask workers with the diagnosis
-            analyzers_stored = {r[0] for r in c.execute("SELECT DISTINCT analyzer FROM finding")}
-            assert {"model", "commands"} <= analyzers_stored
+        # every analyzer's findings came back from the Dask workers with the diagnosis
+        analyzers_stored = {r[0] for r in c.execute("SELECT DISTINCT analyzer FROM finding")}
+        assert {"model", "commands"} <= analyzers_stored
         assert c.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     by_name = {Path(r[0]).name: r for r in rows}
     assert set(by_name) == {"px4_healthy.ulg", "px4_motor1_damaged.ulg", "ardupilot_healthy.bin", "corrupt.ulg"}
