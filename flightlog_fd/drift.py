@@ -72,7 +72,7 @@ def find_drift(vehicle: str, flights: list[FlightRecord]) -> list[Drift]:
         if len(series) < MIN_FLIGHTS:
             continue
         sign = FIGURE_DIRECTION[name]
-        for k in range(4):
+        for k in range(len(series[0])):
             z = [robust_z(s, k, FIGURE_FLOORS[name]) for s in series]
             slope = _slope(z)
             if sign * slope >= DRIFT_SLOPE_MIN and sign * z[-1] >= DRIFT_Z_MIN:

@@ -44,12 +44,17 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
 
 # ----------------------------------------------------------------------------- html
 
-MOTOR_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd")
+MOTOR_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
+
+
+def _motor_numbers(flights: list[dict]) -> list[int]:
+    """Every motor number the flights carry figures for (1..4 when none)."""
+    return sorted({m["motor"] for f in flights for m in f["motors"]}) or [1, 2, 3, 4]
 
 
 def _svg_trend(flights: list[dict], figure: str, width: int = 560, height: int = 180) -> str:
     """Inline SVG: each motor's ``figure`` over the flights (x = flight index)."""
-    pts = {k: [] for k in range(1, 5)}
+    pts = {k: [] for k in _motor_numbers(flights)}
     for i, f in enumerate(flights):
         for m in f["motors"]:
             v = m.get(figure)
@@ -80,7 +85,7 @@ def _svg_trend(flights: list[dict], figure: str, width: int = 560, height: int =
     for k, p in pts.items():
         if not p:
             continue
-        c = MOTOR_COLOURS[k - 1]
+        c = MOTOR_COLOURS[(k - 1) % len(MOTOR_COLOURS)]
         coords = " ".join(f"{x:.1f},{y:.1f}" for x, y in (xy(i, v) for i, v in p))
         parts.append(f'<polyline points="{coords}" fill="none" stroke="{c}" stroke-width="1.5"/>')
         for i, v in p:
@@ -110,12 +115,12 @@ def render_html(summary: dict) -> str:
             f = v["latest"]
             out.append(f"<p class='flag'>latest flight: propeller {f['motor']} damaged ({e(f['log'])})</p>")
         out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
-                   + "".join(f"<th>m{k} vote / share</th>" for k in range(1, 5)) + "</tr>")
+                   + "".join(f"<th>m{k} vote / share</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
         for i, f in enumerate(v["flights"], 1):
             verdict = f["status"] + (f" (motor {f['motor']})" if f["motor"] else "")
             cells = []
             by_motor = {m["motor"]: m for m in f["motors"]}
-            for k in range(1, 5):
+            for k in _motor_numbers(v["flights"]):
                 m = by_motor.get(k, {})
                 cells.append(f"<td>{_fmt(m.get('model_vote'))} / {_fmt(m.get('command_share'))}</td>")
             out.append(f"<tr><td>{i}</td><td>{e(f['flight_start_utc'] or '-')}</td><td>{e(Path(f['log']).name)}</td>"
@@ -138,12 +143,12 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
     for v in summary["vehicles"]:
         yield f"{v['vehicle']}  ({v['vehicle_source']}, {len(v['flights'])} flights)"
         yield f"  {'#':>3} {'start (UTC)':<24} {'verdict':<18} {'conf':>5}  " + "  ".join(
-            f"m{k} vote/share" for k in range(1, 5)) + "  log"
+            f"m{k} vote/share" for k in _motor_numbers(v["flights"])) + "  log"
         for i, f in enumerate(v["flights"], 1):
             verdict = f["status"] + (f" m{f['motor']}" if f["motor"] else "")
             by_motor = {m["motor"]: m for m in f["motors"]}
             figs = "  ".join(f"{_fmt(by_motor.get(k, {}).get('model_vote'))}/{_fmt(by_motor.get(k, {}).get('command_share'))}"
-                             for k in range(1, 5))
+                             for k in _motor_numbers(v["flights"]))
             yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "
                    f"{figs}  {Path(f['log']).name}")
         for d in v["drift"]:

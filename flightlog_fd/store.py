@@ -124,7 +124,7 @@ def _positions(diagnosis: Any) -> list[Optional[str]]:
 
     flight = getattr(diagnosis, "flight", None)
     if flight is not None and flight.frame is not None:
-        return [flight.frame.position(k) for k in range(1, 5)]
+        return [flight.frame.position(k) for k in range(1, max(flight.frame.rotor_count, 4) + 1)]
     frame = getattr(getattr(diagnosis, "facts", None), "frame", None)
     if frame == "quad_x":
         return list(QUAD_X_POSITIONS)
@@ -167,14 +167,16 @@ def motor_figures(diagnosis: Any, command_share: Optional[list[float]] = None) -
     if not windows and command_share is None:
         return []
     positions = _positions(diagnosis)
+    n = max(len(command_share) if command_share else 0, (len(windows[0].probabilities) - 1) if windows else 0, 4)
+    positions = positions + [None] * (n - len(positions))
     out = []
-    for k in range(1, 5):
+    for k in range(1, n + 1):
         vote = None
         if windows:
             probs = [w.probabilities[k] for w in windows if len(w.probabilities) > k]
             vote = sum(probs) / len(probs) if probs else None
         out.append({"motor": k, "position": positions[k - 1],
-                    "command_share": _num(command_share[k - 1]) if command_share else None,
+                    "command_share": _num(command_share[k - 1]) if command_share and k <= len(command_share) else None,
                     "command_share_baseline": None, "effectiveness": None,
                     "effectiveness_ci_lo": None, "effectiveness_ci_hi": None, "model_vote": _num(vote)})
     return out
@@ -415,8 +417,8 @@ class FlightRecord:
     motors: dict[int, dict] = field(default_factory=dict)  # motor -> figures
 
     def figure(self, name: str) -> Optional[list[float]]:
-        """The four motors' values of ``name``, or None unless all four are known."""
-        vals = [self.motors.get(k, {}).get(name) for k in range(1, 5)]
+        """Every motor's value of ``name`` (motor order), or None unless all are known."""
+        vals = [self.motors.get(k, {}).get(name) for k in sorted(self.motors) or range(1, 5)]
         return [float(v) for v in vals] if all(v is not None for v in vals) else None
 
 

@@ -126,7 +126,8 @@ def test_branch_uncertain_weak_names_the_motor_to_inspect():
 
 def test_branch_uncertain_split_names_both_motors():
     p = np.tile([0.10, 0.42, 0.03, 0.03, 0.42], (60, 1))  # the windows split between motors 1 and 4
-    d = decide(p, BASE / BASE.mean())
+    both = BASE * np.array([1.06, 0.97, 0.97, 1.06])  # and both work a little harder
+    d = decide(p, both / both.mean())
     assert d.status == "uncertain", d.reason
     assert "motor 1 (front-right)" in d.reason and "motor 4 (rear-right)" in d.reason
     assert "cannot tell them apart" in d.reason and "propellers" in d.reason
@@ -160,8 +161,16 @@ def test_without_a_profile_a_trim_is_not_damage_but_a_large_one_motor_loss_is():
 
 
 def test_branch_uncertain_when_the_commands_do_not_rise_for_the_named_motor():
-    """The model alone may not name a motor whose command fell: a rotor that lost thrust needs more."""
-    # the model is sure of motor 1 and the throttle rose, but motor 1's share did not move
-    d = decide(window_probs(1, 0.9), BASE / BASE.mean(), ratio=1.3)
+    """Strong evidence for motor 1 from other sources may not name it when its command share fell:
+    a rotor that lost thrust must need more."""
+    from flightlog_fd.analyzers import AnalyzerResult, Finding
+
+    def res(analyzer, name, llr, value=None, baseline=None):
+        return AnalyzerResult(analyzer, [Finding(analyzer, k, name, value if k == 1 else 1.0, "", None, baseline,
+                                                 "up", llr if k == 1 else -3.0) for k in range(1, 5)])
+    results = [res("model", "vote", 5.0, 0.9), res("commands", "share", -0.5, 0.98, 1.0), res("esc", "esc_damage", 4.0, 30.0)]
+    d = D.decide(results, 4, Frame.quad_x())
     assert d.status == "uncertain" and d.motor is None, d.reason
     assert "did not rise" in d.reason and "inspect propeller 1" in d.reason
+    results[1] = res("commands", "share", -0.5, 1.02, 1.0)  # the same with its share up 2 %
+    assert D.decide(results, 4, Frame.quad_x()).status == "damaged"

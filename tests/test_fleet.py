@@ -98,7 +98,8 @@ files = sys.argv[1:]
 results = batch.run_batch(files, resolve_model(), None, jobs=2)
 print(json.dumps([[r.path, r.diagnosis.verdict.status, r.diagnosis.verdict.reason] for r in results]))
 """
-    files = [str(f) for f in _sample_files()[:4]]  # ardupilot healthy, motor1, motor2, motor3
+    files = [str(SAMPLES / f"ardupilot_{n}.bin") for n in ("healthy", "motor1_damaged", "motor2_damaged",
+                                                           "motor3_damaged")]
     res = subprocess.run([sys.executable, "-c", code, *files], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     rows = json.loads(res.stdout)
@@ -121,7 +122,7 @@ def test_a_dying_dask_worker_costs_one_row_not_the_batch(monkeypatch, model):
         return _dask_task(index, path, payload, keep_flight)
 
     monkeypatch.setattr(batch_mod, "_dask_task", exit_on_motor2)
-    files = _sample_files()[:4]
+    files = [SAMPLES / f"ardupilot_{n}.bin" for n in ("healthy", "motor1_damaged", "motor2_damaged", "motor3_damaged")]
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
         results = run_batch(files, model, None, jobs=2, scheduler="local", processes=True)
     assert [r.diagnosis.verdict.status for r in results] == ["healthy", "damaged", "not_diagnosable", "damaged"]

@@ -45,8 +45,8 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
                          "decision": {"sources": [str], "healthy_chi2": float|null,
                                       "share_sigma": float|null} | null} | null,
       "windows": [{"t_start": s, "t_end": s,
-                   "class": 0-4,                  # the model's most probable class
-                   "probabilities": [p0, p1, p2, p3, p4],
+                   "class": 0-n,                  # the model's most probable class
+                   "probabilities": [p0, p1, ..., pn],   # healthy, then motor 1..n
                    "phase": "hover" | "climb" | "descent" | "manoeuvre" | "unknown",
                    "smoothed_class": -1..4}],     # the verdict's label: -1 uncertain
       "analyzers": [{"analyzer": "model" | "commands" | "throttle" | "effectiveness" | ...,
@@ -129,7 +129,8 @@ JSON_SCHEMA: dict = {
         },
         "evidence": {"type": ["object", "null"], "required": ["n_windows", "covered_s", "share", "abstained"],
                      "properties": {"n_windows": {"type": "integer", "minimum": 0}, "covered_s": _NUM,
-                                    "share": {"type": "array", "items": _PROB, "minItems": 5, "maxItems": 5},
+                                    "share": {"type": "array", "items": _PROB, "minItems": 2,
+                                              "maxItems": MAX_ROTORS + 1},
                                     "abstained": _PROB}},
         "motors": {
             "type": "array", "maxItems": 4,
@@ -138,7 +139,7 @@ JSON_SCHEMA: dict = {
                 "required": ["motor", "position", "command_share", "command_share_baseline", "command_change",
                              "effectiveness", "effectiveness_ci", "model_vote"],
                 "properties": {
-                    "motor": {"type": "integer", "minimum": 1, "maximum": 4},
+                    "motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
                     "position": _STR_OR_NULL,
                     "command_share": _NUM_OR_NULL,
                     "command_share_baseline": _NUM_OR_NULL,
@@ -161,7 +162,7 @@ JSON_SCHEMA: dict = {
             "properties": {
                 "baseline": {"enum": ["profile", "before onset", "neighbours"]},
                 "throttle": _NUM_OR_NULL,
-                "top_motor": {"type": "integer", "minimum": 1, "maximum": 4},
+                "top_motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
                 "single_motor_gap": _NUM,
                 "effectiveness": {"type": ["object", "null"],
                                   "required": ["informative", "reason", "seconds", "motor_lag_s", "r2"],
@@ -184,10 +185,10 @@ JSON_SCHEMA: dict = {
                 "properties": {
                     "t_start": _NUM,
                     "t_end": _NUM,
-                    "class": {"type": "integer", "minimum": 0, "maximum": 4},
-                    "probabilities": {"type": "array", "items": _PROB, "minItems": 5, "maxItems": 5},
+                    "class": {"type": "integer", "minimum": 0, "maximum": MAX_ROTORS},
+                    "probabilities": {"type": "array", "items": _PROB, "minItems": 2, "maxItems": MAX_ROTORS + 1},
                     "phase": {"enum": ["hover", "climb", "descent", "manoeuvre", "unknown"]},
-                    "smoothed_class": {"type": "integer", "minimum": -1, "maximum": 4},
+                    "smoothed_class": {"type": "integer", "minimum": -1, "maximum": MAX_ROTORS},
                 },
             },
         },

@@ -30,9 +30,9 @@ from ..verdict import UNCERTAIN_LABEL, timeline_labels
 #: Characters in the timeline strip (fits an 80-column terminal with its time labels).
 TIMELINE_WIDTH = 60
 #: Timeline characters and styles per smoothed label.
-LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", 1: "1", 2: "2", 3: "3", 4: "4"}
-LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", 1: "bold red", 2: "bold red",
-                3: "bold red", 4: "bold red"}
+#: Timeline characters: motors 1-9, then a, b, c for 10-12 (dodecahexa).
+LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", **{k: "123456789abc"[k - 1] for k in range(1, 13)}}
+LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", **{k: "bold red" for k in range(1, 13)}}
 STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "stopped": "bold red", "uncertain": "bold yellow",
                  "not_diagnosable": "bold magenta"}
 CLASS_NAMES = ("healthy", "motor 1", "motor 2", "motor 3", "motor 4")
