@@ -1,0 +1,56 @@
+// Plotly figures of the airframe and flight pages, from JSON the page carries
+// (<script type="application/json">). plotly.min.js is served by the app from the plotly package.
+var MOTOR_COLOURS = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
+var CLASS_COLOURS = ["#2e7d32", "#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
+var SHADE = {0: "rgba(46,125,50,0.10)", 1: "rgba(198,40,40,0.13)", 2: "rgba(198,40,40,0.13)",
+             3: "rgba(198,40,40,0.13)", 4: "rgba(198,40,40,0.13)", "-1": "rgba(239,108,0,0.15)"};
+
+function readJSON(id) { var el = document.getElementById(id); return el ? JSON.parse(el.textContent) : null; }
+
+function fdlogTrends() {
+  var d = readJSON("trend-data"); if (!d || !window.Plotly) return;
+  var root = document.getElementById("trends");
+  var x = d.flights.map(function (f) { return f.n; });
+  var names = d.flights.map(function (f) { return "#" + f.n + " " + f.name + " (" + f.status + ")"; });
+  d.figures.forEach(function (fig) {
+    var div = document.createElement("div"); div.className = "plot trend"; div.id = "trend-" + fig.field;
+    root.appendChild(div);
+    var traces = fig.lines.map(function (ln) {
+      return {x: x, y: ln.y, text: names, mode: "lines+markers", name: "motor " + ln.motor,
+              line: {color: MOTOR_COLOURS[ln.motor - 1]}, hovertemplate: "%{text}<br>" + fig.field + " %{y:.4f}<extra>motor " + ln.motor + "</extra>"};
+    });
+    Plotly.newPlot(div, traces, {title: {text: fig.title, font: {size: 14}}, height: 260, margin: {l: 60, r: 20, t: 36, b: 40},
+      xaxis: {title: {text: "flight (time order)"}, dtick: 1}, legend: {orientation: "h"}}, {responsive: true, displaylogo: false});
+  });
+}
+
+function fdlogFlight() {
+  var d = readJSON("plot-data"); if (!d || !window.Plotly) return;
+  var traces = [], p = d.plot || {rates: [], motors: []};
+  (p.rates || []).forEach(function (ln, i) {
+    traces.push({x: ln.t, y: ln.y, name: ln.name, yaxis: "y", mode: "lines", line: {width: 1}, legendgroup: "rates"});
+  });
+  (p.motors || []).forEach(function (ln, i) {
+    traces.push({x: ln.t, y: ln.y, name: ln.name, yaxis: "y2", mode: "lines", line: {width: 1, color: MOTOR_COLOURS[i % 4]}, legendgroup: "motors"});
+  });
+  var w = d.windows || [];
+  if (w.length) {
+    var cx = w.map(function (x) { return (x.t0 + x.t1) / 2; });
+    var classNames = ["healthy", "prop 1", "prop 2", "prop 3", "prop 4"];
+    for (var k = 0; k < 5; k++) {
+      traces.push({x: cx, y: w.map(function (x) { return x.p[k]; }), name: "P(" + classNames[k] + ")", yaxis: "y3",
+                   mode: "lines", line: {width: 1.5, color: CLASS_COLOURS[k]}, legendgroup: "classes"});
+    }
+  }
+  var shapes = w.map(function (x) {
+    var c = SHADE[String(x.label)]; if (!c) return null;
+    return {type: "rect", xref: "x", yref: "paper", x0: x.t0, x1: x.t1, y0: 0, y1: 1, fillcolor: c, line: {width: 0}, layer: "below"};
+  }).filter(function (s) { return s; });
+  var layout = {height: 720, margin: {l: 70, r: 20, t: 20, b: 50}, shapes: shapes, hovermode: "x",
+    xaxis: {title: {text: "time on the log's clock (s)"}, anchor: "y3"},
+    yaxis: {domain: [0.70, 1.0], title: {text: "rates (deg/s)"}},
+    yaxis2: {domain: [0.37, 0.66], title: {text: "motor command"}, range: [0, 1.02]},
+    yaxis3: {domain: [0.0, 0.33], title: {text: "class probability"}, range: [0, 1.02]},
+    legend: {orientation: "h", y: -0.09}};
+  Plotly.newPlot("flightplot", traces, layout, {responsive: true, displaylogo: false});
+}
