@@ -1,0 +1,202 @@
+"""`fdlog serve` jobs in the store, on SQLite and on a real PostgreSQL server started here from the
+system's packages (skipped when they are absent): atomic claims, a restart that finishes queued
+jobs (and one held by a killed server) exactly once, a worker process killed on a log leaving one
+error row, migrations, calibration as a job, airframe merges."""
+from __future__ import annotations
+
+import json
+import threading
+import time
+
+import pytest
+
+pytest.importorskip("fastapi")
+
+from serve_helpers import (AUTH, RUNLOG_ENV, SAMPLES, Postgres, counting_diagnose, dying_diagnose,  # noqa: E402
+                           serve_client, upload, wait_done)
+
+from flightlog_fd.database import DatabaseError  # noqa: E402
+from flightlog_fd.report.json_report import validate  # noqa: E402
+from flightlog_fd.serve.store import MAX_ATTEMPTS, ServeStore  # noqa: E402
+from flightlog_fd.serve.worker import wait_idle  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def postgres():
+    pytest.importorskip("psycopg")
+    try:
+        pg = Postgres()
+    except (FileNotFoundError, RuntimeError) as e:
+        pytest.skip(f"no PostgreSQL server: {e}")
+    yield pg
+    pg.stop()
+
+
+@pytest.fixture(params=["sqlite", "postgres"])
+def db_url(request, tmp_path):
+    """A fresh store: a SQLite file, or a new database on the test's PostgreSQL server."""
+    if request.param == "sqlite":
+        return str(tmp_path / "store.sqlite")
+    return request.getfixturevalue("postgres").url()
+
+
+@pytest.fixture
+def runlog(tmp_path, monkeypatch):
+    p = tmp_path / "runs.txt"
+    p.write_text("")
+    monkeypatch.setenv(RUNLOG_ENV, str(p))  # inherited by the spawned worker processes
+    return p
+
+
+def test_concurrent_claims_take_each_job_once(db_url):
+    store = ServeStore(db_url)
+    for i in range(40):
+        store.add_upload(f"{i:064x}", f"f{i}.ulg", 10, "ulog")
+    taken: dict[str, list[int]] = {}
+
+    def worker(name):
+        s = ServeStore(db_url)
+        got = taken.setdefault(name, [])
+        while (job := s.claim_job(name)) is not None:
+            got.append(int(job["id"]))
+        s.close()
+
+    threads = [threading.Thread(target=worker, args=(f"w{k}",)) for k in range(6)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    claimed = [j for ids in taken.values() for j in ids]
+    all_ids = [int(r["id"]) for r in store.db.query("SELECT id FROM job")]
+    assert sorted(claimed) == sorted(all_ids) and len(set(claimed)) == 40
+    assert {r["attempts"] for r in store.db.query("SELECT attempts FROM job")} == {1}
+    assert store.claim_job("late") is None
+    store.close()
+
+
+def test_restart_finishes_queued_jobs_exactly_once(tmp_path, db_url, runlog):
+    names = ["px4_healthy.ulg", "px4_motor4_damaged.ulg", "ardupilot_motor1_damaged.bin", "ardupilot_healthy.bin"]
+    data = tmp_path / "data"
+    with serve_client(data, db=db_url, workers=0) as c:  # a server that only queues
+        ids = [upload(c, SAMPLES / n).json()["id"] for n in names]
+        assert all(c.get(f"/api/logs/{i}").json()["state"] == "queued" for i in ids)
+    # a server killed while diagnosing the last one: its claim stays 'running' with a lease that ran out
+    s = ServeStore(db_url)
+    held = s.claim_job("killed-server")
+    s.db.run("UPDATE job SET lease_until = ? WHERE id = ?", (time.time() - 1, held["id"]))
+    s.close()
+    with serve_client(data, db=db_url, workers=1, diagnose_fn=counting_diagnose) as c:
+        results = [wait_done(c, i) for i in ids]
+        store = c.app_.state.store
+        assert wait_idle(store, 30)
+        jobs = store.db.query("SELECT flight_id, state, attempts FROM job ORDER BY flight_id")
+    assert [r["state"] for r in results] == ["done"] * 4
+    assert all(validate(r["diagnosis"]) == [] for r in results)
+    assert [j["state"] for j in jobs] == ["done"] * 4
+    # the job the killed server held was claimed twice (once by it), every other once
+    assert {j["flight_id"]: j["attempts"] for j in jobs} == {i: (2 if i == held["flight_id"] else 1) for i in ids}
+    runs = runlog.read_text().split()
+    assert sorted(runs) == sorted(r["sha256"] for r in results)  # each log diagnosed exactly once
+
+
+def test_a_worker_killed_on_a_log_leaves_one_error_row(tmp_path, db_url, runlog):
+    with serve_client(tmp_path / "data", db=db_url, workers=1, diagnose_fn=dying_diagnose) as c:
+        bad = upload(c, SAMPLES / "ardupilot_motor2_damaged.bin", name="kill-me.bin").json()["id"]
+        good = upload(c, SAMPLES / "px4_healthy.ulg").json()["id"]
+        jb, jg = wait_done(c, bad), wait_done(c, good)
+        # the slot started a fresh worker process and goes on
+        later = wait_done(c, upload(c, SAMPLES / "px4_motor3_midflight.ulg").json()["id"])
+        store = c.app_.state.store
+        errors = store.db.query("SELECT flight_id, error FROM job WHERE state = 'error'")
+        page = c.get(f"/flights/{bad}").text
+    assert jb["state"] == "error" and "died" in jb["error"]
+    assert jb["diagnosis"]["verdict"]["status"] == "not_diagnosable" and validate(jb["diagnosis"]) == []
+    assert [e["flight_id"] for e in errors] == [bad]
+    assert jg["state"] == "done" and later["state"] == "done"
+    assert "Error row" in page and "died" in page
+
+
+def test_a_log_that_keeps_killing_servers_becomes_an_error_row(db_url):
+    store = ServeStore(db_url)
+    fid, _ = store.add_upload("ab" * 32, "x.ulg", 1, "ulog")
+    for k in range(MAX_ATTEMPTS):
+        job = store.claim_job(f"server-{k}")
+        assert job is not None
+        store.db.run("UPDATE job SET lease_until = ? WHERE id = ?", (time.time() - 1, job["id"]))
+        out = store.recover()
+        assert out == ({"requeued": 1, "failed": 0} if k < MAX_ATTEMPTS - 1 else {"requeued": 0, "failed": 1})
+    f = store.flight(fid)
+    assert f["state"] == "error" and "server stopped" in f["error"]
+    assert store.claim_job("next") is None
+    # the holder of a lost job cannot write a result over it
+    assert store.complete_diagnosis(job, f"server-{MAX_ATTEMPTS - 1}", {"sha256": "ab" * 32, "diagnosis": {}}) is False
+    store.close()
+
+
+def test_migrations_run_once_and_a_newer_store_is_refused(db_url):
+    a = ServeStore(db_url)
+    assert a.db.schema_version() == 1
+    assert ServeStore(db_url).db.migrate(__import__("flightlog_fd.serve.store", fromlist=["x"]).MIGRATIONS) == []
+    a.db.run("INSERT INTO schema_migrations (version, name, applied_at) VALUES (99, 'future', 'x')")
+    with pytest.raises(DatabaseError, match="newer than this fdlog"):
+        ServeStore(db_url)
+    a.close()
+
+
+def test_a_sqlite_file_of_something_else_is_refused(tmp_path):
+    import sqlite3
+
+    p = tmp_path / "other.sqlite"
+    sqlite3.connect(p).execute("CREATE TABLE t (x)")
+    with pytest.raises(DatabaseError, match="not an fdlog serve store"):
+        ServeStore(str(p))
+    with pytest.raises(DatabaseError, match="folder"):
+        ServeStore(str(tmp_path))
+
+
+def test_calibration_job_gives_later_flights_the_profile(tmp_path):
+    from flightlog_fd import load_flight
+    from flightlog_fd.logs.ulog_writer import write_ulog
+
+    with serve_client(tmp_path / "data", workers=1) as c:
+        healthy = upload(c, SAMPLES / "px4_healthy.ulg").json()["id"]
+        key = wait_done(c, healthy)["airframe"]
+        assert c.post(f"/flights/{healthy}/healthy", headers=AUTH, data={"healthy": "1"},
+                      follow_redirects=False).status_code == 303
+        r = c.post("/airframe/calibrate", headers=AUTH, data={"key": key}, follow_redirects=False)
+        assert r.status_code == 303, r.text
+        store = c.app_.state.store
+        assert wait_idle(store, 120)
+        job = store.db.one("SELECT * FROM job WHERE kind = 'calibrate'")
+        assert job["state"] == "done", job["error"]
+        assert json.loads(job["args"])["flights"] == [healthy]
+        assert store.airframes()[key]["profile_path"]
+        # a later flight of the same airframe (its id) is diagnosed with the profile
+        f = load_flight(SAMPLES / "px4_motor1_damaged.ulg")
+        f.vehicle_id = key
+        later = tmp_path / "later.ulg"
+        write_ulog(f, later)
+        j = wait_done(c, upload(c, later).json()["id"])
+        assert j["airframe"] == key and j["diagnosis"]["profile"] is not None
+        before = c.get(f"/api/logs/{healthy}").json()["diagnosis"]
+        assert before["profile"] is None  # flights before the calibration keep their diagnosis
+        assert "later flights of this airframe are diagnosed with" in c.get("/airframe", params={"key": key}).text.lower()
+
+
+def test_operator_names_and_merges_airframes(tmp_path):
+    with serve_client(tmp_path / "data", workers=1) as c:
+        ids = [upload(c, SAMPLES / n).json()["id"] for n in ("ardupilot_healthy.bin", "ardupilot_motor3_damaged.bin")]
+        a, b = (wait_done(c, i)["airframe"] for i in ids)
+        assert a != b
+        assert c.post("/airframe/rename", headers=AUTH, data={"key": a, "name": "F450 <blue>"},
+                      follow_redirects=False).status_code == 303
+        assert c.post("/airframe/merge", headers=AUTH, data={"key": b, "into": a},
+                      follow_redirects=False).status_code == 303
+        fleet = c.app_.state.store.fleet()
+        assert [(x["key"], x["name"], len(x["flights"]), x["members"]) for x in fleet] == [(a, "F450 <blue>", 2, [b])]
+        assert c.get(f"/api/logs/{ids[1]}").json()["airframe"] == a
+        assert "F450 &lt;blue&gt;" in c.get("/").text
+        # the merged key leads to the airframe it joined; a loop is refused with one line
+        assert c.get("/airframe", params={"key": b}, follow_redirects=False).status_code == 303
+        r = c.post("/airframe/merge", headers=AUTH, data={"key": a, "into": b})
+        assert r.status_code == 400 and "already one" in r.text
