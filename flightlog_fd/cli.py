@@ -383,11 +383,12 @@ def serve(
         else:
             made = secrets.token_urlsafe(24)
             tokens = TokenSet([made])
-            err.print(f"fdlog serve: upload token (shown once, not stored; use --token-file to choose your own): {made}",
-                      markup=False)
         cfg = ServeConfig(data_dir=data, tokens=tokens, db=db, view=view, max_upload_bytes=int(max_upload_mb * 1024 * 1024),
                           workers=workers, scheduler=scheduler, calibrate_adapt=adapt)
         web = create_app(cfg)
+        if token_file is None:
+            err.print(f"fdlog serve: upload token (shown once, not stored; use --token-file to choose your own): {made}",
+                      markup=False)
         for f in files:
             fid, created = ingest_file(web.state.store, web.state.data, f)
             err.print(f"fdlog serve: {f} -> flight {fid}{'' if created else ' (already stored)'}", markup=False)

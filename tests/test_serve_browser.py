@@ -1,0 +1,124 @@
+"""`fdlog serve` in a real browser: headless Chromium (system packages `chromium` and
+`chromium-driver`, driven by selenium) signs in, uploads a sample log through the page's file
+input, waits for its verdict, opens the flight page and zooms the plot with a mouse drag.
+Skips when Chromium, chromedriver or selenium is absent (`.ci/run` installs them)."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("fastapi")
+webdriver = pytest.importorskip("selenium.webdriver")
+
+from serve_helpers import SAMPLES, TOKEN, free_port  # noqa: E402
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+pytestmark = pytest.mark.skipif(not (CHROMIUM and CHROMEDRIVER), reason="needs chromium and chromedriver "
+                                "(apt-get install chromium chromium-driver)")
+#: Chromium flags: headless, no sandbox (root in CI), nothing that reaches the network by itself.
+CHROME_FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--disable-dev-shm-usage", "--window-size=1400,1000")
+
+
+def start_server(data: Path, port: int, *logs: Path, workers: int = 1) -> subprocess.Popen:
+    """`fdlog serve` in a subprocess on loopback; returns once /api/health answers."""
+    tokens = data.parent / "tokens"
+    tokens.write_text(TOKEN + "\n")
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.Popen([sys.executable, "-c", "from flightlog_fd.cli import main; main()", "serve",
+                             *map(str, logs), "--data", str(data), "--port", str(port), "--token-file", str(tokens),
+                             "--workers", str(workers)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    end = time.monotonic() + 60
+    while time.monotonic() < end:
+        if proc.poll() is not None:
+            raise RuntimeError(f"fdlog serve exited: {proc.stderr.read().decode()[-500:]}")
+        try:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=2).read()
+            return proc
+        except OSError:
+            time.sleep(0.3)
+    proc.kill()
+    raise RuntimeError("fdlog serve did not answer in 60 s")
+
+
+def chrome(profile_dir: str):
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    opts = Options()
+    opts.binary_location = CHROMIUM
+    for f in CHROME_FLAGS:
+        opts.add_argument(f)
+    opts.add_argument(f"--user-data-dir={profile_dir}")
+    return webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=opts)
+
+
+def sign_in(driver, base: str) -> None:
+    from selenium.webdriver.common.by import By
+
+    driver.get(base + "/login")
+    driver.find_element(By.ID, "token").send_keys(TOKEN)
+    driver.find_element(By.ID, "signin").click()
+
+
+def x_range(driver) -> list[float]:
+    return driver.execute_script("return document.getElementById('flightplot')._fullLayout.xaxis.range.slice()")
+
+
+def test_browser_uploads_a_log_sees_its_verdict_and_zooms_the_flight_plot(tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support import expected_conditions as EC
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    port = free_port()
+    base = f"http://127.0.0.1:{port}"
+    server = start_server(tmp_path / "data", port)
+    profile = tempfile.mkdtemp(prefix="fdlog-chrome-")
+    driver = None
+    try:
+        driver = chrome(profile)
+        sign_in(driver, base)
+        WebDriverWait(driver, 20).until(EC.presence_of_element_located((By.ID, "files")))
+        driver.find_element(By.ID, "files").send_keys(str(SAMPLES / "px4_motor1_damaged.ulg"))
+        driver.find_element(By.ID, "upload-btn").click()
+        link = WebDriverWait(driver, 120).until(EC.presence_of_element_located((By.CSS_SELECTOR, "a.flight-link")))
+        assert link.get_attribute("data-status") == "damaged"
+        assert "motor 1" in driver.find_element(By.ID, "progress").text
+        link.click()
+        verdict = WebDriverWait(driver, 20).until(EC.presence_of_element_located((By.ID, "verdict")))
+        assert verdict.get_attribute("data-status") == "damaged"
+        WebDriverWait(driver, 30).until(
+            lambda d: d.execute_script("var p = document.getElementById('flightplot'); return !!(p && p._fullLayout);"))
+        before = x_range(driver)
+        drag = driver.find_element(By.CSS_SELECTOR, "#flightplot .nsewdrag")
+        w = drag.size["width"]
+        # drag across the middle third of the top panel: plotly zooms the shared time axis
+        ActionChains(driver).move_to_element_with_offset(drag, -w // 6, 0).click_and_hold() \
+            .move_by_offset(w // 12, 0).move_by_offset(w // 12, 0).move_by_offset(w // 6, 0).release().perform()
+        WebDriverWait(driver, 10).until(lambda d: x_range(d) != before)
+        after = x_range(driver)
+        assert after[1] - after[0] < 0.6 * (before[1] - before[0])
+        assert before[0] <= after[0] < after[1] <= before[1]
+        # the links to the reports work from the page
+        driver.find_element(By.ID, "json-link").click()
+        assert '"schema"' in driver.page_source
+    finally:
+        if driver is not None:
+            driver.quit()
+        server.terminate()
+        try:
+            server.wait(20)
+        except subprocess.TimeoutExpired:
+            server.kill()
+        shutil.rmtree(profile, ignore_errors=True)
