@@ -1,7 +1,7 @@
 // Plotly figures of the airframe and flight pages, from JSON the page carries
 // (<script type="application/json">). plotly.min.js is served by the app from the plotly package.
 var MOTOR_COLOURS = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
-var CLASS_COLOURS = ["#2e7d32", "#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
+var CLASS_COLOURS = ["#222222", "#d62728", "#1f77b4", "#2ca02c", "#9467bd"];  // healthy, then as the motors
 var SHADE = {0: "rgba(46,125,50,0.10)", 1: "rgba(198,40,40,0.13)", 2: "rgba(198,40,40,0.13)",
              3: "rgba(198,40,40,0.13)", 4: "rgba(198,40,40,0.13)", "-1": "rgba(239,108,0,0.15)"};
 
@@ -42,9 +42,13 @@ function fdlogFlight() {
                    mode: "lines", line: {width: 1.5, color: CLASS_COLOURS[k]}, legendgroup: "classes"});
     }
   }
-  var shapes = w.map(function (x) {
+  // Windows overlap (stride < length): each shades from its start to the next window's start, so
+  // translucent rectangles never stack into mixed colours.
+  var sorted = w.slice().sort(function (a, b) { return a.t0 - b.t0; });
+  var shapes = sorted.map(function (x, i) {
     var c = SHADE[String(x.label)]; if (!c) return null;
-    return {type: "rect", xref: "x", yref: "paper", x0: x.t0, x1: x.t1, y0: 0, y1: 1, fillcolor: c, line: {width: 0}, layer: "below"};
+    var end = i + 1 < sorted.length ? Math.min(x.t1, sorted[i + 1].t0) : x.t1;
+    return {type: "rect", xref: "x", yref: "paper", x0: x.t0, x1: end, y0: 0, y1: 1, fillcolor: c, line: {width: 0}, layer: "below"};
   }).filter(function (s) { return s; });
   var layout = {height: 720, margin: {l: 70, r: 20, t: 20, b: 50}, shapes: shapes, hovermode: "x",
     xaxis: {title: {text: "time on the log's clock (s)"}, anchor: "y3"},
