@@ -19,6 +19,11 @@ started before the queue emptied), diagnosis throughput (uploads / time to an em
 the check: every uploaded hash is exactly one row, every row has one job, all done.
 Bounded: ``--max-s`` stops waiting (exit 1). Loopback only. The machine is shared: compare figures
 from one run.
+
+Measured 2026-11-23 (2 cores shared, load average ~4 from other users; defaults): 208 uploads (200 +
+8 duplicates) in 2.3 s = 91.5 uploads/s, 34 MB/s, upload latency p50 72 ms / p95 141 ms; 200 logs
+diagnosed in 84.7 s = 2.36 logs/s; pages while diagnosing p50/p95: fleet 75/313 ms, airframe
+100/495 ms, flight 36/167 ms, /api/logs/ID 23/116 ms; check OK (200 rows, 0 lost, 0 twice).
 """
 from __future__ import annotations
 

@@ -125,3 +125,10 @@ class Postgres:
             self._run(["pg_ctl", "-D", str(self.dir / "data"), "-m", "immediate", "stop"])
         finally:
             shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def sleeping_diagnose(log_path, sha256, name, reports_dir, profiles):
+    """Hangs on a log whose name contains 'hang' (pyulog spinning on a corrupt file)."""
+    if "hang" in name:
+        time.sleep(600)
+    return counting_diagnose(log_path, sha256, name, reports_dir, profiles)

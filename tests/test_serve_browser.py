@@ -90,11 +90,17 @@ def test_browser_uploads_a_log_sees_its_verdict_and_zooms_the_flight_plot(tmp_pa
         driver = chrome(profile)
         sign_in(driver, base)
         WebDriverWait(driver, 20).until(EC.presence_of_element_located((By.ID, "files")))
-        driver.find_element(By.ID, "files").send_keys(str(SAMPLES / "px4_motor1_damaged.ulg"))
+        # two files at once (the input takes several paths, one per line)
+        driver.find_element(By.ID, "files").send_keys(f"{SAMPLES / 'px4_motor1_damaged.ulg'}\n"
+                                                      f"{SAMPLES / 'ardupilot_healthy.bin'}")
         driver.find_element(By.ID, "upload-btn").click()
-        link = WebDriverWait(driver, 120).until(EC.presence_of_element_located((By.CSS_SELECTOR, "a.flight-link")))
-        assert link.get_attribute("data-status") == "damaged"
+        WebDriverWait(driver, 120).until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "a.flight-link")) == 2)
+        status = {a.find_element(By.XPATH, "..").text.split(":")[0]: a.get_attribute("data-status")
+                  for a in driver.find_elements(By.CSS_SELECTOR, "a.flight-link")}
+        assert status == {"px4_motor1_damaged.ulg": "damaged", "ardupilot_healthy.bin": "healthy"}
         assert "motor 1" in driver.find_element(By.ID, "progress").text
+        link = next(a for a in driver.find_elements(By.CSS_SELECTOR, "a.flight-link")
+                    if a.get_attribute("data-status") == "damaged")
         link.click()
         verdict = WebDriverWait(driver, 20).until(EC.presence_of_element_located((By.ID, "verdict")))
         assert verdict.get_attribute("data-status") == "damaged"

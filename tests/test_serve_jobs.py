@@ -200,3 +200,35 @@ def test_operator_names_and_merges_airframes(tmp_path):
         assert c.get("/airframe", params={"key": b}, follow_redirects=False).status_code == 303
         r = c.post("/airframe/merge", headers=AUTH, data={"key": a, "into": b})
         assert r.status_code == 400 and "already one" in r.text
+
+
+def test_two_servers_share_one_store_and_diagnose_each_log_once(tmp_path, db_url, runlog):
+    names = ["px4_healthy.ulg", "px4_motor2_damaged.ulg", "ardupilot_motor1_damaged.bin",
+             "ardupilot_healthy.bin", "px4_motor4_damaged.ulg", "ardupilot_motor3_damaged.bin"]
+    data = tmp_path / "data"
+    with serve_client(data, db=db_url, workers=1, diagnose_fn=counting_diagnose) as a, \
+            serve_client(data, db=db_url, workers=1, diagnose_fn=counting_diagnose) as b:
+        ids = [upload(a if i % 2 else b, SAMPLES / n).json()["id"] for i, n in enumerate(names)]
+        results = [wait_done(a, i) for i in ids]
+        holders = {r["worker"] for r in a.app_.state.store.db.query("SELECT worker FROM job")}
+    assert [r["state"] for r in results] == ["done"] * len(names)
+    assert sorted(runlog.read_text().split()) == sorted(r["sha256"] for r in results)
+    assert len(holders) == 2  # both servers took jobs from the one queue
+
+
+def test_a_log_that_hangs_its_worker_is_stopped_and_becomes_an_error_row(tmp_path, runlog):
+    from serve_helpers import sleeping_diagnose
+
+    with serve_client(tmp_path / "data", workers=1, diagnose_fn=sleeping_diagnose, job_timeout_s=4) as c:
+        hang = upload(c, SAMPLES / "ardupilot_motor2_damaged.bin", name="hang.bin").json()["id"]
+        ok = upload(c, SAMPLES / "px4_healthy.ulg").json()["id"]
+        jh, jo = wait_done(c, hang, 60), wait_done(c, ok, 60)
+    assert jh["state"] == "error" and "longer than 4 s" in jh["error"]
+    assert jo["state"] == "done"
+
+
+def test_dask_scheduler_runs_the_jobs(tmp_path):
+    pytest.importorskip("dask.distributed")
+    with serve_client(tmp_path / "data", workers=1, scheduler="local") as c:
+        j = wait_done(c, upload(c, SAMPLES / "px4_motor4_damaged.ulg").json()["id"], 120)
+    assert j["state"] == "done" and j["diagnosis"]["verdict"]["motor"] == 4
