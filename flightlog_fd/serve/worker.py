@@ -37,6 +37,8 @@ from .store import LEASE_S, ServeStore
 POLL_S = 1.0
 #: Longest one diagnosis may run before its process is killed (the 67 MB real log takes ~20 s).
 JOB_TIMEOUT_S = 600.0
+#: Longest a fresh worker process may take to start and load the model before its first job.
+WARMUP_TIMEOUT_S = 300.0
 #: Longest one calibration may run (adapting the model trains on ~192 simulated flights).
 CALIBRATE_TIMEOUT_S = 3600.0
 #: Points kept per plotted line on the flight page (min/max per bucket keeps spikes).
@@ -145,6 +147,16 @@ def calibrate_task(log_paths: list[str], out_path: str, adapt: bool) -> str:
 
         calibrate_profile([Path(p) for p in log_paths]).save(out_path, overwrite=True)
     return file_sha256(out_path)
+
+
+def warm_child() -> bool:
+    """Run first in a fresh worker process: imports and the shipped model load here, so that a
+    job's time limit measures the job, not the process start (seconds on a busy machine)."""
+    try:
+        _model_for(None)
+    except Exception:
+        pass  # the job itself reports a missing or broken model
+    return True
 
 
 def _init_child() -> None:
@@ -286,6 +298,12 @@ class JobRunner:
             pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
                                        initializer=_init_child)
             self._pools[i] = pool
+            try:
+                pool.submit(warm_child).result(timeout=WARMUP_TIMEOUT_S)
+            except Exception as e:  # not this log's fault: say so rather than blame it
+                _kill(pool)
+                self._pools[i] = None
+                raise RuntimeError(f"could not start a worker process ({type(e).__name__})") from None
         return pool.submit(fn, *args)
 
     def _run(self, i: int, job: dict) -> None:
