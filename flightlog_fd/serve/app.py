@@ -95,6 +95,13 @@ def clean_name(name: Optional[str]) -> str:
     return base or "upload"
 
 
+def fmt_number(x: Any, decimals: int = 3) -> str:
+    """A number with ``decimals`` decimals, "-" for anything else (a field a newer report lacks)."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return "-"
+    return f"{x:.{decimals}f}"
+
+
 def ingest_file(store: ServeStore, data: DataDir, path) -> tuple[int, bool]:
     """Queue a local log file as if uploaded (`fdlog serve LOGS`): copied by content hash.
     Raises FlightLogError for a file that is not a log."""
@@ -123,7 +130,7 @@ def create_app(cfg: ServeConfig):
     runner = JobRunner(store, data, workers=cfg.workers, scheduler=cfg.scheduler, diagnose_fn=cfg.diagnose_fn, **kw)
     sessions = Sessions()
     env = Environment(loader=FileSystemLoader(str(HERE / "templates")), autoescape=True)
-    env.filters["fmt"] = lambda x, n=3: "-" if x is None else f"{x:.{n}f}"
+    env.filters["fmt"] = fmt_number
     env.filters["q"] = lambda s: quote(str(s), safe="")
 
     @asynccontextmanager
@@ -430,8 +437,9 @@ def create_app(cfg: ServeConfig):
             for k in m:
                 if k not in motor_cols:
                     motor_cols.append(k)
-        windows = [{"t0": w["t_start"], "t1": w["t_end"], "p": w["probabilities"], "label": w.get("smoothed_class")}
-                   for w in (doc or {}).get("windows") or []]
+        windows = [{"t0": w.get("t_start"), "t1": w.get("t_end"), "p": w.get("probabilities") or [],
+                    "label": w.get("smoothed_class")} for w in (doc or {}).get("windows") or []
+                   if isinstance(w, dict) and w.get("t_start") is not None]
         airframe = store.resolve(f["airframe"]) if f["airframe"] else None
         return page(request, "flight.html", f=f, doc=doc, motor_cols=motor_cols,
                     plotdata={"plot": plot, "windows": windows}, airframe=airframe,
