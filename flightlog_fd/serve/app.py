@@ -56,7 +56,7 @@ MAX_LISTED = 50
 STATUS_ORDER = {"damaged": 0, "uncertain": 1, "not_diagnosable": 2, "healthy": 3, None: 4}
 SORTS = ("attention", "name", "flights", "latest")
 #: Per-motor trends on the airframe page: (JSON motor field, title). Missing fields are skipped.
-TRENDS = (("command_change", "command-share change"), ("severity", "severity (estimated remaining thrust)"),
+TRENDS = (("command_change", "command-share change"), ("severity", "severity: estimated remaining thrust η̂ (1 = healthy)"),
           ("model_vote", "model vote"), ("effectiveness", "effectiveness"))
 
 
