@@ -10,8 +10,10 @@ import pwd
 import shutil
 import socket
 import subprocess
+import sys
 import tempfile
 import time
+import urllib.request
 import uuid
 from pathlib import Path
 
@@ -78,6 +80,30 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def start_server(data: Path, port: int, *logs: Path, workers: int = 1) -> subprocess.Popen:
+    """`fdlog serve` in a subprocess on loopback; returns once /api/health answers."""
+    tokens = data.parent / "tokens"
+    tokens.write_text(TOKEN + "\n")
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    log = open(data.parent / f"serve-{port}.log", "wb")  # a file, not a pipe nobody reads
+    proc = subprocess.Popen([sys.executable, "-c", "from flightlog_fd.cli import main; main()", "serve",
+                             *map(str, logs), "--data", str(data), "--port", str(port), "--token-file", str(tokens),
+                             "--workers", str(workers)], env=env, stdout=subprocess.DEVNULL, stderr=log,
+                            start_new_session=True)  # its own process group: a test can kill it with its workers
+    log.close()
+    end = time.monotonic() + 60
+    while time.monotonic() < end:
+        if proc.poll() is not None:
+            raise RuntimeError(f"fdlog serve exited: {(data.parent / f'serve-{port}.log').read_text()[-500:]}")
+        try:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=2).read()
+            return proc
+        except OSError:
+            time.sleep(0.3)
+    proc.kill()
+    raise RuntimeError("fdlog serve did not answer in 60 s")
 
 
 class Postgres:

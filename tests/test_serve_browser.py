@@ -4,13 +4,10 @@ input, waits for its verdict, opens the flight page and zooms the plot with a mo
 Skips when Chromium, chromedriver or selenium is absent (`.ci/run` installs them)."""
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
-import urllib.request
 from pathlib import Path
 
 import pytest
@@ -18,7 +15,7 @@ import pytest
 pytest.importorskip("fastapi")
 webdriver = pytest.importorskip("selenium.webdriver")
 
-from serve_helpers import SAMPLES, TOKEN, free_port  # noqa: E402
+from serve_helpers import SAMPLES, TOKEN, free_port, start_server  # noqa: E402
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 CHROMEDRIVER = shutil.which("chromedriver")
@@ -28,27 +25,6 @@ pytestmark = pytest.mark.skipif(not (CHROMIUM and CHROMEDRIVER), reason="needs c
 CHROME_FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
                 "--disable-dev-shm-usage", "--window-size=1400,1000")
-
-
-def start_server(data: Path, port: int, *logs: Path, workers: int = 1) -> subprocess.Popen:
-    """`fdlog serve` in a subprocess on loopback; returns once /api/health answers."""
-    tokens = data.parent / "tokens"
-    tokens.write_text(TOKEN + "\n")
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.Popen([sys.executable, "-c", "from flightlog_fd.cli import main; main()", "serve",
-                             *map(str, logs), "--data", str(data), "--port", str(port), "--token-file", str(tokens),
-                             "--workers", str(workers)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    end = time.monotonic() + 60
-    while time.monotonic() < end:
-        if proc.poll() is not None:
-            raise RuntimeError(f"fdlog serve exited: {proc.stderr.read().decode()[-500:]}")
-        try:
-            urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=2).read()
-            return proc
-        except OSError:
-            time.sleep(0.3)
-    proc.kill()
-    raise RuntimeError("fdlog serve did not answer in 60 s")
 
 
 def chrome(profile_dir: str):

@@ -17,7 +17,7 @@ from serve_helpers import (AUTH, RUNLOG_ENV, SAMPLES, Postgres, counting_diagnos
 
 from flightlog_fd.database import DatabaseError  # noqa: E402
 from flightlog_fd.report.json_report import validate  # noqa: E402
-from flightlog_fd.serve.store import MAX_ATTEMPTS, ServeStore  # noqa: E402
+from flightlog_fd.serve.store import LEASE_S, MAX_ATTEMPTS, ServeStore  # noqa: E402
 from flightlog_fd.serve.worker import wait_idle  # noqa: E402
 
 
@@ -232,3 +232,58 @@ def test_dask_scheduler_runs_the_jobs(tmp_path):
     with serve_client(tmp_path / "data", workers=1, scheduler="local") as c:
         j = wait_done(c, upload(c, SAMPLES / "px4_motor4_damaged.ulg").json()["id"], 120)
     assert j["state"] == "done" and j["diagnosis"]["verdict"]["motor"] == 4
+
+
+def test_a_killed_server_process_restarts_and_finishes_every_log_once(tmp_path):
+    """The real command: `fdlog serve` SIGKILLed (with its worker processes) while diagnosing,
+    then started again on the same data folder."""
+    import os
+    import signal
+    import sqlite3
+    import urllib.request
+
+    from serve_helpers import free_port, start_server
+
+    names = ["px4_healthy.ulg", "px4_motor1_damaged.ulg", "px4_motor2_damaged.ulg", "px4_motor4_damaged.ulg",
+             "ardupilot_healthy.bin", "ardupilot_motor3_damaged.bin"]
+    data = tmp_path / "data"
+
+    def jobs(port):
+        return json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=10).read())["jobs"]
+
+    port = free_port()
+    proc = start_server(data, port, *(SAMPLES / n for n in names), workers=1)  # queues the logs at start
+    try:
+        end = time.monotonic() + 120
+        while time.monotonic() < end and not (jobs(port)["done"] >= 1 and jobs(port)["running"] == 1):
+            time.sleep(0.05)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(30)
+    db = data / "fdlog.sqlite"
+    con = sqlite3.connect(db)
+    held = {r[0] for r in con.execute("SELECT id FROM job WHERE state = 'running'")}
+    queued = con.execute("SELECT COUNT(*) FROM job WHERE state = 'queued'").fetchone()[0]
+    con.close()
+    assert queued >= 1 and len(held) == 1  # the kill left work behind, one job mid-diagnosis
+    port = free_port()
+    t0 = time.monotonic()
+    proc = start_server(data, port, workers=1)  # no logs given: only what the store holds
+    try:
+        end = time.monotonic() + 180
+        while time.monotonic() < end and jobs(port)["done"] < len(names):
+            time.sleep(0.3)
+        final = jobs(port)
+    finally:
+        proc.terminate()
+        proc.wait(30)
+    assert final == {"queued": 0, "running": 0, "done": len(names), "error": 0}
+    assert time.monotonic() - t0 < LEASE_S  # the dead holder's job did not wait for its lease
+    con = sqlite3.connect(db)
+    rows = con.execute("SELECT flight.sha256, flight.state, job.id, job.attempts FROM flight JOIN job "
+                       "ON job.flight_id = flight.id").fetchall()
+    con.close()
+    assert len(rows) == len(names) and len({r[0] for r in rows}) == len(names)  # one row, one job per log
+    assert all(r[1] == "done" for r in rows)
+    # the job the dead server held was taken again at once (its process is gone), the others once
+    assert {r[2]: r[3] for r in rows} == {r[2]: (2 if r[2] in held else 1) for r in rows}

@@ -12,7 +12,8 @@ same transaction that moves it from ``running`` (held by this server) to ``done`
 stored once whoever else looks at the job. A claimed job carries a lease (``LEASE_S``) that its
 server renews; a job whose lease ran out belongs to a server that stopped (killed, crashed):
 :meth:`ServeStore.recover` puts it back in the queue, or, after ``MAX_ATTEMPTS`` claims, makes it
-an error row, so a log that brings the whole server down cannot loop forever. A worker process
+an error row, so a log that brings the whole server down cannot loop forever. A holder known to be
+dead (a server process on this machine that is gone) need not wait for its lease. A worker process
 that dies on a log is known at once and turns that job into an error row
 (:meth:`ServeStore.fail_job`).
 
@@ -25,7 +26,7 @@ from __future__ import annotations
 
 import json
 import time
-from typing import Any, Optional
+from typing import Any, Callable, Optional
 
 from ..database import Database, DatabaseError, open_database, utc_now
 from ..store import FIGURE_DIRECTION, FIGURE_FLOORS, FlightRecord, find_drift
@@ -226,14 +227,17 @@ class ServeStore:
             f"UPDATE job SET lease_until = ? WHERE worker = ? AND state = 'running' AND id IN ({marks})",
             (time.time() + LEASE_S, worker, *job_ids)), "renew job leases")
 
-    def recover(self) -> dict:
-        """Jobs whose server stopped (lease over): back to the queue, or error rows after
-        MAX_ATTEMPTS claims. Returns {"requeued": n, "failed": n}."""
+    def recover(self, is_dead: Optional[Callable[[str], bool]] = None) -> dict:
+        """Jobs whose server stopped: back to the queue, or error rows after MAX_ATTEMPTS claims.
+        A server is taken for stopped when its lease ran out, or at once when ``is_dead(worker)``
+        says so (a server on this machine whose process is gone). Returns {"requeued", "failed"}."""
         db = self.db
 
         def tx():
             now = time.time()
-            stale = db.query("SELECT id, flight_id, attempts FROM job WHERE state = 'running' AND lease_until < ?", (now,))
+            stale = db.query("SELECT id, flight_id, attempts, worker, lease_until FROM job WHERE state = 'running'")
+            stale = [j for j in stale if (j["lease_until"] is not None and j["lease_until"] < now)
+                     or (is_dead is not None and j["worker"] and is_dead(j["worker"]))]
             out = {"requeued": 0, "failed": 0}
             for j in stale:
                 if j["attempts"] >= MAX_ATTEMPTS:

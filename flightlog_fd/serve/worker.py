@@ -15,7 +15,8 @@ the slot's process ran only that log: the job becomes an error row with that rea
 starts a fresh process. A job running longer than ``JOB_TIMEOUT_S`` (pyulog can spin on some
 corrupt files) has its process killed and becomes an error row. Leases are renewed every
 ``LEASE_S / 3`` and expired ones recovered (:meth:`ServeStore.recover`), so a server that stops
-leaves no stuck job for the next one.
+leaves no stuck job for the next one; a server on this machine whose process is gone has its jobs
+requeued at once (:func:`holder_is_dead`), without waiting for the lease.
 """
 from __future__ import annotations
 
@@ -216,7 +217,7 @@ class JobRunner:
     # ------------------------------------------------------------------ control
 
     def start(self) -> "JobRunner":
-        self.store.recover()
+        self.store.recover(is_dead=holder_is_dead)
         if self.scheduler and self.workers:
             from ..batch import _dask_client
 
@@ -266,7 +267,7 @@ class JobRunner:
                 with self._lock:
                     ids = list(self._running)
                 self.store.renew_leases(self.worker_id, ids)
-                self.store.recover()  # another server sharing the store may have stopped
+                self.store.recover(is_dead=holder_is_dead)  # another server sharing the store may have stopped
             except Exception:
                 pass  # the next round tries again; a lost lease only means another server may take the job
 
@@ -350,6 +351,23 @@ class JobRunner:
             first = (str(e).strip().splitlines() or [""])[0][:200]
             reason = f"{'calibration' if kind == 'calibrate' else 'diagnosis'} failed: {type(e).__name__}: {first}"
             self.store.fail_job(job, self.worker_id, reason, _error_doc(name, reason) if kind == "diagnose" else None)
+
+
+def holder_is_dead(worker: str) -> bool:
+    """True when ``worker`` (``host:pid:random``, :attr:`JobRunner.worker_id`) ran on this
+    machine and its process is gone: its jobs need not wait for their lease. A reused pid only
+    makes us wait for the lease, never take a live server's job."""
+    host, _, rest = worker.partition(":")
+    pid = rest.partition(":")[0]
+    if host != socket.gethostname() or not pid.isdigit():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists, owned by someone else
+        return False
+    return False
 
 
 def _kill(pool: ProcessPoolExecutor) -> None:
