@@ -180,7 +180,9 @@ def test_calibration_job_gives_later_flights_the_profile(tmp_path):
         assert j["airframe"] == key and j["diagnosis"]["profile"] is not None
         before = c.get(f"/api/logs/{healthy}").json()["diagnosis"]
         assert before["profile"] is None  # flights before the calibration keep their diagnosis
-        assert "later flights of this airframe are diagnosed with" in c.get("/airframe", params={"key": key}).text.lower()
+        page = c.get("/airframe", params={"key": key}).text
+        assert "later flights of this airframe are diagnosed with" in page.lower()
+        assert 'id="profile"' in page and "rho (motor imbalance)" in page and "measured only" in page
 
 
 def test_operator_names_and_merges_airframes(tmp_path):
