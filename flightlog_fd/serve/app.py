@@ -51,8 +51,13 @@ MULTIPART_SLACK_BYTES = 64 * 1024
 CHUNK = 1 << 20
 #: Longest client file name kept for display (it is never used as a path).
 MAX_NAME_CHARS = 200
-#: Flights listed on the fleet page's "waiting / failed" table and jobs in its queue table.
+#: Flights listed on the fleet page's "waiting / failed" table (the newest).
 MAX_LISTED = 50
+#: Jobs shown in the fleet page's "latest jobs" table.
+MAX_JOBS_LISTED = 10
+#: Fields a form may carry (ours carry at most five; more is not a browser of ours).
+MAX_FORM_FIELDS = 20
+#: "attention" sort order of a latest verdict: what needs a look first.
 STATUS_ORDER = {"damaged": 0, "uncertain": 1, "not_diagnosable": 2, "healthy": 3, None: 4}
 SORTS = ("attention", "name", "flights", "latest")
 #: Per-motor trends on the airframe page: (JSON motor field, title). Missing fields are skipped.
@@ -243,7 +248,7 @@ def create_app(cfg: ServeConfig):
             return msg
 
         try:
-            form = await StarletteRequest(request.scope, counted).form(max_files=1, max_fields=10)
+            form = await StarletteRequest(request.scope, counted).form(max_files=1, max_fields=MAX_FORM_FIELDS)
         except TooLarge:
             raise ApiError(413, f"upload too large: the limit is {cfg.max_upload_bytes} bytes per log") from None
         except Exception as e:  # malformed multipart, too many files
@@ -349,7 +354,7 @@ def create_app(cfg: ServeConfig):
 
     @app.post("/login")
     async def login(request: Request):
-        form = await request.form(max_files=0, max_fields=5)
+        form = await request.form(max_files=0, max_fields=MAX_FORM_FIELDS)
         token, nxt = str(form.get("token") or ""), str(form.get("next") or "/")
         if not cfg.tokens.check(token.strip()):
             return page(request, "login.html", http_status=401, next=nxt, message="wrong token")
@@ -362,7 +367,7 @@ def create_app(cfg: ServeConfig):
 
     @app.post("/logout")
     async def logout(request: Request):
-        form = await request.form(max_files=0, max_fields=5)
+        form = await request.form(max_files=0, max_fields=MAX_FORM_FIELDS)
         sid = session_id(request)
         if sid and sessions.csrf_ok(sid, str(form.get("csrf") or "")):
             sessions.drop(sid)
@@ -391,7 +396,7 @@ def create_app(cfg: ServeConfig):
         fleet.sort(key=keyf, reverse=(sort == "latest"))
         pending = store.pending()[-MAX_LISTED:]
         return page(request, "fleet.html", fleet=fleet, q=q, status=status, sort=sort, sorts=SORTS,
-                    pending=pending, jobs=store.jobs(MAX_LISTED // 5),
+                    pending=pending, jobs=store.jobs(MAX_JOBS_LISTED),
                     max_upload=cfg.max_upload_bytes)
 
     @app.get("/airframe", response_class=HTMLResponse)
@@ -477,7 +482,7 @@ def create_app(cfg: ServeConfig):
     # ------------------------------------------------------------------ forms (token + CSRF)
 
     async def form_of(request: Request) -> Any:
-        form = await request.form(max_files=0, max_fields=50)
+        form = await request.form(max_files=0, max_fields=MAX_FORM_FIELDS)
         require_write(request, str(form.get("csrf") or ""))
         return form
 
