@@ -212,3 +212,41 @@ def test_token_file_keeps_hashes_only(tmp_path):
     f.write_text("short\n")
     with pytest.raises(FlightLogError, match="shorter than"):
         TokenSet.from_file(f)
+
+
+def test_fleet_page_filters_and_sorts(live):
+    for n in ("px4_healthy.ulg", "px4_motor4_damaged.ulg"):
+        wait_done(live, upload(live, SAMPLES / n).json()["id"])
+
+    def rows(**params):
+        text = live.get("/", params=params).text
+        body = text[text.index('<table class="fleet"'):text.index("</table>", text.index('<table class="fleet"'))]
+        return re.findall(r'<a href="/airframe\?key=([^"]+)">', body)
+
+    assert "sim-11-0" in rows(status="healthy") and "sim-15-0" not in rows(status="healthy")
+    assert "sim-15-0" in rows(status="damaged") and "sim-11-0" not in rows(status="damaged")
+    assert rows(q="sim-15") == ["sim-15-0"]
+    assert rows(q="px4_healthy") == ["sim-11-0"]  # a file name finds its airframe
+    by_name = rows(sort="name")
+    assert by_name == sorted(by_name, key=str.lower) and len(by_name) >= 2
+    attention = rows()
+    assert attention.index("sim-15-0") < attention.index("sim-11-0")  # damaged before healthy
+    assert rows(status="drift") == []
+
+
+def test_airframe_page_explains_a_drift_where_it_fires(tmp_path):
+    with serve_client(tmp_path, workers=0) as c:
+        store = c.app_.state.store
+        for i, share2 in enumerate((1.00, 1.02, 1.05, 1.09, 1.14)):  # motor 2 needs more command each flight
+            fid, _ = store.add_upload(f"{i:064x}", f"flight{i}.ulg", 1, "ulog")
+            job = store.claim_job("test")
+            shares = [1.0, share2, 1.0 - 0.001 * i, 1.0 + 0.001 * i]
+            doc = {"verdict": {"status": "healthy", "motor": None, "confidence": 0.9, "reason": "r"},
+                   "motors": [{"motor": k + 1, "command_share": s, "model_vote": 0.1} for k, s in enumerate(shares)]}
+            assert store.complete_diagnosis(job, "test", {"sha256": f"{i:064x}", "diagnosis": doc,
+                                                          "vehicle": "quad-7", "vehicle_source": "sys_uuid"})
+        page = c.get("/airframe", params={"key": "quad-7"}).text
+        assert "Drift flagged" in page and "motor 2 command share drifts from the other three" in page
+        assert "least-squares line of z" in page  # the rule, explained
+        fleet = c.get("/", params={"status": "drift"}).text
+        assert "quad-7" in fleet
