@@ -84,6 +84,12 @@ def test_pages_show_the_flight(live):
     js = live.get("/static-plotly.min.js")
     assert js.status_code == 200 and len(js.content) > 1_000_000  # served from the plotly package, no CDN
     assert "cdn" not in (page + fleet + af.text).lower()
+    # no inline script on any page, and the policy says scripts come from the app only
+    for text in (page, fleet, af.text):
+        for tag in re.findall(r"<script[^>]*>", text):
+            assert "src=" in tag or 'type="application/json"' in tag, tag
+    csp = live.get("/").headers["content-security-policy"]
+    assert "script-src 'self';" in csp and "frame-ancestors 'none'" in csp
 
 
 def test_logs_without_an_id_are_not_one_unknown_airframe(live):

@@ -36,6 +36,7 @@ def chrome(profile_dir: str):
     for f in CHROME_FLAGS:
         opts.add_argument(f)
     opts.add_argument(f"--user-data-dir={profile_dir}")
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     return webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=opts)
 
 
@@ -92,6 +93,9 @@ def test_browser_uploads_a_log_sees_its_verdict_and_zooms_the_flight_plot(tmp_pa
         after = x_range(driver)
         assert after[1] - after[0] < 0.6 * (before[1] - before[0])
         assert before[0] <= after[0] < after[1] <= before[1]
+        # nothing on the page broke the Content-Security-Policy or threw
+        problems = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+        assert problems == [], problems
         # the links to the reports work from the page
         driver.find_element(By.ID, "json-link").click()
         assert '"schema"' in driver.page_source

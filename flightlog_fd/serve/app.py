@@ -60,6 +60,17 @@ MAX_FORM_FIELDS = 20
 #: "attention" sort order of a latest verdict: what needs a look first.
 STATUS_ORDER = {"damaged": 0, "uncertain": 1, "not_diagnosable": 2, "healthy": 3, None: 4}
 SORTS = ("attention", "name", "flights", "latest")
+#: Sent with every response. Scripts only from the app itself (no inline script, no CDN), so even
+#: a text that escaped escaping could not run; plotly adds inline styles. No framing (clickjacking
+#: of the forms), forms post to the app only.
+SECURITY_HEADERS = {
+    "Content-Security-Policy": "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
+                               "img-src 'self' data:; object-src 'none'; base-uri 'none'; form-action 'self'; "
+                               "frame-ancestors 'none'",
+    "X-Content-Type-Options": "nosniff",
+    "X-Frame-Options": "DENY",
+    "Referrer-Policy": "same-origin",
+}
 #: Per-motor trends on the airframe page: (JSON motor field, title). Missing fields are skipped.
 TRENDS = (("command_change", "command-share change"), ("severity", "severity: estimated remaining thrust η̂ (1 = healthy)"),
           ("model_vote", "model vote"), ("effectiveness", "effectiveness"))
@@ -151,6 +162,13 @@ def create_app(cfg: ServeConfig):
                   openapi_url=None)
     app.state.store, app.state.runner, app.state.data, app.state.config = store, runner, data, cfg
     app.mount("/static", StaticFiles(directory=str(HERE / "static")), name="static")
+
+    @app.middleware("http")
+    async def security_headers(request: Request, call_next):
+        resp = await call_next(request)
+        for k, v in SECURITY_HEADERS.items():
+            resp.headers.setdefault(k, v)  # a report keeps its own stricter policy
+        return resp
 
     # ------------------------------------------------------------------ auth helpers
 

@@ -1,5 +1,6 @@
 // Plotly figures of the airframe and flight pages, from JSON the page carries
 // (<script type="application/json">). plotly.min.js is served by the app from the plotly package.
+// No inline script anywhere: the pages' Content-Security-Policy allows scripts from the app only.
 var MOTOR_COLOURS = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
 var CLASS_COLOURS = ["#222222", "#d62728", "#1f77b4", "#2ca02c", "#9467bd"];  // healthy, then as the motors
 var SHADE = {0: "rgba(46,125,50,0.10)", 1: "rgba(198,40,40,0.13)", 2: "rgba(198,40,40,0.13)",
@@ -58,3 +59,10 @@ function fdlogFlight() {
     legend: {orientation: "h", y: -0.09}};
   Plotly.newPlot("flightplot", traces, layout, {responsive: true, displaylogo: false});
 }
+
+document.addEventListener("DOMContentLoaded", function () {
+  if (document.getElementById("trend-data")) fdlogTrends();
+  if (document.getElementById("plot-data")) fdlogFlight();
+  var v = document.getElementById("verdict");  // a flight still queued or running: look again soon
+  if (v && (v.dataset.state === "queued" || v.dataset.state === "running")) setTimeout(function () { location.reload(); }, 1500);
+});

@@ -30,7 +30,7 @@
     var fd = new FormData(); fd.append("log", file, file.name);
     var xhr = new XMLHttpRequest();
     xhr.open("POST", "/api/logs");
-    xhr.setRequestHeader("X-CSRF-Token", window.FDLOG.csrf);
+    xhr.setRequestHeader("X-CSRF-Token", document.querySelector('meta[name="fdlog-csrf"]').content);
     xhr.upload.onprogress = function (e) { if (e.lengthComputable) r.bar.value = 100 * e.loaded / e.total; };
     xhr.onload = function () {
       var j = {}; try { j = JSON.parse(xhr.responseText); } catch (e) {}
@@ -40,6 +40,7 @@
     xhr.onerror = function () { r.label.textContent = file.name + ": upload failed"; r.label.className = "error"; };
     xhr.send(fd);
   }
+  document.getElementById("upload-form").addEventListener("submit", function (e) { e.preventDefault(); });
   btn.addEventListener("click", function () {
     var files = document.getElementById("files").files;
     for (var i = 0; i < files.length; i++) send(files[i]);
