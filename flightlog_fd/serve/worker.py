@@ -210,6 +210,7 @@ class JobRunner:
         self._wake = threading.Event()
         self._threads: list[threading.Thread] = []
         self._running: set[int] = set()
+        self._busy_slots: set[int] = set()
         self._lock = threading.Lock()
         self._pools: dict[int, Optional[ProcessPoolExecutor]] = {}
         self._client = self._cluster = None
@@ -237,13 +238,19 @@ class JobRunner:
         self._wake.set()
 
     def stop(self, timeout: float = 10.0) -> None:
-        """Stop claiming, kill the worker processes (their jobs go back to the queue on the next
-        start, through the lease), join the threads."""
+        """Stop claiming; kill the worker processes that are busy (their jobs go back to the
+        queue) and shut the idle ones down cleanly; join the threads."""
         self._stop.set()
         self._wake.set()
-        for pool in list(self._pools.values()):
-            if pool is not None:
+        with self._lock:
+            busy = set(self._busy_slots)
+        for i, pool in list(self._pools.items()):
+            if pool is None:
+                continue
+            if i in busy:
                 _kill(pool)
+            else:
+                pool.shutdown(wait=True, cancel_futures=True)
         for t in self._threads:
             t.join(timeout)
         try:
@@ -283,11 +290,13 @@ class JobRunner:
                 continue
             with self._lock:
                 self._running.add(int(job["id"]))
+                self._busy_slots.add(i)
             try:
                 self._run(i, job)
             finally:
                 with self._lock:
                     self._running.discard(int(job["id"]))
+                    self._busy_slots.discard(i)
 
     def _submit(self, i: int, fn: Callable, *args):
         if self._client is not None:
