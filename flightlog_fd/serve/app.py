@@ -58,7 +58,7 @@ MAX_JOBS_LISTED = 10
 #: Fields a form may carry (ours carry at most five; more is not a browser of ours).
 MAX_FORM_FIELDS = 20
 #: "attention" sort order of a latest verdict: what needs a look first.
-STATUS_ORDER = {"damaged": 0, "uncertain": 1, "not_diagnosable": 2, "healthy": 3, None: 4}
+STATUS_ORDER = {"damaged": 0, "stopped": 0, "uncertain": 1, "not_diagnosable": 2, "healthy": 3, None: 4}
 SORTS = ("attention", "name", "flights", "latest")
 #: Sent with every response. Scripts only from the app itself (no inline script, no CDN), so even
 #: a text that escaped escaping could not run; plotly adds inline styles. No framing (clickjacking
@@ -429,9 +429,10 @@ def create_app(cfg: ServeConfig):
         trend = {"flights": [], "figures": []}
         for i, f in enumerate(a["flights"], 1):
             trend["flights"].append({"n": i, "id": int(f["id"]), "name": f["name"], "status": f["status"] or f["state"]})
+        n_motors = max([4] + [int(k) for f in a["flights"] for k in f["motors"]])  # hexa, octo: more
         for fig, title in TRENDS:
             lines = []
-            for k in range(1, 5):
+            for k in range(1, n_motors + 1):
                 ys = [(f["motors"].get(k) or {}).get(fig) for f in a["flights"]]
                 lines.append({"motor": k, "y": ys})
             if any(v is not None for ln in lines for v in ln["y"]):
@@ -446,7 +447,7 @@ def create_app(cfg: ServeConfig):
         cal_jobs = [j for j in store.db.query("SELECT * FROM job WHERE kind = 'calibrate' AND airframe = ? ORDER BY id DESC",
                                               (key,))]
         rule = {"min_flights": MIN_FLIGHTS, "slope": DRIFT_SLOPE_MIN, "z": DRIFT_Z_MIN, "floors": FIGURE_FLOORS}
-        return page(request, "airframe.html", a=a, trend=trend, profile=profile, others=others, rule=rule,
+        return page(request, "airframe.html", a=a, trend=trend, n_motors=n_motors, profile=profile, others=others, rule=rule,
                     cal_jobs=cal_jobs, adapt=cfg.calibrate_adapt)
 
     @app.get("/flights/{fid}", response_class=HTMLResponse)

@@ -1,8 +1,7 @@
 // Plotly figures of the airframe and flight pages, from JSON the page carries
 // (<script type="application/json">). plotly.min.js is served by the app from the plotly package.
 // No inline script anywhere: the pages' Content-Security-Policy allows scripts from the app only.
-var MOTOR_COLOURS = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
-var CLASS_COLOURS = ["#222222", "#d62728", "#1f77b4", "#2ca02c", "#9467bd"];  // healthy, then as the motors
+var MOTOR_COLOURS = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"];
 var SHADE = {0: "rgba(46,125,50,0.10)", 1: "rgba(198,40,40,0.13)", 2: "rgba(198,40,40,0.13)",
              3: "rgba(198,40,40,0.13)", 4: "rgba(198,40,40,0.13)", "-1": "rgba(239,108,0,0.15)"};
 
@@ -18,7 +17,7 @@ function fdlogTrends() {
     root.appendChild(div);
     var traces = fig.lines.map(function (ln) {
       return {x: x, y: ln.y, text: names, mode: "lines+markers", name: "motor " + ln.motor,
-              line: {color: MOTOR_COLOURS[ln.motor - 1]}, hovertemplate: "%{text}<br>" + fig.field + " %{y:.4f}<extra>motor " + ln.motor + "</extra>"};
+              line: {color: MOTOR_COLOURS[(ln.motor - 1) % MOTOR_COLOURS.length]}, hovertemplate: "%{text}<br>" + fig.field + " %{y:.4f}<extra>motor " + ln.motor + "</extra>"};
     });
     Plotly.newPlot(div, traces, {title: {text: fig.title, font: {size: 14}}, height: 260, margin: {l: 60, r: 20, t: 36, b: 40},
       xaxis: {title: {text: "flight (time order)"}, dtick: 1}, legend: {orientation: "h"}}, {responsive: true, displaylogo: false});
@@ -32,15 +31,18 @@ function fdlogFlight() {
     traces.push({x: ln.t, y: ln.y, name: ln.name, yaxis: "y", mode: "lines", line: {width: 1}, legendgroup: "rates"});
   });
   (p.motors || []).forEach(function (ln, i) {
-    traces.push({x: ln.t, y: ln.y, name: ln.name, yaxis: "y2", mode: "lines", line: {width: 1, color: MOTOR_COLOURS[i % 4]}, legendgroup: "motors"});
+    traces.push({x: ln.t, y: ln.y, name: ln.name, yaxis: "y2", mode: "lines", line: {width: 1, color: MOTOR_COLOURS[i % MOTOR_COLOURS.length]}, legendgroup: "motors"});
   });
   var w = d.windows || [];
   if (w.length) {
     var cx = w.map(function (x) { return (x.t0 + x.t1) / 2; });
-    var classNames = ["healthy", "prop 1", "prop 2", "prop 3", "prop 4"];
-    for (var k = 0; k < 5; k++) {
-      traces.push({x: cx, y: w.map(function (x) { return x.p[k]; }), name: "P(" + classNames[k] + ")", yaxis: "y3",
-                   mode: "lines", line: {width: 1.5, color: CLASS_COLOURS[k]}, legendgroup: "classes"});
+    var nClasses = w[0].p.length;  // healthy + one class per rotor
+    for (var k = 0; k < nClasses; k++) {
+      (function (k) {
+        traces.push({x: cx, y: w.map(function (x) { return x.p[k]; }), name: "P(" + (k ? "prop " + k : "healthy") + ")",
+                     yaxis: "y3", mode: "lines", legendgroup: "classes",
+                     line: {width: 1.5, color: k ? MOTOR_COLOURS[(k - 1) % MOTOR_COLOURS.length] : "#222222"}});
+      })(k);
     }
   }
   // Windows overlap (stride < length): each shades from its start to the next window's start, so
