@@ -390,7 +390,11 @@ def serve(
             err.print(f"fdlog serve: upload token (shown once, not stored; use --token-file to choose your own): {made}",
                       markup=False)
         for f in files:
-            fid, created = ingest_file(web.state.store, web.state.data, f)
+            try:
+                fid, created = ingest_file(web.state.store, web.state.data, f)
+            except NotALogError as e:  # one line for it; the others are still served
+                _fail(e)
+                continue
             err.print(f"fdlog serve: {f} -> flight {fid}{'' if created else ' (already stored)'}", markup=False)
     except FlightLogError as e:
         _fail(e)

@@ -256,3 +256,20 @@ def test_airframe_page_explains_a_drift_where_it_fires(tmp_path):
         assert "least-squares line of z" in page  # the rule, explained
         fleet = c.get("/", params={"status": "drift"}).text
         assert "quad-7" in fleet
+
+
+def test_serve_command_bad_input_is_one_line_and_exit_2(tmp_path):
+    from typer.testing import CliRunner
+
+    from flightlog_fd.cli import app
+
+    runner = CliRunner()
+    cases = [(["serve", "--view", "everyone", "--data", str(tmp_path / "d")], "--view must be open or token"),
+             (["serve", "--db", str(tmp_path / "missing" / "x.sqlite"), "--data", str(tmp_path / "d")],
+              "its folder does not exist"),
+             (["serve", "--token-file", str(tmp_path / "nope"), "--data", str(tmp_path / "d")],
+              "cannot read the token file")]
+    for argv, msg in cases:
+        res = runner.invoke(app, argv)
+        assert res.exit_code == 2, (argv, res.output)
+        assert msg in res.output and "Traceback" not in res.output
