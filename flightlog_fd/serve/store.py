@@ -17,7 +17,7 @@ dead (a server process on this machine that is gone) need not wait for its lease
 that dies on a log is known at once and turns that job into an error row
 (:meth:`ServeStore.fail_job`).
 
-Airframes: a flight's airframe is the log's own id (``store.vehicle_identity``: PX4 ``sys_uuid``,
+Airframes: a flight's airframe is the log's own id (``Flight.vehicle_id``, as in `fdlog history`: PX4 ``sys_uuid``,
 ArduPilot board UID...). A log without one is NOT put into a shared "unknown" history: it gets an
 airframe of its own, ``log:<first 12 hex of its sha256>`` (source ``none``), that the operator can
 name or merge into another airframe (``airframe.merged_into``; merges are followed to the end).
