@@ -20,10 +20,11 @@ the check: every uploaded hash is exactly one row, every row has one job, all do
 Bounded: ``--max-s`` stops waiting (exit 1). Loopback only. The machine is shared: compare figures
 from one run.
 
-Measured 2026-11-23 (2 cores shared, load average ~4 from other users; defaults): 208 uploads (200 +
-8 duplicates) in 2.3 s = 91.5 uploads/s, 34 MB/s, upload latency p50 72 ms / p95 141 ms; 200 logs
-diagnosed in 84.7 s = 2.36 logs/s; pages while diagnosing p50/p95: fleet 75/313 ms, airframe
-100/495 ms, flight 36/167 ms, /api/logs/ID 23/116 ms; check OK (200 rows, 0 lost, 0 twice).
+Measured 2026-11-23 on the current code (2 cores shared, load average 5-10 from other users;
+defaults): 208 uploads in 6.5 s = 32.1 uploads/s, 12 MB/s, upload latency p50 222 ms / p95 332 ms;
+200 logs diagnosed in 102.6 s = 1.95 logs/s; pages while diagnosing p50/p95: fleet 101/344 ms,
+airframe 125/487 ms, flight 59/183 ms, /api/logs/ID 42/135 ms; check OK (200 rows, 0 lost, 0 twice).
+An earlier run at load ~4: 91.5 uploads/s, 2.36 logs/s, fleet 75/313 ms, airframe 100/495 ms.
 """
 from __future__ import annotations
 
