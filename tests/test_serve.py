@@ -75,6 +75,7 @@ def test_pages_show_the_flight(live):
     page = live.get(f"/flights/{fid}").text
     assert 'id="flightplot"' in page and "/static-plotly.min.js" in page
     assert "Per-motor evidence" in page and "motor 2" in page.lower()
+    assert 'id="findings"' in page  # every analyzer's findings, as the report lists them
     plot = json.loads(re.search(r'<script type="application/json" id="plot-data">(.*?)</script>', page, re.S).group(1))
     assert len(plot["plot"]["rates"]) == 3 and len(plot["plot"]["motors"]) == 4 and plot["windows"]
     fleet = live.get("/").text

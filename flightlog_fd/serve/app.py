@@ -36,8 +36,8 @@ from jinja2 import Environment, FileSystemLoader
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from .. import __version__
+from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS
 from ..errors import FlightLogError
-from ..store import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS
 from .security import SESSION_COOKIE, Sessions, TokenSet, bearer
 from .store import ServeStore
 from .worker import DataDir, JobRunner, diagnose_task

@@ -29,7 +29,8 @@ import time
 from typing import Any, Callable, Optional
 
 from ..database import Database, DatabaseError, open_database, utc_now
-from ..store import FIGURE_DIRECTION, FIGURE_FLOORS, FlightRecord, find_drift
+from ..drift import FIGURE_DIRECTION, FIGURE_FLOORS, find_drift
+from ..store import FlightRecord
 
 #: Seconds a claimed job's lease lasts; the server renews it every LEASE_S / 3 while it runs.
 LEASE_S = 60.0
