@@ -56,6 +56,10 @@ def test_upload_and_result_with_a_token(live):
     stored = data / "logs" / sha[:2] / f"{sha}.ulg"
     assert stored.read_bytes() == (SAMPLES / "px4_motor1_damaged.ulg").read_bytes()
     assert not any("evil" in p.name for p in data.rglob("*"))
+    # every analyzer's findings are rows of the store
+    n_findings = sum(len(a["findings"]) for a in j["diagnosis"].get("analyzers") or [])
+    rows = live.app_.state.store.db.query("SELECT * FROM finding WHERE flight_id = ?", (fid,))
+    assert len(rows) == n_findings > 0
     # the same bytes again are the same flight: no new row, no new job
     again = upload(live, SAMPLES / "px4_motor1_damaged.ulg", name="copy.ulg").json()
     assert again["id"] == fid and again["created"] is False

@@ -135,7 +135,7 @@ def test_a_log_that_keeps_killing_servers_becomes_an_error_row(db_url):
 
 def test_migrations_run_once_and_a_newer_store_is_refused(db_url):
     a = ServeStore(db_url)
-    assert a.db.schema_version() == 1
+    assert a.db.schema_version() == 2
     assert ServeStore(db_url).db.migrate(__import__("flightlog_fd.serve.store", fromlist=["x"]).MIGRATIONS) == []
     a.db.run("INSERT INTO schema_migrations (version, name, applied_at) VALUES (99, 'future', 'x')")
     with pytest.raises(DatabaseError, match="newer than this fdlog"):
@@ -288,3 +288,19 @@ def test_a_killed_server_process_restarts_and_finishes_every_log_once(tmp_path):
     assert all(r[1] == "done" for r in rows)
     # the job the dead server held was taken again at once (its process is gone), the others once
     assert {r[2]: r[3] for r in rows} == {r[2]: (2 if r[2] in held else 1) for r in rows}
+
+
+def test_an_older_store_is_upgraded_in_place(db_url):
+    from flightlog_fd.database import open_database
+    from flightlog_fd.serve.store import MIGRATIONS
+
+    old = open_database(db_url)
+    assert old.migrate(MIGRATIONS[:1]) == [1]  # a store made by the first version
+    old.run("INSERT INTO flight (sha256, name, size_bytes, format, uploaded_at, state) "
+            "VALUES ('aa', 'old.ulg', 1, 'ulog', 'x', 'done')")
+    old.close()
+    s = ServeStore(db_url)
+    assert s.db.schema_version() == 2
+    assert s.db.one("SELECT name FROM flight WHERE sha256 = 'aa'")["name"] == "old.ulg"
+    assert s.db.query("SELECT * FROM finding") == []
+    s.close()

@@ -2,7 +2,8 @@
 
 What: :class:`ServeStore` over :mod:`flightlog_fd.database` (one schema, :data:`MIGRATIONS`, for
 both databases). Tables: ``flight`` (one row per uploaded file, keyed by its sha256: the same bytes
-twice are one flight), ``motor_figure`` (its per-motor figures), ``job`` (diagnose / calibrate
+twice are one flight), ``motor_figure`` (its per-motor figures), ``finding`` (every analyzer's
+findings, migration 2), ``job`` (diagnose / calibrate
 work, the queue), ``airframe`` (identity, the operator's name, merges, calibration profile).
 
 Jobs, exactly once: a job is claimed by one conditional statement (``UPDATE job SET state =
@@ -114,6 +115,22 @@ CREATE TABLE job (
 CREATE INDEX job_state ON job (state, id);
 CREATE INDEX job_flight ON job (flight_id)
 """),
+    (2, "findings of every analyzer", """
+CREATE TABLE finding (
+    flight_id   BIGINT NOT NULL REFERENCES flight(id) ON DELETE CASCADE,
+    analyzer    TEXT NOT NULL,     -- the evidence source (model, commands, effectiveness...)
+    motor       INTEGER,
+    name        TEXT NOT NULL,
+    value       {real},
+    unit        TEXT,
+    interval_lo {real},
+    interval_hi {real},
+    baseline    {real},
+    llr         {real},            -- log-likelihood ratio for "this rotor lost thrust", nats
+    text        TEXT
+);
+CREATE INDEX finding_flight ON finding (flight_id)
+"""),
 ]
 
 
@@ -146,6 +163,21 @@ def motor_rows(diagnosis: dict) -> list[dict]:
                     "effectiveness_ci_lo": _num(ci[0]) if len(ci) > 0 else None,
                     "effectiveness_ci_hi": _num(ci[1]) if len(ci) > 1 else None,
                     "model_vote": _num(m.get("model_vote")), "severity": _num(sev)})
+    return out
+
+
+def finding_rows(diagnosis: dict) -> list[tuple]:
+    """(analyzer, motor, name, value, unit, lo, hi, baseline, llr, text) per finding of the
+    report's ``analyzers`` (none for a report without them)."""
+    out = []
+    for an in diagnosis.get("analyzers") or []:
+        for f in (an.get("findings") or []) if isinstance(an, dict) else []:
+            iv = f.get("interval") or [None, None]
+            motor = f.get("motor")
+            out.append((str(f.get("analyzer") or an.get("analyzer") or ""), int(motor) if isinstance(motor, int) else None,
+                        str(f.get("name") or ""), _num(f.get("value")), f.get("unit"),
+                        _num(iv[0]) if len(iv) > 0 else None, _num(iv[1]) if len(iv) > 1 else None,
+                        _num(f.get("baseline")), _num(f.get("llr")), f.get("text")))
     return out
 
 
@@ -323,6 +355,10 @@ class ServeStore:
             cols = ("flight_id", "motor") + MOTOR_COLUMNS
             db.run_many(f"INSERT INTO motor_figure ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
                         [(job["flight_id"], m["motor"], *(m[c] for c in MOTOR_COLUMNS)) for m in motors])
+            db.run("DELETE FROM finding WHERE flight_id = ?", (job["flight_id"],))
+            db.run_many("INSERT INTO finding (flight_id, analyzer, motor, name, value, unit, interval_lo, interval_hi, "
+                        "baseline, llr, text) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                        [(job["flight_id"], *f) for f in finding_rows(doc)])
             return True
 
         return db.transaction(tx, "store the diagnosis")
