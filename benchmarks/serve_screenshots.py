@@ -78,6 +78,7 @@ def main() -> None:
 
     work = Path(tempfile.mkdtemp(prefix="fdlog-shots-"))
     logs = demo_history(work)
+    n_samples = sum(1 for p in (ROOT / "sample_logs").iterdir() if p.suffix in (".ulg", ".bin"))
     (work / "tokens").write_text(TOKEN + "\n")
     port = free_port()
     base = f"http://127.0.0.1:{port}"
@@ -93,7 +94,7 @@ def main() -> None:
         while time.monotonic() < end:
             try:
                 jobs = get_json(base + "/api/health")["jobs"]
-                if jobs["queued"] == 0 and jobs["running"] == 0 and jobs["done"] + jobs["error"] >= len(logs) + 10:
+                if jobs["queued"] == 0 and jobs["running"] == 0 and jobs["done"] + jobs["error"] >= len(logs) + n_samples:
                     break
             except OSError:
                 pass
