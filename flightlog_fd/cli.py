@@ -341,6 +341,74 @@ def calibrate(
     console.print(f"use it with: fdlog diagnose --profile {output} LOG", markup=False)
 
 
+@app.command()
+def serve(
+    logs: Optional[List[Path]] = typer.Argument(None, help="Logs or folders to queue at start (e.g. sample_logs/)."),
+    data: Path = typer.Option(Path("fdlog-data"), "--data", help="Data folder: uploaded logs (by content hash), reports, profiles, the default SQLite store."),
+    db: Optional[str] = typer.Option(None, "--db", help="Store: a SQLite file (default DATA/fdlog.sqlite) or postgresql://USER@HOST:PORT/DB."),
+    host: str = typer.Option("127.0.0.1", help="Address to listen on (loopback by default; use HTTPS in front of anything else)."),
+    port: int = typer.Option(8000, min=1, max=65535, help="Port to listen on."),
+    token_file: Optional[Path] = typer.Option(None, "--token-file", help="Accepted tokens, one per line (only their hashes are kept). Without it a random token is made and printed once."),
+    view: str = typer.Option("open", "--view", help="open: anyone who reaches the port may look; token: pages need a token too."),
+    max_upload_mb: float = typer.Option(256.0, "--max-upload-mb", min=0.001, help="Largest accepted log (MB); larger uploads get HTTP 413."),
+    workers: int = typer.Option(1, "--workers", "-j", min=0, help="Logs diagnosed at once (worker processes; 0: only queue)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run jobs on Dask: 'local' or tcp://HOST:8786 (workers must see --data)."),
+    adapt: bool = typer.Option(False, "--adapt/--no-adapt", help="Calibration jobs also adapt the model (needs torch, minutes); default: measure only."),
+) -> None:
+    """Serve the fleet's web page: upload logs, background diagnosis, per-airframe history and drift, calibration.
+
+    Pages at http://HOST:PORT/; API: POST /api/logs (multipart field 'log', Authorization: Bearer TOKEN), GET /api/logs/ID.
+    """
+    try:
+        import fastapi  # noqa: F401
+        import uvicorn
+    except ImportError:
+        _fail("fdlog serve needs the serve extra: pip install 'flightlog-fd[serve]'")
+        raise typer.Exit(EXIT_INVALID)
+    import secrets
+
+    from .serve.app import ServeConfig, create_app, ingest_file
+    from .serve.security import TokenSet
+
+    if view not in ("open", "token"):
+        _fail(f"--view must be open or token, got {view!r}")
+        raise typer.Exit(EXIT_INVALID)
+    err = _console(stderr=True)
+    files, errors = collect_logs(list(logs or []))
+    for e in errors:
+        _fail(e)
+    try:
+        if token_file is not None:
+            tokens = TokenSet.from_file(token_file)
+        else:
+            made = secrets.token_urlsafe(24)
+            tokens = TokenSet([made])
+        cfg = ServeConfig(data_dir=data, tokens=tokens, db=db, view=view, max_upload_bytes=int(max_upload_mb * 1024 * 1024),
+                          workers=workers, scheduler=scheduler, calibrate_adapt=adapt)
+        web = create_app(cfg)
+        if token_file is None:
+            err.print(f"fdlog serve: upload token (shown once, not stored; use --token-file to choose your own): {made}",
+                      markup=False)
+        for f in files:
+            try:
+                fid, created = ingest_file(web.state.store, web.state.data, f)
+            except NotALogError as e:  # one line for it; the others are still served
+                _fail(e)
+                continue
+            err.print(f"fdlog serve: {f} -> flight {fid}{'' if created else ' (already stored)'}", markup=False)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        err.print(f"fdlog serve: listening on {host}: tokens and logs travel in clear unless HTTPS is in front", markup=False)
+    err.print(f"fdlog serve: http://{host}:{port}/  (data {data}, store {web.state.store.db.where})", markup=False)
+    try:
+        uvicorn.run(web, host=host, port=port, log_level="warning")
+    except (OSError, SystemExit) as e:
+        _fail(f"cannot serve on {host}:{port}: {e}")
+        raise typer.Exit(EXIT_INVALID)
+
+
 FORMATS = {"ulog": ".ulg", "dataflash": ".bin"}
 #: eta_torque = eta ** this for simulated flights with ESC telemetry (see simulate_to_files).
 ESC_SAMPLE_TORQUE_EXPONENT = 1.3
