@@ -13,9 +13,10 @@ that takes a Flight for these steps (``features.resample``/``make_windows``,
 ``effectiveness.estimate_effectiveness``, ``hover.hover_segments``) also takes a PreparedFlight;
 given a plain Flight it prepares one for that call only, with the same numbers.
 
-Why: a 600 s high-rate log was resampled, cleaned and filtered three to twenty-five times per
-diagnosis (windows, effectiveness's 24 candidate lags, hover), which made ``diagnose`` 3-6x the
-time to load the log (``benchmarks/bench_diagnose.py``).
+Why: the steps re-derived what another had just made (the effectiveness fit cleaned the motor
+stream and rebuilt the thrust proxy again, the hover finder resampled the flight again), and
+each entry point took a Flight, so nothing could be shared; ``diagnose`` took 4-6x the time to
+load a 600 s log (``benchmarks/bench_diagnose.py``).
 
 Limits: memory grows with the settings asked for (one segment list per setting: a 600 s flight
 at 50 Hz is ~2 MB each).
