@@ -182,13 +182,15 @@ def model_info(model: Any, profile: Any = None) -> ModelInfo:
                      sha256=sha, classes=[str(c) for c in getattr(model, "classes", [])], calibrated=calibrated)
 
 
-def resolve_model(model_path=None, profile: Any = None):
-    """The model to use: an explicit ``--model`` path, else the profile's model, else the shipped one.
+def resolve_model(model_path=None, profile: Any = None, rotor_count: int = 4):
+    """The model to use: an explicit ``--model`` path, else the profile's model, else the shipped one
+    for ``rotor_count`` rotors (diagnose_flight swaps the shipped quad model for the shipped model of
+    the flight's own rotor count, :func:`flightlog_fd.model.model_for_flight`).
 
     A profile's model path is relative to the profile file; a file whose sha256 differs from the
     one the profile recorded is refused (ProfileError: the profile was calibrated for another model).
     """
-    from .model import FaultModel, default_model_path
+    from .model import FaultModel, default_model_path, shipped_model_path
 
     if model_path is not None:
         return FaultModel(model_path)
@@ -196,27 +198,27 @@ def resolve_model(model_path=None, profile: Any = None):
         # Profile.model_path() resolves against the profile's folder and raises ProfileError
         # when the file is missing or its sha256 differs from the one recorded at calibration.
         return FaultModel(profile.model_path(verify=True))
-    return FaultModel(default_model_path())
+    path = shipped_model_path(rotor_count) if rotor_count != 4 else None
+    if rotor_count != 4 and path is None:
+        raise ModelError(None, f"no shipped model for {rotor_count} rotors")
+    return FaultModel(path or default_model_path())
 
 
 def is_shipped_model(model: Any) -> bool:
-    """True when ``model`` is the file shipped with the package (False if none is installed)."""
-    from .model import default_model_path
+    """True when ``model`` is a file shipped with the package, for any rotor count."""
+    from .model import shipped_model_paths
 
     path = getattr(model, "path", None)
-    if not path:
-        return False
-    try:
-        return Path(path).resolve() == Path(default_model_path()).resolve()
-    except FlightLogError:  # ModelError: no shipped model installed, so this one is not it
-        return False
+    return bool(path) and Path(path).resolve() in [p.resolve() for p in shipped_model_paths()]
 
 
 def _check_model_classes(model: Any) -> None:
     classes = list(getattr(model, "classes", []))
     if classes and len(classes) != N_CLASSES:
+        n = getattr(model, "rotor_count", len(classes) - 1)
         raise ModelError(getattr(model, "path", None),
-                         f"model has {len(classes)} classes, fdlog needs {N_CLASSES} (healthy + 4 motors)")
+                         f"model has {len(classes)} classes ({n} rotors); the verdict layer takes {N_CLASSES} "
+                         f"(healthy + 4 motors)")
 
 
 def _not_diagnosable(log: str, reason: str, **kw) -> Diagnosis:
@@ -232,6 +234,9 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     send back from a worker process when many logs are diagnosed in parallel)."""
     from .features import FeatureSpec, make_windows
 
+    from .model import model_for_flight
+
+    model = model_for_flight(model, flight)  # the shipped quad model -> the one for the flight's rotor count
     log = str(flight.path) if flight.path else "<flight>"
     facts = FlightFacts.from_flight(flight)
     warnings = list(flight.warnings)
@@ -265,6 +270,9 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
                                     diagnosability_facts=dict(check.facts), **common)
         probs = np.asarray(model.predict_proba(model.standardise(win.X)), dtype=np.float64)
     except FlightLogError as e:
+        if stops:  # the motor that stopped in the air is still found
+            return Diagnosis(log=log, verdict=stopped_verdict(stops, flight.frame), stopped=stops,
+                             diagnosability_facts=dict(check.facts), **common)
         return _not_diagnosable(log, e.message, diagnosability_facts=dict(check.facts), **common)
 
     t_start = np.asarray(win.t_start, dtype=np.float64)

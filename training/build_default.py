@@ -89,11 +89,6 @@ DEFAULT_OUT = Path(__file__).resolve().parents[1] / "models" / "default.onnx"
 FRAMES_BY_ROTORS = {4: None, 6: ("hexa_x", "hexa_plus"), 8: ("octo_x", "octo_plus", "octaquad_x")}
 
 
-def classes_for(n_motors: int) -> list[str]:
-    """Output classes of an n-rotor model: healthy, motor1 .. motorn."""
-    return ["healthy"] + [f"motor{k}" for k in range(1, n_motors + 1)]
-
-
 def airframes_for(n_motors: int):
     """``airframes`` argument of simulate_windows for an n-rotor model (None for the quad)."""
     frames = FRAMES_BY_ROTORS[n_motors]
@@ -170,6 +165,7 @@ def main(argv=None) -> None:
     from flightlog_fd.training.train import evaluate, train_dcnn
     import torch
 
+    from flightlog_fd.model import classes_for
     from flightlog_fd.models import model_for_rotors
 
     n_rot = args.rotors
