@@ -155,6 +155,9 @@ def main(argv=None) -> None:
     ap.add_argument("--rotors", type=int, default=4, choices=sorted(FRAMES_BY_ROTORS),
                     help="rotor count of the model (4 quad, 6 hexa, 8 octo)")
     ap.add_argument("--max-train-seconds", type=float, default=None, help="stop training after this long")
+    ap.add_argument("--init", type=Path, default=None,
+                    help="continue training from these torch weights (a .pt this script wrote, same rotor count)")
+    ap.add_argument("--prior-epochs", type=int, default=0, help="epochs the --init weights were trained for (recorded)")
     ap.add_argument("--out", type=Path, default=None, help="default: the shipped model for the rotor count")
     ap.add_argument("--cache", type=Path, default=None, help="npz cache of the simulated training windows")
     args = ap.parse_args(argv)
@@ -188,7 +191,9 @@ def main(argv=None) -> None:
           flush=True)
     spec.fit(train.X)
     t1 = time.time()
+    init_state = torch.load(args.init) if args.init is not None else None
     res = train_dcnn(spec.normalise(train.X), train.y, None, config=DCNNConfig(in_channels=len(spec.channels), n_classes=n_rot + 1),
+                     init_state=init_state,
                      max_epochs=args.epochs, seed=args.seed, max_seconds=args.max_train_seconds,
                      progress=lambda e: print(f"epoch {e.epoch} loss {e.loss:.4f} ({time.time() - t1:.0f} s)",
                                               flush=True))
@@ -207,7 +212,8 @@ def main(argv=None) -> None:
                 f"logging {list(TRAIN_PROFILES)}), "
                 f"{len(train)} NIF windows; no real data",
         "class_counts": np.bincount(train.y, minlength=n_rot + 1).tolist(),
-        "epochs": len(res.history), "best_epoch": res.best_epoch, "best_loss": res.best_loss,
+        "epochs": len(res.history) + args.prior_epochs, "best_epoch": res.best_epoch + args.prior_epochs,
+        "best_loss": res.best_loss,
         "seed": args.seed, "lam": 0.0, "domain_adaptation": False,
         "sim_test": {"flights": args.test_flights, "windows": len(test), "window_accuracy": sim_acc,
                      "confusion": np.asarray(sim_conf).tolist(), **flight_majority(res.model, spec, test)},
@@ -215,7 +221,8 @@ def main(argv=None) -> None:
         "targets": targets,
         "command": "python -m flightlog_fd.training.build_default " + " ".join(
             f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items()
-            if k not in ("out", "cache") and not (k == "rotors" and v == 4) and v is not None),
+            if k not in ("out", "cache", "init") and not (k == "rotors" and v == 4) and v is not None
+            and not (k == "prior_epochs" and v == 0)),
         "train_seconds": round(time.time() - t0, 1),
     }
     out.parent.mkdir(parents=True, exist_ok=True)
