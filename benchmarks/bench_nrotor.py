@@ -1,10 +1,10 @@
 """The shipped hexa and octo models on simulated hexa-X, hexa-+, octo-X and octaquad-X flights.
 
-    python benchmarks/bench_nrotor.py [--flights 32] [--seed 5000] [--model6 M.onnx] [--model8 M.onnx]
+    python benchmarks/bench_nrotor.py [--flights 96] [--seed 5000] [--model6 M.onnx] [--model8 M.onnx]
 
 Per frame: ``--flights`` random airframes (30 g-5 kg, realistic healthy imbalance and real-log
-noise, as training but other seeds), half healthy and half with one propeller at η uniform in
-ETA_RANGE from take-off, logged half as PX4 default (10 Hz motors) and half as ArduPilot (50 Hz).
+noise, as training but other seeds), each healthy or (even odds) with one propeller at η uniform
+in ETA_RANGE from take-off, logged half as PX4 default (10 Hz motors) and half as ArduPilot (50 Hz).
 Prints, model alone: damaged flights whose window majority is the damaged motor, healthy flights
 whose window majority is a motor (a false alarm of the model alone), and window accuracy; then the
 flight verdict of `diagnose_flight` (shipped model, no profile) where the pipeline gives one for
@@ -37,7 +37,7 @@ def simulate(frame: str, n: int, seed: int, profile: str):
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--flights", type=int, default=32, help="flights per frame (half healthy)")
+    ap.add_argument("--flights", type=int, default=96, help="flights per frame (about half healthy)")
     ap.add_argument("--seed", type=int, default=5000)
     ap.add_argument("--model6", default=None, help="hexa model (default: the shipped one)")
     ap.add_argument("--model8", default=None, help="octo model (default: the shipped one)")

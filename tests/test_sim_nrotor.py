@@ -5,11 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flightlog_fd.features import labels_for_spans, nif_windows
+from flightlog_fd.features import FeatureSpec, labels_for_spans, make_windows
 from flightlog_fd.frames import ardupilot_frame
 from flightlog_fd.sim.airframe import N_ROTOR_FRAMES, preset, random_airframes
 from flightlog_fd.sim.api import simulate_flights
 from flightlog_fd.sim.damage import Damage, random_damages
+
+
+def nif_windows(f, n_motors: int):
+    """NIF windows with n motor channels (features.nif_windows was removed as unused on main)."""
+    return make_windows(f, FeatureSpec(n_motors=n_motors))
 
 
 def _airborne_mean(f, margin_s=3.0):
