@@ -378,7 +378,16 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         if p.exists() and not force:
             raise FlightLogError(p, "already exists (use --force to overwrite)")
     try:
-        af = [preset(airframe, frame)] * count if airframe != "random" else None
+        if airframe != "random":
+            af = [preset(airframe, frame)] * count
+        elif frame is not None:  # random airframes flown as this frame (without --frame: random quads as before)
+            import numpy as np
+
+            from .sim.airframe import random_airframes
+
+            af = random_airframes(count, np.random.default_rng([seed, 3]), frames=(frame,))
+        else:
+            af = None
     except ValueError as e:
         raise FlightLogError(None, str(e)) from None
     damage = Damage(motor, eta if motor else 1.0, onset, rotors=rotors) if motor else Damage()

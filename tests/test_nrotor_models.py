@@ -100,3 +100,12 @@ def test_n_rotor_profile(tmp_path):
 
     with pytest.raises(UnsupportedVehicleError, match="--no-adapt"):
         calibrate([tmp_path / "o.ulg"], tmp_path / "o.json")
+
+
+def test_model_card_quotes_the_n_rotor_figures():
+    root = Path(__file__).resolve().parents[1] / "models"
+    card = (root / "MODEL_CARD.md").read_text()
+    for stem in ("default_hexa", "default_octo"):
+        sim = json.loads((root / f"{stem}.json").read_text())["sim_test"]
+        assert f"{100 * sim['window_accuracy']:.1f} %" in card
+        assert f"{sim['damaged_flights_majority_right']}/{sim['damaged_flights']}" in card

@@ -24,3 +24,4 @@ def test_wheel_has_only_flightlog_fd_at_top(tmp_path):
     # training and the shipped model travel inside the namespace
     assert "flightlog_fd/training/dcnn.py" in names
     assert "flightlog_fd/models/default.onnx" in names
+    assert {"flightlog_fd/models/default_hexa.onnx", "flightlog_fd/models/default_octo.onnx"} <= set(names)

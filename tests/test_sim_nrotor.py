@@ -90,6 +90,12 @@ def test_cli_simulates_a_hexa_and_refuses_what_it_cannot_write(tmp_path):
     assert res.exit_code == 0, res.output
     res = run.invoke(app, ["info", "--json", str(out)])
     assert '"name": "hexa"' in res.stdout and '"layout": "PX4 control allocation"' in res.stdout
+    rnd = tmp_path / "r.bin"  # a random airframe flown as an octaquad, written as DataFlash
+    res = run.invoke(app, ["simulate", "-o", str(rnd), "-f", "dataflash", "--airframe", "random", "--frame",
+                           "octaquad_x", "--duration", "15", "--seed", "3"])
+    assert res.exit_code == 0, res.output
+    res = run.invoke(app, ["info", "--json", str(rnd)])
+    assert '"layout": "ArduPilot OCTAQUAD/X"' in res.stdout
     for args, words in ((["--frame", "octo_x", "--motor", "9"], "1..8"),
                         (["--frame", "hexa_x", "--rho", "1,1,1,1"], "needs 6 values"),
                         (["--frame", "hexa_v"], "--frame must be one of")):
