@@ -8,8 +8,8 @@ without a profile; px4_sih_dev calibrated on sih_004 and without a profile. Rows
 adapted (or shipped) model alone (majority of its windows' argmax), the fused verdict
 (`fdlog diagnose`), and the motor-balance rule (training/peer_rule.py, offsets from the
 calibration flight). Cells count healthy / uncertain / damaged (motor named) per group.
-``--profiles DIR`` reuses profiles calibrated before (rrc_g1.json, rrc_g12.json, cp00.json,
-sih004.json) instead of calibrating (about a minute each).
+``--profiles DIR`` reuses the profiles calibrated there before (rrc_g1.json, rrc_g12.json,
+cp00.json, sih004.json) and writes there the ones it has to calibrate (about a minute each).
 
 Simulated part: random airframes with realistic imbalance, a healthy flight and a damaged flight
 (eta in 0.6-0.9) of each, at the px4_high, ardupilot and px4_default (10 Hz motor) logging
@@ -75,7 +75,7 @@ def _profile(name: str, logs: list[Path], profiles: Path | None, tmp: Path):
 
     if profiles is not None and (profiles / f"{name}.json").exists():
         return Profile.load(profiles / f"{name}.json")
-    out = tmp / f"{name}.json"
+    out = (profiles if profiles is not None else tmp) / f"{name}.json"
     t0 = time.perf_counter()
     calibrate(logs, out)
     print(f"  calibrated {name} on {', '.join(p.name for p in logs)} in {time.perf_counter() - t0:.0f} s", flush=True)
@@ -143,7 +143,7 @@ def real_part(args) -> None:
                 eta = f" eta-hat {m.eta_hat:.2f} [{m.eta_ci[0]:.2f}-{m.eta_ci[1]:.2f}]"
             detail.append(f"    {name}: {v.status}{' motor ' + str(v.motor) if v.motor else ''}{eta}")
             if pname is None and d.windows:
-                from flightlog_fd.decision import PROB_FLOOR_MIX
+                from flightlog_fd.analyzers.model_votes import PROB_FLOOR_MIX
 
                 pr = np.array([w.probabilities for w in d.windows])
                 q = (1 - PROB_FLOOR_MIX) * pr + PROB_FLOOR_MIX / pr.shape[1]

@@ -206,6 +206,9 @@ def describe_flight(flight: Flight, spec: dict | None = None) -> dict:
              "source": f.source}
             for f in diagnose_stopped(flight)
         ],
+        # ESC gaps counted within the armed time (telemetry before arming is not expected)
+        "esc": None if flight.esc is None else flight.esc.describe(
+            *((flight.armed[0][0], flight.armed[-1][1]) if flight.armed else (None, None))),
         "diagnosable": d.ok,
         "reasons": d.reasons,
         "warnings": list(flight.warnings),

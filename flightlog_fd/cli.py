@@ -241,7 +241,8 @@ def history(
 
     Exit code: 0 nothing flagged, 1 a drifting motor or a damaged verdict in an airframe's latest flight, 2 bad input.
     """
-    from .store import history_summary, iter_text_lines, load_history, render_html, summary_json
+    from .history import history_summary, iter_text_lines, render_html, summary_json
+    from .store import load_history
 
     if html_out is not None and html_out.exists() and not force:
         _fail(f"{html_out}: already exists (use --force to overwrite)")
@@ -305,7 +306,12 @@ def calibrate(
 
             if output.exists() and not force:
                 raise FlightLogError(output, "already exists (use --force to overwrite)")
-            profile = calibrate_profile(files)
+            from . import load_flight
+            from .model import FaultModel, default_model_path
+
+            calib_flights = [load_flight(f) for f in files]
+            profile = calibrate_profile(calib_flights)
+            profile.fit_analyzers(calib_flights, FaultModel(default_model_path()))
             profile.save(output, overwrite=force)
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -335,14 +341,89 @@ def calibrate(
     console.print(f"use it with: fdlog diagnose --profile {output} LOG", markup=False)
 
 
+@app.command()
+def serve(
+    logs: Optional[List[Path]] = typer.Argument(None, help="Logs or folders to queue at start (e.g. sample_logs/)."),
+    data: Path = typer.Option(Path("fdlog-data"), "--data", help="Data folder: uploaded logs (by content hash), reports, profiles, the default SQLite store."),
+    db: Optional[str] = typer.Option(None, "--db", help="Store: a SQLite file (default DATA/fdlog.sqlite) or postgresql://USER@HOST:PORT/DB."),
+    host: str = typer.Option("127.0.0.1", help="Address to listen on (loopback by default; use HTTPS in front of anything else)."),
+    port: int = typer.Option(8000, min=1, max=65535, help="Port to listen on."),
+    token_file: Optional[Path] = typer.Option(None, "--token-file", help="Accepted tokens, one per line (only their hashes are kept). Without it a random token is made and printed once."),
+    view: str = typer.Option("open", "--view", help="open: anyone who reaches the port may look; token: pages need a token too."),
+    max_upload_mb: float = typer.Option(256.0, "--max-upload-mb", min=0.001, help="Largest accepted log (MB); larger uploads get HTTP 413."),
+    workers: int = typer.Option(1, "--workers", "-j", min=0, help="Logs diagnosed at once (worker processes; 0: only queue)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run jobs on Dask: 'local' or tcp://HOST:8786 (workers must see --data)."),
+    adapt: bool = typer.Option(False, "--adapt/--no-adapt", help="Calibration jobs also adapt the model (needs torch, minutes); default: measure only."),
+) -> None:
+    """Serve the fleet's web page: upload logs, background diagnosis, per-airframe history and drift, calibration.
+
+    Pages at http://HOST:PORT/; API: POST /api/logs (multipart field 'log', Authorization: Bearer TOKEN), GET /api/logs/ID.
+    """
+    try:
+        import fastapi  # noqa: F401
+        import uvicorn
+    except ImportError:
+        _fail("fdlog serve needs the serve extra: pip install 'flightlog-fd[serve]'")
+        raise typer.Exit(EXIT_INVALID)
+    import secrets
+
+    from .serve.app import ServeConfig, create_app, ingest_file
+    from .serve.security import TokenSet
+
+    if view not in ("open", "token"):
+        _fail(f"--view must be open or token, got {view!r}")
+        raise typer.Exit(EXIT_INVALID)
+    err = _console(stderr=True)
+    files, errors = collect_logs(list(logs or []))
+    for e in errors:
+        _fail(e)
+    try:
+        if token_file is not None:
+            tokens = TokenSet.from_file(token_file)
+        else:
+            made = secrets.token_urlsafe(24)
+            tokens = TokenSet([made])
+        cfg = ServeConfig(data_dir=data, tokens=tokens, db=db, view=view, max_upload_bytes=int(max_upload_mb * 1024 * 1024),
+                          workers=workers, scheduler=scheduler, calibrate_adapt=adapt)
+        web = create_app(cfg)
+        if token_file is None:
+            err.print(f"fdlog serve: upload token (shown once, not stored; use --token-file to choose your own): {made}",
+                      markup=False)
+        for f in files:
+            try:
+                fid, created = ingest_file(web.state.store, web.state.data, f)
+            except NotALogError as e:  # one line for it; the others are still served
+                _fail(e)
+                continue
+            err.print(f"fdlog serve: {f} -> flight {fid}{'' if created else ' (already stored)'}", markup=False)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        err.print(f"fdlog serve: listening on {host}: tokens and logs travel in clear unless HTTPS is in front", markup=False)
+    err.print(f"fdlog serve: http://{host}:{port}/  (data {data}, store {web.state.store.db.where})", markup=False)
+    try:
+        uvicorn.run(web, host=host, port=port, log_level="warning")
+    except (OSError, SystemExit) as e:
+        _fail(f"cannot serve on {host}:{port}: {e}")
+        raise typer.Exit(EXIT_INVALID)
+
+
 FORMATS = {"ulog": ".ulg", "dataflash": ".bin"}
+#: eta_torque = eta ** this for simulated flights with ESC telemetry (see simulate_to_files).
+ESC_SAMPLE_TORQUE_EXPONENT = 1.3
 
 
 def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe: str = "x500",
                       frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
                       duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
-                      rho: Optional[list[float]] = None, seed: int = 0, force: bool = False) -> list[tuple[Path, dict]]:
+                      rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
+                      esc_rate: Optional[float] = None) -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
+
+    ``esc_rate`` (Hz): add ESC telemetry (rpm, current, voltage, temperature per motor) at that
+    rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
+    loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py).
 
     ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
     Existing files are never overwritten unless ``force``.
@@ -390,9 +471,15 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
             af = None
     except ValueError as e:
         raise FlightLogError(None, str(e)) from None
-    damage = Damage(motor, eta if motor else 1.0, onset, rotors=rotors) if motor else Damage()
+    if esc_rate is not None and not 10.0 <= esc_rate <= 100.0:
+        raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
+    # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
+    # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
+    eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
+    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
     flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
-                               duration_s=duration, profile=profile_name, rho=rho, seed=seed)
+                               duration_s=duration, profile=profile_name, rho=rho, seed=seed,
+                               esc=esc_rate, imbalance="random" if esc_rate else None)
     if count > 1:
         out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -430,6 +517,9 @@ def simulate(
     count: int = typer.Option(1, min=1, help="Number of flights (written into the --output folder)."),
     seed: int = typer.Option(0, help="Random seed: the same seed gives the same flight."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
+    esc_rate: Optional[float] = typer.Option(None, "--esc-rate", help="Add ESC telemetry (rpm, current, voltage, "
+                                             "temperature per motor) at this rate, 10-100 Hz, on a realistically "
+                                             "unbalanced airframe."),
 ) -> None:
     """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
     rho_list = None
@@ -444,7 +534,7 @@ def simulate(
     try:
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
                                     onset=onset, duration=duration, mission=mission, log_profile=log_profile,
-                                    rho=rho_list, seed=seed, force=force)
+                                    rho=rho_list, seed=seed, force=force, esc_rate=esc_rate)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)

@@ -212,13 +212,12 @@ def is_shipped_model(model: Any) -> bool:
     return bool(path) and Path(path).resolve() in [p.resolve() for p in shipped_model_paths()]
 
 
-def _check_model_classes(model: Any) -> None:
+def _check_model_classes(model: Any, n_motors: int = N_CLASSES - 1) -> None:
     classes = list(getattr(model, "classes", []))
-    if classes and len(classes) != N_CLASSES:
-        n = getattr(model, "rotor_count", len(classes) - 1)
+    if classes and len(classes) != n_motors + 1:
         raise ModelError(getattr(model, "path", None),
-                         f"model has {len(classes)} classes ({n} rotors); the verdict layer takes {N_CLASSES} "
-                         f"(healthy + 4 motors)")
+                         f"model has {len(classes)} classes, this {n_motors}-rotor flight needs {n_motors + 1} "
+                         f"(healthy + {n_motors} motors)")
 
 
 def _not_diagnosable(log: str, reason: str, **kw) -> Diagnosis:
@@ -256,7 +255,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     if profile is None:  # only worth saying when a verdict follows
         warnings.append(NO_PROFILE_WARNING if is_shipped_model(model) else NO_PROFILE_OWN_MODEL_WARNING)
     try:
-        _check_model_classes(model)
+        _check_model_classes(model, flight.frame.rotor_count if flight.frame is not None else N_CLASSES - 1)
         if profile is not None:
             # Raises ProfileError for another airframe; returns softer mismatches (vehicle id, firmware).
             warnings.extend(profile.check_compatible(flight) or [])
@@ -282,7 +281,9 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     run = model_verdict.evidence.run if model_verdict.evidence is not None else None
     onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
     evidence = flight_evidence(flight, win, probs, profile, since=onset)
-    verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame)
+    verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame, flight=flight,
+                                       profile=profile, segments=win.segments,
+                                       model_sha256=str(getattr(model, "sha256", "") or ""))
     if stops:  # a motor that stopped in the air outranks any propeller verdict
         verdict = stopped_verdict(stops, flight.frame, verdict)
     order = np.argsort(t_start, kind="stable")

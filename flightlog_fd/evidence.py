@@ -37,7 +37,7 @@ import numpy as np
 
 from .effectiveness import EffectivenessEstimate
 from .features import DEFAULT_RATE_HZ
-from .decision import EFFECTIVENESS_SANE_MIN, effectiveness_usable
+from .analyzers.effectiveness import EFFECTIVENESS_SANE_MIN, effectiveness_usable
 from .flight import Frame
 
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
@@ -57,11 +57,11 @@ class Baseline:
     flights did not span enough throttle.
     """
 
-    share: np.ndarray  # (4,)
-    slope: np.ndarray  # (4,) per unit throttle
+    share: np.ndarray  # (n,)
+    slope: np.ndarray  # (n,) per unit throttle
     throttle_ref: float
     source: str = ""
-    #: (4,) each motor's flight-to-flight share spread when calibrated on >= 2 flights, else None
+    #: (n,) each motor's flight-to-flight share spread when calibrated on >= 2 flights, else None
     spread: Optional[np.ndarray] = None
     #: relative flight-to-flight throttle spread (>= 2 flights), else None
     throttle_spread: Optional[float] = None
@@ -149,20 +149,22 @@ class FlightEvidence:
         return f"runs {100 * m.command_change:+.0f} % command share against its neighbours"
 
 
-def _spins(frame: Optional[Frame]) -> np.ndarray:
-    frame = frame if frame is not None and frame.is_quad else Frame.quad_x()
+def _spins(frame: Optional[Frame], n: int = 4) -> np.ndarray:
+    """(n,) rotor spins of ``frame`` (quad X's when the frame does not have n rotors)."""
+    frame = frame if frame is not None and frame.rotor_count == n else Frame.quad_x()
     return np.array([float(r.spin) for r in frame.rotors])
 
 
 def single_motor_fit(change: np.ndarray, spins: np.ndarray) -> tuple[int, float, float]:
-    """Explain a share change (4,) as one motor k rising by ``a`` (the others falling by a/4 each,
+    """Explain a share change (n,) as one motor k rising by ``a`` (the others falling by a/n each,
     after normalisation) plus a yaw re-trim ``b`` along the rotor spins; returns the best k
     (1-based, smallest residual among rising fits), its ``a`` and the residual's L2 norm."""
     c = np.nan_to_num(np.asarray(change, dtype=np.float64))
+    n = len(c)
     y = spins - spins.mean()
     best = (1, 0.0, float("inf"))
-    for k in range(4):
-        v = -0.25 * np.ones(4)
+    for k in range(n):
+        v = -np.ones(n) / n
         v[k] += 1.0
         A = np.stack([v, y], axis=1)
         coef, *_ = np.linalg.lstsq(A, c, rcond=None)
@@ -175,15 +177,16 @@ def single_motor_fit(change: np.ndarray, spins: np.ndarray) -> tuple[int, float,
 
 
 def command_shares(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
-    """(4,) mean thrust-command shares (mean 1) over the (n, 4) blocks of the thrust proxy
+    """(n,) mean thrust-command shares (mean 1) over the (samples, n) blocks of the thrust proxy
     (e.g. each segment's ``w_sq``), and the mean thrust command (throttle)."""
     blocks = [np.asarray(b, dtype=np.float64) for b in thrust_blocks if len(b)]
-    u = np.vstack(blocks) if blocks else np.zeros((0, 4))
+    width = next((np.asarray(b).shape[1] for b in thrust_blocks if np.ndim(b) == 2), 4)
+    u = np.vstack(blocks) if blocks else np.zeros((0, width))
     if u.shape[0] == 0:
-        return np.full(4, np.nan), float("nan")
+        return np.full(width, np.nan), float("nan")
     mean = u.mean(axis=0)
     throttle = float(mean.mean())
-    return (mean / throttle if throttle > 0 else np.full(4, np.nan)), throttle
+    return (mean / throttle if throttle > 0 else np.full(len(mean), np.nan)), throttle
 
 
 def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
@@ -202,30 +205,31 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         drift = _drift(after)
         if baseline is None and sum(len(b) for b in before) / DEFAULT_RATE_HZ >= MIN_BEFORE_ONSET_S:
             pre, pre_thr = command_shares(before)
-            baseline = Baseline(share=pre, slope=np.zeros(4), throttle_ref=pre_thr, source="before onset")
+            baseline = Baseline(share=pre, slope=np.zeros(len(pre)), throttle_ref=pre_thr, source="before onset")
         share, throttle = command_shares(after)
     else:
         share, throttle = command_shares([s.w_sq for s in segments])
     probs = np.asarray(probs, dtype=np.float64)
-    votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(4)
+    n = len(share)
+    votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(n)
     notes: list[str] = []
     if baseline is not None:
         base = baseline.share_at(throttle)
         change = share - base
         kind = "before onset" if baseline.source == "before onset" else "profile"
-        top, gap, _ = single_motor_fit(change, _spins(frame))
+        top, gap, _ = single_motor_fit(change, _spins(frame, len(change)))
     else:
         base = None
-        change = np.array([share[i] - np.delete(share, i).mean() for i in range(4)])
+        change = np.array([share[i] - np.delete(share, i).mean() for i in range(n)])
         kind = "neighbours"
         order = np.argsort(-np.nan_to_num(change, nan=-np.inf))
         top = int(order[0]) + 1
         gap = float(change[order[0]] - change[order[1]]) if np.all(np.isfinite(change)) else 0.0
 
     motors = []
-    for i in range(4):
+    for i in range(n):
         eff = ci = None
-        if effectiveness is not None and effectiveness.motors:
+        if effectiveness is not None and len(effectiveness.motors) == n:
             me = effectiveness.motors[i]
             eff, ci = me.effectiveness, me.ci
         motors.append(MotorEvidence(
@@ -243,9 +247,11 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
 
 
 def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
-    """(4,) change of each motor's share from the first to the last third of the samples in
+    """(n,) change of each motor's share from the first to the last third of the samples in
     ``blocks`` (time order): ~0 after a step (a propeller breaks once), large for a steady rise."""
-    u = np.vstack([np.asarray(b, float) for b in blocks if len(b)]) if any(len(b) for b in blocks) else np.zeros((0, 4))
+    if not any(len(b) for b in blocks):
+        return None
+    u = np.vstack([np.asarray(b, float) for b in blocks if len(b)])
     if len(u) < 3 * DEFAULT_RATE_HZ:  # under 3 s after the onset: nothing to compare
         return None
     n = len(u) // 3

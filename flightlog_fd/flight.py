@@ -192,6 +192,142 @@ class StreamInfo:
     samples: int
 
 
+#: ESC telemetry: a pause between two fresh samples of one ESC longer than this many of its
+#: median sample intervals is a telemetry gap (3: a 10 Hz stream that misses two reports)...
+ESC_GAP_INTERVALS = 3.0
+#: ...and never shorter than this (s), so jitter on a 100 Hz stream is not a gap.
+ESC_GAP_MIN_S = 0.25
+#: The quantities an ESC channel may carry and their units (what every reader converts to).
+ESC_QUANTITIES = {"rpm": "rpm", "current": "A", "voltage": "V", "temperature": "degC"}
+
+
+@dataclass
+class EscChannel:
+    """Telemetry of the ESC driving one motor, on its own clock samples (never resampled).
+
+    ``motor``: 1-based, the autopilot's motor numbering. ``t`` (n,) s. ``rpm``, ``current``
+    (A), ``voltage`` (V), ``temperature`` (°C): (n,) float64, NaN where the log has no value,
+    ``None`` when the log has no such field. ``online`` (n,) bool: the ESC reported fresh data at
+    that sample (False: offline flag cleared or a stale repeat of the previous report); readers
+    keep those samples so that gaps stay visible. ``esc_index``: the ESC's own index in the log
+    (ArduPilot ``Instance`` / ``ESCn`` - 1, PX4 ``esc[]`` slot)."""
+
+    motor: int
+    t: np.ndarray
+    rpm: np.ndarray
+    current: Optional[np.ndarray] = None
+    voltage: Optional[np.ndarray] = None
+    temperature: Optional[np.ndarray] = None
+    online: Optional[np.ndarray] = None
+    esc_index: int = -1
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=np.float64).reshape(-1)
+        n = self.t.shape[0]
+        for name in ("rpm", "current", "voltage", "temperature"):
+            v = getattr(self, name)
+            if v is not None:
+                v = np.asarray(v, dtype=np.float64).reshape(-1)
+                if v.shape[0] != n:
+                    raise ValueError(f"EscChannel motor {self.motor}: {n} times but {v.shape[0]} {name} values")
+                setattr(self, name, v)
+        self.online = np.ones(n, dtype=bool) if self.online is None else np.asarray(self.online, dtype=bool).reshape(-1)
+        if self.online.shape[0] != n:
+            raise ValueError(f"EscChannel motor {self.motor}: {n} times but {self.online.shape[0]} online flags")
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def quantity(self, name: str) -> Optional[np.ndarray]:
+        """``rpm`` / ``current`` / ``voltage`` / ``temperature`` values (None when absent)."""
+        if name not in ESC_QUANTITIES:
+            raise KeyError(f"unknown ESC quantity {name!r}; known: {sorted(ESC_QUANTITIES)}")
+        return getattr(self, name)
+
+    def fresh(self) -> np.ndarray:
+        """Mask of the samples that carry a fresh, finite RPM from an online ESC."""
+        return self.online & np.isfinite(self.rpm)
+
+    @property
+    def rate_hz(self) -> float:
+        """Median rate (Hz) of the fresh samples (0 with fewer than two)."""
+        t = self.t[self.fresh()]
+        d = np.diff(t)
+        d = d[d > 0]
+        return float(1.0 / np.median(d)) if d.size else 0.0
+
+    def gap_threshold_s(self) -> float:
+        r = self.rate_hz
+        return max(ESC_GAP_MIN_S, ESC_GAP_INTERVALS / r) if r > 0 else ESC_GAP_MIN_S
+
+    def gaps(self, t0: Optional[float] = None, t1: Optional[float] = None) -> list[tuple[float, float]]:
+        """Intervals without fresh telemetry longer than :meth:`gap_threshold_s`: between fresh
+        samples, and (when given) from ``t0`` to the first / from the last to ``t1``."""
+        t = self.t[self.fresh()]
+        thr = self.gap_threshold_s()
+        if t.size == 0:
+            return [(float(t0), float(t1))] if t0 is not None and t1 is not None and t1 > t0 else []
+        edges = np.concatenate([[t0] if t0 is not None else [], t, [t1] if t1 is not None else []]).astype(float)
+        d = np.diff(edges)
+        return [(float(edges[i]), float(edges[i + 1])) for i in np.flatnonzero(d > thr)]
+
+    def series(self, name: str = "rpm") -> Series:
+        """The fresh samples of one quantity as a Series (n, 1), e.g. for plotting."""
+        v = self.quantity(name)
+        m = self.fresh() & (np.isfinite(v) if v is not None else False)
+        return Series(self.t[m], v[m] if v is not None else np.zeros(0), f"{self.source} ({name})")
+
+
+@dataclass
+class EscTelemetry:
+    """Per-motor ESC telemetry of a flight (see :class:`EscChannel`); ``channels`` sorted by motor,
+    at most one per motor; motors whose ESC never reported have no channel. ``source`` names the
+    log messages and their generation; ``units`` how each quantity was converted to
+    :data:`ESC_QUANTITIES` (e.g. ``{"rpm": "RPM x1000 (ESCn logs rpm/10 in a centi field)"}``)."""
+
+    channels: list[EscChannel] = field(default_factory=list)
+    source: str = ""
+    units: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.channels = sorted(self.channels, key=lambda c: c.motor)
+        motors = [c.motor for c in self.channels]
+        if len(set(motors)) != len(motors):
+            raise ValueError(f"EscTelemetry: more than one channel for a motor ({motors})")
+
+    @property
+    def motors(self) -> list[int]:
+        return [c.motor for c in self.channels]
+
+    def channel(self, motor: int) -> Optional[EscChannel]:
+        """The channel of 1-based ``motor`` or None."""
+        for c in self.channels:
+            if c.motor == motor:
+                return c
+        return None
+
+    def quantities(self) -> list[str]:
+        """Quantities that at least one channel carries with a finite value."""
+        out = []
+        for q in ESC_QUANTITIES:
+            if any((v := c.quantity(q)) is not None and np.isfinite(v).any() for c in self.channels):
+                out.append(q)
+        return out
+
+    def describe(self, t0: Optional[float] = None, t1: Optional[float] = None) -> dict:
+        """JSON-safe summary for `fdlog info`: per motor its rate, samples, offline share and gaps."""
+        out = {"source": self.source, "units": dict(self.units), "quantities": self.quantities(), "motors": []}
+        for c in self.channels:
+            gaps = c.gaps(t0, t1)
+            out["motors"].append({
+                "motor": c.motor, "esc_index": c.esc_index, "rate_hz": round(c.rate_hz, 2), "samples": len(c),
+                "offline_samples": int(np.count_nonzero(~c.online)),
+                "gaps": [[round(a, 3), round(b, 3)] for a, b in gaps],
+                "gap_s": round(float(sum(b - a for a, b in gaps)), 3)})
+        return out
+
+
 #: The Flight's own time-series fields (``alt_motors`` holds more), in the order `fdlog info` lists them.
 SERIES_FIELDS = ("rates", "attitude", "motors", "esc_rpm", "velocity", "accel")
 
@@ -221,6 +357,8 @@ class Flight:
     motor_kind: str = "thrust"  # "thrust" | "signal" (see module docstring)
     thrust_curve: Optional[float] = None  # THR_MDL_FAC (PX4) or MOT_THST_EXPO (ArduPilot)
     esc_rpm: Optional[Series] = None  # (n, rotor_count) rpm
+    # per-motor ESC telemetry (rpm, A, V, degC) on each ESC's own samples, gaps kept (EscTelemetry)
+    esc: Optional[EscTelemetry] = None
     velocity: Optional[Series] = None  # (n, 3) NED m/s where the log has it (hover detection)
     accel: Optional[Series] = None  # (n, 3) accelerometer, body specific force m/s² FRD (effectiveness.py)
     alt_motors: dict[str, Series] = field(default_factory=dict)  # other motor sources, e.g. {"RCOU": ...}
@@ -366,4 +504,25 @@ def sanitise_flight(flight: "Flight") -> "Flight":
     for attr in ("armed", "airborne"):
         clipped = [(max(float(a), flight.t_start), min(float(b), flight.t_end)) for a, b in getattr(flight, attr)]
         setattr(flight, attr, [(a, b) for a, b in clipped if b > a])
+    _sanitise_esc(flight)
     return flight
+
+
+def _sanitise_esc(flight: "Flight") -> None:
+    """The timestamp checks on each ESC channel, plus: no ESC sample further than
+    ``MAX_SAMPLE_GAP_S`` outside [t_start, t_end] (the other streams fixed that span)."""
+    if flight.esc is None:
+        return
+    kept = []
+    for c in flight.esc.channels:
+        bad = implausible_times(c.t)
+        bad |= (c.t < flight.t_start - MAX_SAMPLE_GAP_S) | (c.t > flight.t_end + MAX_SAMPLE_GAP_S)
+        if bad.any():
+            flight.warnings.append(describe_dropped(f"esc motor {c.motor} ({c.source})", c.t, bad))
+            keep = ~bad
+            c = EscChannel(c.motor, c.t[keep], c.rpm[keep],
+                           *(None if v is None else v[keep] for v in (c.current, c.voltage, c.temperature)),
+                           online=c.online[keep], esc_index=c.esc_index, source=c.source)
+        if len(c):
+            kept.append(c)
+    flight.esc = EscTelemetry(kept, flight.esc.source, flight.esc.units) if kept else None

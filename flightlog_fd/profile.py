@@ -83,7 +83,8 @@ _SHA256_RE = re.compile(r"^[0-9a-f]{64}$")
 _REQUIRED_KEYS = ("schema", "autopilot", "frame", "rotor_count", "rho_", "rho_spread_", "hover_throttle_",
                   "feature_spec")
 _OPTIONAL_KEYS = ("firmware", "vehicle_id", "hover_s_", "n_hover_segments_", "n_windows_", "stream_rates",
-                  "source_logs", "created", "tool_version", "model", "extra", "rho_source_", "baseline_")
+                  "source_logs", "created", "tool_version", "model", "extra", "rho_source_", "baseline_",
+                  "analyzers")
 
 PathLike = Union[str, os.PathLike]
 
@@ -230,6 +231,8 @@ class Profile:
     extra: dict = field(default_factory=dict)
     rho_source_: str = "hover"
     baseline_: Optional[dict] = None
+    #: Each analyzer's healthy baseline from the calibration flights ({analyzer id: dict}).
+    analyzers: dict = field(default_factory=dict)
     schema: int = PROFILE_SCHEMA
     path: Optional[str] = field(default=None, repr=False, compare=False)  # where it was loaded/saved
 
@@ -266,7 +269,15 @@ class Profile:
             "extra": self.extra,
             "rho_source_": self.rho_source_,
             "baseline_": self.baseline_,
+            "analyzers": self.analyzers,
         }
+
+    def fit_analyzers(self, flights, model) -> None:
+        """Fit every registered analyzer's healthy baseline on the calibration ``flights`` with
+        the profile's ``model`` (the adapted one, or the shipped one with --no-adapt)."""
+        from .analyzers import fit_baselines
+
+        self.analyzers = fit_baselines(flights, model)
 
     def baseline(self):
         """The healthy command-share baseline (:class:`~flightlog_fd.evidence.Baseline`); a
@@ -339,6 +350,9 @@ class Profile:
                                                  for x in logs):
             raise bad('source_logs must be a list of {"name": ..., "sha256": ...}')
         rates = d.get("stream_rates", {})
+        an = d.get("analyzers", {})
+        if not isinstance(an, dict) or not all(isinstance(v, dict) for v in an.values()):
+            raise bad("analyzers must map analyzer ids to objects")
         if not isinstance(rates, dict) or not all(_is_number(v) for v in rates.values()):
             raise bad("stream_rates must map stream names to rates in Hz")
         base = d.get("baseline_")

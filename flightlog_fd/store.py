@@ -2,9 +2,9 @@
 
 ``fdlog diagnose LOGS --db results.sqlite`` calls :meth:`ResultStore.add` for each log as its
 result arrives (in the client process, also for Dask batches); ``fdlog history --db`` reads it
-back (:func:`load_history`, :func:`find_drift`, :func:`render_html`). Standard library ``sqlite3``.
+back (:func:`load_history`; :mod:`flightlog_fd.drift`, :mod:`flightlog_fd.history`). Standard library ``sqlite3``.
 
-Schema (``SCHEMA_VERSION`` 1; kept in ``PRAGMA user_version`` and in the ``schema_version``
+Schema (``SCHEMA_VERSION`` 2; kept in ``PRAGMA user_version`` and in the ``schema_version``
 table, which also marks the file as an fdlog store): :data:`SCHEMA`, the CREATE statements
 with a comment on every column that needs one.
 
@@ -28,25 +28,12 @@ effectiveness, effectiveness_ci, model_vote) when the Diagnosis has them, else w
 computed here: ``model_vote`` = mean over the windows of the model's probability for that motor,
 ``command_share`` from the Flight (:func:`flightlog_fd.batch.command_shares`).
 
-**Drift rule** (:func:`find_drift`), per airframe and figure, over its flights in time order (UTC
-start; flights without GPS time follow, ordered by file name; one row per log, the latest
-diagnosis): for each flight where all four motors have the figure, motor k's robust z-score
-against the other three is ``z = (x_k - median(others)) / max(1.4826 * MAD(others), FLOOR)``.
-A least-squares line of z over the flight index (0, 1, 2...) flags motor k when, with at least
-``MIN_FLIGHTS`` flights, its slope in the figure's damage direction (model vote up, command share
-up: a worn propeller needs more command, effectiveness down) is at least ``DRIFT_SLOPE_MIN`` z
-per flight **and** the latest flight's z in that direction is at least ``DRIFT_Z_MIN``. A steady
-offset (a motor that always needs 2 % more) has no slope and is not flagged. The ``unknown``
-group (logs without identity) is not one airframe: no drift rule there. The floors keep three
-nearly equal neighbours from turning noise into large z: ``FIGURE_FLOORS`` (command share 0.005,
-i.e. half a percent of the total; model vote 0.05; effectiveness 0.02).
-Not yet measured on a real fleet (no multi-flight airframe history in ../shared): the constants
-are set from the simulator's spread and should be revisited on real data.
+**Drift rule and history**: :mod:`flightlog_fd.drift` and :mod:`flightlog_fd.history` read
+what :func:`load_history` returns.
+
 """
 from __future__ import annotations
 
-import html
-import json
 import math
 import random
 import sqlite3
@@ -54,23 +41,18 @@ import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Iterable, Optional
+from typing import Any, Optional
 
 from .errors import FlightLogError
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: Older store versions this fdlog opens and upgrades in place (1 -> 2 adds the ``finding`` table).
+UPGRADABLE_VERSIONS = (1,)
 BUSY_TIMEOUT_S = 30.0
 MAX_RETRIES = 10
 RETRY_BASE_S = 0.05
 
 UNKNOWN_VEHICLE = "unknown"
-MIN_FLIGHTS = 3
-DRIFT_SLOPE_MIN = 0.5  # robust z per flight, in the damage direction
-DRIFT_Z_MIN = 2.0  # latest flight's robust z, in the damage direction
-#: figure -> (damage direction, floor of the neighbours' spread)
-FIGURE_FLOORS = {"model_vote": 0.05, "command_share": 0.005, "effectiveness": 0.02}
-FIGURE_DIRECTION = {"model_vote": +1, "command_share": +1, "effectiveness": -1}
-FIGURES = tuple(FIGURE_FLOORS)
 MOTOR_FIELDS = ("position", "command_share", "command_share_baseline", "effectiveness",
                 "effectiveness_ci_lo", "effectiveness_ci_hi", "model_vote")
 
@@ -111,6 +93,20 @@ CREATE TABLE IF NOT EXISTS motor_figure (
     model_vote             REAL,   -- mean model probability that this motor is damaged
     PRIMARY KEY (diagnosis_id, motor)
 );
+CREATE TABLE IF NOT EXISTS finding (      -- every analyzer's per-motor findings (flightlog_fd.analyzers)
+    diagnosis_id INTEGER NOT NULL REFERENCES diagnosis(id) ON DELETE CASCADE,
+    analyzer     TEXT NOT NULL,             -- the analyzer's id (model, commands, throttle, ...)
+    motor        INTEGER NOT NULL,          -- 1..n, the autopilot's numbering
+    name         TEXT NOT NULL,             -- the figure (vote, share, thrust, ...)
+    value        REAL,
+    unit         TEXT NOT NULL,
+    lo           REAL,                      -- its interval, when it has one
+    hi           REAL,
+    baseline     REAL,                      -- the healthy value it is compared with
+    direction    TEXT NOT NULL,             -- up | down | '' (which way damage moves it)
+    llr          REAL,                      -- its weight in the decision (nats), NULL if not weighed
+    PRIMARY KEY (diagnosis_id, analyzer, name, motor)
+);
 CREATE INDEX IF NOT EXISTS diagnosis_vehicle ON diagnosis (vehicle, flight_start_utc);
 CREATE INDEX IF NOT EXISTS diagnosis_sha256 ON diagnosis (log_sha256);
 CREATE INDEX IF NOT EXISTS diagnosis_flight_time ON diagnosis (flight_start_utc);
@@ -128,7 +124,7 @@ def _positions(diagnosis: Any) -> list[Optional[str]]:
 
     flight = getattr(diagnosis, "flight", None)
     if flight is not None and flight.frame is not None:
-        return [flight.frame.position(k) for k in range(1, 5)]
+        return [flight.frame.position(k) for k in range(1, max(flight.frame.rotor_count, 4) + 1)]
     frame = getattr(getattr(diagnosis, "facts", None), "frame", None)
     if frame == "quad_x":
         return list(QUAD_X_POSITIONS)
@@ -171,14 +167,16 @@ def motor_figures(diagnosis: Any, command_share: Optional[list[float]] = None) -
     if not windows and command_share is None:
         return []
     positions = _positions(diagnosis)
+    n = max(len(command_share) if command_share else 0, (len(windows[0].probabilities) - 1) if windows else 0, 4)
+    positions = positions + [None] * (n - len(positions))
     out = []
-    for k in range(1, 5):
+    for k in range(1, n + 1):
         vote = None
         if windows:
             probs = [w.probabilities[k] for w in windows if len(w.probabilities) > k]
             vote = sum(probs) / len(probs) if probs else None
         out.append({"motor": k, "position": positions[k - 1],
-                    "command_share": _num(command_share[k - 1]) if command_share else None,
+                    "command_share": _num(command_share[k - 1]) if command_share and k <= len(command_share) else None,
                     "command_share_baseline": None, "effectiveness": None,
                     "effectiveness_ci_lo": None, "effectiveness_ci_hi": None, "model_vote": _num(vote)})
     return out
@@ -280,13 +278,16 @@ class ResultStore:
         try:
             version = c.execute("PRAGMA user_version").fetchone()[0]
             tables = {r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-            if version not in (0, SCHEMA_VERSION) or (version == 0 and tables and "schema_version" not in tables):
+            if (version not in (0, SCHEMA_VERSION, *UPGRADABLE_VERSIONS)
+                    or (version == 0 and tables and "schema_version" not in tables)):
                 raise StoreError(self.path, "not an fdlog results database (other tables or schema version "
                                             f"{version}; fdlog writes version {SCHEMA_VERSION})")
             for stmt in filter(str.strip, SCHEMA.split(";")):
                 c.execute(stmt)
             if not c.execute("SELECT 1 FROM schema_version").fetchone():
                 c.execute("INSERT INTO schema_version VALUES (?, ?)", (SCHEMA_VERSION, __version__))
+            else:  # an upgraded store (the CREATE statements above added what it lacked)
+                c.execute("UPDATE schema_version SET version = ?", (SCHEMA_VERSION,))
             c.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
             c.execute("COMMIT")
         except BaseException:
@@ -332,6 +333,10 @@ class ResultStore:
                f"profile_sha256) DO UPDATE SET {updates} RETURNING id")
         mcols = ("diagnosis_id", "motor") + MOTOR_FIELDS
         msql = f"INSERT INTO motor_figure ({', '.join(mcols)}) VALUES ({', '.join('?' * len(mcols))})"
+        findings = [f for r in (d.decision.results if getattr(d, "decision", None) is not None else [])
+                    for f in r.findings]
+        fsql = ("INSERT OR REPLACE INTO finding (diagnosis_id, analyzer, motor, name, value, unit, lo, hi, baseline, "
+                "direction, llr) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)")
 
         def write() -> int:
             c = self.conn
@@ -340,6 +345,11 @@ class ResultStore:
                 rid = c.execute(sql, row).fetchone()[0]
                 c.execute("DELETE FROM motor_figure WHERE diagnosis_id = ?", (rid,))
                 c.executemany(msql, [(rid, m["motor"], *(m.get(k) for k in MOTOR_FIELDS)) for m in motors])
+                c.execute("DELETE FROM finding WHERE diagnosis_id = ?", (rid,))
+                c.executemany(fsql, [(rid, f.analyzer, f.motor, f.name, _num(f.value), f.unit,
+                                      _num(f.interval[0]) if f.interval else None,
+                                      _num(f.interval[1]) if f.interval else None, _num(f.baseline), f.direction,
+                                      _num(f.llr)) for f in findings])
                 c.execute("COMMIT")
                 return int(rid)
             except BaseException:
@@ -369,8 +379,24 @@ def check_store(path) -> None:
         raise StoreError(p, f"not an fdlog results database ({e})") from None
     if not {"schema_version", "diagnosis", "motor_figure"} <= tables:
         raise StoreError(p, "not an fdlog results database (no fdlog tables)")
-    if version != SCHEMA_VERSION:
+    if version not in (SCHEMA_VERSION, *UPGRADABLE_VERSIONS):
         raise StoreError(p, f"results database schema version {version}, this fdlog reads {SCHEMA_VERSION}")
+
+
+def load_findings(path, diagnosis_id: int) -> list[dict]:
+    """One diagnosis's findings as stored (analyzer, motor, name, value, unit, lo, hi, baseline,
+    direction, llr); [] for a version-1 store, which has none."""
+    check_store(path)
+    conn = sqlite3.connect(f"file:{Path(path)}?mode=ro", uri=True, timeout=BUSY_TIMEOUT_S)
+    conn.row_factory = sqlite3.Row
+    try:
+        if not conn.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'finding'").fetchone():
+            return []
+        return [dict(r) for r in conn.execute(
+            "SELECT analyzer, motor, name, value, unit, lo, hi, baseline, direction, llr FROM finding "
+            "WHERE diagnosis_id = ? ORDER BY rowid", (diagnosis_id,))]
+    finally:
+        conn.close()
 
 
 @dataclass
@@ -391,8 +417,8 @@ class FlightRecord:
     motors: dict[int, dict] = field(default_factory=dict)  # motor -> figures
 
     def figure(self, name: str) -> Optional[list[float]]:
-        """The four motors' values of ``name``, or None unless all four are known."""
-        vals = [self.motors.get(k, {}).get(name) for k in range(1, 5)]
+        """Every motor's value of ``name`` (motor order), or None unless all are known."""
+        vals = [self.motors.get(k, {}).get(name) for k in sorted(self.motors) or range(1, 5)]
         return [float(v) for v in vals] if all(v is not None for v in vals) else None
 
 
@@ -423,198 +449,3 @@ def load_history(path, vehicle: Optional[str] = None) -> dict[str, list[FlightRe
             motor=r["motor"], confidence=r["confidence"], reason=r["reason"] or "",
             diagnosed_at=r["diagnosed_at"], vehicle_source=r["vehicle_source"], motors=figs.get(r["id"], {})))
     return out
-
-
-def robust_z(values: list[float], k: int, floor: float) -> float:
-    """Motor k's (0-based) z-score against the median and MAD of the other three."""
-    others = sorted(v for i, v in enumerate(values) if i != k)
-    med = others[len(others) // 2] if len(others) % 2 else 0.5 * (others[len(others) // 2 - 1] + others[len(others) // 2])
-    dev = sorted(abs(v - med) for v in others)
-    mad = dev[len(dev) // 2] if len(dev) % 2 else 0.5 * (dev[len(dev) // 2 - 1] + dev[len(dev) // 2])
-    return (values[k] - med) / max(1.4826 * mad, floor)
-
-
-def _slope(y: list[float]) -> float:
-    n = len(y)
-    xm = (n - 1) / 2.0
-    ym = sum(y) / n
-    sxx = sum((i - xm) ** 2 for i in range(n))
-    return sum((i - xm) * (v - ym) for i, v in enumerate(y)) / sxx
-
-
-@dataclass
-class Drift:
-    """A motor whose figure moves away from the other three across an airframe's flights."""
-
-    vehicle: str
-    motor: int
-    figure: str
-    slope: float  # robust z per flight, signed as the figure
-    latest_z: float
-    n_flights: int
-
-    def describe(self) -> str:
-        return (f"motor {self.motor} {self.figure.replace('_', ' ')} drifts from the other three: "
-                f"z {self.slope:+.2f} per flight over {self.n_flights} flights, latest z {self.latest_z:+.1f}")
-
-
-def find_drift(vehicle: str, flights: list[FlightRecord]) -> list[Drift]:
-    """The motors flagged by the drift rule of the module docstring."""
-    out = []
-    for name in FIGURES:
-        series = [f.figure(name) for f in flights]
-        series = [s for s in series if s is not None]
-        if len(series) < MIN_FLIGHTS:
-            continue
-        sign = FIGURE_DIRECTION[name]
-        for k in range(4):
-            z = [robust_z(s, k, FIGURE_FLOORS[name]) for s in series]
-            slope = _slope(z)
-            if sign * slope >= DRIFT_SLOPE_MIN and sign * z[-1] >= DRIFT_Z_MIN:
-                out.append(Drift(vehicle, k + 1, name, slope, z[-1], len(series)))
-    return out
-
-
-def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
-    """JSON-ready: per vehicle its flights, drifts and whether its latest flight is damaged.
-
-    ``unknown`` (logs with no identity, no profile) is not one airframe: no drift there, and any
-    damaged flight in it counts as a latest flight."""
-    vehicles = []
-    for vehicle, flights in history.items():
-        drifts = find_drift(vehicle, flights) if vehicle != UNKNOWN_VEHICLE else []
-        latest = flights[-1] if flights else None
-        if vehicle == UNKNOWN_VEHICLE:
-            latest = next((f for f in reversed(flights) if f.status == "damaged"), latest)
-        vehicles.append({
-            "vehicle": vehicle,
-            "vehicle_source": latest.vehicle_source if latest else None,
-            "flights": [{"log": f.log_path, "log_sha256": f.log_sha256, "flight_start_utc": f.flight_start_utc,
-                         "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor,
-                         "confidence": f.confidence, "reason": f.reason, "diagnosed_at": f.diagnosed_at,
-                         "motors": [{"motor": k, **f.motors[k]} for k in sorted(f.motors)]} for f in flights],
-            "drift": [{"motor": d.motor, "figure": d.figure, "slope_z_per_flight": d.slope,
-                       "latest_z": d.latest_z, "n_flights": d.n_flights, "text": d.describe()} for d in drifts],
-            "latest_damaged": bool(latest and latest.status == "damaged"),
-            "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor},
-        })
-    flagged = any(v["drift"] or v["latest_damaged"] for v in vehicles)
-    return {"schema": 1, "rule": {"min_flights": MIN_FLIGHTS, "drift_slope_min": DRIFT_SLOPE_MIN,
-                                  "drift_z_min": DRIFT_Z_MIN, "floors": FIGURE_FLOORS},
-            "vehicles": vehicles, "flagged": flagged}
-
-
-# ----------------------------------------------------------------------------- html
-
-MOTOR_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd")
-
-
-def _svg_trend(flights: list[dict], figure: str, width: int = 560, height: int = 180) -> str:
-    """Inline SVG: each motor's ``figure`` over the flights (x = flight index)."""
-    pts = {k: [] for k in range(1, 5)}
-    for i, f in enumerate(flights):
-        for m in f["motors"]:
-            v = m.get(figure)
-            if v is not None:
-                pts[m["motor"]].append((i, float(v)))
-    vals = [v for p in pts.values() for _, v in p]
-    if not vals:
-        return ""
-    lo, hi = min(vals), max(vals)
-    if hi - lo < 1e-9:
-        lo, hi = lo - 0.5 * max(abs(lo), 1e-3), hi + 0.5 * max(abs(hi), 1e-3)
-    pad_l, pad_r, pad_t, pad_b = 50, 90, 10, 28
-    n = max(len(flights) - 1, 1)
-
-    def xy(i: int, v: float) -> tuple[float, float]:
-        x = pad_l + (width - pad_l - pad_r) * i / n
-        y = pad_t + (height - pad_t - pad_b) * (1 - (v - lo) / (hi - lo))
-        return x, y
-
-    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" role="img" '
-             f'aria-label="{html.escape(figure)} per motor over flights">',
-             f'<rect x="{pad_l}" y="{pad_t}" width="{width - pad_l - pad_r}" height="{height - pad_t - pad_b}" '
-             f'fill="none" stroke="#bbb"/>',
-             f'<text x="4" y="{pad_t + 10}" font-size="10">{hi:.3g}</text>',
-             f'<text x="4" y="{height - pad_b}" font-size="10">{lo:.3g}</text>',
-             f'<text x="{pad_l}" y="{height - 8}" font-size="10">flight 1</text>',
-             f'<text x="{width - pad_r - 40}" y="{height - 8}" font-size="10">flight {len(flights)}</text>']
-    for k, p in pts.items():
-        if not p:
-            continue
-        c = MOTOR_COLOURS[k - 1]
-        coords = " ".join(f"{x:.1f},{y:.1f}" for x, y in (xy(i, v) for i, v in p))
-        parts.append(f'<polyline points="{coords}" fill="none" stroke="{c}" stroke-width="1.5"/>')
-        for i, v in p:
-            x, y = xy(i, v)
-            parts.append(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="2.5" fill="{c}"><title>motor {k}, flight {i + 1}: '
-                         f'{v:.4g}</title></circle>')
-        parts.append(f'<text x="{width - pad_r + 8}" y="{pad_t + 14 * k}" font-size="11" fill="{c}">motor {k}</text>')
-    parts.append("</svg>")
-    return "".join(parts)
-
-
-def render_html(summary: dict) -> str:
-    """A small self-contained page: per airframe its flights, flags and trend plots (inline SVG)."""
-    e = html.escape
-    out = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>fdlog fleet history</title>",
-           "<style>body{font-family:sans-serif;margin:2em;max-width:1000px}table{border-collapse:collapse}"
-           "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}.flag{color:#b00;font-weight:bold}</style>",
-           "</head><body><h1>fdlog fleet history</h1>",
-           f"<p>Drift rule: at least {MIN_FLIGHTS} flights; robust z of a motor's figure against the other three, "
-           f"least-squares slope &ge; {DRIFT_SLOPE_MIN} z per flight in the damage direction and latest z "
-           f"&ge; {DRIFT_Z_MIN}.</p>"]
-    for v in summary["vehicles"]:
-        out.append(f"<h2>{e(v['vehicle'])} <small>({e(str(v['vehicle_source']))}, {len(v['flights'])} flights)</small></h2>")
-        for d in v["drift"]:
-            out.append(f"<p class='flag'>{e(d['text'])}</p>")
-        if v["latest_damaged"]:
-            f = v["latest"]
-            out.append(f"<p class='flag'>latest flight: propeller {f['motor']} damaged ({e(f['log'])})</p>")
-        out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
-                   + "".join(f"<th>m{k} vote / share</th>" for k in range(1, 5)) + "</tr>")
-        for i, f in enumerate(v["flights"], 1):
-            verdict = f["status"] + (f" (motor {f['motor']})" if f["motor"] else "")
-            cells = []
-            by_motor = {m["motor"]: m for m in f["motors"]}
-            for k in range(1, 5):
-                m = by_motor.get(k, {})
-                cells.append(f"<td>{_fmt(m.get('model_vote'))} / {_fmt(m.get('command_share'))}</td>")
-            out.append(f"<tr><td>{i}</td><td>{e(f['flight_start_utc'] or '-')}</td><td>{e(Path(f['log']).name)}</td>"
-                       f"<td>{e(verdict)}</td><td>{_fmt(f['confidence'])}</td>{''.join(cells)}</tr>")
-        out.append("</table>")
-        for figure in FIGURES:
-            svg = _svg_trend(v["flights"], figure)
-            if svg:
-                out.append(f"<h3>{e(figure.replace('_', ' '))}</h3>{svg}")
-    out.append("</body></html>")
-    return "\n".join(out)
-
-
-def _fmt(x: Optional[float]) -> str:
-    return "-" if x is None else f"{x:.3f}"
-
-
-def iter_text_lines(summary: dict) -> Iterable[str]:
-    """Plain-text history: per airframe its flights and each motor's figures, then flags."""
-    for v in summary["vehicles"]:
-        yield f"{v['vehicle']}  ({v['vehicle_source']}, {len(v['flights'])} flights)"
-        yield f"  {'#':>3} {'start (UTC)':<24} {'verdict':<18} {'conf':>5}  " + "  ".join(
-            f"m{k} vote/share" for k in range(1, 5)) + "  log"
-        for i, f in enumerate(v["flights"], 1):
-            verdict = f["status"] + (f" m{f['motor']}" if f["motor"] else "")
-            by_motor = {m["motor"]: m for m in f["motors"]}
-            figs = "  ".join(f"{_fmt(by_motor.get(k, {}).get('model_vote'))}/{_fmt(by_motor.get(k, {}).get('command_share'))}"
-                             for k in range(1, 5))
-            yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "
-                   f"{figs}  {Path(f['log']).name}")
-        for d in v["drift"]:
-            yield f"  FLAG: {d['text']}"
-        if v["latest_damaged"]:
-            f = v["latest"]
-            yield f"  FLAG: latest flight has propeller {f['motor']} damaged ({Path(f['log']).name})"
-        yield ""
-
-
-def summary_json(summary: dict) -> str:
-    return json.dumps(summary, indent=2)

@@ -55,6 +55,8 @@ import numpy as np
 
 from .flight import Frame
 
+#: Classes of the quad model (healthy + 4 motors); an n-rotor model has n + 1 and the verdict
+#: takes its class count from the probabilities it is given.
 N_CLASSES = 5
 HEALTHY = 0
 UNCERTAIN_LABEL = -1
@@ -216,8 +218,8 @@ def _check_inputs(t_start, t_end, probs) -> tuple[np.ndarray, np.ndarray, np.nda
     ts = np.asarray(t_start, dtype=np.float64).reshape(-1)
     te = np.asarray(t_end, dtype=np.float64).reshape(-1)
     p = np.asarray(probs, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != N_CLASSES:
-        raise ValueError(f"probabilities must be (N, {N_CLASSES}), got {p.shape}")
+    if p.ndim != 2 or p.shape[1] < 2:
+        raise ValueError(f"probabilities must be (N, 1 + motors), got {p.shape}")
     if not (ts.shape[0] == te.shape[0] == p.shape[0]):
         raise ValueError(f"{ts.shape[0]} window starts, {te.shape[0]} ends, {p.shape[0]} probability rows")
     if p.size and (not np.all(np.isfinite(p)) or np.any(p < 0)):
@@ -254,7 +256,8 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
 
     order = np.argsort(ts, kind="stable")
     ts_o, te_o = ts[order], te[order]
-    q = (1.0 - s.prob_floor_mix) * p[order] + s.prob_floor_mix / N_CLASSES
+    n_classes = p.shape[1]
+    q = (1.0 - s.prob_floor_mix) * p[order] + s.prob_floor_mix / n_classes
     centres = 0.5 * (ts_o + te_o)
     c_order = np.argsort(centres, kind="stable")  # centres follow starts except for odd window lengths
     smoothed = np.empty_like(q)
@@ -264,8 +267,8 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
     p_sorted = p[order]
     raw_label = p_sorted.argmax(axis=1)
 
-    raw_share = [float(np.mean(raw_label == k)) for k in range(N_CLASSES)]
-    smoothed_share = [float(np.mean(labels == k)) for k in range(N_CLASSES)]
+    raw_share = [float(np.mean(raw_label == k)) for k in range(n_classes)]
+    smoothed_share = [float(np.mean(labels == k)) for k in range(n_classes)]
     abstained = float(np.mean(labels == UNCERTAIN_LABEL))
     evidence = Evidence(n, covered, raw_share, smoothed_share, abstained)
     window_labels = np.empty(n, dtype=int)
@@ -274,7 +277,7 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
     # Onset: the motor whose "damaged from window j on" model beats "healthy throughout" most.
     log_q = np.log(q)
     candidates = []
-    for k in range(1, N_CLASSES):
+    for k in range(1, n_classes):
         j, score = _best_run(log_q[:, k] - log_q[:, HEALTHY])
         if j < n:
             candidates.append((score, k, j))
@@ -312,7 +315,7 @@ def decide(t_start, t_end, probs, *, settings: VerdictSettings = VerdictSettings
                            f"windows from t={first:.1f} s")
         if run.damage_prob >= s.uncertain_damage_prob:
             run_labels = labels[j:]
-            votes = {m: float(np.mean(run_labels == m)) for m in range(1, N_CLASSES)}
+            votes = {m: float(np.mean(run_labels == m)) for m in range(1, n_classes)}
             ranked = sorted(votes, key=lambda m: -votes[m])
             top, second = ranked[0], ranked[1]
             if not onset_confirmed and run.share >= s.damaged_min_share and run.agreement >= s.motor_min_agreement:

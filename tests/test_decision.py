@@ -8,6 +8,11 @@ import numpy as np
 import pytest
 
 from flightlog_fd import decision as D
+from flightlog_fd.analyzers import Context, run_analyzers
+from flightlog_fd.analyzers import command_shares as CS
+from flightlog_fd.analyzers.effectiveness import effectiveness_llr
+from flightlog_fd.analyzers.model_votes import model_llr
+from flightlog_fd.evidence import Baseline, FlightEvidence, MotorEvidence
 from flightlog_fd.flight import Frame
 
 
@@ -22,8 +27,8 @@ def window_probs(motor: int, p_motor: float, n: int = 60) -> np.ndarray:
 
 def damaged_shares(base, motor, eta, m=1.0, frame=None):
     frame = frame or Frame.quad_x()
-    rows = D._mixer_rows(frame, 4)
-    u = D.predicted_commands(np.asarray(base, float), rows, motor, eta, m)
+    rows = CS._mixer_rows(frame, 4)
+    u = CS.predicted_commands(np.asarray(base, float), rows, motor, eta, m)
     return u / u.mean(), u.mean() / np.mean(base)
 
 
@@ -45,23 +50,23 @@ def test_one_weak_rotor_closed_loop_pattern(motor):
 def test_severity_fit_recovers_eta_against_an_uneven_baseline(frame, eta):
     base = np.array([0.95, 1.08, 0.92, 1.05])
     s, thr = damaged_shares(base, 3, eta, m=1.25, frame=frame)
-    chi_h, fits = D.severity_fit(s, base, np.full(4, D.DEFAULT_DRIFT_SIGMA), frame, thr)
+    chi_h, fits = CS.severity_fit(s, base, np.full(4, CS.DEFAULT_DRIFT_SIGMA), frame, thr)
     assert fits[2].eta_hat == pytest.approx(eta, abs=0.02)
     assert fits[2].eta_ci[0] <= eta <= fits[2].eta_ci[1]
     assert fits[2].llr == max(f.llr for f in fits)
-    healthy_chi, healthy_fits = D.severity_fit(base / base.mean(), base, np.full(4, 0.03), frame, 1.0)
+    healthy_chi, healthy_fits = CS.severity_fit(base / base.mean(), base, np.full(4, 0.03), frame, 1.0)
     assert healthy_chi == pytest.approx(0.0, abs=1e-9) and all(f.llr < 0 for f in healthy_fits)
     assert all(f.eta_hat >= 0.97 for f in healthy_fits)
 
 
 def test_model_llr_counts_correlated_windows_once_per_decorrelation_time():
     damaged = window_probs(2, 0.8)
-    long = D.model_llr(damaged, covered_s=600.0)
-    short = D.model_llr(damaged, covered_s=20.0)
+    long = model_llr(damaged, covered_s=600.0)
+    short = model_llr(damaged, covered_s=20.0)
     assert np.argmax(long) == 1 and long[1] > 0
     # 600 s of the same votes is NOT 30 times the evidence of 20 s: the between-flight spread caps it
     assert long[1] < 3 * max(short[1], 0.1)
-    healthy = D.model_llr(window_probs(0, 0.9), covered_s=60.0)
+    healthy = model_llr(window_probs(0, 0.9), covered_s=60.0)
     assert np.all(healthy < 0)
 
 
@@ -70,27 +75,36 @@ def test_effectiveness_llr_only_when_informative_and_sane():
         v = np.asarray(values, float)
         return SimpleNamespace(values=v, ci=np.stack([v - width, v + width], axis=1), informative=informative,
                                motors=list(range(4)))
-    llr = D.effectiveness_llr(est([0.7, 1.0, 1.0, 1.0]))
+    llr = effectiveness_llr(est([0.7, 1.0, 1.0, 1.0]))
     assert llr[0] > 2 and np.all(llr[1:] < 0)
-    assert D.effectiveness_llr(est([0.7, 1.0, 1.0, 1.0], informative=False)) is None
-    assert D.effectiveness_llr(est([-1.0, 1.0, 1.0, 1.0])) is None  # inconsistent fit: never used
+    assert effectiveness_llr(est([0.7, 1.0, 1.0, 1.0], informative=False)) is None
+    assert effectiveness_llr(est([-1.0, 1.0, 1.0, 1.0])) is None  # inconsistent fit: never used
 
 
 def test_pooled_drift_sigma():
-    assert D.pooled_sigma(None, 1, 0.03) == 0.03
-    assert D.pooled_sigma(0.005, 2, 0.03) == pytest.approx(np.sqrt((3 * 0.03 ** 2 + 0.005 ** 2) / 4))
-    assert D.share_sigma("neighbours", None, 4)[0] == D.NEIGHBOUR_SHARE_SIGMA
-    assert D.share_sigma("before onset", None, 4)[0] == D.ONSET_BASELINE_SIGMA
-    assert D.share_sigma("profile", [0.01] * 4, 4, n_flights=4)[0] < D.DEFAULT_DRIFT_SIGMA
+    assert CS.pooled_sigma(None, 1, 0.03) == 0.03
+    assert CS.pooled_sigma(0.005, 2, 0.03) == pytest.approx(np.sqrt((3 * 0.03 ** 2 + 0.005 ** 2) / 4))
+    assert CS.share_sigma("neighbours", None, 4)[0] == CS.NEIGHBOUR_SHARE_SIGMA
+    assert CS.share_sigma("before onset", None, 4)[0] == CS.ONSET_BASELINE_SIGMA
+    assert CS.share_sigma("profile", [0.01] * 4, 4, n_flights=4)[0] < CS.DEFAULT_DRIFT_SIGMA
 
 
 BASE = np.array([0.95, 1.08, 0.92, 1.05])
 
 
-def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, **kw):
-    return D.decide_flight(probs=probs, covered_s=60.0, shares=np.asarray(shares, float),
-                           base_shares=None if base is None else base / base.mean(), baseline_kind=kind,
-                           throttle_ratio=ratio if kind == "profile" else None, frame=Frame.quad_x(), **kw)
+def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None):
+    """The decision from synthetic window probabilities and command shares, through the registered
+    analyzers (the flight's throttle is ``ratio`` times the profile's)."""
+    shares = np.asarray(shares, float)
+    b = None if base is None else base / base.mean()
+    motors = [MotorEvidence(k + 1, Frame.quad_x().position(k + 1), float(shares[k]),
+                            None if b is None else float(b[k]), 0.0, None, None, 0.0) for k in range(4)]
+    baseline = None if b is None else Baseline(share=b, slope=np.zeros(4), throttle_ref=0.5)
+    ev = FlightEvidence(motors=motors, baseline=kind, throttle=0.5 * ratio, top_motor=1, single_motor_gap=0.0,
+                        baseline_=baseline)
+    ctx = Context(flight=SimpleNamespace(motors=[1]), frame=Frame.quad_x(), n_motors=4, probs=probs,
+                  covered_s=60.0, evidence=ev)
+    return D.decide(run_analyzers(ctx), 4, Frame.quad_x(), first_seen=first_seen)
 
 
 def test_branch_damaged_names_the_motor_its_severity_and_inspection():
@@ -112,7 +126,8 @@ def test_branch_uncertain_weak_names_the_motor_to_inspect():
 
 def test_branch_uncertain_split_names_both_motors():
     p = np.tile([0.10, 0.42, 0.03, 0.03, 0.42], (60, 1))  # the windows split between motors 1 and 4
-    d = decide(p, BASE / BASE.mean())
+    both = BASE * np.array([1.06, 0.97, 0.97, 1.06])  # and both work a little harder
+    d = decide(p, both / both.mean())
     assert d.status == "uncertain", d.reason
     assert "motor 1 (front-right)" in d.reason and "motor 4 (rear-right)" in d.reason
     assert "cannot tell them apart" in d.reason and "propellers" in d.reason
@@ -143,3 +158,19 @@ def test_without_a_profile_a_trim_is_not_damage_but_a_large_one_motor_loss_is():
     s, _ = damaged_shares(np.ones(4), 2, 0.65)
     d = decide(window_probs(2, 0.7), s, base=None, kind="neighbours")
     assert d.status == "damaged" and d.motor == 2
+
+
+def test_branch_uncertain_when_the_commands_do_not_rise_for_the_named_motor():
+    """Strong evidence for motor 1 from other sources may not name it when its command share fell:
+    a rotor that lost thrust must need more."""
+    from flightlog_fd.analyzers import AnalyzerResult, Finding
+
+    def res(analyzer, name, llr, value=None, baseline=None):
+        return AnalyzerResult(analyzer, [Finding(analyzer, k, name, value if k == 1 else 1.0, "", None, baseline,
+                                                 "up", llr if k == 1 else -3.0) for k in range(1, 5)])
+    results = [res("model", "vote", 5.0, 0.9), res("commands", "share", -0.5, 0.98, 1.0), res("esc", "esc_damage", 4.0, 30.0)]
+    d = D.decide(results, 4, Frame.quad_x())
+    assert d.status == "uncertain" and d.motor is None, d.reason
+    assert "did not rise" in d.reason and "inspect propeller 1" in d.reason
+    results[1] = res("commands", "share", -0.5, 1.02, 1.0)  # the same with its share up 2 %
+    assert D.decide(results, 4, Frame.quad_x()).status == "damaged"

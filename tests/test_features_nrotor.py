@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from flightlog_fd.errors import UnsupportedVehicleError
-from flightlog_fd.features import (CF_CHANNELS, NIF_CHANNELS, FeatureSpec, cf_channels, cf_windows,
-                                   labels_for_spans, nif_channels, nif_windows)
+from flightlog_fd.features import (CF_CHANNELS, NIF_CHANNELS, FeatureSpec, cf_channels, labels_for_spans,
+                                   make_windows, nif_channels)
 
 
 def test_channel_names_and_quad_spec_dict_unchanged():
@@ -27,15 +27,15 @@ def test_hexa_sitl_log_gives_six_motor_windows(shared):
 
     f = load_flight(shared("ardupilot_sitl_hexa", "hexa_cwx_m3.bin"))
     with pytest.raises(UnsupportedVehicleError, match="hexa with 6 rotors"):
-        nif_windows(f)  # a quad spec still refuses it
-    w = nif_windows(f, n_motors=6)
+        make_windows(f, FeatureSpec(features="nif"))  # a quad spec still refuses it
+    w = make_windows(f, FeatureSpec(features="nif", n_motors=6))
     assert w.X.shape[1:] == (9, 80) and len(w) > 10
     assert np.allclose(w.X[:, 3:9, :].mean(axis=(1, 2)), 1.0, atol=1e-5)  # scale-free shares
     # motor 3 stops at 73.87 s: its share in the windows after the stop is 0, before it about 1
     after, before = w.t_start > 75.0, w.t_end < 73.0
     assert after.any() and before.any()
     assert np.all(w.X[after, 5, :] < 0.05) and np.all(np.abs(w.X[before, 5, :].mean(axis=1) - 1.0) < 0.3)
-    c = cf_windows(f, n_motors=6)
+    c = make_windows(f, FeatureSpec(features="cf", n_motors=6))
     assert c.X.shape[1] == 11
 
 
@@ -44,7 +44,7 @@ def test_n_motor_spec_refuses_a_quad(shared):
 
     f = load_flight(shared("real_logs", "ardupilot", "erle_copter34_7.BIN"))
     with pytest.raises(UnsupportedVehicleError, match="6 rotors; this log is a quad_x with 4 rotors"):
-        nif_windows(f, n_motors=6)
+        make_windows(f, FeatureSpec(features="nif", n_motors=6))
 
 
 def test_labels_up_to_the_rotor_count():

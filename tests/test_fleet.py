@@ -20,7 +20,8 @@ from flightlog_fd import batch as batch_mod
 from flightlog_fd.batch import LogResult, run_batch
 from flightlog_fd.cli import app
 from flightlog_fd.diagnose import Diagnosis, WindowResult
-from flightlog_fd.store import (DRIFT_SLOPE_MIN, ResultStore, RunInfo, load_history, motor_figures)
+from flightlog_fd.drift import DRIFT_SLOPE_MIN
+from flightlog_fd.store import SCHEMA_VERSION, ResultStore, RunInfo, load_history, motor_figures
 from flightlog_fd.verdict import Verdict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -99,7 +100,8 @@ files = sys.argv[1:]
 results = batch.run_batch(files, resolve_model(), None, jobs=2)
 print(json.dumps([[r.path, r.diagnosis.verdict.status, r.diagnosis.verdict.reason] for r in results]))
 """
-    files = [str(f) for f in _sample_files()[:4]]  # ardupilot healthy, motor1, motor2, motor3
+    files = [str(SAMPLES / f"ardupilot_{n}.bin") for n in ("healthy", "motor1_damaged", "motor2_damaged",
+                                                           "motor3_damaged")]
     res = subprocess.run([sys.executable, "-c", code, *files], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     rows = json.loads(res.stdout)
@@ -122,7 +124,7 @@ def test_a_dying_dask_worker_costs_one_row_not_the_batch(monkeypatch, model):
         return _dask_task(index, path, payload, keep_flight)
 
     monkeypatch.setattr(batch_mod, "_dask_task", exit_on_motor2)
-    files = _sample_files()[:4]
+    files = [SAMPLES / f"ardupilot_{n}.bin" for n in ("healthy", "motor1_damaged", "motor2_damaged", "motor3_damaged")]
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
         results = run_batch(files, model, None, jobs=2, scheduler="local", processes=True)
     assert [r.diagnosis.verdict.status for r in results] == ["healthy", "damaged", "not_diagnosable", "damaged"]
@@ -169,7 +171,10 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
     with sqlite3.connect(db) as c:
         rows = c.execute("SELECT log_path, vehicle, vehicle_source, status, motor FROM diagnosis ORDER BY log_path").fetchall()
         n_motor_rows = c.execute("SELECT COUNT(*) FROM motor_figure").fetchone()[0]
-        assert c.execute("PRAGMA user_version").fetchone()[0] == 1
+        assert c.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
+        # every analyzer's findings came back from the Dask workers with the diagnosis
+        analyzers_stored = {r[0] for r in c.execute("SELECT DISTINCT analyzer FROM finding")}
+        assert {"model", "commands"} <= analyzers_stored
         assert c.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     by_name = {Path(r[0]).name: r for r in rows}
     assert set(by_name) == {"px4_healthy.ulg", "px4_motor1_damaged.ulg", "ardupilot_healthy.bin", "corrupt.ulg"}

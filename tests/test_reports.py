@@ -79,7 +79,7 @@ def test_json_for_a_bad_file_and_for_many_logs():
 def test_validator_catches_schema_violations():
     doc = to_dict(make_diagnosis())
     doc["verdict"]["status"] = "broken"
-    doc["windows"][0]["probabilities"] = [0.5, 0.5]
+    doc["windows"][0]["probabilities"] = [1.0]  # no motor class
     del doc["warnings"]
     errors = validate(doc)
     assert any("verdict.status" in e for e in errors)

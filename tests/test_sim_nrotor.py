@@ -41,7 +41,7 @@ def test_n_rotor_airframe_flies_and_the_damaged_motor_works_hardest(frame):
             assert mean.max() - mean.min() < 0.02
         else:
             assert int(np.argmax(mean)) + 1 == d.motor and mean.max() - np.median(mean) > 0.04
-        w = nif_windows(f, n_motors=n)
+        w = make_windows(f, FeatureSpec(features="nif", n_motors=n))
         assert w.X.shape[1] == 3 + n and len(w) > 20
         labels = labels_for_spans(f.truth, w.t_start, w.t_end)
         assert set(labels.tolist()) == {d.motor}
@@ -75,7 +75,7 @@ def test_simulated_hexa_written_as_ulog_reads_back(tmp_path):
     back = read_ulog(write_ulog(f, tmp_path / "hexa.ulg"))
     assert back.frame.name == "hexa" and back.vehicle_type == "hexarotor" and back.motors.values.shape[1] == 6
     assert [back.frame.position(k) for k in range(1, 7)] == [f.frame.position(k) for k in range(1, 7)]
-    assert len(nif_windows(back, n_motors=6)) > 5
+    assert len(make_windows(back, FeatureSpec(features="nif", n_motors=6))) > 5
 
 
 def test_cli_simulates_a_hexa_and_refuses_what_it_cannot_write(tmp_path):

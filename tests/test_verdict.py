@@ -142,7 +142,9 @@ def test_settings_change_the_decision():
 
 def test_bad_shapes_raise_value_error():
     with pytest.raises(ValueError):
-        decide([0, 1], [1, 2], np.ones((2, 4)))
+        decide([0, 1], [1, 2], np.ones((2, 1)))  # no motor class at all
+    with pytest.raises(ValueError):
+        decide([0, 1, 2], [1, 2, 3], np.ones((2, 5)))  # three windows, two probability rows
     with pytest.raises(ValueError):
         decide([0, 1], [1, 2], np.full((2, 5), np.nan))
 

@@ -273,5 +273,8 @@ def calibrate(paths: Sequence[Path], out_profile: Path, *, settings: AdaptSettin
         res = adapt_model(profile, flights, out_onnx, settings=settings, base_model=base_model, progress=progress)
         profile.extra = {**(profile.extra or {}), "adaptation": res.summary}
         profile.set_model(out_onnx, profile_path=out_profile)
+        profile.fit_analyzers(flights, FaultModel(out_onnx))
+    else:
+        profile.fit_analyzers(flights, FaultModel(base_onnx))
     profile.save(out_profile, overwrite=overwrite)
     return profile

@@ -33,7 +33,9 @@ multipliers are metadata that pymavlink does not apply either. pymavlink's clock
   at 10 Hz), the motors are instead **rebuilt through the mixer** and RCOU moves to
   ``alt_motors["RCOU"]`` (see below); ``motor_kind = "thrust"``.
 - ``esc_rpm`` from ``ESC`` (``Instance`` = output channel - 1) or ``ESC1..ESC8``, resampled onto
-  the first motor's ESC timestamps; ``velocity`` NED m/s from ``XKF1`` (core 0), ``NKF1`` or
+  the first motor's ESC timestamps (kept for the features' speed source); ``esc``: the same
+  messages per motor on their own times, never resampled (:func:`esc_telemetry`, every ESC
+  message generation); ``velocity`` NED m/s from ``XKF1`` (core 0), ``NKF1`` or
   ``EKF1`` ``VN/VE/VD``; ``accel`` (m/s², FRD) from the primary ``IMU``'s ``AccX/Y/Z``.
 - ``armed`` from ``EV`` 10 (armed) / 11 (disarmed), else ``ARM.ArmState``; a log that starts
   armed starts its interval at the first sample, and an arm event while already armed (a
@@ -221,7 +223,8 @@ FRAME_TEXT_RE = re.compile(r"^Frame:\s*([A-Z0-9_]+)")
 
 #: Messages decoded for a Flight (only these are touched).
 NEEDED_TYPES = ("PARM", "MSG", "EV", "ARM", "RATE", "IMU", "GYR", "ATT", "RCOU", "ESC",
-                *(f"ESC{k}" for k in range(1, 9)), "CTUN", "XKF1", "NKF1", "EKF1", "GPS")
+                *(f"ESC{k}" for k in range(1, 9)), "CTUN", "XKF1", "NKF1", "EKF1", "GPS",
+                "FMTU", "MULT", "ESCX", "EDT2")
 
 #: GPS time -> UTC: the GPS epoch (1980-01-06) in POSIX seconds, and the GPS-UTC leap-second
 #: offset in force from each POSIX time on (18 s since 2017-01-01).
@@ -812,6 +815,129 @@ def _esc_rpm(tables, params, n_motors) -> Optional[Series]:
     return Series(t0, np.column_stack(cols), source + " (resampled on motor 1's ESC times)")
 
 
+# --- ESC telemetry (Flight.esc) --------------------------------------------------------------
+#: ArduPilot's FMTU multiplier ids (AP_Logger/LogStructure.h log_Multipliers), used when a log's
+#: own MULT messages are missing.
+DEFAULT_MULTIPLIERS = {"-": 0.0, "?": 1.0, "2": 1e2, "1": 1e1, "0": 1.0, "A": 1e-1, "B": 1e-2, "C": 1e-3,
+                       "D": 1e-4, "E": 1e-5, "F": 1e-6, "G": 1e-7, "I": 1e-9, "!": 3.6, "/": 3600.0}
+#: FMTU unit ids each ESC quantity must carry when a log has FMTU (q rpm, A ampere, v volt, O degC).
+ESC_UNIT_IDS = {"rpm": "q", "current": "A", "voltage": "v", "temperature": "O"}
+#: ESC column names per quantity, in order of preference (ArduPilot 3.3 .. 4.6).
+ESC_COLUMNS = {"rpm": ("RPM",), "current": ("Curr",), "voltage": ("Volt",), "temperature": ("Temp",)}
+#: ``ESC1..ESC8`` (ArduCopter 3.3-3.6, "Qcccc") log ``rpm / 10`` in an int16 whose format char
+#: ``c`` reads x0.01, so the decoded RPM is rpm / 1000 (Log_Write_ESC: ``esc_rpm/10``).
+ESCN_RPM_FACTOR = 1000.0
+
+
+def _fmtu(tables, name_to_id: dict[str, int]) -> dict[str, tuple[str, str]]:
+    """Message name -> (unit ids, multiplier ids) from the log's FMTU messages (empty without)."""
+    tab = tables.get("FMTU")
+    if tab is None or not tab.has("FmtType", "UnitIds", "MultIds"):
+        return {}
+    by_id = {int(k): (str(u), str(m)) for k, u, m in
+             zip(tab.columns["FmtType"], tab.columns["UnitIds"], tab.columns["MultIds"])}
+    return {name: by_id[i] for name, i in name_to_id.items() if i in by_id}
+
+
+def _multipliers(tables) -> dict[str, float]:
+    mult = dict(DEFAULT_MULTIPLIERS)
+    tab = tables.get("MULT")
+    if tab is not None and tab.has("Id", "Mult"):
+        for i, m in zip(tab.columns["Id"], tab.columns["Mult"]):
+            mult[chr(int(i) & 0xFF)] = float(m)
+    return mult
+
+
+def _esc_column(tab: "MessageTable", quantity: str, units: Optional[tuple[str, str]], mults: dict[str, float],
+                notes: dict[str, str]) -> Optional[np.ndarray]:
+    """One ESC quantity in its canonical unit, following the log's FMT (and FMTU/MULT when present):
+    pymavlink's format-char scaling first; a FMTU multiplier that differs from that built-in scale
+    is applied to the raw integer; a FMTU unit other than the expected one drops the column."""
+    col = next((c for c in ESC_COLUMNS[quantity] if c in tab.columns), None)
+    if col is None:
+        return None
+    values = tab.columns[col].astype(np.float64)
+    i = list(tab.columns).index(col)
+    ch = tab.format[i] if i < len(tab.format) else "f"
+    builtin = FORMAT_CHARS.get(ch, ("", None))[1]
+    note = f"{tab.name}.{col} ({ch}" + (f" x{builtin:g}" if builtin else "") + ")"
+    if units is not None and i < len(units[0]):
+        unit_id, mult_id = units[0][i], units[1][i]
+        if unit_id not in (ESC_UNIT_IDS[quantity], "-", "?"):
+            notes[quantity] = f"{note}: FMTU unit {unit_id!r} is not {ESC_UNIT_IDS[quantity]!r}, ignored"
+            return None
+        mult = mults.get(mult_id)
+        if mult and mult_id not in ("-", "?") and builtin is None and mult != 1.0:
+            values = values * mult  # a raw integer with a FMTU multiplier pymavlink does not apply
+            note += f", FMTU mult {mult:g}"
+        else:
+            note += ", FMTU unit checked"
+    if tab.name != "ESC" and quantity == "rpm":
+        values = values * ESCN_RPM_FACTOR
+        note += f" x{ESCN_RPM_FACTOR:g} (ESCn logs rpm/10 in a centi field)"
+    notes[quantity] = note
+    return values
+
+
+def esc_telemetry(tables, params: dict[str, float], n_motors: int, warnings: list[str],
+                  name_to_id: Optional[dict[str, int]] = None):
+    """Per-motor ESC telemetry (:class:`~flightlog_fd.flight.EscTelemetry`) or None.
+
+    Sources: ``ESC`` with ``Instance`` (4.0: ``QBeCCcHc``; 4.1-4.2: ``QBeffcfcff``; 4.3+ with
+    ``RawRPM``: ``QBffffcfcf``), else ``ESC1..ESC8`` (3.3-3.6, ``Qcccc``). ``Instance`` / ``ESCn - 1``
+    is the ESC's output channel - 1, mapped to motors through ``SERVOn_FUNCTION``
+    (:func:`motor_output_channels`). Units follow the FMT format characters and, where the log
+    has them, its FMTU/MULT messages. Every logged message is a fresh report (ArduPilot logs an
+    ESC only when its telemetry updated), so ``online`` is all True and a silent ESC shows as gaps.
+    ``ESCX`` / ``EDT2`` carry no speed or current: their presence is named in ``source``."""
+    from ..flight import EscChannel, EscTelemetry
+
+    channels, chan_source = motor_output_channels(params, n_motors)
+    fmtu = _fmtu(tables, name_to_id or {})
+    mults = _multipliers(tables)
+    per_index: list[tuple[int, "MessageTable"]] = []
+    if "ESC" in tables and tables["ESC"].has("RPM") and tables["ESC"].t is not None:
+        tab = tables["ESC"]
+        inst_col = "Instance" if "Instance" in tab.columns else ("I" if "I" in tab.columns else None)
+        if inst_col is None:
+            warnings.append("ESC messages without an Instance field: ESC telemetry not read")
+            return None
+        inst = tab.columns[inst_col].astype(int)
+        per_index = [(int(k), tab.rows(inst == k)) for k in np.unique(inst)]
+        generation = "ESC (Instance, RawRPM)" if "RawRPM" in tab.columns else "ESC (Instance)"
+    else:
+        for k in range(1, 9):
+            tab = tables.get(f"ESC{k}")
+            if tab is not None and tab.has("RPM") and tab.t is not None and len(tab):
+                per_index.append((k - 1, tab))
+        generation = "ESC1..ESC8"
+    if not per_index:
+        return None
+    out, notes = [], {}
+    by_channel = {ch: k for k, ch in enumerate(channels)}
+    unmapped = []
+    for index, tab in per_index:
+        motor0 = by_channel.get(index + 1)
+        if motor0 is None:
+            unmapped.append(index)
+            continue
+        units = fmtu.get(tab.name)
+        order = np.argsort(tab.t, kind="stable")
+        vals = {q: _esc_column(tab, q, units, mults, notes) for q in ESC_COLUMNS}
+        vals = {q: (None if v is None else v[order]) for q, v in vals.items()}
+        out.append(EscChannel(motor0 + 1, tab.t[order], vals["rpm"], vals["current"], vals["voltage"],
+                              vals["temperature"], esc_index=index,
+                              source=f"{tab.name}" + (f"[Instance {index}]" if tab.name == "ESC" else "")))
+    if unmapped:
+        warnings.append(f"ESC telemetry of output(s) {', '.join(str(i + 1) for i in unmapped)} is not a motor "
+                        f"({chan_source}): ignored")
+    if not out:
+        return None
+    extra = [name for name in ("ESCX", "EDT2") if name in tables and len(tables[name])]
+    source = generation + f"; motors by {chan_source}" + (f"; also {'/'.join(extra)} (status only)" if extra else "")
+    return EscTelemetry(out, source, notes)
+
+
 def _accel(tables) -> Optional[Series]:
     """Primary IMU's accelerometer (m/s², FRD body specific force) from ``IMU.AccX/Y/Z``."""
     if "IMU" not in tables or not tables["IMU"].has("AccX", "AccY", "AccZ"):
@@ -1077,6 +1203,7 @@ def read_dataflash(path) -> Flight:
         motor_kind=motor_kind,
         thrust_curve=thrust_curve,
         esc_rpm=_esc_rpm(tables, wiring, n_motors) if frame.rotor_count else None,
+        esc=esc_telemetry(tables, wiring, n_motors, warnings, idx.name_to_id) if frame.rotor_count else None,
         velocity=_velocity(tables),
         accel=_accel(tables),
         alt_motors=alt_motors,

@@ -36,8 +36,14 @@ rates or accelerations); column names and units follow ArduCopter >= 3.4:
   rate) as ArduCopter logs it at 10 Hz; the reader then keeps RATE as the motor source.
 - ``CTUN`` (ThO = mean thrust setpoint) at the motors' timestamps, so the reader's throttle
   check of the airborne intervals sees what the Flight flew.
-- ``ESC`` (Instance = output channel - 1, RPM) from ``esc_rpm``; ``XKF1`` (C=0, VN/VE/VD m/s)
-  from ``velocity``.
+- ESC telemetry from ``esc`` (one message per ESC report, ``Instance`` = the channel's
+  ``esc_index``, else its motor's output channel - 1) in the generation ``esc_layout`` names:
+  ``"esc_rawrpm"`` (ArduCopter 4.3+, ``QBffffcfcf`` with ``RawRPM``), ``"esc_float"`` (4.1-4.2,
+  ``QBeffcfcff``), ``"esc_int"`` (4.0, ``QBeCCcHc``), each with its FMTU (units and multipliers)
+  and MULT messages as ArduPilot writes them, or ``"escn"`` (3.3-3.6: ``ESC1..ESC8``, ``Qcccc``,
+  rpm/10 in a centi field, no FMTU). Offline samples (``online`` False) are not written (ArduPilot
+  logs an ESC only when its telemetry updated). Without ``esc``: ``ESC`` (Instance, RPM) from
+  ``esc_rpm``. ``XKF1`` (C=0, VN/VE/VD m/s) from ``velocity``.
 
 Precision: float32 for rates, attitude, velocity, RATE and parameters; 1 µs for time; 1 µs of
 PWM (1/(max-min) of the signal); 0.01 rpm. ``truth`` is not written. Quad X and + and every
@@ -123,7 +129,25 @@ RCOU = _Format(135, "RCOU", "Q" + "H" * RCOU_CHANNELS, ("TimeUS", *(f"C{k}" for 
 CTUN = _Format(136, "CTUN", "Qf", ("TimeUS", "ThO"))
 ESC = _Format(137, "ESC", "QBe", ("TimeUS", "Instance", "RPM"))
 XKF1 = _Format(138, "XKF1", "QBfff", ("TimeUS", "C", "VN", "VE", "VD"))
-ALL_FORMATS = (FMT, PARM, MSG, EV, IMU, ATT, RATE, RCOU, CTUN, ESC, XKF1)
+FMTU = _Format(139, "FMTU", "QBNN", ("TimeUS", "FmtType", "UnitIds", "MultIds"))
+MULT = _Format(140, "MULT", "Qbd", ("TimeUS", "Id", "Mult"))
+#: ESC telemetry generations (ArduPilot AP_ESC_Telem / DataFlash LogStructure): format, units, multipliers.
+ESC_LAYOUTS = {
+    "esc_rawrpm": (_Format(137, "ESC", "QBffffcfcf", ("TimeUS", "Instance", "RPM", "RawRPM", "Volt", "Curr", "Temp",
+                                                      "CTot", "MotTemp", "Err")), "s#qqvAOaO%", "F-00--BCB-"),
+    "esc_float": (_Format(137, "ESC", "QBeffcfcff", ("TimeUS", "Instance", "RPM", "Volt", "Curr", "Temp", "CTot",
+                                                     "MotTemp", "Err", "RXErr")), "s#qvAOaO%%", "F-B--BCB--"),
+    "esc_int": (_Format(137, "ESC", "QBeCCcHc", ("TimeUS", "Instance", "RPM", "Volt", "Curr", "Temp", "CTot",
+                                                 "MotTemp")), "s#qvAO-O", "F-BBBB-B"),
+}
+ESCN_FORMATS = tuple(_Format(141 + k, f"ESC{k + 1}", "Qcccc", ("TimeUS", "RPM", "Volt", "Curr", "Temp"))
+                     for k in range(8))
+#: ``ESC1..8`` store rpm/10 in a ``c`` (x0.01) field: the decoded RPM is rpm/1000.
+ESCN_RPM_DIVISOR = 1000.0
+#: The multipliers ArduPilot defines for the ids above (AP_Logger log_Multipliers).
+MULTIPLIER_VALUES = {"-": 0.0, "?": 1.0, "0": 1.0, "B": 1e-2, "C": 1e-3, "F": 1e-6}
+ESC_LAYOUT_NAMES = (*ESC_LAYOUTS, "escn")
+ALL_FORMATS = (FMT, PARM, MSG, FMTU, MULT, EV, IMU, ATT, RATE, RCOU, CTUN, ESC, XKF1)
 
 
 @dataclass
@@ -300,6 +324,44 @@ def _esc_block(flight: Flight, params: dict[str, float], n_motors: int) -> Optio
     return _block(ESC, t, Instance=inst, RPM=e.values.reshape(-1))
 
 
+def _esc_telemetry_blocks(flight: Flight, params: dict[str, float], n_motors: int, layout: str) -> list[_Block]:
+    """ESC messages of ``flight.esc`` in one generation (see the module docstring), with FMTU/MULT."""
+    if layout not in ESC_LAYOUT_NAMES:
+        raise ValueError(f"esc_layout must be one of {ESC_LAYOUT_NAMES}, not {layout!r}")
+    channels, _ = motor_output_channels(params, n_motors)
+    rows = []
+    for c in flight.esc.channels:
+        index = c.esc_index if c.esc_index >= 0 else channels[c.motor - 1] - 1
+        m = c.online
+        cols = {q: np.nan_to_num(v[m], nan=0.0) if (v := c.quantity(q)) is not None else np.zeros(int(m.sum()))
+                for q in ("rpm", "current", "voltage", "temperature")}
+        rows.append((index, c.t[m], cols))
+    if layout == "escn":
+        out = []
+        for index, t, cols in rows:
+            if not 0 <= index < len(ESCN_FORMATS):
+                raise ValueError(f"write_dataflash: ESC1..ESC8 cannot hold ESC index {index}")
+            out.append(_block(ESCN_FORMATS[index], _to_us(t), RPM=cols["rpm"] / ESCN_RPM_DIVISOR,
+                              Volt=cols["voltage"], Curr=cols["current"], Temp=cols["temperature"]))
+        return out
+    fmt, units, mults = ESC_LAYOUTS[layout]
+    t = np.concatenate([r[1] for r in rows])
+    inst = np.concatenate([np.full(r[1].size, r[0]) for r in rows])
+    cat = {q: np.concatenate([r[2][q] for r in rows]) for q in ("rpm", "current", "voltage", "temperature")}
+    order = np.argsort(t, kind="stable")
+    cols = {"Instance": inst[order], "RPM": cat["rpm"][order], "Volt": cat["voltage"][order],
+            "Curr": cat["current"][order], "Temp": cat["temperature"][order]}
+    if "RawRPM" in fmt.columns:
+        cols["RawRPM"] = cat["rpm"][order]
+    esc = _block(fmt, _to_us(t[order]), **cols)
+    fmtu = _block(FMTU, np.zeros(1, dtype=np.uint64), phase=0, FmtType=[fmt.type_id], UnitIds=[units.encode()],
+                  MultIds=[mults.encode()])
+    ids = sorted(set(mults))
+    mult = _block(MULT, np.zeros(len(ids), dtype=np.uint64), phase=0, Id=[ord(i) for i in ids],
+                  Mult=[MULTIPLIER_VALUES[i] for i in ids])
+    return [fmtu, mult, esc]
+
+
 def sim_board_uid(vehicle_id: str) -> str:
     """The MSG board-UID line written for ``vehicle_id`` (itself when it already is one)."""
     if BOARD_UID_RE.match(vehicle_id):
@@ -359,8 +421,9 @@ def _merge(blocks: list[_Block]) -> np.ndarray:
     return out
 
 
-def write_dataflash(flight: Flight, path) -> Path:
-    """Write ``flight`` as an ArduPilot DataFlash binary log at ``path`` (see module docstring)."""
+def write_dataflash(flight: Flight, path, *, esc_layout: str = "esc_rawrpm") -> Path:
+    """Write ``flight`` as an ArduPilot DataFlash binary log at ``path`` (see module docstring).
+    ``esc_layout`` picks the ESC telemetry generation written for ``flight.esc``."""
     path = Path(path)
     frame_class, frame_type = frame_class_type(flight)
     factors = mixer_factors(frame_class, frame_type)
@@ -392,14 +455,19 @@ def write_dataflash(flight: Flight, path) -> Path:
     data.append(_rcou_block(flight, params, expo, n_motors))
     if collective is not None:
         data.append(_block(CTUN, _to_us(collective.t), ThO=collective.values[:, 0]))
-    data.append(_esc_block(flight, params, n_motors))
+    if flight.esc is not None and flight.esc.channels:
+        data.extend(_esc_telemetry_blocks(flight, params, n_motors, esc_layout))
+    else:
+        data.append(_esc_block(flight, params, n_motors))
     if flight.velocity is not None and len(flight.velocity):
         v = flight.velocity
         data.append(_block(XKF1, _to_us(v.t), C=np.zeros(len(v), dtype=np.uint8),
                            VN=v.values[:, 0], VE=v.values[:, 1], VD=v.values[:, 2]))
     data.append(_event_block(flight))
     blocks = [b for b in data if b is not None]
-    used = [FMT] + [f for f in ALL_FORMATS[1:] if f in (PARM, MSG) or any(b.fmt is f for b in blocks)]
+    extra = [b.fmt for b in blocks if b.fmt not in ALL_FORMATS]
+    used = [FMT] + [f for f in ALL_FORMATS[1:] if f in (PARM, MSG) or any(b.fmt is f for b in blocks)] + \
+        list(dict.fromkeys(extra))
     buf = _merge(_header_blocks(flight, params, firmware, frame_class, frame_type, used) + blocks)
     path.parent.mkdir(parents=True, exist_ok=True)
     buf.tofile(path)

@@ -32,7 +32,8 @@ PX4 log viewer shows; ``timestamp_sample`` is not used so all streams share one 
     and move most is used.
   * when both exist the other one goes to ``Flight.alt_motors["actuator_outputs"]``.
 - ``esc_rpm``: ``esc_status.esc[i].esc_rpm`` (mapped to motors by ``actuator_function`` where
-  logged), only when the ESCs report something non-zero.
+  logged), only when the ESCs report something non-zero. ``esc``: the same topic per motor
+  (:func:`esc_telemetry`: rpm, current, voltage, temperature; offline and stale reports marked).
 - ``velocity`` (NED m/s): ``vehicle_local_position.vx/vy/vz``.
 - ``accel`` (m/s², FRD body specific force): ``sensor_combined.accelerometer_m_s2``.
 - ``thrust_curve``: ``THR_MDL_FAC``; ``params``: every initial parameter as float.
@@ -663,6 +664,88 @@ def _esc_rpm(ulog, rotor_count: Optional[int]) -> Optional[Series]:
     return Series(esc.t, rpm, "esc_status.esc[].esc_rpm")
 
 
+#: esc_report.actuator_function values of motors 1..12 (PX4 >= 1.13 OutputFunction Motor1..).
+ESC_FUNCTION_MOTORS = range(OUTPUT_FUNCTION_MOTOR1, OUTPUT_FUNCTION_MOTOR1 + MAX_MOTOR_FUNCTIONS)
+#: PX4 esc_report fields -> Flight ESC quantities (units as PX4 logs them: rpm, A, V, degC).
+ESC_REPORT_FIELDS = {"rpm": "esc_rpm", "current": "esc_current", "voltage": "esc_voltage",
+                     "temperature": "esc_temperature"}
+
+
+def esc_telemetry(ulog, rotor_count: Optional[int], warnings: list[str]):
+    """Per-motor ESC telemetry from ``esc_status`` (:class:`~flightlog_fd.flight.EscTelemetry`) or None.
+
+    Motor of slot i: ``esc[i].actuator_function`` - 100 where the firmware logs it (PX4 >= 1.13;
+    the most common non-zero value of the slot), else slot i = motor i + 1. A sample is
+    ``online`` when bit i of ``esc_online_flags`` is set (ignored when the flags are zero for the
+    whole log while the ESC reports a speed: not every driver fills them) and the slot's own
+    ``esc[i].timestamp`` moved since the previous message (PX4 re-publishes the last report of a
+    silent ESC). The sample time is that slot timestamp where set, else the message's.
+    None when the topic is absent or every slot reports zeros (the topic is published without
+    telemetry)."""
+    from ..flight import EscChannel, EscTelemetry
+
+    esc = _first(ulog, "esc_status")
+    if esc is None or not rotor_count:
+        return None
+    n_slots = 0
+    while esc.has(f"esc[{n_slots}].esc_rpm"):
+        n_slots += 1
+    if n_slots == 0:
+        return None
+    has_function = esc.has("esc[0].actuator_function")
+    flags = esc.get("esc_online_flags").astype(np.int64) if esc.has("esc_online_flags") else None
+    out = []
+    mapped: set[int] = set()
+    for i in range(n_slots):
+        key = f"esc[{i}].esc_rpm"
+        if not esc.has(key):
+            continue
+        rpm = esc.get(key).astype(np.float64)
+        if has_function:
+            func = esc.get(f"esc[{i}].actuator_function").astype(np.int64)
+            func = func[func != 0]
+            if func.size == 0:
+                continue
+            vals, counts = np.unique(func, return_counts=True)
+            f = int(vals[np.argmax(counts)])
+            if f not in ESC_FUNCTION_MOTORS:
+                continue
+            motor = f - OUTPUT_FUNCTION_MOTOR1 + 1
+        else:
+            motor = i + 1
+        if motor > rotor_count or motor in mapped:
+            continue
+        values = {q: (esc.get(f"esc[{i}].{fld}").astype(np.float64) if esc.has(f"esc[{i}].{fld}") else None)
+                  for q, fld in ESC_REPORT_FIELDS.items()}
+        if not np.any(rpm != 0) and not any(v is not None and np.any(v != 0) for v in values.values()):
+            continue  # an empty slot
+        t = esc.t.copy()
+        online = np.ones(t.size, dtype=bool)
+        if flags is not None and np.any(flags != 0):
+            online &= (flags >> i) & 1 == 1
+        ts_key = f"esc[{i}].timestamp"
+        if esc.has(ts_key):
+            ts = esc.get(ts_key).astype(np.float64)
+            set_ = ts > 0
+            t = np.where(set_, ts / US_PER_S, t)
+            stale = np.zeros(t.size, dtype=bool)
+            stale[1:] = set_[1:] & (ts[1:] == ts[:-1])
+            online &= ~stale
+        order = np.argsort(t, kind="stable")
+        mapped.add(motor)
+        out.append(EscChannel(motor, t[order], rpm[order],
+                              *(None if values[q] is None else values[q][order]
+                                for q in ("current", "voltage", "temperature")),
+                              online=online[order], esc_index=i,
+                              source=f"esc_status.esc[{i}]" + (f" (instance {esc.instance})" if esc.instance else "")))
+    if not out:
+        return None
+    mapping = "esc[].actuator_function" if has_function else "slot i = motor i+1 (esc_report of PX4 < 1.13)"
+    return EscTelemetry(out, f"esc_status; motors by {mapping}",
+                        {q: f"esc_status.esc[].{fld} ({u})" for (q, fld), u in
+                         zip(ESC_REPORT_FIELDS.items(), ("rpm", "A", "V", "degC"))})
+
+
 def _accel(ulog) -> Optional[Series]:
     for tp in _topics(ulog, "sensor_combined")[:1]:
         a = tp.array("accelerometer_m_s2", 3)
@@ -856,6 +939,7 @@ def read_ulog(path, reader: str = "auto") -> Flight:
         motor_kind=motor_kind,
         thrust_curve=params.get("THR_MDL_FAC"),
         esc_rpm=_esc_rpm(ulog, n_motors),
+        esc=esc_telemetry(ulog, n_motors, warnings),
         velocity=_velocity(ulog),
         accel=_accel(ulog),
         alt_motors=alt_motors,

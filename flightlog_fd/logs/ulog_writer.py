@@ -27,7 +27,12 @@ Topics written (PX4 field names; float32 as PX4 logs them):
   every change;
 - ``sensor_combined`` (``accelerometer_m_s2`` and ``gyro_rad`` interpolated to its times) if ``accel``;
 - ``vehicle_local_position`` (``vx, vy, vz`` and ``x, y, z`` integrated from them) if ``velocity``;
-- ``esc_status`` (``esc[i].esc_rpm``, ``actuator_function`` 101+i) if ``esc_rpm``.
+- ``esc_status`` from ``esc`` (per slot ``esc_index``: ``esc_rpm``, ``esc_current``,
+  ``esc_voltage``, ``esc_temperature``, ``timestamp`` of the slot's last report,
+  ``actuator_function`` 100 + motor, bit i of ``esc_online_flags``), one message at every time
+  any ESC reported (one per round when the ESCs report in rounds), each slot holding its last report; with
+  ``esc_layout="legacy"`` the esc_report of PX4 < 1.13 (no ``actuator_function``: slot i is
+  motor i+1). Else from ``esc_rpm`` (``esc[i].esc_rpm``, ``actuator_function`` 101+i).
 
 Info fields: ``sys_name`` "PX4", ``ver_hw``, ``ver_sw`` (the flight's firmware text),
 ``ver_sw_release`` when the firmware text holds a ``vX.Y.Z`` version, ``sys_uuid`` = vehicle_id,
@@ -119,6 +124,9 @@ FORMATS: dict[str, list[tuple[str, str, int]]] = {
                    ("uint8_t", "esc_connectiontype", 0), ("uint8_t", "esc_online_flags", 0),
                    ("uint8_t", "esc_armed_flags", 0), ("esc_report", "esc", ESC_SLOTS)],
 }
+#: esc_report of PX4 before 1.13 (no actuator_function), written with ``esc_layout="legacy"``.
+ESC_REPORT_LEGACY = [f for f in FORMATS["esc_report"] if f[1] != "actuator_function"]
+ESC_LAYOUTS = ("current", "legacy")
 #: Order of the data topics (also their msg_id order).
 DATA_TOPICS = ("vehicle_status", "vehicle_land_detected", "vehicle_angular_velocity", "vehicle_attitude",
                "actuator_motors", "actuator_outputs", "vehicle_local_position", "esc_status", "sensor_combined")
@@ -153,8 +161,9 @@ def _message(msg_type: int, payload: bytes) -> bytes:
     return struct.pack("<HB", len(payload), msg_type) + payload
 
 
-def _format_message(name: str) -> bytes:
-    text = name + ":" + "".join(f"{t}[{n}] {f};" if n else f"{t} {f};" for t, f, n in FORMATS[name])
+def _format_message(name: str, formats: Optional[dict] = None) -> bytes:
+    formats = FORMATS if formats is None else formats
+    text = name + ":" + "".join(f"{t}[{n}] {f};" if n else f"{t} {f};" for t, f, n in formats[name])
     return _message(MSG_FORMAT, text.encode("ascii"))
 
 
@@ -181,16 +190,17 @@ def _param(name: str, value: float) -> bytes:
     return _message(MSG_PARAM, _key_value("float", name, float(value)))
 
 
-def _flat_fields(name: str, prefix: str = "") -> list[tuple[str, str]]:
+def _flat_fields(name: str, prefix: str = "", formats: Optional[dict] = None) -> list[tuple[str, str]]:
     """Flattened (field name, numpy type) of a format, nested types expanded like pyulog does."""
+    formats = FORMATS if formats is None else formats
     out = []
-    for t, f, n in FORMATS[name]:
+    for t, f, n in formats[name]:
         names = [f"{prefix}{f}[{i}]" for i in range(n)] if n else [f"{prefix}{f}"]
         for fn in names:
             if t in _NP_TYPES:
                 out.append((fn, _NP_TYPES[t]))
             else:
-                out.extend(_flat_fields(t, fn + "."))
+                out.extend(_flat_fields(t, fn + ".", formats))
     return out
 
 
@@ -202,9 +212,9 @@ class _TopicData:
     timestamp_us: np.ndarray
     values: dict[str, np.ndarray] = field(default_factory=dict)
 
-    def records(self, msg_id: int) -> np.ndarray:
+    def records(self, msg_id: int, formats: Optional[dict] = None) -> np.ndarray:
         """(n, message size) uint8: each row one complete 'D' message."""
-        fields = _flat_fields(self.name)
+        fields = _flat_fields(self.name, formats=formats)
         dtype = np.dtype([("msg_size", "<u2"), ("msg_type", "u1"), ("msg_id", "<u2")] + fields)
         n = len(self.timestamp_us)
         rec = np.zeros(n, dtype=dtype)
@@ -275,7 +285,47 @@ def _vehicle_type(flight: Flight) -> str:
     return vt
 
 
-def _topics(flight: Flight) -> list[_TopicData]:
+def _esc_status(flight: Flight, esc_layout: str) -> _TopicData:
+    """esc_status from ``flight.esc``: a message at every report time of any ESC, each slot
+    holding its last report (values, own timestamp, online bit), as PX4 publishes it."""
+    chans = flight.esc.channels
+    if max(c.esc_index if c.esc_index >= 0 else c.motor - 1 for c in chans) >= ESC_SLOTS:
+        raise ValueError(f"write_ulog: esc_status has {ESC_SLOTS} slots")
+    lengths = {len(c) for c in chans}
+    rounds = np.max([c.t for c in chans], axis=0) if len(lengths) == 1 else None
+    if rounds is not None and rounds.size > 1 and np.all(np.min([c.t for c in chans], axis=0)[1:] > rounds[:-1]):
+        times = rounds  # one message per telemetry round, as PX4's DShot driver publishes
+    else:
+        times = np.unique(np.concatenate([c.t for c in chans]))
+    us = _us(times)
+    online = np.zeros(times.size, dtype=np.int64)
+    vals: dict[str, np.ndarray] = {"counter": np.arange(times.size) % 65536,
+                                   "esc_count": max(c.esc_index if c.esc_index >= 0 else c.motor - 1
+                                                    for c in chans) + 1}
+    for c in chans:
+        slot = c.esc_index if c.esc_index >= 0 else c.motor - 1
+        if esc_layout == "legacy" and slot != c.motor - 1:
+            raise ValueError("write_ulog: the legacy esc_report has no actuator_function, so ESC slot i must be "
+                             f"motor i+1 (motor {c.motor} is in slot {slot})")
+        last = np.searchsorted(c.t, times, side="right") - 1  # the slot's last report at each message
+        has = last >= 0
+        li = np.clip(last, 0, None)
+        vals[f"esc[{slot}].timestamp"] = np.where(has, _us(np.maximum(c.t, 1e-6))[li], 0)
+        for q, fld in (("rpm", "esc_rpm"), ("current", "esc_current"), ("voltage", "esc_voltage"),
+                       ("temperature", "esc_temperature")):
+            v = c.quantity(q)
+            if v is None:
+                continue
+            col = np.where(has, np.nan_to_num(v[li], nan=0.0), 0.0)
+            vals[f"esc[{slot}].{fld}"] = np.round(col).astype(np.int64) if q == "rpm" else col
+        if esc_layout != "legacy":
+            vals[f"esc[{slot}].actuator_function"] = OUTPUT_FUNCTION_MOTOR1 + c.motor - 1
+        online |= np.where(has & c.online[li], 1 << slot, 0)
+    vals["esc_online_flags"] = online
+    return _TopicData("esc_status", us, vals)
+
+
+def _topics(flight: Flight, esc_layout: str = "current") -> list[_TopicData]:
     out: list[_TopicData] = []
     fac = _thr_mdl_fac(flight)
     t0, t1 = float(flight.t_start), float(flight.t_end)
@@ -361,7 +411,9 @@ def _topics(flight: Flight) -> list[_TopicData]:
             "timestamp_sample": us, "xy_valid": 1, "z_valid": 1, "v_xy_valid": 1, "v_z_valid": 1,
             "x": pos[:, 0], "y": pos[:, 1], "z": pos[:, 2], "vx": v[:, 0], "vy": v[:, 1], "vz": v[:, 2]}))
 
-    if flight.esc_rpm is not None and len(flight.esc_rpm):
+    if flight.esc is not None and flight.esc.channels:
+        out.append(_esc_status(flight, esc_layout))
+    elif flight.esc_rpm is not None and len(flight.esc_rpm):
         e = flight.esc_rpm
         n = min(e.values.shape[1], ESC_SLOTS)
         us = _us(e.t)
@@ -443,9 +495,13 @@ def _info_fields(flight: Flight, hardware: str) -> dict:
 # ---------------------------------------------------------------- entry point
 
 
-def write_ulog(flight: Flight, path, *, hardware: str = DEFAULT_HARDWARE) -> Path:
-    """Write ``flight`` as a PX4 ULog at ``path`` (see the module docstring); returns the path."""
-    topics = [tp for tp in _topics(flight) if len(tp.timestamp_us)]
+def write_ulog(flight: Flight, path, *, hardware: str = DEFAULT_HARDWARE, esc_layout: str = "current") -> Path:
+    """Write ``flight`` as a PX4 ULog at ``path`` (see the module docstring); returns the path.
+    ``esc_layout``: ``"current"`` (esc_report with actuator_function) or ``"legacy"`` (PX4 < 1.13)."""
+    if esc_layout not in ESC_LAYOUTS:
+        raise ValueError(f"esc_layout must be one of {ESC_LAYOUTS}, not {esc_layout!r}")
+    formats = FORMATS if esc_layout == "current" else {**FORMATS, "esc_report": ESC_REPORT_LEGACY}
+    topics = [tp for tp in _topics(flight, esc_layout) if len(tp.timestamp_us)]
     head = bytearray(ULOG_MAGIC)
     head += struct.pack("<BQ", FILE_VERSION, int(_us(np.array([flight.t_start]))[0]))
     head += _message(MSG_FLAG_BITS, bytes(16) + struct.pack("<3Q", 0, 0, 0))
@@ -454,7 +510,7 @@ def write_ulog(flight: Flight, path, *, hardware: str = DEFAULT_HARDWARE) -> Pat
         needed.add("esc_report")
     for name in FORMATS:
         if name in needed:
-            head += _format_message(name)
+            head += _format_message(name, formats)
     for key, value in _info_fields(flight, hardware).items():
         head += _info(key, value)
     for name, value in _params(flight).items():
@@ -464,7 +520,7 @@ def write_ulog(flight: Flight, path, *, hardware: str = DEFAULT_HARDWARE) -> Pat
         head += _message(MSG_ADD_LOGGED, struct.pack("<BH", 0, msg_id) + tp.name.encode("ascii"))
 
     # every topic's rows as bytes, then one gather in (timestamp, topic) order
-    blocks = [tp.records(msg_id) for msg_id, tp in enumerate(order)]
+    blocks = [tp.records(msg_id, formats) for msg_id, tp in enumerate(order)]
     flat = np.concatenate([b.reshape(-1) for b in blocks]) if blocks else np.zeros(0, np.uint8)
     lengths = np.concatenate([np.full(len(b), b.shape[1], dtype=np.int64) for b in blocks]) if blocks \
         else np.zeros(0, np.int64)

@@ -233,29 +233,28 @@ def _window_table(d: Diagnosis) -> str:
 
 
 def motor_panel(d: Diagnosis) -> str:
-    """The per-motor evidence panel (same cells as the terminal's), beside the timeline."""
-    from .terminal import MOTOR_HEADERS, motor_rows
+    """The per-motor findings panel (same cells as the terminal's), beside the timeline."""
+    from .terminal import analyzer_notes, motor_table
 
-    rows = motor_rows(d)
+    headers, rows = motor_table(d)
     if not rows:
         return ""
     ev = d.evidence
     against = {"profile": "calibration", "before onset": "the flight before the onset",
-               "neighbours": "the other three motors"}.get(getattr(ev, "baseline", ""), "")
-    head = "".join(f"<th>{esc(h)}</th>" for h in MOTOR_HEADERS)
+               "neighbours": "an even split"}.get(getattr(ev, "baseline", ""), "")
+    head = "".join(f"<th>{esc(h)}</th>" for h in headers)
     body = "".join(
         ("<tr class=\"top\">" if d.verdict.motor is not None and r[0] == str(d.verdict.motor) else "<tr>")
         + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
-    notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in (ev.notes if ev is not None else []))
-    if d.airframe_changed_note:
-        notes += f'<p class="muted">{esc(d.airframe_changed_note)}</p>'
+    notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in analyzer_notes(d))
+    sources = ", ".join(d.decision.sources) if d.decision is not None else ""
     return (f'<div class="motors"><h3>Per-motor evidence</h3><table class="motor-panel"><tr>{head}</tr>{body}</table>'
-            f'<p class="muted">Command share: mean thrust command / mean of the four (1 = even); change against '
+            f'<p class="muted">Share: mean thrust command / mean of all motors (1 = even) and its change against '
             f'{esc(against)}. Thrust: the share of its normal thrust each rotor gives, fitted from the steady '
-            f'command pattern (90 % interval). Effectiveness: angular acceleration per unit command relative to '
-            f'the other three (1 = as they; a dash when the flight did not manoeuvre enough). Model vote: mean '
+            f'command pattern (90 % interval). Effect.: angular acceleration per unit command relative to the '
+            f'others (1 = as they; shown only when the flight manoeuvred enough). Vote: the model\'s mean '
             f'probability that this propeller is damaged. Weight: the decision model\'s probability that this '
-            f'rotor lost thrust, from all of them; the shaded windows are the model\'s alone.</p>{notes}</div>')
+            f'rotor lost thrust, from {esc(sources)}; the shaded windows are the model\'s alone.</p>{notes}</div>')
 
 
 def log_section(d: Diagnosis) -> str:

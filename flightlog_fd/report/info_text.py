@@ -38,6 +38,20 @@ def print_info(console: Console, d: dict) -> None:
     for s in d["streams"]:
         t.add_row(escape(s["name"]), escape(s["source"]), f"{s['rate_hz']:.1f} Hz", str(s["samples"]))
     console.print(t)
+    esc = d.get("esc")
+    if esc:
+        units = ", ".join(f"{q} {escape(u)}" for q, u in esc["units"].items() if q in esc["quantities"])
+        console.print(f"  ESC        {escape(esc['source'])}")
+        console.print(f"             [dim]{units}[/dim]")
+        e = Table(show_header=True, header_style="bold", box=None, pad_edge=False)
+        for col, just in (("motor", "right"), ("ESC", "right"), ("rate", "right"), ("samples", "right"),
+                          ("offline", "right"), ("gaps", "left")):
+            e.add_column(col, justify=just)
+        for m in esc["motors"]:
+            gaps = (f"{len(m['gaps'])} ({m['gap_s']:.1f} s, first at {m['gaps'][0][0]:.1f} s)" if m["gaps"] else "none")
+            e.add_row(str(m["motor"]), str(m["esc_index"]), f"{m['rate_hz']:.1f} Hz", str(m["samples"]),
+                      str(m["offline_samples"]), gaps)
+        console.print(e)
     for w in d.get("warnings", []):
         console.print(f"  [yellow]warning[/yellow] {escape(w)}")
     for m in d.get("stopped_motors", []):

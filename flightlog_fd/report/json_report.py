@@ -45,10 +45,18 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
                          "decision": {"sources": [str], "healthy_chi2": float|null,
                                       "share_sigma": float|null} | null} | null,
       "windows": [{"t_start": s, "t_end": s,
-                   "class": 0-4,                  # the model's most probable class
-                   "probabilities": [p0, p1, p2, p3, p4],
+                   "class": 0-n,                  # the model's most probable class
+                   "probabilities": [p0, p1, ..., pn],   # healthy, then motor 1..n
                    "phase": "hover" | "climb" | "descent" | "manoeuvre" | "unknown",
                    "smoothed_class": -1..4}],     # the verdict's label: -1 uncertain
+      "analyzers": [{"analyzer": "model" | "commands" | "throttle" | "effectiveness" | ...,
+                     "abstained": str | null,            # why it had nothing to say
+                     "notes": [str],
+                     "findings": [{"motor": 1-n, "name": str, "value": float|null, "unit": str,
+                                   "interval": [lo, hi]|null, "baseline": float|null,
+                                   "direction": "up" | "down" | "",   # which way damage moves it
+                                   "llr": float|null,                 # its weight in the decision, nats
+                                   "text": str, "analyzer": str}]}],
       "stopped_motors": [{"motor": 1-n, "t_start": s, "t_end": s,   # "motor k stopped" while airborne,
                           "evidence": str, "source": str}],        # any frame (status "stopped")
       "warnings": [str],
@@ -121,7 +129,8 @@ JSON_SCHEMA: dict = {
         },
         "evidence": {"type": ["object", "null"], "required": ["n_windows", "covered_s", "share", "abstained"],
                      "properties": {"n_windows": {"type": "integer", "minimum": 0}, "covered_s": _NUM,
-                                    "share": {"type": "array", "items": _PROB, "minItems": 5, "maxItems": 5},
+                                    "share": {"type": "array", "items": _PROB, "minItems": 2,
+                                              "maxItems": MAX_ROTORS + 1},
                                     "abstained": _PROB}},
         "motors": {
             "type": "array", "maxItems": 4,
@@ -130,7 +139,7 @@ JSON_SCHEMA: dict = {
                 "required": ["motor", "position", "command_share", "command_share_baseline", "command_change",
                              "effectiveness", "effectiveness_ci", "model_vote"],
                 "properties": {
-                    "motor": {"type": "integer", "minimum": 1, "maximum": 4},
+                    "motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
                     "position": _STR_OR_NULL,
                     "command_share": _NUM_OR_NULL,
                     "command_share_baseline": _NUM_OR_NULL,
@@ -153,7 +162,7 @@ JSON_SCHEMA: dict = {
             "properties": {
                 "baseline": {"enum": ["profile", "before onset", "neighbours"]},
                 "throttle": _NUM_OR_NULL,
-                "top_motor": {"type": "integer", "minimum": 1, "maximum": 4},
+                "top_motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
                 "single_motor_gap": _NUM,
                 "effectiveness": {"type": ["object", "null"],
                                   "required": ["informative", "reason", "seconds", "motor_lag_s", "r2"],
@@ -176,12 +185,31 @@ JSON_SCHEMA: dict = {
                 "properties": {
                     "t_start": _NUM,
                     "t_end": _NUM,
-                    "class": {"type": "integer", "minimum": 0, "maximum": 4},
-                    "probabilities": {"type": "array", "items": _PROB, "minItems": 5, "maxItems": 5},
+                    "class": {"type": "integer", "minimum": 0, "maximum": MAX_ROTORS},
+                    "probabilities": {"type": "array", "items": _PROB, "minItems": 2, "maxItems": MAX_ROTORS + 1},
                     "phase": {"enum": ["hover", "climb", "descent", "manoeuvre", "unknown"]},
-                    "smoothed_class": {"type": "integer", "minimum": -1, "maximum": 4},
+                    "smoothed_class": {"type": "integer", "minimum": -1, "maximum": MAX_ROTORS},
                 },
             },
+        },
+        "analyzers": {
+            "type": "array",
+            "items": {"type": "object", "required": ["analyzer", "abstained", "notes", "findings"],
+                      "properties": {
+                          "analyzer": {"type": "string"}, "abstained": _STR_OR_NULL,
+                          "notes": {"type": "array", "items": {"type": "string"}},
+                          "findings": {"type": "array", "items": {
+                              "type": "object",
+                              "required": ["analyzer", "motor", "name", "value", "unit", "interval", "baseline",
+                                           "direction", "llr", "text"],
+                              "properties": {
+                                  "analyzer": {"type": "string"},
+                                  "motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                  "name": {"type": "string"}, "value": _NUM_OR_NULL, "unit": {"type": "string"},
+                                  "interval": {"type": ["array", "null"], "items": _NUM_OR_NULL,
+                                               "minItems": 2, "maxItems": 2},
+                                  "baseline": _NUM_OR_NULL, "direction": {"enum": ["up", "down", ""]},
+                                  "llr": _NUM_OR_NULL, "text": {"type": "string"}}}}}},
         },
         "stopped_motors": {
             "type": "array",
@@ -245,6 +273,7 @@ def to_dict(d: Diagnosis) -> dict:
         "windows": [{"t_start": round(w.t_start, TIME_DECIMALS), "t_end": round(w.t_end, TIME_DECIMALS),
                      "class": w.cls, "probabilities": [round(x, PROB_DECIMALS) for x in w.probabilities],
                      "phase": w.phase, "smoothed_class": w.label} for w in d.windows],
+        "analyzers": [r.as_dict() for r in (d.decision.results if d.decision is not None else [])],
         "stopped_motors": [{"motor": int(x.motor), "t_start": round(float(x.t_start), TIME_DECIMALS),
                             "t_end": round(float(x.t_end), TIME_DECIMALS), "evidence": x.evidence,
                             "source": x.source} for x in d.stopped],

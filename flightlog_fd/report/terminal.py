@@ -30,9 +30,9 @@ from ..verdict import UNCERTAIN_LABEL, timeline_labels
 #: Characters in the timeline strip (fits an 80-column terminal with its time labels).
 TIMELINE_WIDTH = 60
 #: Timeline characters and styles per smoothed label.
-LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", 1: "1", 2: "2", 3: "3", 4: "4"}
-LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", 1: "bold red", 2: "bold red",
-                3: "bold red", 4: "bold red"}
+#: Timeline characters: motors 1-9, then a, b, c for 10-12 (dodecahexa).
+LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", **{k: "123456789abc"[k - 1] for k in range(1, 13)}}
+LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", **{k: "bold red" for k in range(1, 13)}}
 STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "stopped": "bold red", "uncertain": "bold yellow",
                  "not_diagnosable": "bold magenta"}
 CLASS_NAMES = ("healthy", "motor 1", "motor 2", "motor 3", "motor 4")
@@ -125,57 +125,69 @@ def facts_line(diagnosis: Diagnosis) -> str:
     return " | ".join(parts)
 
 
-def motor_rows(diagnosis: Diagnosis) -> list[list[str]]:
-    """The per-motor evidence as text cells (shared by the terminal and HTML panels): motor,
-    position, command share, change against the baseline, thrust (severity eta-hat [90 % CI] from
-    the decision model), effectiveness [90 % CI] (a dash when the fit is uninformative: the reason
-    is in the notes), model vote, and the decision's weight."""
+def motor_table(diagnosis: Diagnosis) -> tuple[list[str], list[list[str]]]:
+    """The per-motor panel as (headers, rows) of text cells, shared by the terminal and HTML:
+    motor, position, one column per finding the analyzers returned (in registry order; each
+    analyzer formats its own cell), and the decision's weight. Empty without a decision."""
+    dec = diagnosis.decision
+    if dec is None or not dec.motors:
+        return [], []
+    columns: list[tuple[str, str]] = []
+    cells: dict[tuple[str, str, int], str] = {}
+    for r in dec.results:
+        for f in r.findings:
+            key = (r.analyzer, f.name)
+            if key not in columns:
+                columns.append(key)
+            cells[(r.analyzer, f.name, f.motor)] = f.text()
+    frame = diagnosis.flight.frame if diagnosis.flight is not None else None
+    positions = {m.motor: m.position for m in diagnosis.motors}
+    headers = ["motor", "position"] + [FINDING_HEADERS.get(name, name) for _, name in columns] + ["weight"]
     rows = []
-    ev = diagnosis.evidence
-    dec = {m.motor: m for m in (diagnosis.decision.motors if diagnosis.decision is not None else [])}
-    for m in diagnosis.motors:
-        eff = "-"
-        usable = ev is not None and ev.effectiveness_usable
-        if usable and m.effectiveness is not None and m.effectiveness_ci is not None:
-            eff = f"{m.effectiveness:.2f} {_short(m.effectiveness_ci[0])}-{_short(m.effectiveness_ci[1])}"
-        base = "-" if m.command_share_baseline is None else f"{m.command_share_baseline:.3f}"
-        d = dec.get(m.motor)
-        thrust = weight = "-"
-        if d is not None and d.eta_hat is not None:
-            thrust = f"{100 * d.eta_hat:.0f} ({100 * d.eta_ci[0]:.0f}-{100 * d.eta_ci[1]:.0f})"
-        if d is not None:
-            weight = f"{d.weight:.2f}"
-        rows.append([str(m.motor), m.position or "-", f"{m.command_share:.3f}", base,
-                     f"{100 * m.command_change:+.1f}%", thrust, eff, f"{m.model_vote:.2f}", weight])
-    return rows
+    for m in dec.motors:
+        pos = positions.get(m.motor) or (frame.position(m.motor) if frame is not None else None) or "-"
+        rows.append([str(m.motor), pos] + [cells.get((a, n, m.motor), "-") for a, n in columns] + [f"{m.weight:.2f}"])
+    return headers, rows
 
 
-def _short(x: float) -> str:
-    """0.77 -> ".77", 1.02 -> "1.02" (narrow interval bounds for an 80-column table)."""
-    t = f"{x:.2f}"
-    return t[1:] if t.startswith("0.") else t
+#: Short column heads for finding names (an 80-column terminal): share = command share and its
+#: change against the baseline; thrust % = eta-hat with its 90 % interval; effect. = relative
+#: effectiveness with its 90 % interval; weight = the decision's probability that the rotor lost thrust.
+FINDING_HEADERS = {"share": "share", "thrust": "thrust %", "effectiveness": "effect.", "vote": "vote",
+                   "throttle": "thr.", "rpm_per_command": "rpm/cmd", "current_per_rpm2": "A/rpm2",
+                   "esc_damage": "esc"}
 
 
-#: Column heads; thrust = eta-hat in % of normal thrust (90 % interval), effect. = effectiveness
-#: (90 % interval), weight = the decision model's probability that the rotor lost thrust.
-MOTOR_HEADERS = ("motor", "position", "share", "base", "change", "thrust %", "effect.", "vote", "weight")
+def short_position(position: str) -> str:
+    """"front-right" -> "FR", "rear" -> "R": an 80-column table's position column."""
+    return "".join(w[0].upper() for w in position.replace(" ", "-").split("-") if w) or position
+
+
+def analyzer_notes(diagnosis: Diagnosis) -> list[str]:
+    """One line per analyzer that abstained (why) and per note an analyzer left."""
+    dec = diagnosis.decision
+    if dec is None:
+        return []
+    out = [f"{r.analyzer}: {r.abstained}" for r in dec.results if r.abstained]
+    out += [f"{r.analyzer}: {n}" for r in dec.results for n in r.notes]
+    if dec.airframe_changed:
+        out.append(f"airframe change since calibration: {dec.airframe_changed}")
+    return out
 
 
 def motor_panel(diagnosis: Diagnosis) -> Table:
-    """Per-motor evidence table: what the verdict rests on, in numbers a pilot can check."""
+    """Per-motor findings table: what the verdict rests on, in numbers a pilot can check."""
     ev = diagnosis.evidence
     against = {"profile": "calibration", "before onset": "the flight before the onset",
-               "neighbours": "the other three"}.get(getattr(ev, "baseline", ""), "")
-    t = Table(title=f"per-motor evidence (change against {against})", title_justify="left", box=None,
-              padding=(0, 1), pad_edge=False, title_style="dim")
-    rows = motor_rows(diagnosis)
-    # without a baseline the column is all dashes: leave it out so the table fits 80 columns
-    keep = [i for i, h in enumerate(MOTOR_HEADERS) if not (h == "base" and all(r[i] == "-" for r in rows))]
-    for i in keep:
-        h = MOTOR_HEADERS[i]
-        t.add_column(h, justify="left" if h in ("position", "thrust %", "effect.") else "right", no_wrap=True)
+               "neighbours": "an even split"}.get(getattr(ev, "baseline", ""), "")
+    t = Table(title=f"per-motor findings (commands against {against})", title_justify="left", box=None,
+              padding=(0, 0, 0, 1), pad_edge=False, title_style="dim")
+    headers, rows = motor_table(diagnosis)
+    headers = ["pos" if h == "position" else h for h in headers]
+    for h in headers:
+        t.add_column(h, justify="left" if h in ("pos", "share", "thrust %", "effect.") else "right", no_wrap=True)
     for row in rows:
-        t.add_row(*[row[i] for i in keep])
+        t.add_row(*[short_position(c) if i == 1 and c != "-" else c for i, c in enumerate(row)])
     return t
 
 
@@ -192,9 +204,9 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
     if diagnosis.windows:
         parts.append(timeline_strip(diagnosis))
         parts.append(Text("  . healthy   1-4 propeller damaged   ? uncertain", style="dim"))
-    if diagnosis.motors:
+    if diagnosis.decision is not None:
         parts.append(motor_panel(diagnosis))
-        for note in diagnosis.evidence.notes:
+        for note in analyzer_notes(diagnosis):
             parts.append(Text(f"  * {note}", style="dim"))
     if show_windows and diagnosis.windows:
         parts.append(window_table(diagnosis))

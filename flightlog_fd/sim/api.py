@@ -25,7 +25,13 @@ Arguments (all keyword except ``n``):
 - ``noise``: "default" | "real_logs" (sensors.py: turbulence and gyro noise ranges widened to
   span real healthy logs);
 - ``realism``: False removes noise, wind, delays and vibration (physics checks);
-- ``vibration_gain``: rad/s of gyro vibration per unit propeller imbalance at full speed.
+- ``vibration_gain``: rad/s of gyro vibration per unit propeller imbalance at full speed;
+- ``esc``: None (no ESC telemetry; rotors reach their commanded speed), ``"random"`` (random
+  motors/ESCs, telemetry 10-100 Hz), a telemetry rate in Hz, one
+  :class:`~flightlog_fd.sim.esc.EscParams` or a list of n: the rotors then follow the
+  load-dependent motor model and each Flight carries ``esc`` (per-motor RPM, current, voltage,
+  temperature; sim/esc.py) and ``truth["esc"]``. Drawn from its own generator: the other draws
+  of a seed do not change.
 
 Cost: one batch of N vehicles costs about as much as a handful of single flights (all array
 operations), so call it with a few hundred vehicles at a time for datasets (profile "training").
@@ -42,6 +48,7 @@ from flightlog_fd.sim.airframe import Airframe, preset, random_airframes
 from flightlog_fd.sim.damage import (ETA_RANGE, HEALTHY, HEALTHY_FRACTION, MIDFLIGHT_FRACTION, VIBRATION_GAIN_RADS,
                                      Damage, DamageArrays, random_damages)
 from flightlog_fd.sim.engine import BatchResult, run_batch
+from flightlog_fd.sim.esc import MAX_RECORD_HZ, EscParams, EscSpec, MotorArrays, esc_telemetry, resolve_esc
 from flightlog_fd.sim.imbalance import AirframeImbalance, ImbalanceArrays, ImbalanceSpec, resolve_imbalances
 from flightlog_fd.sim.logger import LogProfile, build_flights, get_profile
 from flightlog_fd.sim.missions import MissionPlan, plan_missions
@@ -70,6 +77,7 @@ class SimBatch:
     result: BatchResult
     seed: int
     imbalances: Optional[list[AirframeImbalance]] = None
+    esc: Optional[list[EscParams]] = None
 
 
 def _resolve_airframes(n: int, airframes: AirframeSpec, rng: np.random.Generator) -> list[Airframe]:
@@ -107,7 +115,7 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
                    extra_streams: Optional[dict[str, int]] = None, imbalance: ImbalanceSpec = None,
                    mild_fraction: float = 0.0,
                    torque_exponent_range: Optional[tuple[float, float]] = None, noise: str = "default",
-                   accelerometer: bool = True) -> SimBatch:
+                   accelerometer: bool = True, esc: EscSpec = None) -> SimBatch:
     """Fly the batch and keep the raw recording (see :func:`simulate_flights` for the arguments).
 
     ``extra_streams`` maps engine stream names (engine.STREAM_FIELDS, e.g. ``"w_com"``, ``"pos"``)
@@ -136,12 +144,17 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
         dec.pop("accel", None)
     if extra_streams:
         dec.update(extra_streams)
+    escs = resolve_esc(esc, afs, np.random.default_rng([seed, 7]))
+    if escs is not None:
+        k = int(np.ceil(prof.sim_rate_hz / MAX_RECORD_HZ))
+        dec.setdefault("w", k)
+        dec.setdefault("torque", dec["w"])
     t_max = float(plan.estimated_s.max()) * OVERTIME_FACTOR + OVERTIME_S
     imb_arr = None if imbalance is None else ImbalanceArrays.build(imbs)
     res = run_batch(afs, plan, dmg_arr, rho_arr, rho_mode, sens, 1.0 / prof.sim_rate_hz, dec, t_max, rng,
-                    imbalance=imb_arr)
+                    imbalance=imb_arr, motor_model=None if escs is None else MotorArrays.build(escs, afs))
     return SimBatch(airframes=afs, damages=dmg, rho=rho_arr, rho_mode=rho_mode, plan=plan, sensors=sens,
-                    profile=prof, result=res, seed=seed, imbalances=imbs)
+                    profile=prof, result=res, seed=seed, imbalances=imbs, esc=escs)
 
 
 def flights_from_batch(batch: SimBatch) -> list[Flight]:
@@ -151,8 +164,18 @@ def flights_from_batch(batch: SimBatch) -> list[Flight]:
     extra = [{"sensors": batch.sensors.to_dict(i), "eta_torque": float(batch.damages[i].torque_eta),
               "imbalance": imbs[i].to_dict() if imbs[i] is not None else None}
              for i in range(len(batch.airframes))]
-    return build_flights(batch.result, batch.profile, batch.airframes, batch.damages, batch.rho, batch.rho_mode,
-                         batch.plan.name, batch.seed, rng, extra)
+    flights = build_flights(batch.result, batch.profile, batch.airframes, batch.damages, batch.rho, batch.rho_mode,
+                            batch.plan.name, batch.seed, rng, extra)
+    if batch.esc is not None:
+        res = batch.result
+        esc_rng = np.random.default_rng([batch.seed, 8])
+        for i, (fl, p) in enumerate(zip(flights, batch.esc)):
+            offset = fl.truth["log_start_boot_s"]
+            fl.esc = esc_telemetry(res.times["w"], res.data["w"][:, i].astype(np.float64),
+                                   res.data["torque"][:, i].astype(np.float64), p, offset, fl.t_end - offset,
+                                   esc_rng, jitter_frac=batch.profile.jitter_frac)
+            fl.truth["esc"] = p.to_dict()
+    return flights
 
 
 def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageSpec = None,
@@ -163,11 +186,12 @@ def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageS
                      midflight_fraction: float = MIDFLIGHT_FRACTION, imbalance: ImbalanceSpec = None,
                      mild_fraction: float = 0.0,
                      torque_exponent_range: Optional[tuple[float, float]] = None,
-                     noise: str = "default", accelerometer: bool = True) -> list[Flight]:
+                     noise: str = "default", accelerometer: bool = True, esc: EscSpec = None) -> list[Flight]:
     """Simulate ``n`` flights and return them as parsed-log `Flight` objects (see module docstring)."""
     batch = simulate_batch(n, airframes=airframes, damages=damages, mission=mission, duration_s=duration_s,
                            profile=profile, rho=rho, rho_mode=rho_mode, seed=seed, realism=realism,
                            vibration_gain=vibration_gain, healthy_fraction=healthy_fraction, eta_range=eta_range,
                            midflight_fraction=midflight_fraction, imbalance=imbalance, mild_fraction=mild_fraction,
-                           torque_exponent_range=torque_exponent_range, noise=noise, accelerometer=accelerometer)
+                           torque_exponent_range=torque_exponent_range, noise=noise, accelerometer=accelerometer,
+                           esc=esc)
     return flights_from_batch(batch)

@@ -41,6 +41,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from flightlog_fd.sim.airframe import GRAVITY, Airframe
+from flightlog_fd.sim.esc import loaded_speed
 
 
 @dataclass
@@ -214,6 +215,24 @@ class QuadDynamics:
         self.specific_force[2] = -GRAVITY
         self._dq = np.empty((4, params.n))
         self._cross = np.empty((3, params.n))
+        self.k_tau_rotor = params.rotor_k_tau()
+        #: Load-dependent motor speed (sim/esc.py): None = the rotor reaches its commanded speed.
+        self.motor_a0: Optional[np.ndarray] = None
+        self.motor_kv: Optional[np.ndarray] = None
+        self.torque_rel = np.ones_like(self.k_tau_rotor) if params.torque_scale is None else params.torque_scale
+
+    def set_motor_model(self, a0: np.ndarray, kv_scale: np.ndarray) -> None:
+        """Use the load-dependent motor model of sim/esc.py (``a0`` (N,) s/rad, ``kv_scale`` (R, N))."""
+        self.motor_a0 = np.asarray(a0, dtype=np.float64)
+        self.motor_kv = np.asarray(kv_scale, dtype=np.float64)
+
+    def rotor_drag_torque(self, w: np.ndarray, effectiveness: np.ndarray,
+                          drag_ratio: Optional[np.ndarray] = None) -> np.ndarray:
+        """(4, N) magnitude of each propeller's aerodynamic drag torque N·m (what its motor delivers)."""
+        q = self.k_tau_rotor * effectiveness
+        if drag_ratio is not None:
+            q = q * drag_ratio
+        return q * w * w
 
     def step(self, s: RigidBodyState, w_com: np.ndarray, effectiveness: np.ndarray, wind: np.ndarray,
              ang_acc_dist: np.ndarray, speed_gain: Optional[np.ndarray] = None,
@@ -228,6 +247,9 @@ class QuadDynamics:
         """
         dt = self.dt
         w = s.w
+        if self.motor_a0 is not None:
+            load = self.torque_rel * effectiveness * (1.0 if drag_ratio is None else drag_ratio)
+            w_com = loaded_speed(w_com, load, self.motor_a0, self.motor_kv)
         w += self.motor_alpha * (w_com - w)
         np.minimum(w, self.omega_max, out=w)
         np.maximum(w, 0.0, out=w)

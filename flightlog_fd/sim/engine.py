@@ -16,7 +16,11 @@ per-vehicle loop). Time is seconds since arming (t = 0 is the first logged insta
 Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``attitude``
 (estimated quaternion), ``motors`` (thrust setpoints u), ``velocity`` (estimated NED m/s),
 ``accel`` (accelerometer: body specific force + bias + noise, m/s² FRD), ``w_com`` (commanded rotor speed rad/s), ``w`` (actual rotor speed), ``pos`` (true NED m),
-``thrust`` (per-rotor thrust N, of the step before), ``omega`` (true body rates rad/s), ``eta`` (rotor efficiency).
+``thrust`` (per-rotor thrust N, of the step before), ``omega`` (true body rates rad/s), ``eta`` (rotor efficiency),
+``torque`` (each propeller's drag torque N·m, what its motor delivers: ESC current, sim/esc.py).
+
+``motor_model`` (sim/esc.py ``MotorArrays``): rotor speeds follow the load-dependent motor model
+(a lighter propeller spins faster at the same command) instead of reaching the commanded speed.
 
 The loop stops when every vehicle has disarmed and ``tail_s`` more has passed, or at ``t_max``.
 """
@@ -37,9 +41,9 @@ from flightlog_fd.sim.sensors import SensorParams, Sensors
 from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_effectiveness
 
 STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "accel": 3, "w_com": 4, "w": 4,
-                 "pos": 3, "thrust": 4, "omega": 3, "eta": 4}
+                 "pos": 3, "thrust": 4, "omega": 3, "eta": 4, "torque": 4}
 #: Streams with one column per rotor (STREAM_FIELDS gives a quad's 4; a hexa records 6).
-ROTOR_STREAMS = ("motors", "w_com", "w", "thrust", "eta")
+ROTOR_STREAMS = ("motors", "w_com", "w", "thrust", "eta", "torque")
 #: Simulated time kept after the last disarm (covers the logger's tail after disarming).
 DEFAULT_TAIL_S = 1.0
 
@@ -62,7 +66,7 @@ class BatchResult:
 def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageArrays, rho: np.ndarray, rho_mode: str,
               sensor_params: SensorParams, dt: float, decimation: dict[str, int], t_max: float,
               rng: np.random.Generator, tail_s: float = DEFAULT_TAIL_S,
-              imbalance: Optional[ImbalanceArrays] = None) -> BatchResult:
+              imbalance: Optional[ImbalanceArrays] = None, motor_model=None) -> BatchResult:
     """Fly the batch; see the module docstring. ``decimation`` maps stream name → record every k steps;
     ``imbalance`` the airframes as built (None: as designed)."""
     check_mode(rho_mode)
@@ -73,6 +77,8 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     n, n_rot = vp.n, vp.n_rotors
     fields = {k: (n_rot if k in ROTOR_STREAMS else c) for k, c in STREAM_FIELDS.items()}
     dyn = QuadDynamics(vp if imbalance is None else vp.with_imbalance(imbalance), dt)
+    if motor_model is not None:
+        dyn.set_motor_model(motor_model.a0, motor_model.kv_scale)
     ctrl = CascadeController(airframes, vp, dt)
     sens = Sensors(sensor_params, vp, dt, ctrl.dt_outer, rng)
     runner = MissionRunner(plan)
@@ -142,6 +148,8 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
                 v = state.omega
             elif name == "eta":
                 v = eta
+            elif name == "torque":
+                v = dyn.rotor_drag_torque(state.w, eff, drag_ratio)
             else:  # thrust of the previous step (the rotor state lags anyway)
                 v = thrust
             c = count[name]

@@ -1,0 +1,212 @@
+"""ESC analyzer on simulated flights: does it name the damaged motor, and stay quiet on healthy ones?
+
+Flights (60 s waypoint missions, random airframes 30 g-5 kg with realistic imbalance and motor KV
+spread, ESC telemetry at 10 Hz (ArduPilot logging profile) and 50 Hz (PX4 default profile)):
+
+- damaged: η ∈ {0.6, 0.7, 0.8, 0.9} from take-off, a random motor, η_torque = η^k with k ~ U(1.0, 1.6)
+  (sim/damage.py TORQUE_EXPONENT_RANGE), airframes that can fly that η; scored without a profile
+  and against an EscBaseline fitted on a healthy flight of the same airframe, motors and ESCs;
+- healthy;
+- trim-changed pairs: a calibration flight, then the same airframe, motors and ESCs with the centre
+  of mass moved (up to 10 % of the arm) or the motors' yaw trim changed (tilt ±1°): scored without
+  a profile and against an EscBaseline fitted on the calibration flight.
+
+Prints: share of damaged flights where :meth:`EscAnalysis.motor_named` is the damaged motor (no
+profile; target >= 95 % for η <= 0.9), false alarms on healthy and trim-changed flights (target 0).
+``--measure`` also prints what sets the analyzer's constants (healthy spread of the offsets,
+largest healthy llr, damage direction), on seeds of its own. Bounded: ~2-4 min on one core
+(``--per-cell`` flights per (η, rate) cell, default 12).
+
+    python benchmarks/bench_esc.py [--per-cell N] [--seed S] [--measure]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from flightlog_fd.analyzers.esc import DECISION_LLR, analyze_esc, fit_esc_baseline, measure_esc
+from flightlog_fd.sim.airframe import random_airframes
+from flightlog_fd.sim.api import simulate_flights
+from flightlog_fd.sim.damage import TORQUE_EXPONENT_RANGE, Damage, min_feasible_eta
+from flightlog_fd.sim.esc import random_esc_params
+from flightlog_fd.sim.imbalance import random_imbalances
+
+ETAS = (0.6, 0.7, 0.8, 0.9)
+RATES = {10.0: "ardupilot", 50.0: "px4_default"}
+DURATION_S = 60.0
+#: CoG moves / yaw-trim changes applied after calibration (fraction of arm / degrees of tilt).
+COG_CHANGE = (0.04, 0.10)
+TILT_CHANGE_DEG = (0.5, 1.0)
+
+
+def airframes_for(n: int, eta: float, rng: np.random.Generator):
+    out = []
+    while len(out) < n:
+        out += [af for af in random_airframes(4 * n, rng) if min_feasible_eta(af) <= eta]
+    return out[:n]
+
+
+def fly(afs, damages, rate, seed, imbalances=None, escs=None):
+    return simulate_flights(len(afs), airframes=afs, damages=damages, duration_s=DURATION_S,
+                            profile=RATES[rate], seed=seed, esc=escs if escs is not None else rate,
+                            imbalance=imbalances if imbalances is not None else "random",
+                            healthy_fraction=0.0)
+
+
+def damaged_set(eta: float, rate: float, n: int, seed: int):
+    """(healthy calibration flight, damaged flight) of the same airframe, motors and ESCs."""
+    rng = np.random.default_rng([seed, int(eta * 100), int(rate)])
+    afs = airframes_for(n, eta, rng)
+    imbs = random_imbalances(afs, rng)
+    escs = [random_esc_params(af, rng, rate) for af in afs]
+    dmg = [Damage(int(rng.integers(1, 5)), eta, None, float(eta ** rng.uniform(*TORQUE_EXPONENT_RANGE)))
+           for _ in afs]
+    s = seed + int(eta * 100) + int(rate)
+    return list(zip(fly(afs, [Damage()] * n, rate, s + 5, imbs, escs), fly(afs, dmg, rate, s, imbs, escs)))
+
+
+def healthy_set(rate: float, n: int, seed: int):
+    rng = np.random.default_rng([seed, 1, int(rate)])
+    afs = random_airframes(n, rng)
+    return fly(afs, [Damage()] * n, rate, seed + 1 + int(rate))
+
+
+def trim_pairs(rate: float, n: int, seed: int):
+    """(calibration flight, changed flight, what changed) for n airframes, half CoG, half yaw trim."""
+    rng = np.random.default_rng([seed, 2, int(rate)])
+    afs = random_airframes(n, rng)
+    imbs = random_imbalances(afs, rng)
+    escs = [random_esc_params(af, rng, rate) for af in afs]
+    changed, what = [], []
+    for i, imb in enumerate(imbs):
+        if i % 2 == 0:
+            ang = rng.uniform(-np.pi, np.pi)
+            c = rng.uniform(*COG_CHANGE)
+            changed.append(replace(imb, cog_offset=(imb.cog_offset[0] + c * np.cos(ang),
+                                                    imb.cog_offset[1] + c * np.sin(ang))))
+            what.append(f"CoG moved {c:.0%} of arm")
+        else:
+            d = np.radians(rng.uniform(*TILT_CHANGE_DEG)) * rng.choice([-1, 1])
+            changed.append(replace(imb, motor_tilt_rad=tuple(t + d for t in imb.motor_tilt_rad)))
+            what.append(f"yaw trim: tilt {np.degrees(d):+.1f} deg")
+    calib = fly(afs, [Damage()] * n, rate, seed + 3, imbs, escs)
+    after = fly(afs, [Damage()] * n, rate, seed + 4, changed, escs)
+    return list(zip(calib, after, what))
+
+
+def run(per_cell: int, seed: int, measure: bool) -> None:
+    t0 = time.time()
+    print(f"ESC analyzer, simulated flights ({DURATION_S:.0f} s waypoints, random airframes, realistic "
+          f"imbalance); decision llr > {DECISION_LLR:g} nats, no profile unless said")
+    print(f"{'eta':>5} {'ESC Hz':>7} {'right motor':>12} {'wrong motor':>12} {'nothing':>8} {'abstained':>9}"
+          f"   {'with profile: right':>20}")
+    damaged_llr_ratio, total_ok, total_n, profile_ok = [], 0, 0, {}
+    sweep_damaged: dict[float, list[float]] = {}  # per eta: the right motor's llr when it is the largest, else 0
+    for eta in ETAS:
+        for rate in RATES:
+            pairs = damaged_set(eta, rate, per_cell, seed)
+            fl = [f for _, f in pairs]
+            right = wrong = none = abst = right_p = 0
+            for calib, f in pairs:
+                right_p += analyze_esc(f, fit_esc_baseline([calib])).motor_named() == f.truth["motor"]
+                a = analyze_esc(f)
+                if a.abstain:
+                    abst += 1
+                    continue
+                k = f.truth["motor"]
+                sweep_damaged.setdefault(eta, []).append(a.llr[k] if max(a.llr, key=a.llr.get) == k else 0.0)
+                named = a.motor_named()
+                k = f.truth["motor"]
+                if named == k:
+                    right += 1
+                elif named is None:
+                    none += 1
+                else:
+                    wrong += 1
+                if measure:
+                    m, _ = measure_esc(f)
+                    damaged_llr_ratio.append((m.r[k - 1, 0], m.r[k - 1, 1], eta, f.truth["eta_torque"]))
+            total_ok += right
+            total_n += len(fl)
+            profile_ok[eta] = profile_ok.get(eta, 0) + right_p
+            print(f"{eta:5.2f} {rate:7.0f} {right / len(fl):11.0%} {wrong:12d} {none:8d} {abst:9d}"
+                  f"   {right_p / len(fl):20.0%}")
+    print(f"damaged flights, right motor named without a profile: {total_ok}/{total_n} = {total_ok / total_n:.1%}")
+    print("with a profile fitted on one healthy flight of the same airframe: "
+          + ", ".join(f"eta {e:g} {profile_ok[e] / (len(RATES) * per_cell):.0%}" for e in ETAS))
+
+    healthy_llr, offsets = [], []
+    fa_h = n_h = 0
+    for rate in RATES:
+        for f in healthy_set(rate, 2 * per_cell, seed):
+            a = analyze_esc(f)
+            if a.abstain:
+                continue
+            n_h += 1
+            fa_h += a.motor_named() is not None
+            healthy_llr.append(max(a.llr.values()))
+            if measure:
+                m, _ = measure_esc(f)
+                offsets.append(m.r)
+    fa_t = fa_tp = n_t = 0
+    trim_llr, trim_llr_p, trim_dev = [], [], []
+    for rate in RATES:
+        for calib, after, what in trim_pairs(rate, per_cell, seed):
+            a = analyze_esc(after)
+            try:
+                base = fit_esc_baseline([calib])
+            except ValueError:
+                continue
+            ap = analyze_esc(after, base)
+            if a.abstain or ap.abstain:
+                continue
+            n_t += 1
+            fa_t += a.motor_named() is not None
+            fa_tp += ap.motor_named() is not None
+            trim_llr.append(max(a.llr.values()))
+            trim_llr_p.append(max(ap.llr.values()))
+            if measure:
+                mc, _ = measure_esc(calib)
+                ma, _ = measure_esc(after)
+                trim_dev.append(ma.r - mc.r)
+    print(f"healthy flights, false alarms: {fa_h}/{n_h} (largest llr {max(healthy_llr):.1f} nats)")
+    print(f"trim changed after calibration (CoG / yaw trim), false alarms without profile: {fa_t}/{n_t} "
+          f"(largest llr {max(trim_llr):.1f}), against the calibration flight's baseline: {fa_tp}/{n_t} "
+          f"(largest llr {max(trim_llr_p):.1f})")
+    thresholds = (4.0, 6.0, 8.0, 10.0, 12.0, 15.0)
+    print("\nllr threshold sweep (no profile): right motor named per eta / false alarms on healthy + trim-changed")
+    print(f"{'llr >':>6} " + " ".join(f"{'eta ' + format(e, 'g'):>8}" for e in ETAS) + f" {'false alarms':>13}")
+    quiet = np.array(healthy_llr + trim_llr)
+    for th in thresholds:
+        print(f"{th:6.1f} " + " ".join(f"{np.mean(np.array(sweep_damaged[e]) > th):8.0%}" for e in ETAS)
+              + f" {int(np.sum(quiet > th)):6d}/{quiet.size}")
+    if measure:
+        o = np.concatenate(offsets)  # (flights*motors, 2)
+        print("\n--measure: healthy offsets against the other motors (natural log):")
+        print(f"  std a {o[:, 0].std():.4f}  d {o[:, 1].std():.4f}  corr {np.corrcoef(o.T)[0, 1]:+.2f}  "
+              f"(n = {o.shape[0]} motors)")
+        dv = np.concatenate(trim_dev)
+        print(f"  same airframe, trim changed: flight-to-flight std a {dv[:, 0].std():.4f}  d {dv[:, 1].std():.4f}")
+        d = np.array(damaged_llr_ratio)
+        loss = -np.log(d[:, 3])
+        print(f"  damaged motor: a / torque loss median {np.median(d[:, 0] / loss):.3f}, "
+              f"d / torque loss median {np.median(d[:, 1] / loss):.3f}")
+        print(f"  largest healthy llr {max(healthy_llr + trim_llr):.2f} nats; p99 "
+              f"{np.percentile(healthy_llr + trim_llr, 99):.2f}")
+    print(f"({time.time() - t0:.0f} s)")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--per-cell", type=int, default=12)
+    ap.add_argument("--seed", type=int, default=1700)
+    ap.add_argument("--measure", action="store_true")
+    args = ap.parse_args()
+    run(args.per_cell, args.seed, args.measure)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,227 @@
+"""Command shares as evidence, with each rotor's severity from steady flight (mixer physics).
+
+Input: the airborne-mean thrust-command shares (mean 1) against the healthy baseline the diagnose
+pipeline prepared (:class:`flightlog_fd.evidence.FlightEvidence`: the profile's at this
+throttle, the flight before a mid-flight onset, or none). Physics: one rotor at thrust
+efficiency ``eta`` (drag torque ``eta**m``) in closed loop needs commands that hold the same force
+and moments as the healthy ones; the mixer geometry (collective, roll, pitch and yaw rows)
+predicts them from the baseline (:func:`predicted_commands`). For each motor the LLR is a Bayes
+factor: the likelihood of the observed shares averaged over the ``eta``, ``m`` prior grid against
+the healthy one, with the share noise of the baseline's kind (:func:`share_sigma`), so a free
+``eta`` buys no evidence by itself. Findings per motor: ``share`` (weighed) and ``thrust``
+(eta-hat with its 90 % interval, from the fit with the profile's throttle as a fifth
+observation; shown, not weighed again). Needs means only, so 10 Hz ``RCOU`` serves.
+
+Limits: quad X/+ geometry is exact, over-actuated frames use the minimum-norm allocation; the
+pattern cannot separate damage from an equal and opposite trim change (the drift sigma prices it
+in); after a mid-flight onset a steady rise (a drift: motor, ESC, mount) is not weighed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from ..flight import Frame
+from .base import Analyzer, AnalyzerResult, Context, Finding
+
+#: Thrust-efficiency grid of the damage hypothesis (uniform prior). 0.4: below it a quad cannot
+#: hold yaw and the flight ends; 0.99: damage too small to matter is still "damage" here but
+#: carries no evidence (its pattern equals healthy).
+ETA_GRID = np.round(np.arange(0.40, 0.995, 0.01), 3)
+#: Drag-torque exponent grid (torque per command scales as eta**m). Physics: at a fixed rotor
+#: speed a shortened blade keeps thrust ~ D^4 and torque ~ D^5 (m = 1.25), and the lighter load
+#: lets the motor spin faster at the same command, which lowers m towards 0 for motors whose
+#: winding resistance matters. Measured on the real rrc_straight quad: the damaged motor's
+#: same-spin diagonal partner drops to eta times its command while the other pair stays near
+#: (eta + eta**m) / 2 with m ~ 0.4-0.6 (20 and 25 mm cuts); SIH's weakened motors use m = 1.
+M_GRID = np.array([0.25, 0.5, 0.75, 1.0, 1.25, 1.6])
+
+#: Without a profile the healthy pattern is unknown: healthy airframes' airborne-mean command
+#: shares scatter around an even split with this per-motor standard deviation. Measured:
+#: 18 real healthy ArduCopter flights (../shared/real_healthy + Erle), RMS share deviation from 1
+#: over all motors = 0.12 (benchmarks/bench_real_damage.py prints it).
+NEIGHBOUR_SHARE_SIGMA = 0.12
+#: Against the same flight before a mid-flight onset: a healthy airframe's share wander within
+#: one flight. Measured: the 18 real healthy flights, rrc goods and CrazyPAD normals, shares of
+#: the last two thirds against the first third: RMS 0.064 (robust 0.032; Erle 6-3-2014_6 and
+#: 11-2-2015_112 drift by 0.12-0.36).
+ONSET_BASELINE_SIGMA = 0.064
+#: With a profile from ONE flight: a healthy airframe's share drift from flight to flight, per
+#: motor. Measured on real repeated flights of one airframe: rrc_straight good 1/2/3 (per-motor
+#: standard deviation 0.005-0.040, RMS 0.028) and CrazyPAD E9 normal 00/01/02 (RMS 0.006); the
+#: larger airframe sets the default, since a single flight cannot show its own spread.
+DEFAULT_DRIFT_SIGMA = 0.03
+#: A spread measured on a few calibration flights is noisy (two flights give a one-degree-of-
+#: freedom estimate), so it is pooled with DEFAULT_DRIFT_SIGMA as a prior worth this many flights
+#: (scaled inverse chi-square): rrc good 1+2 agree within 0.02 yet good 3 moves motor 3 by 0.07.
+DRIFT_PRIOR_FLIGHTS = 3
+#: Relative hover-throttle drift between healthy flights of one airframe (battery charge,
+#: temperature). Measured: rrc_straight goods 0.443/0.449/0.457 (3 %), CrazyPAD normals
+#: 0.633/0.631/0.631; 0.05 leaves room for a battery swap.
+THROTTLE_DRIFT_SIGMA = 0.05
+
+@dataclass
+class SeverityFit:
+    """One motor's damage fit: LLR of "rotor k at some eta" vs healthy, and eta-hat."""
+
+    llr: float
+    eta_hat: float
+    eta_ci: tuple[float, float]
+    m_hat: float
+    chi2: float  # at the best eta, m
+
+
+def _mixer_rows(frame: Optional[Frame], n: int) -> np.ndarray:
+    """(4, n) rows: collective thrust, roll moment (-y), pitch moment (x), yaw (spin)."""
+    if frame is None or frame.rotor_count != n:
+        frame = Frame.quad_x()
+    xs = np.array([r.x for r in frame.rotors], dtype=float)
+    ys = np.array([r.y for r in frame.rotors], dtype=float)
+    sp = np.array([float(r.spin) for r in frame.rotors])
+    return np.stack([np.ones(n), -ys, xs, sp])
+
+
+def predicted_commands(base: np.ndarray, rows: np.ndarray, motor: int, eta: float, m: float) -> np.ndarray:
+    """Commands (n,) that hold the same force and moments as the healthy commands ``base`` when
+    rotor ``motor`` (1-based) gives ``eta`` of its thrust and ``eta**m`` of its drag torque."""
+    A1 = rows
+    A = rows.copy()
+    j = motor - 1
+    A[:3, j] *= eta
+    A[3, j] *= eta ** m
+    rhs = A1 @ base
+    if A.shape[0] == A.shape[1]:
+        return np.linalg.solve(A, rhs)
+    return np.linalg.lstsq(A, rhs, rcond=None)[0]  # over-actuated: minimum-norm allocation
+
+
+def _pred_table(base: np.ndarray, rows: np.ndarray, motor: int) -> np.ndarray:
+    """(len(ETA_GRID), len(M_GRID), n) predicted raw commands."""
+    out = np.empty((len(ETA_GRID), len(M_GRID), len(base)))
+    for a, eta in enumerate(ETA_GRID):
+        for b, m in enumerate(M_GRID):
+            out[a, b] = predicted_commands(base, rows, motor, float(eta), float(m))
+    return out
+
+
+def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
+                 throttle_ratio: Optional[float] = None,
+                 throttle_sigma: float = THROTTLE_DRIFT_SIGMA) -> tuple[float, list[SeverityFit]]:
+    """Fit each motor's damage to the observed shares (mean 1) against the healthy ``base_share``.
+
+    ``sigma`` (n,): each share's noise; ``throttle_ratio``: the flight's mean command over the
+    baseline's (None without a profile). Returns the healthy chi-square and one
+    :class:`SeverityFit` per motor (LLR = log Bayes factor over the eta/m prior grid)."""
+    s = np.asarray(share, float)
+    b = np.asarray(base_share, float)
+    b = b / b.mean()
+    sig = np.asarray(sigma, float)
+    n = len(s)
+    rows = _mixer_rows(frame, n)
+    chi_h = float(np.sum(((s - b) / sig) ** 2))
+    if throttle_ratio is not None and np.isfinite(throttle_ratio):
+        chi_h += ((throttle_ratio - 1.0) / throttle_sigma) ** 2
+    fits = []
+    for k in range(1, n + 1):
+        u = _pred_table(b, rows, k)  # (E, M, n)
+        mean_u = u.mean(axis=2)
+        pred = u / mean_u[..., None]
+        chi = np.sum(((s - pred) / sig) ** 2, axis=2)  # (E, M)
+        if throttle_ratio is not None and np.isfinite(throttle_ratio):
+            chi = chi + ((throttle_ratio - mean_u) / throttle_sigma) ** 2
+        loglik = -0.5 * chi
+        top = loglik.max()
+        log_marg = top + np.log(np.mean(np.exp(loglik - top)))
+        llr = float(log_marg + 0.5 * chi_h)
+        post_eta = np.exp(loglik - top).sum(axis=1)
+        post_eta = post_eta / post_eta.sum()
+        cdf = np.cumsum(post_eta)
+        lo = float(ETA_GRID[min(np.searchsorted(cdf, 0.05), len(ETA_GRID) - 1)])
+        hi = float(ETA_GRID[min(np.searchsorted(cdf, 0.95), len(ETA_GRID) - 1)])
+        a, bm = np.unravel_index(int(np.argmax(loglik)), loglik.shape)
+        eta_hat = float(ETA_GRID[a])
+        # a best fit at the grid's healthy end means "no loss": report 1.0 with the interval
+        if eta_hat >= ETA_GRID[-1]:
+            eta_hat, hi = 1.0, 1.0
+        fits.append(SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]),
+                                chi2=float(chi[a, bm])))
+    return chi_h, fits
+
+
+def pooled_sigma(measured: Optional[float], n_flights: int, prior: float) -> float:
+    """A spread measured on ``n_flights`` flights pooled with ``prior`` (worth
+    ``DRIFT_PRIOR_FLIGHTS`` flights); ``prior`` alone when nothing was measured."""
+    if measured is None or not np.isfinite(measured) or n_flights < 2:
+        return prior
+    dof = n_flights - 1
+    return float(np.sqrt((DRIFT_PRIOR_FLIGHTS * prior ** 2 + dof * measured ** 2) / (DRIFT_PRIOR_FLIGHTS + dof)))
+
+
+def share_sigma(baseline_kind: str, spread: Optional[Sequence[float]], n: int, n_flights: int = 1) -> np.ndarray:
+    """Per-motor share noise for the kind of baseline (module constants): without a profile the
+    spread across healthy airframes; with one, the airframe's drift (measured, pooled, or default)."""
+    if baseline_kind == "neighbours":
+        return np.full(n, NEIGHBOUR_SHARE_SIGMA)
+    if baseline_kind == "before onset":
+        return np.full(n, ONSET_BASELINE_SIGMA)
+    if spread is not None and len(spread) == n and np.all(np.isfinite(spread)):
+        measured = float(np.sqrt(np.mean(np.square(spread))))
+        return np.full(n, pooled_sigma(measured, n_flights, DEFAULT_DRIFT_SIGMA))
+    return np.full(n, DEFAULT_DRIFT_SIGMA)
+
+
+def fits_for(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[SeverityFit], np.ndarray]]:
+    """(healthy chi-square, per-motor fits, share sigma) of the flight's shares, or None."""
+    ev = ctx.evidence
+    if ev is None:
+        return None
+    shares = np.array([m.command_share for m in ev.motors], float)
+    if not np.all(np.isfinite(shares)):
+        return None
+    n = len(shares)
+    base = (np.ones(n) if ev.baseline == "neighbours"
+            else np.array([m.command_share_baseline for m in ev.motors], float))
+    b = ev.baseline_
+    n_flights = 1 if b is None else b.n_flights
+    sig = share_sigma(ev.baseline, None if b is None else b.spread, n, n_flights)
+    ratio = ev.throttle_ratio if with_throttle else None
+    thr_sig = pooled_sigma(None if b is None else b.throttle_spread, n_flights, THROTTLE_DRIFT_SIGMA)
+    chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig)
+    return chi_h, fits, sig
+
+
+class CommandShares(Analyzer):
+    id = "commands"
+    description = "the steady command pattern against the healthy baseline, with each rotor's thrust (eta-hat)"
+    requires = ("motors",)
+
+    def analyze(self, ctx: Context) -> AnalyzerResult:
+        ev = ctx.evidence
+        why = self.missing(ctx.flight)
+        if why or ev is None:
+            return AnalyzerResult(self.id, abstained=why or "no command shares")
+        drifting = ev.drifting() if ev.baseline == "before onset" else None
+        if drifting is not None:
+            return AnalyzerResult(self.id, abstained=f"motor {drifting}'s command rose steadily after the onset",
+                                  notes=[f"motor {drifting} needed steadily more command after the onset (a drift, not "
+                                         f"the step a broken propeller makes): inspect motor {drifting}, its ESC and mount"],
+                                  extra={"drifting": drifting})
+        plain = fits_for(ctx, with_throttle=False)
+        if plain is None:
+            return AnalyzerResult(self.id, abstained="the command shares are not finite")
+        chi_h, fits, sig = plain
+        full = fits_for(ctx, with_throttle=True) if ev.throttle_ratio is not None else plain
+        chi_full, fits_full, _ = full
+        findings = []
+        for k, (m, f, ff) in enumerate(zip(ev.motors, fits, fits_full)):
+            base = 1.0 if m.command_share_baseline is None else m.command_share_baseline  # no profile: even
+            findings.append(Finding(self.id, k + 1, "share", m.command_share, "", None, base, "up", f.llr,
+                                    f"{m.command_share:.3f} {100 * (m.command_share / base - 1):+.0f}%"))
+            lo, hi = ff.eta_ci
+            findings.append(Finding(self.id, k + 1, "thrust", ff.eta_hat, "of normal", ff.eta_ci, 1.0, "down", None,
+                                    f"{100 * ff.eta_hat:.0f} ({100 * lo:.0f}-{100 * hi:.0f})"))
+        return AnalyzerResult(self.id, findings, extra={
+            "baseline": ev.baseline, "healthy_chi2": chi_full, "fit_chi2": [f.chi2 for f in fits_full],
+            "share_sigma": float(np.mean(sig)), "with_throttle": ev.throttle_ratio is not None})

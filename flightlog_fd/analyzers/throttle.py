@@ -1,0 +1,35 @@
+"""The throttle as evidence: a weak rotor's lost thrust must be made up, so the hover throttle rises.
+
+Input: the flight's mean thrust command over the profile's (``FlightEvidence.throttle_ratio``),
+and the command shares. Per motor, its LLR is what adding the throttle to the command-share fit
+adds (:func:`flightlog_fd.analyzers.command_shares.fits_for` with and without it), so the
+decision counts the shares once and the throttle once. Noise: the airframe's relative throttle
+drift (the profile's measured spread pooled with ``THROTTLE_DRIFT_SIGMA``).
+Limits: needs a profile (without one the hover throttle of a healthy airframe is unknown); a new
+payload or battery moves the throttle too, which is why it only weighs together with a one-rotor
+command pattern.
+"""
+from __future__ import annotations
+
+from .base import Analyzer, AnalyzerResult, Context, Finding
+from .command_shares import fits_for
+
+
+class Throttle(Analyzer):
+    id = "throttle"
+    description = "the throttle against calibration (a weak rotor's lost thrust is made up)"
+    requires = ("motors",)
+
+    def analyze(self, ctx: Context) -> AnalyzerResult:
+        ev = ctx.evidence
+        ratio = None if ev is None else ev.throttle_ratio
+        if ratio is None:
+            return AnalyzerResult(self.id, abstained="no calibration profile: the healthy throttle is unknown")
+        if ev.baseline == "before onset" or (ev.baseline == "profile" and ev.drifting() is not None):
+            return AnalyzerResult(self.id, abstained="the commands drift after the onset")
+        plain, full = fits_for(ctx, with_throttle=False), fits_for(ctx, with_throttle=True)
+        if plain is None or full is None:
+            return AnalyzerResult(self.id, abstained="the command shares are not finite")
+        return AnalyzerResult(self.id, [
+            Finding(self.id, k + 1, "throttle", ratio, "x calibration", None, 1.0, "up", f.llr - p.llr, f"{ratio:.2f}x")
+            for k, (p, f) in enumerate(zip(plain[1], full[1]))])

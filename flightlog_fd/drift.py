@@ -1,0 +1,80 @@
+"""The drift rule: a motor whose figure moves away from the other three across an airframe's flights.
+
+**Drift rule** (:func:`find_drift`), per airframe and figure, over its flights in time order (UTC
+start; flights without GPS time follow, ordered by file name; one row per log, the latest
+diagnosis): for each flight where all four motors have the figure, motor k's robust z-score
+against the other three is ``z = (x_k - median(others)) / max(1.4826 * MAD(others), FLOOR)``.
+A least-squares line of z over the flight index (0, 1, 2...) flags motor k when, with at least
+``MIN_FLIGHTS`` flights, its slope in the figure's damage direction (model vote up, command share
+up: a worn propeller needs more command, effectiveness down) is at least ``DRIFT_SLOPE_MIN`` z
+per flight **and** the latest flight's z in that direction is at least ``DRIFT_Z_MIN``. A steady
+offset (a motor that always needs 2 % more) has no slope and is not flagged. The ``unknown``
+group (logs without identity) is not one airframe: no drift rule there. The floors keep three
+nearly equal neighbours from turning noise into large z: ``FIGURE_FLOORS`` (command share 0.005,
+i.e. half a percent of the total; model vote 0.05; effectiveness 0.02).
+Not yet measured on a real fleet (no multi-flight airframe history in ../shared): the constants
+are set from the simulator's spread and should be revisited on real data.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .store import FlightRecord
+
+MIN_FLIGHTS = 3
+DRIFT_SLOPE_MIN = 0.5  # robust z per flight, in the damage direction
+DRIFT_Z_MIN = 2.0  # latest flight's robust z, in the damage direction
+#: figure -> (damage direction, floor of the neighbours' spread)
+FIGURE_FLOORS = {"model_vote": 0.05, "command_share": 0.005, "effectiveness": 0.02}
+FIGURE_DIRECTION = {"model_vote": +1, "command_share": +1, "effectiveness": -1}
+FIGURES = tuple(FIGURE_FLOORS)
+
+
+def robust_z(values: list[float], k: int, floor: float) -> float:
+    """Motor k's (0-based) z-score against the median and MAD of the other three."""
+    others = sorted(v for i, v in enumerate(values) if i != k)
+    med = others[len(others) // 2] if len(others) % 2 else 0.5 * (others[len(others) // 2 - 1] + others[len(others) // 2])
+    dev = sorted(abs(v - med) for v in others)
+    mad = dev[len(dev) // 2] if len(dev) % 2 else 0.5 * (dev[len(dev) // 2 - 1] + dev[len(dev) // 2])
+    return (values[k] - med) / max(1.4826 * mad, floor)
+
+
+def _slope(y: list[float]) -> float:
+    n = len(y)
+    xm = (n - 1) / 2.0
+    ym = sum(y) / n
+    sxx = sum((i - xm) ** 2 for i in range(n))
+    return sum((i - xm) * (v - ym) for i, v in enumerate(y)) / sxx
+
+
+@dataclass
+class Drift:
+    """A motor whose figure moves away from the other three across an airframe's flights."""
+
+    vehicle: str
+    motor: int
+    figure: str
+    slope: float  # robust z per flight, signed as the figure
+    latest_z: float
+    n_flights: int
+
+    def describe(self) -> str:
+        return (f"motor {self.motor} {self.figure.replace('_', ' ')} drifts from the other three: "
+                f"z {self.slope:+.2f} per flight over {self.n_flights} flights, latest z {self.latest_z:+.1f}")
+
+
+def find_drift(vehicle: str, flights: list[FlightRecord]) -> list[Drift]:
+    """The motors flagged by the drift rule of the module docstring."""
+    out = []
+    for name in FIGURES:
+        series = [f.figure(name) for f in flights]
+        series = [s for s in series if s is not None]
+        if len(series) < MIN_FLIGHTS:
+            continue
+        sign = FIGURE_DIRECTION[name]
+        for k in range(len(series[0])):
+            z = [robust_z(s, k, FIGURE_FLOORS[name]) for s in series]
+            slope = _slope(z)
+            if sign * slope >= DRIFT_SLOPE_MIN and sign * z[-1] >= DRIFT_Z_MIN:
+                out.append(Drift(vehicle, k + 1, name, slope, z[-1], len(series)))
+    return out

@@ -1,0 +1,163 @@
+"""Per-airframe history for `fdlog history`: flights in time order, drift flags, HTML and text.
+
+Reads what :func:`flightlog_fd.store.load_history` returns; the drift rule is
+:mod:`flightlog_fd.drift`. ``unknown`` (logs with no identity, no profile) is not one airframe.
+"""
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+from typing import Iterable, Optional
+
+from .drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, FIGURES, MIN_FLIGHTS, find_drift
+from .store import UNKNOWN_VEHICLE, FlightRecord
+
+def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
+    """JSON-ready: per vehicle its flights, drifts and whether its latest flight is damaged.
+
+    ``unknown`` (logs with no identity, no profile) is not one airframe: no drift there, and any
+    damaged flight in it counts as a latest flight."""
+    vehicles = []
+    for vehicle, flights in history.items():
+        drifts = find_drift(vehicle, flights) if vehicle != UNKNOWN_VEHICLE else []
+        latest = flights[-1] if flights else None
+        if vehicle == UNKNOWN_VEHICLE:
+            latest = next((f for f in reversed(flights) if f.status == "damaged"), latest)
+        vehicles.append({
+            "vehicle": vehicle,
+            "vehicle_source": latest.vehicle_source if latest else None,
+            "flights": [{"log": f.log_path, "log_sha256": f.log_sha256, "flight_start_utc": f.flight_start_utc,
+                         "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor,
+                         "confidence": f.confidence, "reason": f.reason, "diagnosed_at": f.diagnosed_at,
+                         "motors": [{"motor": k, **f.motors[k]} for k in sorted(f.motors)]} for f in flights],
+            "drift": [{"motor": d.motor, "figure": d.figure, "slope_z_per_flight": d.slope,
+                       "latest_z": d.latest_z, "n_flights": d.n_flights, "text": d.describe()} for d in drifts],
+            "latest_damaged": bool(latest and latest.status == "damaged"),
+            "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor},
+        })
+    flagged = any(v["drift"] or v["latest_damaged"] for v in vehicles)
+    return {"schema": 1, "rule": {"min_flights": MIN_FLIGHTS, "drift_slope_min": DRIFT_SLOPE_MIN,
+                                  "drift_z_min": DRIFT_Z_MIN, "floors": FIGURE_FLOORS},
+            "vehicles": vehicles, "flagged": flagged}
+
+
+# ----------------------------------------------------------------------------- html
+
+MOTOR_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
+
+
+def _motor_numbers(flights: list[dict]) -> list[int]:
+    """Every motor number the flights carry figures for (1..4 when none)."""
+    return sorted({m["motor"] for f in flights for m in f["motors"]}) or [1, 2, 3, 4]
+
+
+def _svg_trend(flights: list[dict], figure: str, width: int = 560, height: int = 180) -> str:
+    """Inline SVG: each motor's ``figure`` over the flights (x = flight index)."""
+    pts = {k: [] for k in _motor_numbers(flights)}
+    for i, f in enumerate(flights):
+        for m in f["motors"]:
+            v = m.get(figure)
+            if v is not None:
+                pts[m["motor"]].append((i, float(v)))
+    vals = [v for p in pts.values() for _, v in p]
+    if not vals:
+        return ""
+    lo, hi = min(vals), max(vals)
+    if hi - lo < 1e-9:
+        lo, hi = lo - 0.5 * max(abs(lo), 1e-3), hi + 0.5 * max(abs(hi), 1e-3)
+    pad_l, pad_r, pad_t, pad_b = 50, 90, 10, 28
+    n = max(len(flights) - 1, 1)
+
+    def xy(i: int, v: float) -> tuple[float, float]:
+        x = pad_l + (width - pad_l - pad_r) * i / n
+        y = pad_t + (height - pad_t - pad_b) * (1 - (v - lo) / (hi - lo))
+        return x, y
+
+    parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" role="img" '
+             f'aria-label="{html.escape(figure)} per motor over flights">',
+             f'<rect x="{pad_l}" y="{pad_t}" width="{width - pad_l - pad_r}" height="{height - pad_t - pad_b}" '
+             f'fill="none" stroke="#bbb"/>',
+             f'<text x="4" y="{pad_t + 10}" font-size="10">{hi:.3g}</text>',
+             f'<text x="4" y="{height - pad_b}" font-size="10">{lo:.3g}</text>',
+             f'<text x="{pad_l}" y="{height - 8}" font-size="10">flight 1</text>',
+             f'<text x="{width - pad_r - 40}" y="{height - 8}" font-size="10">flight {len(flights)}</text>']
+    for k, p in pts.items():
+        if not p:
+            continue
+        c = MOTOR_COLOURS[(k - 1) % len(MOTOR_COLOURS)]
+        coords = " ".join(f"{x:.1f},{y:.1f}" for x, y in (xy(i, v) for i, v in p))
+        parts.append(f'<polyline points="{coords}" fill="none" stroke="{c}" stroke-width="1.5"/>')
+        for i, v in p:
+            x, y = xy(i, v)
+            parts.append(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="2.5" fill="{c}"><title>motor {k}, flight {i + 1}: '
+                         f'{v:.4g}</title></circle>')
+        parts.append(f'<text x="{width - pad_r + 8}" y="{pad_t + 14 * k}" font-size="11" fill="{c}">motor {k}</text>')
+    parts.append("</svg>")
+    return "".join(parts)
+
+
+def render_html(summary: dict) -> str:
+    """A small self-contained page: per airframe its flights, flags and trend plots (inline SVG)."""
+    e = html.escape
+    out = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>fdlog fleet history</title>",
+           "<style>body{font-family:sans-serif;margin:2em;max-width:1000px}table{border-collapse:collapse}"
+           "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}.flag{color:#b00;font-weight:bold}</style>",
+           "</head><body><h1>fdlog fleet history</h1>",
+           f"<p>Drift rule: at least {MIN_FLIGHTS} flights; robust z of a motor's figure against the other three, "
+           f"least-squares slope &ge; {DRIFT_SLOPE_MIN} z per flight in the damage direction and latest z "
+           f"&ge; {DRIFT_Z_MIN}.</p>"]
+    for v in summary["vehicles"]:
+        out.append(f"<h2>{e(v['vehicle'])} <small>({e(str(v['vehicle_source']))}, {len(v['flights'])} flights)</small></h2>")
+        for d in v["drift"]:
+            out.append(f"<p class='flag'>{e(d['text'])}</p>")
+        if v["latest_damaged"]:
+            f = v["latest"]
+            out.append(f"<p class='flag'>latest flight: propeller {f['motor']} damaged ({e(f['log'])})</p>")
+        out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
+                   + "".join(f"<th>m{k} vote / share</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
+        for i, f in enumerate(v["flights"], 1):
+            verdict = f["status"] + (f" (motor {f['motor']})" if f["motor"] else "")
+            cells = []
+            by_motor = {m["motor"]: m for m in f["motors"]}
+            for k in _motor_numbers(v["flights"]):
+                m = by_motor.get(k, {})
+                cells.append(f"<td>{_fmt(m.get('model_vote'))} / {_fmt(m.get('command_share'))}</td>")
+            out.append(f"<tr><td>{i}</td><td>{e(f['flight_start_utc'] or '-')}</td><td>{e(Path(f['log']).name)}</td>"
+                       f"<td>{e(verdict)}</td><td>{_fmt(f['confidence'])}</td>{''.join(cells)}</tr>")
+        out.append("</table>")
+        for figure in FIGURES:
+            svg = _svg_trend(v["flights"], figure)
+            if svg:
+                out.append(f"<h3>{e(figure.replace('_', ' '))}</h3>{svg}")
+    out.append("</body></html>")
+    return "\n".join(out)
+
+
+def _fmt(x: Optional[float]) -> str:
+    return "-" if x is None else f"{x:.3f}"
+
+
+def iter_text_lines(summary: dict) -> Iterable[str]:
+    """Plain-text history: per airframe its flights and each motor's figures, then flags."""
+    for v in summary["vehicles"]:
+        yield f"{v['vehicle']}  ({v['vehicle_source']}, {len(v['flights'])} flights)"
+        yield f"  {'#':>3} {'start (UTC)':<24} {'verdict':<18} {'conf':>5}  " + "  ".join(
+            f"m{k} vote/share" for k in _motor_numbers(v["flights"])) + "  log"
+        for i, f in enumerate(v["flights"], 1):
+            verdict = f["status"] + (f" m{f['motor']}" if f["motor"] else "")
+            by_motor = {m["motor"]: m for m in f["motors"]}
+            figs = "  ".join(f"{_fmt(by_motor.get(k, {}).get('model_vote'))}/{_fmt(by_motor.get(k, {}).get('command_share'))}"
+                             for k in _motor_numbers(v["flights"]))
+            yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "
+                   f"{figs}  {Path(f['log']).name}")
+        for d in v["drift"]:
+            yield f"  FLAG: {d['text']}"
+        if v["latest_damaged"]:
+            f = v["latest"]
+            yield f"  FLAG: latest flight has propeller {f['motor']} damaged ({Path(f['log']).name})"
+        yield ""
+
+
+def summary_json(summary: dict) -> str:
+    return json.dumps(summary, indent=2)

@@ -1,0 +1,403 @@
+"""Background jobs of `fdlog serve`: diagnose uploaded logs and calibrate airframes, from the store's queue.
+
+What: :class:`JobRunner` runs ``workers`` slots (threads of the server). Each slot claims one job
+at a time from the store (:meth:`ServeStore.claim_job`, atomic) and runs it in a worker process
+of its own (a one-process ``ProcessPoolExecutor``, started with ``spawn``: never a fork of the
+threaded web server), or on a Dask cluster with ``scheduler`` (``"local"`` or ``tcp://HOST:8786``,
+as ``fdlog diagnose --scheduler``; its workers must see the data folder). The worker process
+reads the stored log, diagnoses it (the airframe's profile when it has one), and writes the HTML
+and CSV reports under ``DATA/reports``; the slot writes the result to the store, in the
+transaction that marks the job done.
+
+Failures: a log that cannot be read is a ``not_diagnosable`` flight like in ``fdlog diagnose``. A
+worker process that dies on a log (segfault, ``os._exit``, out of memory) is known at once, since
+the slot's process ran only that log: the job becomes an error row with that reason, and the slot
+starts a fresh process. A job running longer than ``JOB_TIMEOUT_S`` (pyulog can spin on some
+corrupt files) has its process killed and becomes an error row. Leases are renewed every
+``LEASE_S / 3`` and expired ones recovered (:meth:`ServeStore.recover`), so a server that stops
+leaves no stuck job for the next one; a server on this machine whose process is gone has its jobs
+requeued at once (:func:`holder_is_dead`), without waiting for the lease.
+"""
+from __future__ import annotations
+
+import json
+import os
+import socket
+import threading
+import time
+import uuid
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+from .store import LEASE_S, ServeStore
+
+#: Seconds between queue polls of an idle slot (a new upload also wakes the slots at once).
+POLL_S = 1.0
+#: Longest one diagnosis may run before its process is killed (the 67 MB real log takes ~20 s).
+JOB_TIMEOUT_S = 600.0
+#: Longest a fresh worker process may take to start and load the model before its first job.
+WARMUP_TIMEOUT_S = 300.0
+#: Longest one calibration may run (adapting the model trains on ~192 simulated flights).
+CALIBRATE_TIMEOUT_S = 3600.0
+#: Points kept per plotted line on the flight page (min/max per bucket keeps spikes).
+PLOT_POINTS = 1500
+#: Decimals kept for plotted values and times (finer is invisible at page resolution).
+PLOT_DECIMALS = 4
+RAD_TO_DEG = 57.29577951308232
+
+_CHILD_MODELS: dict[str, Any] = {}  # in a worker process: model path -> FaultModel
+
+
+# ----------------------------------------------------------------------------- in the worker process
+
+def _model_for(profile: Any):
+    from ..diagnose import resolve_model
+    from ..model import default_model_path
+
+    key = str(profile.path) if profile is not None else str(default_model_path())
+    if key not in _CHILD_MODELS:
+        _CHILD_MODELS[key] = resolve_model(None, profile)
+    return _CHILD_MODELS[key]
+
+
+def _line(name: str, t, y) -> dict:
+    import numpy as np
+
+    from ..report.html_report import decimate
+
+    ok = np.isfinite(y)
+    tt, yy = decimate(np.asarray(t)[ok], np.asarray(y)[ok], PLOT_POINTS)
+    return {"name": name, "t": [round(float(x), 3) for x in tt], "y": [round(float(v), PLOT_DECIMALS) for v in yy]}
+
+
+def plot_series(flight) -> dict:
+    """Decimated angular rates (deg/s) and motor commands (0..1) of a flight, for the flight page."""
+    out: dict[str, Any] = {"rates": [], "motors": [], "motor_kind": getattr(flight, "motor_kind", "")}
+    if flight is None:
+        return out
+    if flight.rates is not None and len(flight.rates):
+        for k, n in enumerate(("p (roll)", "q (pitch)", "r (yaw)")[: flight.rates.values.shape[1]]):
+            out["rates"].append(_line(n, flight.rates.t, flight.rates.values[:, k] * RAD_TO_DEG))
+    if flight.motors is not None and len(flight.motors):
+        for k in range(flight.motors.values.shape[1]):
+            pos = flight.frame.position(k + 1) if flight.frame is not None else None
+            out["motors"].append(_line(f"motor {k + 1}" + (f" {pos}" if pos else ""), flight.motors.t,
+                                       flight.motors.values[:, k]))
+    return out
+
+
+def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profiles: dict[str, str]) -> dict:
+    """Diagnose one stored log (in a worker process); returns what the store keeps.
+
+    ``name``: the client's file name, used as the report's ``log``; ``profiles``: airframe key ->
+    profile path (the log's own id picks one). Writes ``reports_dir/<sha>.html`` and ``.csv``."""
+    from .. import load_flight
+    from ..diagnose import Diagnosis, diagnose_flight
+    from ..errors import FlightLogError
+    from ..profile import Profile
+    from ..report.csv_report import render_csv
+    from ..report.html_report import render_html
+    from ..report.json_report import to_dict
+    from ..report.terminal import verdict_sentence
+    from ..store import _utc_iso
+    from ..util import file_sha256
+    from ..verdict import not_diagnosable
+
+    flight = None
+    prof_sha = ""
+    try:
+        flight = load_flight(log_path)
+        flight.path = name
+        ppath = profiles.get(flight.vehicle_id) if flight.vehicle_id else None
+        prof = Profile.load(ppath) if ppath else None
+        prof_sha = file_sha256(ppath) if ppath else ""
+        d = diagnose_flight(flight, _model_for(prof), prof, keep_flight=True)
+    except FlightLogError as e:
+        d = Diagnosis(log=name, verdict=not_diagnosable(e.message))
+    d.log = name
+    if d.facts is not None:
+        d.facts.path = name
+    rd = Path(reports_dir)
+    rd.mkdir(parents=True, exist_ok=True)
+    for ext, text in (("html", render_html(d)), ("csv", render_csv(d))):
+        tmp = rd / f"{sha256}.{ext}.{os.getpid()}.part"
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, rd / f"{sha256}.{ext}")
+    return {"sha256": sha256, "diagnosis": to_dict(d), "sentence": verdict_sentence(d),
+            "vehicle": flight.vehicle_id if flight is not None else None,
+            "vehicle_source": (flight.vehicle_id_source or "log") if flight is not None else None,
+            "flight_start_utc": _utc_iso(flight.utc_start) if flight is not None else None,
+            "log_t_start_s": flight.t_start if flight is not None else None,
+            "profile_sha256": prof_sha, "plot": plot_series(flight)}
+
+
+def calibrate_task(log_paths: list[str], out_path: str, adapt: bool) -> str:
+    """Calibrate a profile from healthy logs (in a worker process); returns its sha256.
+    ``adapt`` also adapts the model (needs torch, minutes); else only measures (``--no-adapt``)."""
+    from ..util import file_sha256
+
+    if adapt:
+        from flightlog_fd.training.adapt import calibrate
+
+        calibrate([Path(p) for p in log_paths], Path(out_path), overwrite=True)
+    else:
+        from ..profile import calibrate_profile
+
+        calibrate_profile([Path(p) for p in log_paths]).save(out_path, overwrite=True)
+    return file_sha256(out_path)
+
+
+def warm_child() -> bool:
+    """Run first in a fresh worker process: imports and the shipped model load here, so that a
+    job's time limit measures the job, not the process start (seconds on a busy machine)."""
+    try:
+        _model_for(None)
+    except Exception:
+        pass  # the job itself reports a missing or broken model
+    return True
+
+
+def _init_child() -> None:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    try:
+        import torch  # noqa: F401  (only when installed; calibration trains with one thread)
+
+        torch.set_num_threads(1)
+    except Exception:
+        pass
+
+
+# ----------------------------------------------------------------------------- in the server
+
+class DataDir:
+    """The server's data folder: logs by content hash, reports, profiles, temporary uploads."""
+
+    def __init__(self, root):
+        self.root = Path(root).resolve()
+        for sub in ("logs", "reports", "profiles", "tmp"):
+            (self.root / sub).mkdir(parents=True, exist_ok=True)
+
+    def log_path(self, sha256: str, fmt: str) -> Path:
+        return self.root / "logs" / sha256[:2] / f"{sha256}{'.ulg' if fmt == 'ulog' else '.bin'}"
+
+    def report_path(self, sha256: str, ext: str) -> Path:
+        return self.root / "reports" / f"{sha256}.{ext}"
+
+
+def _error_doc(name: str, reason: str) -> str:
+    from ..batch import error_result
+    from ..report.json_report import to_dict
+
+    return json.dumps(to_dict(error_result(0, name, reason).diagnosis))
+
+
+class JobRunner:
+    """Runs the store's queued jobs in ``workers`` slots until :meth:`stop` (module docstring)."""
+
+    def __init__(self, store: ServeStore, data: DataDir, *, workers: int = 1, scheduler: Optional[str] = None,
+                 diagnose_fn: Callable = diagnose_task, calibrate_fn: Callable = calibrate_task,
+                 poll_s: float = POLL_S, job_timeout_s: float = JOB_TIMEOUT_S, name: Optional[str] = None):
+        self.store, self.data = store, data
+        self.workers = max(0, int(workers))
+        self.scheduler = scheduler
+        self.diagnose_fn, self.calibrate_fn = diagnose_fn, calibrate_fn
+        self.poll_s, self.job_timeout_s = poll_s, job_timeout_s
+        self.worker_id = name or f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._running: set[int] = set()
+        self._busy_slots: set[int] = set()
+        self._lock = threading.Lock()
+        self._pools: dict[int, Optional[ProcessPoolExecutor]] = {}
+        self._client = self._cluster = None
+
+    # ------------------------------------------------------------------ control
+
+    def start(self) -> "JobRunner":
+        self.store.recover(is_dead=holder_is_dead)
+        if self.scheduler and self.workers:
+            from ..batch import _dask_client
+
+            self._client, self._cluster = _dask_client(self.scheduler, self.workers if self.scheduler == "local" else None,
+                                                       True)
+        for i in range(self.workers):
+            t = threading.Thread(target=self._slot, args=(i,), name=f"fdlog-job-{i}", daemon=True)
+            t.start()
+            self._threads.append(t)
+        t = threading.Thread(target=self._lease_loop, name="fdlog-leases", daemon=True)
+        t.start()
+        self._threads.append(t)
+        return self
+
+    def wake(self) -> None:
+        """A job was queued: idle slots look now instead of at their next poll."""
+        self._wake.set()
+
+    def stop(self, timeout: float = 10.0) -> None:
+        """Stop claiming; kill the worker processes that are busy (their jobs go back to the
+        queue) and shut the idle ones down cleanly; join the threads."""
+        self._stop.set()
+        self._wake.set()
+        with self._lock:
+            busy = set(self._busy_slots)
+        for i, pool in list(self._pools.items()):
+            if pool is None:
+                continue
+            if i in busy:
+                _kill(pool)
+            else:
+                pool.shutdown(wait=True, cancel_futures=True)
+        for t in self._threads:
+            t.join(timeout)
+        try:
+            self.store.release_jobs(self.worker_id)
+        except Exception:
+            pass  # their leases run out instead
+        if self._client is not None:
+            self._client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+    def busy(self) -> int:
+        with self._lock:
+            return len(self._running)
+
+    # ------------------------------------------------------------------ threads
+
+    def _lease_loop(self) -> None:
+        while not self._stop.wait(LEASE_S / 3):
+            try:
+                with self._lock:
+                    ids = list(self._running)
+                self.store.renew_leases(self.worker_id, ids)
+                self.store.recover(is_dead=holder_is_dead)  # another server sharing the store may have stopped
+            except Exception:
+                pass  # the next round tries again; a lost lease only means another server may take the job
+
+    def _slot(self, i: int) -> None:
+        while not self._stop.is_set():
+            try:
+                job = self.store.claim_job(self.worker_id)
+            except Exception:
+                job = None
+            if job is None:
+                self._wake.wait(self.poll_s)
+                self._wake.clear()
+                continue
+            with self._lock:
+                self._running.add(int(job["id"]))
+                self._busy_slots.add(i)
+            try:
+                self._run(i, job)
+            finally:
+                with self._lock:
+                    self._running.discard(int(job["id"]))
+                    self._busy_slots.discard(i)
+
+    def _submit(self, i: int, fn: Callable, *args):
+        if self._client is not None:
+            return self._client.submit(fn, *args, pure=False)
+        pool = self._pools.get(i)
+        if pool is None:
+            import multiprocessing
+
+            pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
+                                       initializer=_init_child)
+            self._pools[i] = pool
+            try:
+                pool.submit(warm_child).result(timeout=WARMUP_TIMEOUT_S)
+            except Exception as e:  # not this log's fault: say so rather than blame it
+                _kill(pool)
+                self._pools[i] = None
+                raise RuntimeError(f"could not start a worker process ({type(e).__name__})") from None
+        return pool.submit(fn, *args)
+
+    def _run(self, i: int, job: dict) -> None:
+        if self._stop.is_set():
+            return
+        kind = job["kind"]
+        name = f"job {job['id']}"
+        try:
+            if kind == "diagnose":
+                f = self.store.flight(int(job["flight_id"]))
+                name = f["name"]
+                fut = self._submit(i, self.diagnose_fn, str(self.data.log_path(f["sha256"], f["format"])),
+                                   f["sha256"], f["name"], str(self.data.root / "reports"), self.store.profiles())
+                res = fut.result(timeout=self.job_timeout_s)
+                self.store.complete_diagnosis(job, self.worker_id, res)
+            elif kind == "calibrate":
+                args = json.loads(job["args"] or "{}")
+                paths = []
+                for fid in args.get("flights", []):
+                    f = self.store.flight(int(fid))
+                    if f is not None:
+                        paths.append(str(self.data.log_path(f["sha256"], f["format"])))
+                out = self.data.root / "profiles" / f"profile-{int(job['id'])}.json"
+                fut = self._submit(i, self.calibrate_fn, paths, str(out), bool(args.get("adapt")))
+                sha = fut.result(timeout=max(self.job_timeout_s, CALIBRATE_TIMEOUT_S))
+                self.store.complete_calibration(job, self.worker_id, str(out), sha)
+            else:
+                self.store.fail_job(job, self.worker_id, f"unknown job kind {kind!r}")
+        except BrokenProcessPool:
+            self._pools[i] = None
+            if not self._stop.is_set():  # stopping kills the processes: those jobs go back to the queue
+                self.store.fail_job(job, self.worker_id, "the worker process died while working on this log",
+                                    _error_doc(name, "the worker process died while diagnosing this log")
+                                    if kind == "diagnose" else None)
+        except FutureTimeout:
+            pool = self._pools.pop(i, None)
+            if pool is not None:
+                _kill(pool)
+            reason = f"took longer than {self.job_timeout_s:.0f} s: the worker was stopped"
+            self.store.fail_job(job, self.worker_id, reason, _error_doc(name, reason) if kind == "diagnose" else None)
+        except Exception as e:
+            if self._stop.is_set():
+                return
+            first = (str(e).strip().splitlines() or [""])[0][:200]
+            reason = f"{'calibration' if kind == 'calibrate' else 'diagnosis'} failed: {type(e).__name__}: {first}"
+            self.store.fail_job(job, self.worker_id, reason, _error_doc(name, reason) if kind == "diagnose" else None)
+
+
+def holder_is_dead(worker: str) -> bool:
+    """True when ``worker`` (``host:pid:random``, :attr:`JobRunner.worker_id`) ran on this
+    machine and its process is gone: its jobs need not wait for their lease. A reused pid only
+    makes us wait for the lease, never take a live server's job."""
+    host, _, rest = worker.partition(":")
+    pid = rest.partition(":")[0]
+    if host != socket.gethostname() or not pid.isdigit():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists, owned by someone else
+        return False
+    return False
+
+
+def _kill(pool: ProcessPoolExecutor) -> None:
+    """Kill a pool's worker process(es) now and let the pool go."""
+    for p in list(getattr(pool, "_processes", {}).values()):
+        try:
+            p.kill()
+        except Exception:
+            pass
+    try:
+        pool.shutdown(wait=False, cancel_futures=True)
+    except Exception:
+        pass
+
+
+def wait_idle(store: ServeStore, timeout: float = 120.0, poll: float = 0.2) -> bool:
+    """True once no job is queued or running (tests, the benchmark, `fdlog serve --exit-when-done`)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        c = store.job_counts()
+        if c["queued"] == 0 and c["running"] == 0:
+            return True
+        time.sleep(poll)
+    return False

@@ -1,0 +1,121 @@
+"""ESC analyzer on simulated flights: damaged motor named, healthy and trim-changed flights quiet,
+abstention when the telemetry cannot say, and the same findings after a ULog / DataFlash round trip."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from flightlog_fd.analyzers.esc import (DECISION_LLR, EscBaseline, analyze_esc, fit_esc_baseline,
+                                        measure_esc)
+from flightlog_fd.flight import EscChannel, EscTelemetry
+from flightlog_fd.logs import load_flight
+from flightlog_fd.logs.dataflash_writer import write_dataflash
+from flightlog_fd.logs.ulog_writer import write_ulog
+from flightlog_fd.sim.airframe import preset
+from flightlog_fd.sim.api import simulate_flights
+from flightlog_fd.sim.damage import Damage
+from flightlog_fd.sim.esc import random_esc_params
+from flightlog_fd.sim.imbalance import AirframeImbalance
+
+
+@pytest.fixture(scope="module")
+def same_airframe():
+    """One x500 with its own imbalance, motors and ESCs flown three times: healthy, healthy with
+    the CoG moved 8 % of the arm and a yaw trim (tilt +0.8 deg), and with propeller 3 at eta 0.75."""
+    af = preset("x500")
+    rng = np.random.default_rng(5)
+    esc = random_esc_params(af, rng, 20.0)
+    imb = AirframeImbalance(cog_offset=(0.03, -0.02), motor_tilt_rad=tuple(np.radians([0.3, -0.2, 0.1, 0.4])),
+                            thrust_scale=(1.02, 0.98, 1.01, 0.99), torque_scale=(0.98, 1.02, 1.0, 1.01))
+    moved = replace(imb, cog_offset=(0.09, 0.03), motor_tilt_rad=tuple(t + np.radians(0.8) for t in imb.motor_tilt_rad))
+    kw = dict(airframes=[af] * 3, duration_s=45.0, profile="px4_default", esc=[esc] * 3, healthy_fraction=0.0)
+    return simulate_flights(3, damages=[Damage(), Damage(), Damage(3, 0.75, None, 0.75 ** 1.3)],
+                            imbalance=[imb, moved, imb], seed=41, **kw)
+
+
+def test_damaged_motor_named_with_its_signature(same_airframe):
+    healthy, trimmed, damaged = same_airframe
+    a = analyze_esc(damaged)
+    assert a.abstain is None and a.bins >= 30
+    assert a.motor_named() == 3
+    by = {(f.motor, f.name): f for f in a.findings}
+    assert by[(3, "rpm_per_command")].value > 0.5 and by[(3, "rpm_per_command")].direction == "up"
+    assert by[(3, "current_per_rpm2")].value < -15 and by[(3, "current_per_rpm2")].direction == "down"
+    lo, hi = by[(3, "current_per_rpm2")].interval
+    assert lo < by[(3, "current_per_rpm2")].value < hi
+    assert a.llr[3] > DECISION_LLR and max(v for k, v in a.llr.items() if k != 3) < 1.0
+    # torque loss estimated near 1 - 0.75**1.3 = 31 %
+    assert 20 < by[(3, "esc_damage")].value < 45
+
+
+def test_healthy_and_trim_changed_flights_stay_quiet(same_airframe):
+    healthy, trimmed, damaged = same_airframe
+    for f in (healthy, trimmed):
+        a = analyze_esc(f)
+        assert a.abstain is None and a.motor_named() is None and max(a.llr.values()) < DECISION_LLR / 2
+    base = fit_esc_baseline([healthy])
+    at = analyze_esc(trimmed, base)
+    assert at.against == "profile" and at.motor_named() is None
+    # the trim change moved the command shares but not the ESC relations
+    mh, mt = measure_esc(healthy)[0], measure_esc(trimmed)[0]
+    share = lambda f: f.motors.between(*f.airborne[0]).values.mean(axis=0)
+    assert np.max(np.abs(share(trimmed) / share(healthy) - 1)) > 0.04
+    assert np.max(np.abs(mt.r - mh.r)) < 0.012
+    ad = analyze_esc(damaged, base)
+    assert ad.motor_named() == 3 and ad.llr[3] > analyze_esc(damaged).llr[3]
+    assert EscBaseline.from_dict(base.to_dict()) == base
+
+
+@pytest.mark.parametrize("fmt", ["ulog", "dataflash"])
+def test_same_findings_after_writing_and_reading(same_airframe, tmp_path, fmt):
+    damaged = same_airframe[2]
+    p = tmp_path / ("d.ulg" if fmt == "ulog" else "d.bin")
+    (write_ulog if fmt == "ulog" else write_dataflash)(damaged, p)
+    g = load_flight(p)
+    a, b = analyze_esc(damaged), analyze_esc(g)
+    assert b.motor_named() == 3
+    for fa, fb in zip(a.findings, b.findings):
+        assert (fa.motor, fa.name) == (fb.motor, fb.name)
+        assert fb.value == pytest.approx(fa.value, abs=0.15), (fa, fb)
+
+
+def _with_esc(flight, channels):
+    return replace(flight, esc=EscTelemetry(channels, flight.esc.source, flight.esc.units))
+
+
+def test_abstains_and_says_why(same_airframe):
+    f = same_airframe[0]
+    assert "no ESC telemetry in this log" == analyze_esc(replace(f, esc=None)).abstain
+    a = analyze_esc(_with_esc(f, f.esc.channels[:3]))
+    assert "motor(s) 4" in a.abstain and a.motor_named() is None and all(x.abstain for x in a.findings)
+    slow = [EscChannel(c.motor, c.t[::25], c.rpm[::25], c.current[::25], esc_index=c.esc_index) for c in f.esc.channels]
+    assert "too slow" in analyze_esc(_with_esc(f, slow)).abstain
+    # ESC 2 offline for all but 10 s of the flight: too few bins with every ESC reporting
+    c2 = f.esc.channel(2)
+    on = (c2.t > f.airborne[0][0] + 5) & (c2.t < f.airborne[0][0] + 15)
+    chans = [c if c.motor != 2 else replace(c, online=on) for c in f.esc.channels]
+    assert "every ESC reporting" in analyze_esc(_with_esc(f, chans)).abstain
+
+
+def test_rpm_only_telemetry_still_scores(same_airframe):
+    damaged = same_airframe[2]
+    chans = [replace(c, current=None) for c in damaged.esc.channels]
+    a = analyze_esc(_with_esc(damaged, chans))
+    assert a.abstain is None and "log_rpm_per_log_sqrt_command" in a.slopes and "log_current_per_log_rpm2" not in a.slopes
+    cur = [x for x in a.findings if x.name == "current_per_rpm2"]
+    assert all(np.isnan(x.value) and x.abstain == "no current telemetry" for x in cur)
+    # the rpm lift alone (about 1.5 % here) is weak evidence, but it points at motor 3
+    assert max(a.llr, key=a.llr.get) == 3
+
+
+@pytest.mark.parametrize("name,motor", [("px4_esc_motor2_damaged.ulg", 2), ("ardupilot_esc_motor3_damaged.bin", 3)])
+def test_sample_logs_with_esc_telemetry(name, motor):
+    from pathlib import Path
+
+    f = load_flight(Path(__file__).resolve().parents[1] / "sample_logs" / name)
+    assert f.esc is not None and f.esc.motors == [1, 2, 3, 4] and set(f.esc.quantities()) == {
+        "rpm", "current", "voltage", "temperature"}
+    a = analyze_esc(f)
+    assert a.motor_named() == motor, a.llr

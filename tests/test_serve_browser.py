@@ -1,0 +1,110 @@
+"""`fdlog serve` in a real browser: headless Chromium (system packages `chromium` and
+`chromium-driver`, driven by selenium) signs in, uploads a sample log through the page's file
+input, waits for its verdict, opens the flight page and zooms the plot with a mouse drag.
+Skips when Chromium, chromedriver or selenium is absent (`.ci/run` installs them)."""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("fastapi")
+webdriver = pytest.importorskip("selenium.webdriver")
+
+from serve_helpers import SAMPLES, TOKEN, free_port, start_server  # noqa: E402
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+pytestmark = pytest.mark.skipif(not (CHROMIUM and CHROMEDRIVER), reason="needs chromium and chromedriver "
+                                "(apt-get install chromium chromium-driver)")
+#: Chromium flags: headless, no sandbox (root in CI), nothing that reaches the network by itself.
+CHROME_FLAGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--disable-dev-shm-usage", "--window-size=1400,1000")
+
+
+def chrome(profile_dir: str):
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    opts = Options()
+    opts.binary_location = CHROMIUM
+    for f in CHROME_FLAGS:
+        opts.add_argument(f)
+    opts.add_argument(f"--user-data-dir={profile_dir}")
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=opts)
+
+
+def sign_in(driver, base: str) -> None:
+    from selenium.webdriver.common.by import By
+
+    driver.get(base + "/login")
+    driver.find_element(By.ID, "token").send_keys(TOKEN)
+    driver.find_element(By.ID, "signin").click()
+
+
+def x_range(driver) -> list[float]:
+    return driver.execute_script("return document.getElementById('flightplot')._fullLayout.xaxis.range.slice()")
+
+
+def test_browser_uploads_a_log_sees_its_verdict_and_zooms_the_flight_plot(tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support import expected_conditions as EC
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    port = free_port()
+    base = f"http://127.0.0.1:{port}"
+    server = start_server(tmp_path / "data", port)
+    profile = tempfile.mkdtemp(prefix="fdlog-chrome-")
+    driver = None
+    try:
+        driver = chrome(profile)
+        sign_in(driver, base)
+        WebDriverWait(driver, 20).until(EC.presence_of_element_located((By.ID, "files")))
+        # two files at once (the input takes several paths, one per line)
+        driver.find_element(By.ID, "files").send_keys(f"{SAMPLES / 'px4_motor1_damaged.ulg'}\n"
+                                                      f"{SAMPLES / 'ardupilot_healthy.bin'}")
+        driver.find_element(By.ID, "upload-btn").click()
+        WebDriverWait(driver, 120).until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "a.flight-link")) == 2)
+        status = {a.find_element(By.XPATH, "..").text.split(":")[0]: a.get_attribute("data-status")
+                  for a in driver.find_elements(By.CSS_SELECTOR, "a.flight-link")}
+        assert status == {"px4_motor1_damaged.ulg": "damaged", "ardupilot_healthy.bin": "healthy"}
+        assert "motor 1" in driver.find_element(By.ID, "progress").text
+        link = next(a for a in driver.find_elements(By.CSS_SELECTOR, "a.flight-link")
+                    if a.get_attribute("data-status") == "damaged")
+        link.click()
+        verdict = WebDriverWait(driver, 20).until(EC.presence_of_element_located((By.ID, "verdict")))
+        assert verdict.get_attribute("data-status") == "damaged"
+        WebDriverWait(driver, 30).until(
+            lambda d: d.execute_script("var p = document.getElementById('flightplot'); return !!(p && p._fullLayout);"))
+        before = x_range(driver)
+        drag = driver.find_element(By.CSS_SELECTOR, "#flightplot .nsewdrag")
+        w = drag.size["width"]
+        # drag across the middle third of the top panel: plotly zooms the shared time axis
+        ActionChains(driver).move_to_element_with_offset(drag, -w // 6, 0).click_and_hold() \
+            .move_by_offset(w // 12, 0).move_by_offset(w // 12, 0).move_by_offset(w // 6, 0).release().perform()
+        WebDriverWait(driver, 10).until(lambda d: x_range(d) != before)
+        after = x_range(driver)
+        assert after[1] - after[0] < 0.6 * (before[1] - before[0])
+        assert before[0] <= after[0] < after[1] <= before[1]
+        # nothing on the page broke the Content-Security-Policy or threw
+        problems = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+        assert problems == [], problems
+        # the links to the reports work from the page
+        driver.find_element(By.ID, "json-link").click()
+        assert '"schema"' in driver.page_source
+    finally:
+        if driver is not None:
+            driver.quit()
+        server.terminate()
+        try:
+            server.wait(20)
+        except subprocess.TimeoutExpired:
+            server.kill()
+        shutil.rmtree(profile, ignore_errors=True)
