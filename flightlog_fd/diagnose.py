@@ -321,11 +321,14 @@ def flight_evidence(flight: Flight, windows: Any, probs: np.ndarray, profile: An
                     since: Optional[float] = None):
     """Per-motor evidence of one flight from the windows' own resampled segments (the flight is
     resampled once) and the profile's baseline, if any; ``since`` = a mid-flight damage onset."""
-    from .effectiveness import estimate_effectiveness
+    from .effectiveness import EffectivenessEstimate, estimate_effectiveness
     from .evidence import build_evidence
 
-    eff = estimate_effectiveness(flight, rate_hz=windows.spec.rate_hz, savgol_window_s=windows.spec.savgol_window_s,
-                                 segments=windows.segments)
+    if windows.spec.n_motors != 4:  # the effectiveness fit is a 4-motor model so far
+        eff = EffectivenessEstimate(reason=f"not estimated for {windows.spec.n_motors} rotors yet")
+    else:
+        eff = estimate_effectiveness(flight, rate_hz=windows.spec.rate_hz,
+                                     savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
     baseline = profile.baseline() if profile is not None else None
     return build_evidence(windows.segments, probs, flight.frame, eff, baseline, since=since)
 
