@@ -193,7 +193,10 @@ def render_nrotor(metas: dict, bench: str | None = None) -> str:
                  f"{sim['healthy_flights_majority_motor']}/{sim['healthy_flights']} |")
     if bench:
         L += ["", "`python benchmarks/bench_nrotor.py` (η ≤ 0.8, random airframes with realistic imbalance, PX4 "
-              "default and ArduPilot logging; model alone, window majority):", "", "```", bench.strip(), "```"]
+              "default and ArduPilot logging): the model alone (window majority), then the flight verdict of "
+              "`fdlog diagnose` without a profile and with one calibrated (`--no-adapt`) on a healthy twin "
+              "flight of the same airframe (the verdict layer is the decision model's, not this model's alone):",
+              "", "```", bench.strip(), "```"]
     L += ["", "**Limits.** Simulation only, like the quad model, and weaker: the model alone raises a motor "
           "on a fair share of healthy simulated flights and misses many damaged ones, so it is one vote for "
           "the decision layer, not a verdict. No real hexa or octo damage data exists to measure it on. "
