@@ -3,7 +3,8 @@
     python benchmarks/bench_real_damage.py [--profiles DIR] [--sim-per-eta 6] [--skip-sim]
 
 Real part (each set skips when ../shared lacks it): rrc_straight calibrated on good 1, on goods
-1+2, and without a profile; crazypad_e9 calibrated on normal log00; the real healthy flights
+1+2, and without a profile; crazypad_e9 calibrated on normal log00, and on its three normal
+flights (the profile then measures the airframe's flight-to-flight drift); the real healthy flights
 without a profile; px4_sih_dev calibrated on sih_004 and without a profile. Rows per set: the
 adapted (or shipped) model alone (majority of its windows' argmax), the fused verdict
 (`fdlog diagnose`), and the motor-balance rule (training/peer_rule.py, offsets from the
@@ -102,6 +103,9 @@ def real_part(args) -> None:
         cases.append(("crazypad_e9, profile normal log00", "cp00", [cal.path],
                       [(lg.name, "healthy" if lg.healthy else f"motor {lg.truth['motor']}", lg.path, lg.truth["motor"])
                        for lg in cp if lg.name != cal.name]))
+        normals = [lg for lg in cp if lg.healthy]
+        cases.append(("crazypad_e9, profile normal logs 00-02 (measured drift)", "cp012", [lg.path for lg in normals],
+                      [(lg.name, f"motor {lg.truth['motor']}", lg.path, lg.truth["motor"]) for lg in cp if not lg.healthy]))
     if (SHARED / "real_healthy").is_dir():
         cases.append(("real healthy (+Erle), no profile", None, [],
                       [(lg.name, "healthy", lg.path, 0) for lg in real_healthy_logs(SHARED)]))

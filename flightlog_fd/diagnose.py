@@ -2,25 +2,29 @@
 
 Steps (pure: nothing is printed, nothing imports torch):
 
+0. Did a motor stop in the air? (:func:`flightlog_fd.stopped.diagnose_stopped`, any frame: a
+   "motor k stopped" finding outranks every propeller verdict, and is given even where no
+   damage model exists for the frame.)
 1. Is the log diagnosable? (:func:`flightlog_fd.checks.diagnosability` with the model's feature
-   spec: quadrotor, 4 motor outputs, fast enough rates, enough airborne time.)
+   spec: a placed frame the model is for, its motor outputs, fast enough rates, enough airborne time.)
 2. Is the calibration profile, if any, made for this airframe? (``profile.check_compatible``.)
 3. Windows with the model's own feature spec (:func:`flightlog_fd.features.make_windows`),
    standardised with the model's statistics, then class probabilities from the ONNX model.
 4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's verdict from all
    windows (:mod:`flightlog_fd.verdict`).
 5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
-   baseline or the neighbours, :mod:`flightlog_fd.effectiveness`, the model's votes) from the same
-   resampled segments as the windows, and the flight verdict, each motor's severity and weight
-   from the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
+   baseline, the flight before an onset or an even split; :mod:`flightlog_fd.effectiveness`) from
+   the same resampled segments as the windows, every registered analyzer's findings
+   (:mod:`flightlog_fd.analyzers`), and the flight verdict, each motor's severity and weight from
+   the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
-never stops on one bad file. Exit codes: 0 healthy, 1 damaged or uncertain, 2 not diagnosable
-or invalid input.
+never stops on one bad file. Exit codes: 0 healthy, 1 damaged, stopped or uncertain, 2 not
+diagnosable or invalid input.
 
 Limits: windows come from airborne time only (features.py decides); a model whose class list
-is not healthy + 4 motors is refused (:class:`~flightlog_fd.errors.ModelError`).
+is not healthy + the flight's motors is refused (:class:`~flightlog_fd.errors.ModelError`).
 """
 from __future__ import annotations
 

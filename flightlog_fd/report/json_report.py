@@ -38,7 +38,7 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
                   "llr": float|null,                      # total log-likelihood ratio, nats
                   "llr_by_source": {"model": float, "commands": float, "effectiveness": float}|null}],
       "motor_evidence": {"baseline": "profile" | "before onset" | "neighbours",
-                         "throttle": float, "top_motor": 1-4, "single_motor_gap": float,
+                         "throttle": float, "top_motor": 1-n, "single_motor_gap": float,
                          "effectiveness": {"informative": bool, "reason": str, "seconds": float,
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
                          "airframe_changed": str | null, "notes": [str],

@@ -203,7 +203,8 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
         parts.append(Text(f"  {line}", style="dim"))
     if diagnosis.windows:
         parts.append(timeline_strip(diagnosis))
-        parts.append(Text("  . healthy   1-4 propeller damaged   ? uncertain", style="dim"))
+        n = len(diagnosis.windows[0].probabilities) - 1
+        parts.append(Text(f"  . healthy   1-{LABEL_CHARS[n]} propeller damaged   ? uncertain", style="dim"))
     if diagnosis.decision is not None:
         parts.append(motor_panel(diagnosis))
         for note in analyzer_notes(diagnosis):
