@@ -21,10 +21,10 @@ RATE_ROUND_TRIP_ATOL = 1e-4
 RCOU_ATOL = 0.0006
 
 
-def _fly(frame: str, profile: str, motor: int = 0):
+def _fly(frame: str, profile: str, motor: int = 0, duration_s: float = 12.0):
     n = preset("x500", frame).rotor_count
     dmg = [Damage(motor, 0.7, rotors=n)] if motor else [Damage()]
-    return simulate_flights(1, airframes=preset("x500", frame), damages=dmg, profile=profile, duration_s=20.0,
+    return simulate_flights(1, airframes=preset("x500", frame), damages=dmg, profile=profile, duration_s=duration_s,
                             seed=4)[0]
 
 
@@ -94,7 +94,7 @@ def test_other_hexa_numbering_is_not_a_trained_layout():
 def test_diagnosability_follows_the_models_rotor_count(tmp_path):
     from flightlog_fd.model import shipped_model_path
 
-    f = load_flight(write_ulog(_fly("hexa_x", "px4_default"), tmp_path / "h.ulg"))
+    f = load_flight(write_ulog(_fly("hexa_x", "px4_default", duration_s=20.0), tmp_path / "h.ulg"))
     hexa_spec = {"rate_hz": 50.0, "window": 80, "n_motors": 6}
     assert diagnosability(f, hexa_spec).ok
     quad = diagnosability(f, {"rate_hz": 50.0, "window": 80})
