@@ -40,3 +40,5 @@ samples: $(STAMP)
 	$(SIM) -o sample_logs/px4_esc_motor2_damaged.ulg --airframe f450 --duration 45 --seed 31 --motor 2 --eta 0.80 --log-profile px4_default --esc-rate 50
 	$(SIM) -o sample_logs/ardupilot_esc_motor3_damaged.bin --format dataflash --airframe x500 --duration 45 --seed 32 --motor 3 --eta 0.80 --log-profile ardupilot --esc-rate 10
 	$(SIM) -o sample_logs/ardupilot_plus_motor4_damaged.bin --format dataflash --airframe f450 --frame quad_plus --duration 45 --seed 25 --motor 4 --eta 0.70 --log-profile ardupilot
+	$(SIM) -o sample_logs/ardupilot_hexa_motor5_damaged.bin --format dataflash --airframe x500 --frame hexa_x --duration 45 --seed 31 --motor 5 --eta 0.70 --log-profile ardupilot
+	$(SIM) -o sample_logs/px4_octo_motor2_damaged.ulg --airframe heavy --frame octo_x --duration 45 --seed 32 --motor 2 --eta 0.70

@@ -4,11 +4,13 @@ Inputs: a :class:`~flightlog_fd.flight.Flight` and optionally the model's featur
 and window length decide how much airborne time is needed).
 
 Rules (each failing rule adds one reason, in the order a pilot would fix them):
-- the vehicle is a quadrotor with a known 4-rotor layout (fixed-wing and VTOL are named; a hexa,
-  octo or other n-rotor frame is told that only stopped-motor detection
+- the vehicle is a quadrotor with a known 4-rotor layout, or an n-rotor frame laid out like one
+  the n-rotor model was trained on (:data:`TRAINED_LAYOUTS`) when a model for its rotor count
+  exists (the spec's ``n_motors``; without a spec, a shipped model). Fixed-wing and VTOL are
+  named; another n-rotor frame is told that only stopped-motor detection
   (:func:`flightlog_fd.stopped.diagnose_stopped`) is available; a frame whose rotors cannot be
-  placed gets the reason from :mod:`flightlog_fd.frames`);
-- per-motor commands for 4 motors and body angular rates are present;
+  placed gets the reason from :mod:`flightlog_fd.frames`;
+- per-motor commands for every motor and body angular rates are present;
 - the rate streams are fast enough: angular rates >= ``MIN_RATES_HZ`` (the angular acceleration is a
   derivative of them), motor commands >= ``MIN_MOTORS_HZ`` (PX4's default 10 Hz logging passes);
 - the log has at least ``MIN_AIRBORNE_S`` of airborne time and enough for ``MIN_WINDOWS`` windows.
@@ -36,6 +38,14 @@ ARDUPILOT_QUAD_LAYOUTS = ("ArduPilot QUAD/X", "ArduPilot QUAD/PLUS", "ArduPilot 
 #: Vehicle types whose placed n-rotor frame gets the stopped-motor-only message (readers' vehicle_type).
 MULTIROTOR_TYPES = ("quadrotor", "unknown", "multirotor", "hexarotor", "octorotor", "dodecarotor", "decarotor")
 
+#: ArduPilot (FRAME_CLASS, FRAME_TYPE) tables whose motor numbering the shipped n-rotor models'
+#: classes follow: the frames they were trained on (training/build_default.py FRAMES_BY_ROTORS,
+#: sim/airframe.py N_ROTOR_FRAMES: hexa X/+, octo X/+, octaquad X). PX4 frames match by geometry.
+TRAINED_LAYOUTS = {6: ((2, 1), (2, 0)), 8: ((3, 1), (3, 0), (4, 1))}
+#: A log's motor k matches a trained table's motor k when its bearing from the centre is within
+#: this many degrees and it spins the same way (tables differ by >= 30 deg or in spin where they differ).
+FRAME_MATCH_DEG = 10.0
+
 DEFAULT_RATE_HZ = 50.0
 DEFAULT_WINDOW = 80
 
@@ -60,8 +70,47 @@ def describe_vehicle(flight: Flight) -> str:
     return vt
 
 
+def trained_layout(frame) -> str:
+    """The trained table (e.g. "ArduPilot HEXA/X") whose numbering ``frame`` follows, else ""."""
+    import math
+
+    from .frames import ardupilot_frame
+
+    def bearing(r) -> float:
+        return math.degrees(math.atan2(r.y, r.x))
+
+    for cls, typ in TRAINED_LAYOUTS.get(frame.rotor_count, ()):
+        ref = ardupilot_frame(cls, typ)
+        if all(abs((bearing(a) - bearing(b) + 180.0) % 360.0 - 180.0) <= FRAME_MATCH_DEG
+               and math.copysign(1.0, a.spin) == math.copysign(1.0, b.spin)
+               for a, b in zip(frame.rotors, ref.rotors)):
+            return ref.layout
+    return ""
+
+
+def _n_rotor_reason(frame, spec_n) -> str:
+    """Why a placed n-rotor frame (n != 4) cannot get a propeller diagnosis; "" when it can."""
+    from .model import shipped_model_path
+
+    n = frame.rotor_count
+    has_model = (spec_n == n) if spec_n is not None else shipped_model_path(n) is not None
+    if not has_model:
+        if spec_n is not None and shipped_model_path(n) is not None:
+            return (f"{n}-rotor frame ({frame.name}): the model diagnoses {spec_n} rotors; use the shipped "
+                    f"{n}-rotor model (leave out --model)")
+        return (f"{n}-rotor frame ({frame.name}): fdlog has no {n}-rotor propeller-damage model yet; "
+                f"only stopped-motor detection is available for it")
+    if not trained_layout(frame):
+        trained = ", ".join(f"{c}/{t}" for c, t in TRAINED_LAYOUTS.get(n, ()))
+        return (f"{n}-rotor frame {frame.layout or frame.name}: its motor numbering is not that of the frames the "
+                f"{n}-rotor model was trained on (ArduPilot FRAME_CLASS/TYPE {trained}); only stopped-motor "
+                f"detection is available for it")
+    return ""
+
+
 def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
     """Check everything the diagnosis needs; never raises for a loaded Flight."""
+    spec_n = int(spec.get("n_motors", 4)) if spec else None
     spec = spec or {}
     rate_hz = float(spec.get("rate_hz", DEFAULT_RATE_HZ))
     window = int(spec.get("window", DEFAULT_WINDOW))
@@ -71,9 +120,10 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
     vtype = (flight.vehicle_type or "unknown").lower()
     if vtype not in ("quadrotor", "unknown", "multirotor") or not is_quad:
         n = frame.rotor_count if frame is not None else 0
-        if vtype in MULTIROTOR_TYPES and frame is not None and n and n != 4:
-            reasons.append(f"{n}-rotor frame ({frame.name}): fdlog has no {n}-rotor propeller-damage model yet; "
-                           f"only stopped-motor detection is available for it")
+        if vtype in MULTIROTOR_TYPES and frame is not None and n and n != 4 and not frame.unplaced:
+            why = _n_rotor_reason(frame, spec_n)
+            if why:
+                reasons.append(why)
         elif vtype in MULTIROTOR_TYPES and frame is not None and frame.unplaced:
             reasons.append(f"cannot place the rotors of this {frame.name} frame: {frame.unplaced}")
         elif vtype not in ("quadrotor", "unknown", "multirotor"):
@@ -86,10 +136,11 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
     elif frame.layout.startswith("ArduPilot QUAD/") and frame.layout not in ARDUPILOT_QUAD_LAYOUTS:
         reasons.append(f"unsupported frame {frame.layout}: its motor numbering is not quad-X / quad-+ (the model's "
                        f"motor classes follow quad-X numbering); fdlog diagnoses quad-X and quad-+ frames")
+    need_motors = frame.rotor_count if frame is not None and frame.rotor_count > 4 else 4
     if flight.motors is None:
         reasons.append("no per-motor outputs in the log (actuator_motors / actuator_outputs / RCOU)")
-    elif flight.motors.values.shape[1] < 4:
-        reasons.append(f"only {flight.motors.values.shape[1]} motor outputs in the log, need 4")
+    elif flight.motors.values.shape[1] < need_motors:
+        reasons.append(f"only {flight.motors.values.shape[1]} motor outputs in the log, need {need_motors}")
     elif flight.motors.rate_hz < MIN_MOTORS_HZ:
         reasons.append(f"motor outputs logged at {flight.motors.rate_hz:.1f} Hz, need >= {MIN_MOTORS_HZ:.0f} Hz")
     if flight.rates is None:

@@ -441,8 +441,6 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     if frame is not None and frame not in SIM_FRAMES:
         raise FlightLogError(out, f"--frame must be one of {', '.join(SIM_FRAMES)}, got {frame!r}")
     rotors = 4 if frame is None or frame not in N_ROTOR_FRAMES else preset("x500", frame).rotor_count
-    if frame in N_ROTOR_FRAMES and fmt != "ulog":
-        raise FlightLogError(out, f"the DataFlash writer writes quadrotors only: use --format ulog for {frame}")
     if not 0 <= motor <= rotors:
         raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..{rotors}, got {motor}")
     if rho is not None and len(rho) != rotors:
@@ -461,7 +459,16 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         if p.exists() and not force:
             raise FlightLogError(p, "already exists (use --force to overwrite)")
     try:
-        af = [preset(airframe, frame)] * count if airframe != "random" else None
+        if airframe != "random":
+            af = [preset(airframe, frame)] * count
+        elif frame is not None:  # random airframes flown as this frame (without --frame: random quads as before)
+            import numpy as np
+
+            from .sim.airframe import random_airframes
+
+            af = random_airframes(count, np.random.default_rng([seed, 3]), frames=(frame,))
+        else:
+            af = None
     except ValueError as e:
         raise FlightLogError(None, str(e)) from None
     if esc_rate is not None and not 10.0 <= esc_rate <= 100.0:
@@ -499,7 +506,7 @@ def simulate(
     fmt: str = typer.Option("ulog", "--format", "-f", help="ulog (PX4) or dataflash (ArduPilot)."),
     airframe: str = typer.Option("x500", help="Airframe preset (x500, f450, crazyflie, sih, heavy) or 'random'."),
     frame: Optional[str] = typer.Option(None, help="Fly the preset as quad_x, quad_plus, hexa_x, hexa_plus, octo_x, "
-                                                   "octo_plus or octaquad_x (n-rotor frames: --format ulog)."),
+                                                   "octo_plus or octaquad_x."),
     motor: int = typer.Option(0, help="Damaged propeller 1..n (4 on a quad), or 0 for a healthy flight."),
     eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor)."),
     onset: Optional[float] = typer.Option(None, help="Damage starts this many seconds after arming (default: from take-off)."),

@@ -2,25 +2,29 @@
 
 Steps (pure: nothing is printed, nothing imports torch):
 
+0. Did a motor stop in the air? (:func:`flightlog_fd.stopped.diagnose_stopped`, any frame: a
+   "motor k stopped" finding outranks every propeller verdict, and is given even where no
+   damage model exists for the frame.)
 1. Is the log diagnosable? (:func:`flightlog_fd.checks.diagnosability` with the model's feature
-   spec: quadrotor, 4 motor outputs, fast enough rates, enough airborne time.)
+   spec: a placed frame the model is for, its motor outputs, fast enough rates, enough airborne time.)
 2. Is the calibration profile, if any, made for this airframe? (``profile.check_compatible``.)
 3. Windows with the model's own feature spec (:func:`flightlog_fd.features.make_windows`),
    standardised with the model's statistics, then class probabilities from the ONNX model.
 4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's verdict from all
    windows (:mod:`flightlog_fd.verdict`).
 5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
-   baseline or the neighbours, :mod:`flightlog_fd.effectiveness`, the model's votes) from the same
-   resampled segments as the windows, and the flight verdict, each motor's severity and weight
-   from the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
+   baseline, the flight before an onset or an even split; :mod:`flightlog_fd.effectiveness`) from
+   the same resampled segments as the windows, every registered analyzer's findings
+   (:mod:`flightlog_fd.analyzers`), and the flight verdict, each motor's severity and weight from
+   the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
-never stops on one bad file. Exit codes: 0 healthy, 1 damaged or uncertain, 2 not diagnosable
-or invalid input.
+never stops on one bad file. Exit codes: 0 healthy, 1 damaged, stopped or uncertain, 2 not
+diagnosable or invalid input.
 
 Limits: windows come from airborne time only (features.py decides); a model whose class list
-is not healthy + 4 motors is refused (:class:`~flightlog_fd.errors.ModelError`).
+is not healthy + the flight's motors is refused (:class:`~flightlog_fd.errors.ModelError`).
 """
 from __future__ import annotations
 
@@ -183,13 +187,15 @@ def model_info(model: Any, profile: Any = None) -> ModelInfo:
                      sha256=sha, classes=[str(c) for c in getattr(model, "classes", [])], calibrated=calibrated)
 
 
-def resolve_model(model_path=None, profile: Any = None):
-    """The model to use: an explicit ``--model`` path, else the profile's model, else the shipped one.
+def resolve_model(model_path=None, profile: Any = None, rotor_count: int = 4):
+    """The model to use: an explicit ``--model`` path, else the profile's model, else the shipped one
+    for ``rotor_count`` rotors (diagnose_flight swaps the shipped quad model for the shipped model of
+    the flight's own rotor count, :func:`flightlog_fd.model.model_for_flight`).
 
     A profile's model path is relative to the profile file; a file whose sha256 differs from the
     one the profile recorded is refused (ProfileError: the profile was calibrated for another model).
     """
-    from .model import FaultModel, default_model_path
+    from .model import FaultModel, default_model_path, shipped_model_path
 
     if model_path is not None:
         return FaultModel(model_path)
@@ -197,20 +203,18 @@ def resolve_model(model_path=None, profile: Any = None):
         # Profile.model_path() resolves against the profile's folder and raises ProfileError
         # when the file is missing or its sha256 differs from the one recorded at calibration.
         return FaultModel(profile.model_path(verify=True))
-    return FaultModel(default_model_path())
+    path = shipped_model_path(rotor_count) if rotor_count != 4 else None
+    if rotor_count != 4 and path is None:
+        raise ModelError(None, f"no shipped model for {rotor_count} rotors")
+    return FaultModel(path or default_model_path())
 
 
 def is_shipped_model(model: Any) -> bool:
-    """True when ``model`` is the file shipped with the package (False if none is installed)."""
-    from .model import default_model_path
+    """True when ``model`` is a file shipped with the package, for any rotor count."""
+    from .model import shipped_model_paths
 
     path = getattr(model, "path", None)
-    if not path:
-        return False
-    try:
-        return Path(path).resolve() == Path(default_model_path()).resolve()
-    except FlightLogError:  # ModelError: no shipped model installed, so this one is not it
-        return False
+    return bool(path) and Path(path).resolve() in [p.resolve() for p in shipped_model_paths()]
 
 
 def _check_model_classes(model: Any, n_motors: int = N_CLASSES - 1) -> None:
@@ -234,6 +238,9 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     send back from a worker process when many logs are diagnosed in parallel)."""
     from .features import FeatureSpec, make_windows
 
+    from .model import model_for_flight
+
+    model = model_for_flight(model, flight)  # the shipped quad model -> the one for the flight's rotor count
     log = str(flight.path) if flight.path else "<flight>"
     facts = FlightFacts.from_flight(flight)
     warnings = list(flight.warnings)
@@ -268,6 +275,9 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
                                     diagnosability_facts=dict(check.facts), **common)
         probs = np.asarray(model.predict_proba(model.standardise(win.X)), dtype=np.float64)
     except FlightLogError as e:
+        if stops:  # the motor that stopped in the air is still found
+            return Diagnosis(log=log, verdict=stopped_verdict(stops, flight.frame), stopped=stops,
+                             diagnosability_facts=dict(check.facts), **common)
         return _not_diagnosable(log, e.message, diagnosability_facts=dict(check.facts), **common)
 
     t_start = np.asarray(win.t_start, dtype=np.float64)
@@ -318,13 +328,16 @@ def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None
     """Per-motor evidence of one flight (a Flight or the diagnosis's PreparedFlight) from the
     windows' own resampled segments (the flight is resampled once) and the profile's baseline,
     if any; ``since`` = a mid-flight damage onset."""
-    from .effectiveness import estimate_effectiveness
+    from .effectiveness import EffectivenessEstimate, estimate_effectiveness
     from .evidence import build_evidence
 
     prepared = PreparedFlight.of(flight)
     flight = prepared.flight
-    eff = estimate_effectiveness(prepared, rate_hz=windows.spec.rate_hz, savgol_window_s=windows.spec.savgol_window_s,
-                                 segments=windows.segments)
+    if windows.spec.n_motors != 4:  # the effectiveness fit is a 4-motor model so far
+        eff = EffectivenessEstimate(reason=f"not estimated for {windows.spec.n_motors} rotors yet")
+    else:
+        eff = estimate_effectiveness(prepared, rate_hz=windows.spec.rate_hz,
+                                     savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
     baseline = profile.baseline() if profile is not None else None
     return build_evidence(windows.segments, probs, flight.frame, eff, baseline, since=since)
 

@@ -111,6 +111,13 @@ def _steady_mask(flight, t: np.ndarray, rates: np.ndarray, ang_acc: np.ndarray, 
     return ok & level
 
 
+def motor_count(flight: Flight) -> int:
+    """Motors the hover and calibration code read: the placed frame's rotor count when it is more
+    than 4 (hexa, octo), else 4 as before."""
+    f = flight.frame
+    return f.rotor_count if f is not None and not f.unplaced and f.rotor_count > 4 else 4
+
+
 def hover_segments(flight, min_duration_s: float = HOVER_MIN_DURATION_S,
                    max_rate_rms: float = HOVER_MAX_RATE_RMS, max_tilt_rad: float = HOVER_MAX_TILT_RAD,
                    max_speed_m_s: float = HOVER_MAX_SPEED_M_S, trim_s: float = DEFAULT_TRIM_S) -> list[HoverSegment]:
@@ -123,12 +130,13 @@ def hover_segments(flight, min_duration_s: float = HOVER_MIN_DURATION_S,
     """
     prep = PreparedFlight.of(flight)
     flight = prep.flight
+    nm = motor_count(flight)
     segments = resample(prep, HOVER_GRID_HZ, DEFAULT_MAX_GAP_S, trim_s, DEFAULT_SAVGOL_WINDOW_S,
-                        need_attitude=False, speed_source="command")
+                        need_attitude=False, speed_source="command", n_motors=nm)
     n = max(1, int(round(HOVER_WINDOW_S * HOVER_GRID_HZ)))
     min_points = int(np.ceil(min_duration_s * HOVER_GRID_HZ)) + 1
     raw = flight.motors
-    raw_thrust = flight_thrust_proxy(flight, raw.values[:, :4])
+    raw_thrust = flight_thrust_proxy(flight, raw.values[:, :nm])
     out: list[HoverSegment] = []
     for seg in segments:
         if len(seg) < min_points:
@@ -140,9 +148,9 @@ def hover_segments(flight, min_duration_s: float = HOVER_MIN_DURATION_S,
             if hi - lo < min_points:
                 continue
             t0, t1 = float(seg.t[lo]), float(seg.t[hi - 1])
-            sel = (raw.t >= t0) & (raw.t <= t1) & np.all(np.isfinite(raw.values[:, :4]), axis=1)
+            sel = (raw.t >= t0) & (raw.t <= t1) & np.all(np.isfinite(raw.values[:, :nm]), axis=1)
             if np.count_nonzero(sel) >= MIN_RAW_MOTOR_SAMPLES:
-                cmd, thrust = raw.values[sel, :4], raw_thrust[sel]
+                cmd, thrust = raw.values[sel, :nm], raw_thrust[sel]
             else:
                 cmd, thrust = seg.motors[lo:hi], seg.w_sq[lo:hi]
             mean_thrust = thrust.mean(axis=0)

@@ -12,7 +12,11 @@ object:
     feature_spec  dict  FeatureSpec.to_dict() of flightlog_fd.features: features (nif|cf),
                         rate_hz, window, stride, channels (C names, in input order),
                         transform, ..., and the per-channel standardisation "mean"/"std"
-    classes       list  ["healthy", "motor1", "motor2", "motor3", "motor4"] (output order)
+    classes       list  ["healthy", "motor1", "motor2", "motor3", "motor4"] (output order; an
+                        n-rotor model lists healthy, motor1 .. motorn)
+    rotor_count   int   optional: the rotor count the model diagnoses (n-rotor models carry it,
+                        with "frames", the simulator frames it was trained on); else the
+                        feature spec's n_motors, else 4
     training      dict  free-form summary (data, epochs, seed, lam, accuracy...)
     created       str   ISO-8601 UTC time of export
     temperature   float optional, > 0: confidence calibration of the shipped model (temperature
@@ -29,6 +33,9 @@ graph's input/output shapes (ModelError otherwise, naming the file), standardise
 with the stored mean/std and returns class probabilities, ``INFERENCE_BATCH`` windows per run.
 onnxruntime runs on the CPU provider with at most ``INTRA_OP_THREADS`` threads (the tool may run
 several diagnoses in parallel processes).
+
+:func:`model_for_flight` swaps the shipped quad model for the shipped model of the flight's
+rotor count (``flightlog_fd.models.MODEL_FILES``: 6 hexa, 8 octo); any other model is kept.
 
 Limits: only the CPU execution provider; the batch axis must be dynamic (fixed-batch files are
 refused); this module must not import torch (``fdlog diagnose`` installs without it).
@@ -207,6 +214,11 @@ class FaultModel:
         return str(self._metadata["created"])
 
     @property
+    def rotor_count(self) -> int:
+        """Rotors the model diagnoses: metadata rotor_count, else the spec's n_motors, else 4."""
+        return model_rotor_count(self._metadata)
+
+    @property
     def n_channels(self) -> int:
         return len(self._metadata["feature_spec"]["channels"])
 
@@ -273,6 +285,68 @@ def apply_logit_bias(probs: np.ndarray, bias: Optional[np.ndarray]) -> np.ndarra
         return probs
     q = np.asarray(probs, dtype=np.float64) * np.exp(np.asarray(bias, dtype=np.float64))[None, :]
     return q / q.sum(axis=1, keepdims=True)
+
+
+def classes_for(n_motors: int) -> list[str]:
+    """Output classes of an n-rotor model: healthy, motor1 .. motorn (CLASSES for 4)."""
+    return ["healthy"] + [f"motor{k}" for k in range(1, n_motors + 1)]
+
+
+def model_rotor_count(meta: dict) -> int:
+    """Rotor count of a model's metadata (see the module docstring)."""
+    n = meta.get("rotor_count")
+    if isinstance(n, int) and not isinstance(n, bool) and n > 0:
+        return n
+    n = (meta.get("feature_spec") or {}).get("n_motors", 4)
+    return int(n) if isinstance(n, int) and not isinstance(n, bool) and n > 0 else 4
+
+
+def shipped_model_path(n_rotors: int = 4) -> Optional[Path]:
+    """The shipped model file for ``n_rotors`` rotors, or None when none is shipped for that count."""
+    try:
+        import flightlog_fd.models as models
+    except ImportError:
+        return None
+    if n_rotors == 4:
+        return Path(models.DEFAULT_MODEL)
+    name = getattr(models, "MODEL_FILES", {}).get(n_rotors)
+    path = Path(models.DEFAULT_MODEL).with_name(name) if name else None
+    return path if path is not None and path.is_file() else None
+
+
+def shipped_model_paths() -> list[Path]:
+    """Every shipped model file present (the quad model first)."""
+    try:
+        import flightlog_fd.models as models
+    except ImportError:
+        return []
+    counts = [4] + sorted(n for n in getattr(models, "MODEL_FILES", {}) if n != 4)
+    return [p for p in (shipped_model_path(n) for n in counts) if p is not None and p.is_file()]
+
+
+_SHIPPED: dict[Path, "FaultModel"] = {}
+
+
+def model_for_flight(model: Any, flight: Any) -> Any:
+    """The model to diagnose ``flight`` with: the shipped model of the flight's rotor count when
+    ``model`` is the shipped quad model and the flight's placed frame has another rotor count with
+    a shipped model; else ``model`` itself (a user's or a profile's model is never swapped)."""
+    frame = getattr(flight, "frame", None)
+    n = getattr(frame, "rotor_count", 0) if frame is not None else 0
+    if not n or n == 4 or getattr(frame, "unplaced", "") or getattr(model, "rotor_count", 4) == n:
+        return model
+    try:
+        if Path(getattr(model, "path", "") or "").resolve() != Path(default_model_path()).resolve():
+            return model
+    except ModelError:
+        return model
+    path = shipped_model_path(n)
+    if path is None:
+        return model
+    key = path.resolve()
+    if key not in _SHIPPED:
+        _SHIPPED[key] = FaultModel(path)
+    return _SHIPPED[key]
 
 
 def default_model_path() -> Path:

@@ -31,7 +31,8 @@ of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
   :class:`~flightlog_fd.errors.ProfileError` with a one-line message.
 - :func:`calibrate_profile` builds a profile from healthy logs (paths or Flights).
 
-Limits: quadrotors only; one airframe per profile (all calibration logs must share autopilot
+Limits: quadrotors, and hexa / octo frames laid out like the shipped n-rotor models' training
+tables (rho and shares then have n entries; ``rotor_count`` in PROFILE_ROTOR_COUNTS); one airframe per profile (all calibration logs must share autopilot
 and frame). Battery sag and payload changes move the hover throttle, not rho.
 """
 from __future__ import annotations
@@ -72,6 +73,10 @@ BASELINE_MIN_THROTTLE_RANGE = 0.05
 #: 100 Hz log has 400 samples per motor; the ratios then repeat within ~1 % across flights.
 MIN_HOVER_S = 4.0
 AUTOPILOTS = ("px4", "ardupilot", "sim")
+#: Rotor counts a profile may describe: the quad and the frames with a shipped n-rotor model
+#: (flightlog_fd.models.MODEL_FILES); an n-rotor frame must be laid out like a trained table
+#: (checks.trained_layout).
+PROFILE_ROTOR_COUNTS = (4, 6, 8)
 #: Plausible range of a ratio: beyond it the motors are not running the same airframe's job.
 RHO_MIN, RHO_MAX = 0.2, 5.0
 _SHA256_RE = re.compile(r"^[0-9a-f]{64}$")
@@ -101,8 +106,9 @@ def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
     """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
     airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
     from .features import resample
+    from .hover import motor_count
 
-    return [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ)]
+    return [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ, n_motors=motor_count(fl))]
 
 
 def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER_S,
@@ -155,7 +161,7 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
     rho = speed / speed[0]
     per_chunk = np.array([np.sqrt(np.clip(c.mean(axis=0), 0.0, None)) for c in chunks if len(c)])
     per_chunk = per_chunk / per_chunk[:, :1]
-    spread = per_chunk.std(axis=0, ddof=1) if len(per_chunk) > 1 else np.zeros(4)
+    spread = per_chunk.std(axis=0, ddof=1) if len(per_chunk) > 1 else np.zeros(rho.shape)
     return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=float(airborne_s), n_segments=len(chunks),
                              hover_throttle=float(mean_thrust.mean()), segments=[], source="airborne mean")
 
@@ -188,7 +194,7 @@ def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np
             sh, th = command_shares([w_sq[a:a + n]])
             shares.append(sh)
             throttles.append(th)
-    slope = np.zeros(4)
+    slope = np.zeros(len(share))
     rng = (float(min(throttles)), float(max(throttles))) if throttles else (throttle, throttle)
     if len(throttles) >= 3 and rng[1] - rng[0] >= BASELINE_MIN_THROTTLE_RANGE:
         th = np.asarray(throttles) - throttle
@@ -286,7 +292,7 @@ class Profile:
                             spread=None if spread is None else np.asarray(spread, float),
                             throttle_spread=b.get("throttle_spread"), n_flights=int(b.get("n_flights", 1)))
         share = self.rho_ ** 2
-        return Baseline(share=share / share.mean(), slope=np.zeros(4), throttle_ref=float(self.hover_throttle_),
+        return Baseline(share=share / share.mean(), slope=np.zeros(len(share)), throttle_ref=float(self.hover_throttle_),
                         source="from rho_ (schema 1 profile)")
 
     @classmethod
@@ -313,8 +319,8 @@ class Profile:
         if not isinstance(d["frame"], str) or not d["frame"]:
             raise bad("frame must be a non-empty name such as 'quad_x'")
         n = d["rotor_count"]
-        if not isinstance(n, int) or isinstance(n, bool) or n != 4:
-            raise bad(f"rotor_count must be 4 (quadrotors only), not {n!r}")
+        if not isinstance(n, int) or isinstance(n, bool) or n not in PROFILE_ROTOR_COUNTS:
+            raise bad(f"rotor_count must be one of {', '.join(map(str, PROFILE_ROTOR_COUNTS))}, not {n!r}")
         rho = _number_list(d["rho_"], n, "rho_", bad)
         if not all(RHO_MIN <= x <= RHO_MAX for x in rho):
             raise bad(f"rho_ values must be within {RHO_MIN}..{RHO_MAX}, got {rho}")
@@ -490,11 +496,16 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
     if not flights:
         raise ValueError("calibrate_profile needs at least one log")
     first = flights[0]
+    from .checks import trained_layout
+
     for fl in flights:
-        if fl.frame is None or not fl.frame.is_quad:
+        if fl.frame is None or not (fl.frame.is_quad or (fl.frame.rotor_count in PROFILE_ROTOR_COUNTS
+                                                          and not fl.frame.unplaced and trained_layout(fl.frame))):
             what = fl.frame.name if fl.frame is not None else fl.vehicle_type
-            raise UnsupportedVehicleError(fl.path, f"calibration needs a quadrotor log; this one is {what}")
-        if (fl.autopilot, fl.frame.name) != (first.autopilot, first.frame.name):
+            raise UnsupportedVehicleError(fl.path, f"calibration needs a quadrotor, hexa-X/+ or octo-X/+/octaquad-X "
+                                                   f"log; this one is {what}")
+        if (fl.autopilot, fl.frame.name, fl.frame.rotor_count) != (first.autopilot, first.frame.name,
+                                                                   first.frame.rotor_count):
             raise ProfileError(fl.path, f"all calibration logs must come from one airframe: this log is "
                                         f"{fl.autopilot} {fl.frame.name}, {Path(first.path or '').name or 'the first'} "
                                         f"is {first.autopilot} {first.frame.name}")
@@ -504,7 +515,10 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
     thrust_blocks = [b for pf in per_flight for b in pf]
     imbalance = estimate_imbalance(flights, min_hover_s=min_hover_s, thrust_blocks=thrust_blocks)
 
-    base = spec or FeatureSpec()
+    base = spec or FeatureSpec(n_motors=first.frame.rotor_count)
+    if base.n_motors != first.frame.rotor_count:
+        raise ProfileError(first.path, f"the model takes {base.n_motors} motors, this frame has "
+                                       f"{first.frame.rotor_count}")
     unfitted = FeatureSpec.from_dict({**base.to_dict(), "mean": None, "std": None})
     X = np.concatenate([make_windows(fl, unfitted).X for fl in flights])
     if len(X) == 0:

@@ -40,6 +40,9 @@ SAMPLE_TRUTH = {
     "px4_esc_motor2_damaged.ulg": 2,
     "ardupilot_esc_motor3_damaged.bin": 3,
 }
+#: The hexa and octo samples (sample_logs/README.md); tests/test_nrotor_models.py checks them.
+N_ROTOR_SAMPLE_TRUTH = {"ardupilot_hexa_motor5_damaged.bin": 5, "px4_octo_motor2_damaged.ulg": 2}
+QUAD_SAMPLES = [str(SAMPLES / name) for name in sorted(SAMPLE_TRUTH)]
 #: Damage (eta 0.8 on an unbalanced airframe) that only ESC telemetry shows: the ESC analyzer
 #: names it (tests/test_esc_analyzer.py); the decision model that weighs ESC findings is issue 17.
 ESC_ONLY = {"ardupilot_esc_motor3_damaged.bin"}
@@ -47,14 +50,15 @@ ESC_ONLY = {"ardupilot_esc_motor3_damaged.bin"}
 
 @pytest.fixture(scope="module")
 def sample_reports():
-    res = runner.invoke(app, ["diagnose", "--json", str(SAMPLES)])
+    res = runner.invoke(app, ["diagnose", "--json", *QUAD_SAMPLES])
     assert res.exit_code == 1, res.output  # damage found in some files
     docs = json.loads(res.stdout)
     return {Path(d["log"]).name: d for d in docs}
 
 
 def test_sample_logs_are_all_there():
-    assert {p.name for p in SAMPLES.iterdir() if p.suffix in (".ulg", ".bin")} == set(SAMPLE_TRUTH)
+    assert {p.name for p in SAMPLES.iterdir() if p.suffix in (".ulg", ".bin")} == \
+        set(SAMPLE_TRUTH) | set(N_ROTOR_SAMPLE_TRUTH)
 
 
 @pytest.mark.parametrize("name", sorted(SAMPLE_TRUTH))
@@ -125,7 +129,7 @@ def test_html_and_csv_reports(tmp_path):
 
 
 def test_parallel_jobs_give_the_same_verdicts(sample_reports):
-    res = runner.invoke(app, ["diagnose", "--json", "--jobs", "2", str(SAMPLES)])
+    res = runner.invoke(app, ["diagnose", "--json", "--jobs", "2", *QUAD_SAMPLES])
     docs = {Path(d["log"]).name: d["verdict"] for d in json.loads(res.stdout)}
     assert {k: (v["status"], v["motor"]) for k, v in docs.items()} == {
         k: (d["verdict"]["status"], d["verdict"]["motor"]) for k, d in sample_reports.items()}

@@ -265,8 +265,9 @@ def test_info_prints_the_geometry(shared):
                                                              "left", "front-left"]
     assert [m["output"] for m in d["frame"]["motors"]] == [1, 2, 3, 4, 5, 6]
     assert [(m["motor"], round(m["t_start"], 2)) for m in d["stopped_motors"]] == [(1, 80.98)]
-    assert d["reasons"] == ["6-rotor frame (hexa): fdlog has no 6-rotor propeller-damage model yet; "
-                            "only stopped-motor detection is available for it"]
+    assert d["reasons"] == ["6-rotor frame ArduPilot HEXA/CW_X: its motor numbering is not that of the frames the "
+                            "6-rotor model was trained on (ArduPilot FRAME_CLASS/TYPE 2/1, 2/0); only stopped-motor "
+                            "detection is available for it"]
     res = CliRunner().invoke(app, ["info", str(path)])
     assert "ArduPilot HEXA/CW_X" in res.stdout and "rear-right" in res.stdout and "thrust axis" in res.stdout
     assert "motor 1 at t=80.98 s" in res.stdout
@@ -286,8 +287,11 @@ def test_unplaced_frame_is_refused_with_the_reason():
                                          "layout (FRAME_TYPE 2); the firmware refuses to arm with it")
     info = describe_flight(_flight(ardupilot_frame(7, 0), "tricopter"))
     assert info["frame"]["unplaced"].startswith("FRAME_CLASS 7 is a tricopter")
-    octo = diagnosability(_flight(ardupilot_frame(3, 1), "octorotor"))
-    assert octo.reasons[0].startswith("8-rotor frame (octo): fdlog has no 8-rotor")
+    assert diagnosability(_flight(ardupilot_frame(3, 1), "octorotor")).ok  # octo-X: the shipped 8-rotor model
+    octo_v = diagnosability(_flight(ardupilot_frame(3, 2), "octorotor"))
+    assert "motor numbering is not that of the frames the 8-rotor model" in octo_v.reasons[0]
+    twelve = diagnosability(_flight(ardupilot_frame(12, 1), "dodecarotor"))
+    assert twelve.reasons[0].startswith("12-rotor frame (dodecahexa): fdlog has no 12-rotor")
 
 
 def test_dataflash_frame_from_parameters_for_every_table():

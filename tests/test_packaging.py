@@ -24,6 +24,7 @@ def test_wheel_has_only_flightlog_fd_at_top(tmp_path):
     # training and the shipped model travel inside the namespace
     assert "flightlog_fd/training/dcnn.py" in names
     assert "flightlog_fd/models/default.onnx" in names
+    assert {"flightlog_fd/models/default_hexa.onnx", "flightlog_fd/models/default_octo.onnx"} <= set(names)
     # `fdlog serve`'s templates and static files are package data
     assert "flightlog_fd/serve/templates/flight.html" in names
     assert "flightlog_fd/serve/static/plots.js" in names

@@ -12,6 +12,11 @@ from flightlog_fd.sim.api import simulate_flights
 from flightlog_fd.sim.damage import Damage, random_damages
 
 
+def nif_windows(f, n_motors: int):
+    """NIF windows with n motor channels (features.nif_windows was removed as unused on main)."""
+    return make_windows(f, FeatureSpec(n_motors=n_motors))
+
+
 def _airborne_mean(f, margin_s=3.0):
     m = np.zeros(len(f.motors), bool)
     for a, b in f.airborne:
@@ -85,8 +90,13 @@ def test_cli_simulates_a_hexa_and_refuses_what_it_cannot_write(tmp_path):
     assert res.exit_code == 0, res.output
     res = run.invoke(app, ["info", "--json", str(out)])
     assert '"name": "hexa"' in res.stdout and '"layout": "PX4 control allocation"' in res.stdout
-    for args, words in ((["--frame", "hexa_x", "-f", "dataflash"], "quadrotors only"),
-                        (["--frame", "octo_x", "--motor", "9"], "1..8"),
+    rnd = tmp_path / "r.bin"  # a random airframe flown as an octaquad, written as DataFlash
+    res = run.invoke(app, ["simulate", "-o", str(rnd), "-f", "dataflash", "--airframe", "random", "--frame",
+                           "octaquad_x", "--duration", "15", "--seed", "3"])
+    assert res.exit_code == 0, res.output
+    res = run.invoke(app, ["info", "--json", str(rnd)])
+    assert '"layout": "ArduPilot OCTAQUAD/X"' in res.stdout
+    for args, words in ((["--frame", "octo_x", "--motor", "9"], "1..8"),
                         (["--frame", "hexa_x", "--rho", "1,1,1,1"], "needs 6 values"),
                         (["--frame", "hexa_v"], "--frame must be one of")):
         res = run.invoke(app, ["simulate", "-o", str(tmp_path / "x.bin" if "dataflash" in args else tmp_path / "x.ulg"),

@@ -255,6 +255,13 @@ def calibrate(paths: Sequence[Path], out_profile: Path, *, settings: AdaptSettin
         if p.exists() and not overwrite:
             raise ProfileError(p, "already exists (use --force to overwrite)")
     flights = [load_flight(p) for p in paths]
+    from flightlog_fd.errors import UnsupportedVehicleError
+
+    for fl in flights:  # the adjusted simulation and the base weights are the quad's
+        if adapt and fl.frame is not None and fl.frame.rotor_count not in (0, 4):
+            raise UnsupportedVehicleError(fl.path, f"adapting the model is for quadrotors so far; this is a "
+                                                   f"{fl.frame.rotor_count}-rotor {fl.frame.name}: use --no-adapt "
+                                                   f"to measure its profile (imbalance and command shares)")
     if progress:
         progress("measuring hover", 0.0)
     base_onnx, _ = base_model_files(base_model)

@@ -145,10 +145,86 @@ def render(meta: dict, verdicts: dict | None = None) -> str:
     return "\n".join(L)
 
 
-def main() -> None:
-    meta = json.loads((MODELS / "default.json").read_text())
-    (MODELS / "MODEL_CARD.md").write_text(render(meta, flight_verdicts()))
-    print(f"wrote {MODELS / 'MODEL_CARD.md'}")
+#: The card's n-rotor section starts at this line; `--nrotor` rewrites only what follows it.
+NROTOR_MARKER = "<!-- n-rotor models: written by python -m flightlog_fd.training.model_card --nrotor -->"
+NROTOR_FILES = {6: "default_hexa", 8: "default_octo"}
+
+
+def render_nrotor(metas: dict, bench: str | None = None) -> str:
+    """The card's section on the hexa and octo models from their build summaries (models/*.json)
+    and, if given, the text `benchmarks/bench_nrotor.py` printed."""
+    L = [NROTOR_MARKER, "", "# The hexa and octo models (`models/default_hexa.onnx`, `models/default_octo.onnx`)", "",
+         "**What they are.** The same DCNN on NIF windows with n motor channels: ṗ, q̇, ṙ and w1²..wn² "
+         "(n + 3 channels), n + 1 classes (healthy, propeller 1..n damaged, ArduPilot's motor numbering of "
+         "the trained tables). The ONNX metadata carries `rotor_count`, `frames`, `classes` and the feature "
+         "spec. `fdlog diagnose` picks the model whose rotor count matches the log's frame "
+         "(`flightlog_fd.model.model_for_flight`); a hexa or octo frame numbered otherwise (HEXA/H, DJI_X, "
+         "CW_X, Y6...) is refused with the reason (`checks.trained_layout`).", "",
+         "**How they were trained.** Same recipe as the quad model (`build_default.py --rotors n`: random "
+         "airframes 30 g-5 kg with realistic imbalance, real-log noise, strong and mild damage, five logging "
+         "profiles, cross-entropy, temperature scaling), with FEWER flights and epochs to fit a budget of "
+         "about 15 minutes of torch training per model on one thread of a shared 2-core CPU: training "
+         "stopped on the time limit, with the loss still falling, so both models are under-trained against "
+         "the quad's.", "",
+         "| model | training data | epochs | final training loss | command |", "|---|---|---|---|---|"]
+    import re
+
+    for n, meta in sorted(metas.items()):
+        cmd = meta["command"]
+        prior = re.search(r"--prior-epochs (\d+)", cmd)
+        how = f"`{cmd}`"
+        if prior:
+            first = re.sub(r" --prior-epochs \d+", "", re.sub(r"--max-train-seconds [0-9.]+", "--max-train-seconds 540", cmd))
+            how = (f"`{first}` (stopped on its time limit after {prior.group(1)} epochs), then `{cmd} --init` "
+                   f"with that run's .pt")
+        L.append(f"| {n} rotors | {meta['data']} | {meta['epochs']} | {meta['best_loss']:.3f} | {how} |")
+    L += ["", "Held-out simulated flights (200 per model, other seeds, same distribution as training: η 0.55-0.9 "
+          "plus 25 % mild 0.9-0.97, 35 % healthy):", "",
+          "| model | windows | window accuracy | healthy windows called healthy | damaged windows, right motor | "
+          "damaged flights, window majority right | healthy flights whose window majority is a motor |",
+          "|---|---|---|---|---|---|---|"]
+    for n, meta in sorted(metas.items()):
+        sim = meta["sim_test"]
+        conf = sim["confusion"]
+        healthy = conf[0][0] / max(1, sum(conf[0]))
+        dmg = sum(conf[k][k] for k in range(1, n + 1)) / max(1, sum(sum(conf[k]) for k in range(1, n + 1)))
+        L.append(f"| {n} rotors | {sim['windows']} | {_pct(sim['window_accuracy'])} | {_pct(healthy)} | {_pct(dmg)} | "
+                 f"{sim['damaged_flights_majority_right']}/{sim['damaged_flights']} | "
+                 f"{sim['healthy_flights_majority_motor']}/{sim['healthy_flights']} |")
+    if bench:
+        L += ["", "`python benchmarks/bench_nrotor.py` (η ≤ 0.8, random airframes with realistic imbalance, PX4 "
+              "default and ArduPilot logging): the model alone (window majority), then the flight verdict of "
+              "`fdlog diagnose` without a profile and with one calibrated (`--no-adapt`) on a healthy twin "
+              "flight of the same airframe (the verdict layer is the decision model's, not this model's alone):",
+              "", "```", bench.strip(), "```"]
+    L += ["", "**Limits.** Simulation only, like the quad model, and weaker: the model alone raises a motor "
+          "on a fair share of healthy simulated flights and misses many damaged ones, so it is one vote for "
+          "the decision layer, not a verdict. No real hexa or octo damage data exists to measure it on. "
+          "`fdlog calibrate` measures an n-rotor profile (`--no-adapt`) but does not adapt these models yet.", ""]
+    return "\n".join(L)
+
+
+def main(argv=None) -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--nrotor", action="store_true", help="rewrite only the hexa/octo section")
+    ap.add_argument("--bench", type=Path, default=None, help="bench_nrotor.py output to quote in that section")
+    args = ap.parse_args(argv)
+    card = MODELS / "MODEL_CARD.md"
+    if args.nrotor:
+        metas = {n: json.loads((MODELS / f"{stem}.json").read_text()) for n, stem in NROTOR_FILES.items()
+                 if (MODELS / f"{stem}.json").is_file()}
+        text = card.read_text()
+        head = text.split(NROTOR_MARKER)[0].rstrip("\n")
+        bench = args.bench.read_text() if args.bench is not None else None
+        card.write_text(head + "\n\n" + render_nrotor(metas, bench))
+    else:
+        meta = json.loads((MODELS / "default.json").read_text())
+        rest = card.read_text().split(NROTOR_MARKER, 1) if card.is_file() else [""]
+        tail = NROTOR_MARKER + rest[1] if len(rest) > 1 else ""
+        card.write_text(render(meta, flight_verdicts()) + ("\n" + tail if tail else ""))
+    print(f"wrote {card}")
 
 
 if __name__ == "__main__":

@@ -9,13 +9,14 @@ self-describing, so each message carries only columns the Flight has (no invente
 rates or accelerations); column names and units follow ArduCopter >= 3.4:
 
 - ``PARM`` (TimeUS, Name, Value): ``flight.params`` overridden by what the Flight's own fields
-  say: ``FRAME_CLASS`` 1 / ``FRAME_TYPE`` (1 X, 0 +), ``MOT_THST_EXPO`` (``thrust_curve``, else
-  0.65), plus, when the params lack them, ``MOT_PWM_MIN/MAX`` 1000/2000, ``SERVO1..4_FUNCTION``
-  33..36 and ``MOT_THST_HOVER`` (median collective thrust while airborne). Names longer than
+  say: ``FRAME_CLASS`` 1 / ``FRAME_TYPE`` (1 X, 0 +) for a quad, the frame's own ArduPilot class
+  and type for an n-rotor frame (:func:`frame_class_type`), ``MOT_THST_EXPO`` (``thrust_curve``, else
+  0.65), plus, when the params lack them, ``MOT_PWM_MIN/MAX`` 1000/2000, ``SERVO1..n_FUNCTION``
+  (motor k on output k: 33.., 82.. beyond motor 8) and ``MOT_THST_HOVER`` (median collective thrust while airborne). Names longer than
   16 characters (the ``N`` field) are not written.
 - ``MSG``: the firmware line (``flight.firmware`` when it names ArduCopter >= 3.4, else
   ``WRITER_FIRMWARE``: the reader's unit and mixer conventions follow the version it reads),
-  ``Frame: QUAD/X`` and the board's UID line: ``vehicle_id`` itself when it is a
+  ``Frame: QUAD/X`` (``HEXA/X``...) and the board's UID line: ``vehicle_id`` itself when it is a
   "board UID UID UID" string, else ``FDLOG_SIM`` and three 8-digit hex words of the sha256 of
   ``vehicle_id`` (:func:`sim_board_uid`), so that simulated fleets have one id per airframe.
 - ``EV``: 10 armed / 11 disarmed at the ``armed`` interval ends; 28 NOT_LANDED / 18
@@ -25,7 +26,9 @@ rates or accelerations); column names and units follow ArduCopter >= 3.4:
   ``attitude`` (yaw 0 when absent).
 - ``RATE`` (R/P/Y deg/s, ROut/POut/YOut/AOut) at the motors' timestamps when ``motor_kind`` is
   ``"thrust"``: the outputs are the exact inverse of the reader's AP_MotorsMatrix mix (4 motors,
-  4 unknowns: collective, roll, pitch, yaw), and R/P/Y are ``rates`` interpolated there.
+  4 unknowns: collective, roll, pitch, yaw; n > 4 motors: the least-squares inputs, exact for
+  commands in the mix's span, as a least-squares allocation makes them), and R/P/Y are ``rates``
+  interpolated there.
 - ``RCOU`` (C1..C14 PWM, integer µs) from ``alt_motors["RCOU"]`` when present, else from
   ``motors`` (a thrust setpoint goes through the ``MOT_THST_EXPO`` curve first), each motor on
   its ``SERVOn_FUNCTION`` output, PWM = min + signal x (max - min). Derived from thrust motors,
@@ -43,13 +46,16 @@ rates or accelerations); column names and units follow ArduCopter >= 3.4:
   ``esc_rpm``. ``XKF1`` (C=0, VN/VE/VD m/s) from ``velocity``.
 
 Precision: float32 for rates, attitude, velocity, RATE and parameters; 1 µs for time; 1 µs of
-PWM (1/(max-min) of the signal); 0.01 rpm. ``truth`` is not written. Frames other than quad X
-and quad + raise ``ValueError``. Vectorised: each message type is one numpy structured array
+PWM (1/(max-min) of the signal); 0.01 rpm. ``truth`` is not written. Quad X and + and every
+frame with an ArduPilot motor table (hexa, octo, octaquad...: from ``Frame.layout``, else the
+params' FRAME_CLASS/FRAME_TYPE when they give the frame's rotor count) are written; others raise
+``ValueError``. Vectorised: each message type is one numpy structured array
 (header + body) and all rows are scattered into the output buffer by one strided assignment
 per type, in time order.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -176,13 +182,34 @@ def _to_us(t: np.ndarray) -> np.ndarray:
     return np.round(t * US_PER_S).astype(np.uint64)
 
 
-def _frame_type(flight: Flight) -> int:
-    name = flight.frame.name if flight.frame is not None else "quad_x"
+def frame_class_type(flight: Flight) -> tuple[int, int]:
+    """ArduPilot (FRAME_CLASS, FRAME_TYPE) to write for the flight's frame (see module docstring)."""
+    from ..frames import ARDUPILOT_FRAME_CLASSES, ARDUPILOT_FRAME_TYPES, ardupilot_frame
+
+    frame = flight.frame
+    name = frame.name if frame is not None else "quad_x"
     if name == "quad_x":
-        return FRAME_TYPE_X
+        return QUAD_FRAME_CLASS, FRAME_TYPE_X
     if name == "quad_plus":
-        return FRAME_TYPE_PLUS
-    raise ValueError(f"write_dataflash: frame {name!r} not supported (quad_x and quad_plus only)")
+        return QUAD_FRAME_CLASS, FRAME_TYPE_PLUS
+    n = frame.rotor_count if frame is not None else 0
+    m = re.fullmatch(r"ArduPilot (\w+)/(\w+)", frame.layout or "") if frame is not None else None
+    if m and n:
+        classes = {v.upper(): k for k, v in ARDUPILOT_FRAME_CLASSES.items()}
+        types = {v: k for k, v in ARDUPILOT_FRAME_TYPES.items()}
+        if m.group(1) in classes and m.group(2) in types:
+            return classes[m.group(1)], types[m.group(2)]
+    if n and "FRAME_CLASS" in flight.params:
+        fc, ft = int(flight.params["FRAME_CLASS"]), int(flight.params.get("FRAME_TYPE", 1))
+        if ardupilot_frame(fc, ft).rotor_count == n:
+            return fc, ft
+    raise ValueError(f"write_dataflash: frame {name!r} ({frame.layout if frame is not None else ''}) has no "
+                     f"ArduPilot motor table to write")
+
+
+def _motor_function(k: int) -> float:
+    """SERVOn_FUNCTION value of motor k (SRV_Channel.h: motors 1-8 = 33-40, 9-12 = 82-85)."""
+    return float(32 + k if k <= 8 else 73 + k)
 
 
 def _firmware_line(flight: Flight) -> str:
@@ -212,9 +239,12 @@ def _hover_thrust(collective: Optional[Series], airborne: list[tuple[float, floa
     return float(np.median(vals)) if vals.size else DEFAULT_HOVER_THRUST
 
 
-def _params(flight: Flight, frame_type: int, expo: float, hover: float) -> dict[str, float]:
+def _params(flight: Flight, frame_class: int, frame_type: int, n_motors: int, expo: float,
+            hover: float) -> dict[str, float]:
     params = {**DEFAULT_PARAMS, **{k: float(v) for k, v in flight.params.items()}}
-    params["FRAME_CLASS"] = float(QUAD_FRAME_CLASS)
+    if n_motors > 4 and not all(f"SERVO{k}_FUNCTION" in flight.params for k in range(1, n_motors + 1)):
+        params.update({f"SERVO{k}_FUNCTION": _motor_function(k) for k in range(1, n_motors + 1)})
+    params["FRAME_CLASS"] = float(frame_class)
     params["FRAME_TYPE"] = float(frame_type)
     params.pop("FRAME", None)  # the pre-3.5 parameter would contradict FRAME_TYPE
     params["MOT_THST_EXPO"] = float(expo)
@@ -263,9 +293,12 @@ def _rate_block(flight: Flight, factors: np.ndarray) -> Optional[_Block]:
     m = flight.motors
     if m is None or len(m) == 0 or flight.motor_kind != "thrust":
         return None
-    # thrust_i = A + R rf_i + P pf_i + Y yf_i: a 4x4 system per sample for a quad
+    # thrust_i = A + R rf_i + P pf_i + Y yf_i: a 4x4 system per sample for a quad, least squares for n > 4
     mix_matrix = np.column_stack([np.ones(factors.shape[0]), factors])
-    inputs = np.linalg.solve(mix_matrix, m.values.T).T  # (n, 4): A, R, P, Y
+    if factors.shape[0] == 4:
+        inputs = np.linalg.solve(mix_matrix, m.values.T).T  # (n, 4): A, R, P, Y
+    else:
+        inputs = np.linalg.lstsq(mix_matrix, m.values.T, rcond=None)[0].T
     if flight.rates is not None and len(flight.rates):
         r = flight.rates
         order = np.argsort(r.t, kind="stable")
@@ -339,8 +372,10 @@ def sim_board_uid(vehicle_id: str) -> str:
     return f"FDLOG_SIM {h[0:8]} {h[8:16]} {h[16:24]}"
 
 
-def _header_blocks(flight: Flight, params: dict[str, float], firmware: str, frame_type: int,
+def _header_blocks(flight: Flight, params: dict[str, float], firmware: str, frame_class: int, frame_type: int,
                    formats: list[_Format]) -> list[_Block]:
+    from ..frames import ARDUPILOT_FRAME_CLASSES, ARDUPILOT_FRAME_TYPES
+
     t0 = _to_us([flight.t_start])[0] if flight.t_start > 0 else np.uint64(0)
     fmt_rows = _block(FMT, np.zeros(len(formats), dtype=np.uint64), phase=0,
                       Type=[f.type_id for f in formats], Length=[f.length for f in formats],
@@ -349,7 +384,12 @@ def _header_blocks(flight: Flight, params: dict[str, float], firmware: str, fram
     names = sorted(params)
     parm = _block(PARM, np.full(len(names), t0, dtype=np.uint64), phase=0,
                   Name=[n.encode() for n in names], Value=[params[n] for n in names])
-    lines = [firmware, f"Frame: QUAD/{'X' if frame_type == FRAME_TYPE_X else 'PLUS'}"]
+    if frame_class == QUAD_FRAME_CLASS:
+        frame_line = f"Frame: QUAD/{'X' if frame_type == FRAME_TYPE_X else 'PLUS'}"
+    else:
+        frame_line = (f"Frame: {ARDUPILOT_FRAME_CLASSES[frame_class].upper()}/"
+                      f"{ARDUPILOT_FRAME_TYPES.get(frame_type, frame_type)}")
+    lines = [firmware, frame_line]
     if flight.vehicle_id:
         lines.append(sim_board_uid(flight.vehicle_id))
     msg = _block(MSG, np.full(len(lines), t0, dtype=np.uint64), phase=0,
@@ -385,13 +425,13 @@ def write_dataflash(flight: Flight, path, *, esc_layout: str = "esc_rawrpm") -> 
     """Write ``flight`` as an ArduPilot DataFlash binary log at ``path`` (see module docstring).
     ``esc_layout`` picks the ESC telemetry generation written for ``flight.esc``."""
     path = Path(path)
-    frame_type = _frame_type(flight)
-    factors = mixer_factors(QUAD_FRAME_CLASS, frame_type)
+    frame_class, frame_type = frame_class_type(flight)
+    factors = mixer_factors(frame_class, frame_type)
     n_motors = factors.shape[0]
     expo = flight.thrust_curve if flight.thrust_curve is not None else \
         float(flight.params.get("MOT_THST_EXPO", DEFAULT_THST_EXPO))
     collective = _collective_thrust(flight, expo)
-    params = _params(flight, frame_type, expo, _hover_thrust(collective, flight.airborne))
+    params = _params(flight, frame_class, frame_type, n_motors, expo, _hover_thrust(collective, flight.airborne))
     firmware = _firmware_line(flight)
     if flight.motors is not None and flight.motors.values.shape[1] != n_motors:
         raise ValueError(f"write_dataflash: motors has {flight.motors.values.shape[1]} columns, frame has {n_motors}")
@@ -428,7 +468,7 @@ def write_dataflash(flight: Flight, path, *, esc_layout: str = "esc_rawrpm") -> 
     extra = [b.fmt for b in blocks if b.fmt not in ALL_FORMATS]
     used = [FMT] + [f for f in ALL_FORMATS[1:] if f in (PARM, MSG) or any(b.fmt is f for b in blocks)] + \
         list(dict.fromkeys(extra))
-    buf = _merge(_header_blocks(flight, params, firmware, frame_type, used) + blocks)
+    buf = _merge(_header_blocks(flight, params, firmware, frame_class, frame_type, used) + blocks)
     path.parent.mkdir(parents=True, exist_ok=True)
     buf.tofile(path)
     return path
