@@ -111,6 +111,11 @@ BATCHED_LAG_SEARCH = True
 #: normal equations lose at most ~8 of float64's 16 digits, far below the residual differences
 #: between candidate lags.
 MAX_NORMAL_COND = 1e8
+#: Condition number of the body-rate terms below which their basis comes from CholeskyQR2
+#: (_orthonormal_basis); above it from Householder QR. The detrended body-rate terms of the 60
+#: comparison logs (sample_logs, ../shared) are far below it; 1e6 leaves a factor 100 to the
+#: ~1e8 where CholeskyQR2 loses orthogonality.
+MAX_CHOLQR_COND = 1e6
 #: Fit the body-rate torques (damping, gyroscopic ω × Iω) beside the commands (_body_rate_terms).
 #: Without them a yawing vehicle's gyroscopic torque lands on the diagonal motor pairs: noiseless
 #: simulated x500 flights (η 0.6 and 0.8, each motor) read a damaged rotor +0.077 high on average
@@ -479,6 +484,27 @@ def _body_rate_terms(segments: list[Segment], detrend_n: int) -> Optional[np.nda
     return np.vstack(out)
 
 
+def _orthonormal_basis(M: np.ndarray) -> np.ndarray:
+    """An orthonormal basis (n, k) of the columns of a tall ``M``: CholeskyQR2 (two Cholesky
+    passes on the k x k Gram matrix) when M is well conditioned, else Householder QR.
+
+    Why: only the projection onto the span is used (any orthonormal basis gives the same one),
+    and LAPACK's QR of a 30000 x 6 matrix took 11.5 ms against ~1 ms. CholeskyQR2 is orthonormal
+    to machine precision for cond(M) up to ~1e8 (Yamamoto et al. 2015); ``MAX_CHOLQR_COND``
+    keeps a wide margin."""
+    G = M.T @ M
+    try:
+        if np.linalg.cond(G) < MAX_CHOLQR_COND ** 2:
+            Q = M
+            for _ in range(2):
+                R = np.linalg.cholesky(Q.T @ Q).T  # upper, Q'Q = R'R
+                Q = Q @ np.linalg.inv(R)
+            return Q
+    except np.linalg.LinAlgError:
+        pass
+    return np.linalg.qr(M)[0]
+
+
 def _detrended_vertical(flight: Flight, segments: list[Segment], rate_hz: float, savgol_n: int,
                         detrend_n: int) -> Optional[np.ndarray]:
     """Detrended body-z specific force (n,) on the segments' grid, rows as in _detrended_acc, or
@@ -618,7 +644,7 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     # the full regression.
     # One orthonormal basis of the body-rate terms serves every candidate lag below.
     nuisance = _body_rate_terms(usable, detrend_n) if BODY_RATE_TERMS else None
-    basis = np.linalg.qr(nuisance)[0] if nuisance is not None else None
+    basis = _orthonormal_basis(nuisance) if nuisance is not None else None
 
     def partial_out(M: np.ndarray) -> np.ndarray:
         return M if basis is None else M - basis @ (basis.T @ M)
@@ -702,8 +728,8 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
         np.add.at(XtY, block, X[:, :, None] * Y[:, None, :])
     rng = np.random.default_rng(seed)
     counts = rng.multinomial(nb, np.full(nb, 1.0 / nb), size=n_bootstrap).astype(np.float64)  # (B, nb)
-    A = np.einsum("bk,kij->bij", counts, XtX) + 1e-12 * np.eye(4)
-    B = np.einsum("bk,kij->bij", counts, XtY)
+    A = (counts @ XtX.reshape(nb, -1)).reshape(-1, 4, 4) + 1e-12 * np.eye(4)  # one BLAS product each
+    B = (counts @ XtY.reshape(nb, -1)).reshape(-1, 4, n_axes)
     try:
         boot = np.linalg.solve(A, B)  # (B, 4, axes)
     except np.linalg.LinAlgError:
