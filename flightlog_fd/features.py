@@ -417,9 +417,10 @@ class Stream:
 def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     t = series.t
     v = series.values[:, :columns]
-    keep = np.isfinite(t) & np.all(np.abs(v) <= MAX_ABS_SAMPLE, axis=1)  # NaN and inf fail the test
-    if not keep.all():  # (a clean stream keeps the series' own arrays: never modified)
-        t, v = t[keep], v[keep]
+    # NaN and inf fail the test; one whole-array test first, the per-row mask only when it fails
+    if not (np.isfinite(t).all() and (np.abs(v) <= MAX_ABS_SAMPLE).all()):
+        keep = np.isfinite(t) & np.all(np.abs(v) <= MAX_ABS_SAMPLE, axis=1)
+        t, v = t[keep], v[keep]  # (a clean stream otherwise keeps the series' own arrays: never modified)
     dt = np.diff(t)
     if t.size > 1 and np.any(dt <= 0):
         order = np.argsort(t, kind="stable")

@@ -69,7 +69,10 @@ class PreparedFlight:
             if att is None or len(att) < 2 or att.values.shape[1] < 2:
                 return None
             s = self.clean("attitude", max_gap_s, 2)
-            return Stream(s.t, np.unwrap(s.v, axis=0), s.gap_s, s.median_dt)
+            # np.unwrap changes nothing when no step exceeds pi (it then costs ~7 ms on 600 s at 250 Hz)
+            steps = np.abs(np.diff(s.v, axis=0))
+            v = np.array(s.v, dtype=np.float64) if steps.size == 0 or steps.max() <= np.pi else np.unwrap(s.v, axis=0)
+            return Stream(s.t, v, s.gap_s, s.median_dt)
         return self.memo(("attitude", max_gap_s), make)
 
     def speed_stream(self, speed_source: str, rate_hz: float, max_gap_s: float, n_motors: int = 4):
