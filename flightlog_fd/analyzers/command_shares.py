@@ -41,7 +41,10 @@ M_GRID = np.array([0.25, 0.5, 0.75, 1.0, 1.25, 1.6])
 #: Without a profile the healthy pattern is unknown: healthy airframes' airborne-mean command
 #: shares scatter around an even split with this per-motor standard deviation. Measured:
 #: 18 real healthy ArduCopter flights (../shared/real_healthy + Erle), RMS share deviation from 1
-#: over all motors = 0.12 (benchmarks/bench_real_damage.py prints it).
+#: over all motors = 0.12 (benchmarks/bench_real_damage.py prints it). Quads only: there is no
+#: real hexa or octo log to measure their spread on, and simulated healthy hexas with the
+#: realistic imbalance reach a 0.25 opposite-pair split (bench_nrotor.py: 5 of 39 flights called
+#: damaged with this sigma), so without a profile the command analyzer abstains on them.
 NEIGHBOUR_SHARE_SIGMA = 0.12
 #: Against the same flight before a mid-flight onset: a healthy airframe's share wander within
 #: one flight. Measured: the 18 real healthy flights, rrc goods and CrazyPAD normals, shares of
@@ -210,6 +213,10 @@ class CommandShares(Analyzer):
         why = self.missing(ctx.flight)
         if why or ev is None:
             return AnalyzerResult(self.id, abstained=why or "no command shares")
+        if ev.baseline == "neighbours" and len(ev.motors) != 4:
+            return AnalyzerResult(self.id, abstained=(
+                f"without a profile the healthy spread of {len(ev.motors)}-rotor command patterns is not measured "
+                f"on real airframes (NEIGHBOUR_SHARE_SIGMA is from real quads); calibrate on a healthy flight"))
         drifting = ev.drifting() if ev.baseline == "before onset" else None
         if drifting is not None:
             return AnalyzerResult(self.id, abstained=f"motor {drifting}'s command rose steadily after the onset",
