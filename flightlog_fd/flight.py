@@ -53,7 +53,6 @@ from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 #: A timestamp this far (s) from the median of its neighbours is corrupted (see module docstring)...
 TIME_SPIKE_S = 1.0
@@ -415,6 +414,8 @@ def implausible_times(t: np.ndarray) -> np.ndarray:
     d = np.diff(tt)
     if d.min() >= -thr and d.max() <= thr:
         return bad  # no jump anywhere: nothing can be a spike or a backward step
+    from scipy.ndimage import median_filter  # here, not at import: it costs 0.35-0.5 s of every cold start
+
     med = median_filter(tt, size=TIME_SPIKE_NEIGHBOURS, mode="mirror")
     limit = np.full(tt.shape, thr)
     edge = TIME_SPIKE_NEIGHBOURS // 2

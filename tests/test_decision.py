@@ -174,3 +174,14 @@ def test_branch_uncertain_when_the_commands_do_not_rise_for_the_named_motor():
     assert "did not rise" in d.reason and "inspect propeller 1" in d.reason
     results[1] = res("commands", "share", -0.5, 1.02, 1.0)  # the same with its share up 2 %
     assert D.decide(results, 4, Frame.quad_x()).status == "damaged"
+
+
+@pytest.mark.parametrize("frame", [Frame.quad_x(), Frame.quad_plus()])
+def test_batched_prediction_table_equals_one_solve_at_a_time(frame):
+    rows = CS._mixer_rows(frame, 4)
+    base = np.array([0.95, 1.08, 0.92, 1.05])
+    table = CS._pred_table(base, rows, 3)
+    for a in (0, len(CS.ETA_GRID) // 2, len(CS.ETA_GRID) - 1):
+        for b in range(len(CS.M_GRID)):
+            one = CS.predicted_commands(base, rows, 3, float(CS.ETA_GRID[a]), float(CS.M_GRID[b]))
+            assert np.allclose(table[a, b], one, atol=1e-12)

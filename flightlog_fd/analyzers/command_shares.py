@@ -109,12 +109,19 @@ def predicted_commands(base: np.ndarray, rows: np.ndarray, motor: int, eta: floa
 
 
 def _pred_table(base: np.ndarray, rows: np.ndarray, motor: int) -> np.ndarray:
-    """(len(ETA_GRID), len(M_GRID), n) predicted raw commands."""
-    out = np.empty((len(ETA_GRID), len(M_GRID), len(base)))
-    for a, eta in enumerate(ETA_GRID):
-        for b, m in enumerate(M_GRID):
-            out[a, b] = predicted_commands(base, rows, motor, float(eta), float(m))
-    return out
+    """(len(ETA_GRID), len(M_GRID), n) predicted raw commands: :func:`predicted_commands` for
+    the whole eta/m grid in one batched solve."""
+    eta, m = np.meshgrid(ETA_GRID, M_GRID, indexing="ij")  # (E, M)
+    A = np.broadcast_to(rows, eta.shape + rows.shape).copy()  # (E, M, 4, n)
+    j = motor - 1
+    A[..., :3, j] *= eta[..., None]
+    A[..., 3, j] *= eta ** m
+    if rows.shape[0] == rows.shape[1]:
+        return np.linalg.solve(A, np.broadcast_to(rows @ base, eta.shape + (rows.shape[0],))[..., None])[..., 0]
+    alloc = np.linalg.pinv(rows)  # (n, 4)
+    rhs = ((rows - A) @ base)[..., None]  # (E, M, 4, 1)
+    dv = np.linalg.solve(A @ alloc, rhs)[..., 0]
+    return base + dv @ alloc.T
 
 
 def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
