@@ -114,21 +114,26 @@ def _segments(flight: Flight, s: Series) -> list[np.ndarray]:
     return [order[(t >= a) & (t <= b)] for a, b in flight.airborne]
 
 
-def _from_outputs(flight: Flight, s: Series) -> list[StoppedMotor]:
-    n = s.values.shape[1]
-    if n < 2:
-        return []
-    runs: list[tuple[int, float, float, float, float]] = []  # motor k, t0, t1, highest output, others' median
+def _stretches(flight: Flight, s: Series, stopped) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    """(motor k 0-based, times, its values, the others' median) of every airborne run where
+    ``stopped(values_k, others_median)`` holds, per airborne interval."""
+    out = []
+    if s.values.shape[1] < 2:
+        return out
     for idx in _segments(flight, s):
         if idx.size < 2:
             continue
         t, v = s.t[idx], np.nan_to_num(s.values[idx], nan=0.0)
-        for k in range(n):
+        for k in range(v.shape[1]):
             others = _others_median(v, k)
-            flag = (v[:, k] <= STOP_LEVEL) & (others >= OTHERS_MIN_LEVEL)
-            for a, b in _runs(t, flag):
-                runs.append((k, float(t[a]), float(t[b]), float(np.max(v[a:b + 1, k])),
-                             float(np.median(others[a:b + 1]))))
+            for a, b in _runs(t, stopped(v[:, k], others)):
+                out.append((k, t[a:b + 1], v[a:b + 1, k], others[a:b + 1]))
+    return out
+
+
+def _from_outputs(flight: Flight, s: Series) -> list[StoppedMotor]:
+    runs = [(k, float(t[0]), float(t[-1]), float(np.max(vk)), float(np.median(oth)))  # k, t0, t1, highest, others
+            for k, t, vk, oth in _stretches(flight, s, lambda vk, oth: (vk <= STOP_LEVEL) & (oth >= OTHERS_MIN_LEVEL))]
     # a motor that never left its minimum between two stretches (the vehicle landed or hit the
     # ground in between, ending an airborne interval) stopped once
     order = np.argsort(s.t, kind="stable")
@@ -149,26 +154,12 @@ def _from_outputs(flight: Flight, s: Series) -> list[StoppedMotor]:
 
 
 def _from_rpm(flight: Flight, s: Series) -> list[StoppedMotor]:
-    out = []
-    n = s.values.shape[1]
-    if n < 2:
-        return out
-    for idx in _segments(flight, s):
-        if idx.size < 2:
-            continue
-        t, v = s.t[idx], np.nan_to_num(s.values[idx], nan=0.0)
-        for k in range(n):
-            others = _others_median(v, k)
-            flag = (others >= MIN_TELEMETRY_RPM) & (v[:, k] < STOP_RPM_RATIO * others)
-            for a, b in _runs(t, flag):
-                if t[b] - t[a] < STOP_MIN_S:
-                    continue
-                out.append(StoppedMotor(
-                    k + 1, float(t[a]), float(t[b]),
-                    f"ESC reports {np.median(v[a:b + 1, k]):.0f} rpm against a median {np.median(others[a:b + 1]):.0f} "
-                    f"rpm on the other motors (stopped: < {STOP_RPM_RATIO:.0%}) for {t[b] - t[a]:.1f} s from "
-                    f"t={t[a]:.2f} s while airborne", s.source))
-    return out
+    return [StoppedMotor(
+        k + 1, float(t[0]), float(t[-1]),
+        f"ESC reports {np.median(vk):.0f} rpm against a median {np.median(oth):.0f} rpm on the other motors "
+        f"(stopped: < {STOP_RPM_RATIO:.0%}) for {t[-1] - t[0]:.1f} s from t={t[0]:.2f} s while airborne", s.source)
+        for k, t, vk, oth in _stretches(flight, s, lambda vk, oth: (oth >= MIN_TELEMETRY_RPM) & (vk < STOP_RPM_RATIO * oth))
+        if t[-1] - t[0] >= STOP_MIN_S]
 
 
 def _merge(findings: list[StoppedMotor]) -> list[StoppedMotor]:
