@@ -139,12 +139,6 @@ class Diagnosis:
     stopped: list = field(default_factory=list)
 
     @property
-    def airframe_changed_note(self) -> str:
-        """The decision model's "airframe changed" finding in words, or ''."""
-        a = getattr(self.decision, "airframe_changed", None)
-        return f"Airframe change since calibration: {a}." if a else ""
-
-    @property
     def motors(self) -> list:
         """Per-motor figures (:class:`flightlog_fd.evidence.MotorEvidence`), [] without evidence."""
         return list(self.evidence.motors) if self.evidence is not None else []

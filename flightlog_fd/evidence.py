@@ -37,7 +37,6 @@ import numpy as np
 
 from .effectiveness import EffectivenessEstimate
 from .features import DEFAULT_RATE_HZ
-from .analyzers.effectiveness import EFFECTIVENESS_SANE_MIN, effectiveness_usable
 from .flight import Frame
 
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
@@ -125,11 +124,6 @@ class FlightEvidence:
             if m.command_change > 0 and np.isfinite(d) and d > ONSET_DRIFT_SHARE * m.command_change:
                 return m.motor
         return None
-
-    @property
-    def effectiveness_usable(self) -> bool:
-        """The effectiveness fit is informative and physically consistent (decision.py uses it)."""
-        return effectiveness_usable(self.effectiveness)
 
     @property
     def throttle_ratio(self) -> Optional[float]:
@@ -236,12 +230,7 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
             motor=i + 1, position=frame.position(i + 1) if frame is not None else None,
             command_share=float(share[i]), command_share_baseline=None if base is None else float(base[i]),
             command_change=float(change[i]), effectiveness=eff, effectiveness_ci=ci, model_vote=float(votes[i])))
-    usable = effectiveness_usable(effectiveness)
-    if effectiveness is not None and not effectiveness.informative:
-        notes.append(f"effectiveness: {effectiveness.reason}")
-    elif effectiveness is not None and not usable:
-        notes.append("effectiveness: the fit is physically inconsistent (a motor below "
-                     f"{EFFECTIVENESS_SANE_MIN}); not used")
+    # why the effectiveness fit says nothing is the effectiveness analyzer's to report
     return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, top_motor=top, single_motor_gap=gap,
                           effectiveness=effectiveness, notes=notes, baseline_=baseline, onset_drift=drift)
 

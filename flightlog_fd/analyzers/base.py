@@ -97,6 +97,9 @@ class Context:
     evidence: Any = None
     profile: Any = None
     model_sha256: str = ""  # the model that judged the windows (a baseline fitted with another is not used)
+    #: Results analyzers share within one diagnosis (e.g. the command-share fits the throttle
+    #: analyzer reuses), keyed by whoever computes them.
+    memo: dict = field(default_factory=dict)
 
     def baseline_for(self, analyzer_id: str) -> Optional[dict]:
         """This analyzer's healthy baseline from the profile (None without one)."""

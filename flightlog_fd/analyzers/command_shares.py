@@ -191,7 +191,15 @@ def share_sigma(baseline_kind: str, spread: Optional[Sequence[float]], n: int, n
 
 
 def fits_for(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[SeverityFit], np.ndarray]]:
-    """(healthy chi-square, per-motor fits, share sigma) of the flight's shares, or None."""
+    """(healthy chi-square, per-motor fits, share sigma) of the flight's shares, or None; computed
+    once per diagnosis (the command-share and throttle analyzers both need them)."""
+    key = ("commands.fits", with_throttle)
+    if key not in ctx.memo:
+        ctx.memo[key] = _fits(ctx, with_throttle)
+    return ctx.memo[key]
+
+
+def _fits(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[SeverityFit], np.ndarray]]:
     ev = ctx.evidence
     if ev is None:
         return None

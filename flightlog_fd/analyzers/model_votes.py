@@ -15,10 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..verdict import PROB_FLOOR_MIX  # the same floor the timeline's votes use
 from .base import Analyzer, AnalyzerResult, Context, Finding
 
-#: Probability floor mixed into every window (as verdict.PROB_FLOOR_MIX) before log ratios.
-PROB_FLOOR_MIX = 0.10
 #: Healthy flights: mean and between-flight standard deviation of a motor's flight-mean window
 #: log ratio log(q_k/q_0). Measured with the shipped model on the 18 real healthy flights
 #: (benchmarks/bench_real_damage.py): all motors' values have mean -0.94, standard deviation 0.55
