@@ -28,6 +28,7 @@ is not healthy + the flight's motors is refused (:class:`~flightlog_fd.errors.Mo
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
@@ -41,6 +42,7 @@ from .phases import window_phases
 from .prepared import PreparedFlight
 from .decision import flight_verdict
 from .stopped import diagnose_stopped
+from .util import blas_threads
 from .verdict import N_CLASSES, Verdict, VerdictSettings, decide, not_diagnosable
 
 EXIT_HEALTHY = 0
@@ -55,6 +57,13 @@ NO_PROFILE_OWN_MODEL_WARNING = ("no calibration profile: a profile made with `fd
 #: If more than this share of windows are manoeuvres, say so: the model is most reliable in
 #: steady flight, and a verdict resting on manoeuvres deserves a second look.
 MANOEUVRE_WARNING_SHARE = 0.5
+#: BLAS threads while diagnosing one flight. Its matrices are tall and thin (30 000 x 4-24 for a
+#: 600 s flight), where a second thread gains little and, on a busy machine, waits for the core
+#: another process holds: the 600 s benchmark logs (benchmarks/bench_diagnose.py) took 146 / 185 ms
+#: (ULog / DataFlash) with one thread against 187 / 224 ms with two, best of 6 in one run on the
+#: shared 2-core box (2026-11-24, one core busy elsewhere). Parallel work comes from diagnosing logs in
+#: separate processes (batch, serve), as for onnxruntime (model.INTRA_OP_THREADS).
+DIAGNOSE_BLAS_THREADS = 1
 
 
 @dataclass
@@ -229,7 +238,14 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     ``feature_spec``, ``standardise`` and ``predict_proba``) and an optional calibration profile.
 
     ``keep_flight=False`` leaves ``Diagnosis.flight`` empty (no plots, but a small object to
-    send back from a worker process when many logs are diagnosed in parallel)."""
+    send back from a worker process when many logs are diagnosed in parallel).
+    Runs with at most ``DIAGNOSE_BLAS_THREADS`` BLAS threads."""
+    with blas_threads(DIAGNOSE_BLAS_THREADS):
+        return _diagnose_flight(flight, model, profile, settings=settings, keep_flight=keep_flight)
+
+
+def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: VerdictSettings,
+                     keep_flight: bool) -> Diagnosis:
     from .features import FeatureSpec, make_windows
 
     from .model import model_for_flight
@@ -267,7 +283,14 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
         if len(win.t_start) == 0:
             return _not_diagnosable(log, win.reason or "no complete window of airborne data",
                                     diagnosability_facts=dict(check.facts), **common)
-        probs = np.asarray(model.predict_proba(model.standardise(win.X)), dtype=np.float64)
+        # The model (onnxruntime, which releases the GIL) runs beside the effectiveness fit, which
+        # does not need its answer: on two free cores the two take the time of the longer one.
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            model_run = pool.submit(lambda: model.predict_proba(model.standardise(win.X)))
+            try:
+                eff = window_effectiveness(prepared, win)
+            finally:
+                probs = np.asarray(model_run.result(), dtype=np.float64)
     except FlightLogError as e:
         if stops:  # the motor that stopped in the air is still found
             return Diagnosis(log=log, verdict=stopped_verdict(stops, flight.frame), stopped=stops,
@@ -280,16 +303,18 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     model_verdict = decide(t_start, t_end, probs, settings=settings, frame=flight.frame)
     run = model_verdict.evidence.run if model_verdict.evidence is not None else None
     onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
-    evidence = flight_evidence(prepared, win, probs, profile, since=onset)
+    evidence = flight_evidence(prepared, win, probs, profile, since=onset, effectiveness=eff)
     verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame, flight=flight,
                                        profile=profile, segments=win.segments,
                                        model_sha256=str(getattr(model, "sha256", "") or ""))
     if stops:  # a motor that stopped in the air outranks any propeller verdict
         verdict = stopped_verdict(stops, flight.frame, verdict)
     order = np.argsort(t_start, kind="stable")
-    windows = [WindowResult(float(t_start[i]), float(t_end[i]), int(np.argmax(probs[i])),
-                            [float(x) for x in probs[i]], phases[i], int(verdict.window_labels[i]))
-               for i in order]
+    # one conversion to Python numbers per array (not per window: 740 windows of a 600 s flight)
+    starts, ends, probs_l = t_start[order].tolist(), t_end[order].tolist(), probs[order].tolist()
+    classes, labels = np.argmax(probs, axis=1)[order].tolist(), np.asarray(verdict.window_labels)[order].tolist()
+    windows = [WindowResult(starts[j], ends[j], int(classes[j]), probs_l[j], phases[i], int(labels[j]))
+               for j, i in enumerate(order.tolist())]
     manoeuvre_share = sum(ph == "manoeuvre" for ph in phases) / len(phases)
     if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
@@ -317,23 +342,29 @@ def stopped_verdict(stops: list, frame: Any, underneath: Optional[Verdict] = Non
     return v
 
 
-def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None,
-                    since: Optional[float] = None):
-    """Per-motor evidence of one flight (a Flight or the diagnosis's PreparedFlight) from the
-    windows' own resampled segments (the flight is resampled once) and the profile's baseline,
-    if any; ``since`` = a mid-flight damage onset."""
+def window_effectiveness(flight, windows: Any):
+    """The effectiveness estimate of one flight (a Flight or PreparedFlight) on the windows' own
+    resampled segments (the flight is resampled once)."""
     from .effectiveness import EffectivenessEstimate, estimate_effectiveness
+
+    if windows.spec.n_motors != 4:  # the effectiveness fit is a 4-motor model so far
+        return EffectivenessEstimate(reason=f"not estimated for {windows.spec.n_motors} rotors yet")
+    return estimate_effectiveness(PreparedFlight.of(flight), rate_hz=windows.spec.rate_hz,
+                                  savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
+
+
+def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None,
+                    since: Optional[float] = None, effectiveness: Any = None):
+    """Per-motor evidence of one flight (a Flight or the diagnosis's PreparedFlight) from the
+    windows' segments, the model's window probabilities and the profile's baseline, if any;
+    ``since`` = a mid-flight damage onset; ``effectiveness`` = its estimate when already made
+    (:func:`window_effectiveness`)."""
     from .evidence import build_evidence
 
     prepared = PreparedFlight.of(flight)
-    flight = prepared.flight
-    if windows.spec.n_motors != 4:  # the effectiveness fit is a 4-motor model so far
-        eff = EffectivenessEstimate(reason=f"not estimated for {windows.spec.n_motors} rotors yet")
-    else:
-        eff = estimate_effectiveness(prepared, rate_hz=windows.spec.rate_hz,
-                                     savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
+    eff = effectiveness if effectiveness is not None else window_effectiveness(prepared, windows)
     baseline = profile.baseline() if profile is not None else None
-    return build_evidence(windows.segments, probs, flight.frame, eff, baseline, since=since)
+    return build_evidence(windows.segments, probs, prepared.flight.frame, eff, baseline, since=since)
 
 
 def diagnose_path(path, model: Any, profile: Any = None, *,

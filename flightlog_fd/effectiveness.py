@@ -263,9 +263,7 @@ def _away_from_ground(segments: list[Segment], airborne: list[tuple[float, float
         if idx.size < 2:
             continue
         # Trimming only cuts the ends of a segment (it lies within one airborne interval).
-        sl = slice(int(idx[0]), int(idx[-1]) + 1)
-        out.append(Segment(t=seg.t[sl], rates=seg.rates[sl], attitude=seg.attitude[sl], motors=seg.motors[sl],
-                           w_sq=seg.w_sq[sl], ang_acc=seg.ang_acc[sl], speed_source=seg.speed_source))
+        out.append(_slice_segment(seg, slice(int(idx[0]), int(idx[-1]) + 1)))
     return out
 
 
@@ -470,6 +468,121 @@ def _detrended_commands_many(lags: list[_SegmentLags], taus: np.ndarray, detrend
     return xs[0] if len(xs) == 1 else np.concatenate(xs, axis=1)
 
 
+#: The motor-lag search runs on at most this much airborne time (s), in ``LAG_SEARCH_CHUNK_S``
+#: stretches spread evenly over the flight; the coefficients at the lag found use every sample.
+#: Why: the search is most of the estimate's cost and grows with the flight, while the lag is one
+#: number per airframe. Measured with benchmarks/bench_effectiveness.py --lag-search (every log of
+#: ../shared and sample_logs longer than this, 2026-11-24): see results/effectiveness_lag_search.md.
+LAG_SEARCH_MAX_S = 120.0
+LAG_SEARCH_CHUNK_S = 15.0
+
+
+def _slice_segment(seg: Segment, sl: slice) -> Segment:
+    return Segment(t=seg.t[sl], rates=seg.rates[sl], attitude=seg.attitude[sl], motors=seg.motors[sl],
+                   w_sq=seg.w_sq[sl], ang_acc=seg.ang_acc[sl], speed_source=seg.speed_source)
+
+
+def _lag_search_segments(segments: list[Segment], max_s: Optional[float] = None,
+                         chunk_s: Optional[float] = None) -> list[Segment]:
+    """``segments`` itself when they last at most ``max_s`` (``LAG_SEARCH_MAX_S``); else
+    ``max_s / chunk_s`` stretches of ``chunk_s`` seconds centred at evenly spaced points of the
+    segments' joined timeline (each inside one segment, shorter where its segment is)."""
+    max_s = LAG_SEARCH_MAX_S if max_s is None else max_s
+    chunk_s = LAG_SEARCH_CHUNK_S if chunk_s is None else chunk_s
+    durations = np.array([seg.duration_s for seg in segments])
+    total = float(durations.sum())
+    if total <= max_s or chunk_s <= 0:
+        return segments
+    n_chunks = max(1, int(max_s // chunk_s))
+    ends = np.cumsum(durations)
+    out = []
+    for j in range(n_chunks):
+        c = (j + 0.5) / n_chunks * total
+        i = int(min(np.searchsorted(ends, c), len(segments) - 1))
+        seg = segments[i]
+        tc = seg.t[0] + (c - (ends[i] - durations[i]))
+        lo = int(np.searchsorted(seg.t, tc - chunk_s / 2))
+        hi = int(np.searchsorted(seg.t, tc + chunk_s / 2))
+        if hi - lo >= 2:
+            out.append(_slice_segment(seg, slice(lo, hi)))
+    return out
+
+
+class _LagFit:
+    """The regression of one set of segments, ready for many candidate motor lags: detrended
+    roll/pitch/yaw accelerations ``Y`` (body-rate terms partialled out), the row times ``t``, and
+    the lagged commands for any lag (``commands``); ``best_lag`` runs the grid search."""
+
+    def __init__(self, prep: PreparedFlight, segments: list[Segment], rate_hz: float, savgol_n: int,
+                 detrend_n: int, savgol_window_s: float) -> None:
+        self.segments, self.rate_hz, self.savgol_n, self.detrend_n = segments, rate_hz, savgol_n, detrend_n
+        self.savgol_window_s = savgol_window_s
+        Y, self.t = _detrended_acc(segments, detrend_n)  # the lag only changes the commands
+        self.fine = _fine_commands(prep, segments, rate_hz) if FINE_COMMANDS else None
+        # Body-rate terms (gyroscopic ω × Iω, aerodynamic damping) are fitted beside the commands
+        # and partialled out of both sides (Frisch-Waugh), so the commands' coefficients are those
+        # of the full regression. One orthonormal basis of them serves every candidate lag.
+        nuisance = _body_rate_terms(segments, detrend_n) if BODY_RATE_TERMS else None
+        self.basis = _orthonormal_basis(nuisance) if nuisance is not None else None
+        self.Y = self.partial_out(Y)
+        self.lags = (_lag_search_inputs(segments, rate_hz, savgol_n, self.fine, savgol_window_s)
+                     if BATCHED_LAG_SEARCH else None)
+        self.n_rows = sum(len(seg) for seg in segments)
+
+    def partial_out(self, M: np.ndarray) -> np.ndarray:
+        return M if self.basis is None else M - self.basis @ (self.basis.T @ M)
+
+    def commands(self, taus: list[float]) -> np.ndarray:
+        """(T, n, 4) detrended commands, one block per candidate lag (body-rate terms not yet out)."""
+        if self.lags is None:
+            return np.stack([_detrended_commands(self.segments, tau, self.rate_hz, self.savgol_n, self.detrend_n,
+                                                 self.fine, self.savgol_window_s) for tau in taus], axis=0)
+        return _detrended_commands_many(self.lags, np.asarray(taus, dtype=np.float64), self.detrend_n)
+
+    def roll_pitch_sse(self, taus: list[float]) -> list[float]:
+        """The roll/pitch residual of each candidate lag, from the normal equations of all lags at
+        once with the body-rate terms partialled out through their Gram blocks
+        (X'X - (Q'X)'(Q'X)); lstsq where ill-posed. Roll and pitch decide the lag (yaw is weakly
+        excited)."""
+        X = self.commands(taus)
+        Xt = X.transpose(0, 2, 1)
+        XtX = np.matmul(Xt, X)
+        P = None
+        if self.basis is not None:
+            P = np.matmul(self.basis.T, X)  # (T, k, 4)
+            XtX -= np.matmul(P.transpose(0, 2, 1), P)
+        Yrp = np.ascontiguousarray(self.Y[:, :2])  # partialled out already: X'Y = X_perp'Y
+        XtY = np.matmul(Xt, Yrp)
+        yy = float(np.sum(Yrp ** 2))
+        cond = np.linalg.cond(XtX)
+        out = []
+        for i in range(len(taus)):
+            if cond[i] < MAX_NORMAL_COND:
+                c = np.linalg.solve(XtX[i], XtY[i])
+                out.append(yy - float(np.sum(XtY[i] * c)))
+            else:
+                Xi = X[i] if P is None else X[i] - self.basis @ P[i]
+                c = np.linalg.lstsq(Xi, Yrp, rcond=None)[0]
+                out.append(float(np.sum((Yrp - Xi @ c) ** 2)))
+        return out
+
+    def best_lag(self) -> Optional[float]:
+        """The ``MOTOR_LAG_GRID_S`` lag with the smallest roll/pitch residual, refined around it in
+        ``MOTOR_LAG_REFINE_S`` steps (in order; the first smallest wins), or None with too few rows."""
+        if self.n_rows < 5 * 4:
+            return None
+        best = None
+        for taus in (list(MOTOR_LAG_GRID_S), None):
+            if taus is None:  # the refinement around the grid's best
+                step = MOTOR_LAG_GRID_S[1] - MOTOR_LAG_GRID_S[0]
+                taus = [round(tau, 4) for k in range(1, int(round(step / MOTOR_LAG_REFINE_S)))
+                        for tau in (best[1] - k * MOTOR_LAG_REFINE_S, best[1] + k * MOTOR_LAG_REFINE_S) if tau > 0]
+            for tau, sse in zip(taus, self.roll_pitch_sse(taus) if taus else []):
+                if best is None or sse < best[0]:
+                    best = (sse, tau)
+        return best[1]
+
+
 def _body_rate_terms(segments: list[Segment], detrend_n: int) -> Optional[np.ndarray]:
     """Detrended (n, 6) p, q, r, q·r, p·r, p·q of the segments (rows as in _detrended_acc): the
     rigid body's damping and gyroscopic torques, which the commands do not explain."""
@@ -573,6 +686,9 @@ def _joint_thrust(XtX: np.ndarray, XtY: np.ndarray, signs: np.ndarray, weights: 
     return e
 
 
+_OTHERS = np.array([[j for j in range(4) if j != i] for i in range(4)])
+
+
 def _relative(b: np.ndarray, signs: np.ndarray) -> np.ndarray:
     """Per-axis effectiveness b/s -> relative to the median of the other three motors.
 
@@ -581,13 +697,12 @@ def _relative(b: np.ndarray, signs: np.ndarray) -> np.ndarray:
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         e = np.where(np.abs(signs) > 1e-9, b / signs, np.nan)
-    out = np.full_like(e, np.nan)
-    for i in range(4):
-        others = np.delete(e, i, axis=-1)
+    others = e[..., _OTHERS]  # (..., 4, 3): each motor's three neighbours
+    with warnings.catch_warnings():  # all three NaN (a motor-less axis) gives NaN, as it should
+        warnings.simplefilter("ignore", RuntimeWarning)
         ref = np.nanmedian(others, axis=-1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out[..., i] = e[..., i] / ref
-    return out
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return e / ref
 
 
 def _combine(rel: np.ndarray, var: np.ndarray) -> np.ndarray:
@@ -630,82 +745,20 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     detrend_n = max(3, int(round(DETREND_S * rate_hz)) | 1)
 
     usable = _usable(segments, savgol_n, detrend_n)
-    Y, t = _detrended_acc(usable, detrend_n)  # the lag only changes the commands
+    search = _lag_search_segments(usable)
+    fit = _LagFit(prep, search, rate_hz, savgol_n, detrend_n, savgol_window_s)
+    tau = fit.best_lag()
+    if tau is None:
+        return EffectivenessEstimate(reason="too few samples for the fit", seconds=seconds)
+    if search is not usable:  # the lag came from a subset; the coefficients use every sample
+        fit = _LagFit(prep, usable, rate_hz, savgol_n, detrend_n, savgol_window_s)
+    Y, t = fit.Y, fit.t
     vertical = _detrended_vertical(flight, usable, rate_hz, savgol_n, detrend_n) if use_accelerometer else None
     if vertical is not None:
-        Y = np.column_stack([Y, vertical])  # axes: roll, pitch, yaw, vertical
+        Y = np.column_stack([Y, fit.partial_out(vertical[:, None])])  # axes: roll, pitch, yaw, vertical
     n_axes = Y.shape[1]
-    best = None
-
-    fine = _fine_commands(prep, usable, rate_hz) if FINE_COMMANDS else None
-
-    # Body-rate terms (gyroscopic ω × Iω, aerodynamic damping) are fitted beside the commands and
-    # partialled out of both sides (Frisch-Waugh), so the commands' coefficients are those of
-    # the full regression.
-    # One orthonormal basis of the body-rate terms serves every candidate lag below.
-    nuisance = _body_rate_terms(usable, detrend_n) if BODY_RATE_TERMS else None
-    basis = _orthonormal_basis(nuisance) if nuisance is not None else None
-
-    def partial_out(M: np.ndarray) -> np.ndarray:
-        return M if basis is None else M - basis @ (basis.T @ M)
-
-    Y = partial_out(Y)
-
-    lags = _lag_search_inputs(usable, rate_hz, savgol_n, fine, savgol_window_s) if BATCHED_LAG_SEARCH else None
-    n_rows = sum(len(seg) for seg in usable)
-
-    def commands(taus: list[float]) -> np.ndarray:
-        """(T, n, 4) detrended commands, one block per candidate lag (body-rate terms not yet out)."""
-        if lags is None:
-            return np.stack([_detrended_commands(usable, tau, rate_hz, savgol_n, detrend_n, fine, savgol_window_s)
-                             for tau in taus], axis=0)
-        return _detrended_commands_many(lags, np.asarray(taus, dtype=np.float64), detrend_n)
-
-    def try_lags(taus: list[float]) -> None:
-        """The roll/pitch residual of each candidate (in order; the first smallest wins, as one
-        lstsq per lag did), from the normal equations of all lags at once with the body-rate terms
-        partialled out through their Gram blocks (X'X - (Q'X)'(Q'X)); lstsq where ill-posed."""
-        nonlocal best
-        if not taus or n_rows < 5 * 4:
-            return
-        X = commands(taus)
-        Xt = X.transpose(0, 2, 1)
-        XtX = np.matmul(Xt, X)
-        P = None
-        if basis is not None:
-            P = np.matmul(basis.T, X)  # (T, k, 4)
-            XtX -= np.matmul(P.transpose(0, 2, 1), P)
-        Yrp = np.ascontiguousarray(Y[:, :2])  # partialled out already: X'Y = X_perp'Y
-        XtY = np.matmul(Xt, Yrp)
-        yy = float(np.sum(Yrp ** 2))
-        cond = np.linalg.cond(XtX)
-        for i, tau in enumerate(taus):
-            if cond[i] < MAX_NORMAL_COND:
-                c = np.linalg.solve(XtX[i], XtY[i])
-                sse = yy - float(np.sum(XtY[i] * c))  # roll/pitch decide the lag (yaw is weakly excited)
-            else:
-                Xi = X[i] if P is None else X[i] - basis @ P[i]
-                c = np.linalg.lstsq(Xi, Yrp, rcond=None)[0]
-                sse = float(np.sum((Yrp - Xi @ c) ** 2))
-            if best is None or sse < best[0]:
-                best = (sse, tau, X[i] if P is None else X[i] - basis @ P[i])
-
-    try_lags(list(MOTOR_LAG_GRID_S))
-    if best is not None:
-        step = MOTOR_LAG_GRID_S[1] - MOTOR_LAG_GRID_S[0]
-        centre = best[1]
-        refine = []
-        for k in range(1, int(round(step / MOTOR_LAG_REFINE_S))):
-            for tau in (centre - k * MOTOR_LAG_REFINE_S, centre + k * MOTOR_LAG_REFINE_S):
-                if tau > 0:
-                    refine.append(round(tau, 4))
-        try_lags(refine)
-    if best is None:
-        return EffectivenessEstimate(reason="too few samples for the fit", seconds=seconds)
-    X = np.ascontiguousarray(best[2])
+    X = np.ascontiguousarray(fit.partial_out(fit.commands([tau])[0]))
     coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, axes)
-    best = (best[0], best[1], X, coef)
-    _, tau, X, coef = best
     tss = np.sum(Y ** 2, axis=0)
     resid = Y - X @ coef
     r2_all = [float(1.0 - np.sum(resid[:, a] ** 2) / tss[a]) if tss[a] > 0 else 0.0 for a in range(n_axes)]

@@ -429,7 +429,8 @@ def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
         v = v[first]
         dt = np.diff(t)
     if t.size > 1:
-        med = np.median(dt)
+        # the series' own remembered median when its times were kept as they are (all increasing)
+        med = series.median_dt if t is series.t else float(np.median(dt))
         return Stream(t, v, min(max_gap_s, GAP_FACTOR * float(med)), med)
     return Stream(t, v, 0.0)
 

@@ -97,21 +97,27 @@ class Series:
         return int(self.t.shape[0])
 
     @property
-    def rate_hz(self) -> float:
-        """Median sample rate in Hz (0 when fewer than two samples). Remembered for the same
-        time array: checks, features and effectiveness ask for it several times per diagnosis
-        (a median over 150 000 intervals of a 600 s high-rate log is ~2 ms each time)."""
+    def median_dt(self) -> float:
+        """Median of the positive sample intervals in s (0 when there are none). Remembered for
+        the same time array: checks, features and effectiveness ask for it several times per
+        diagnosis (a median over 150 000 intervals of a 600 s high-rate log is ~2 ms each time)."""
         key = (id(self.t), self.t.shape[0])
-        cached = self.__dict__.get("_rate_cache")
+        cached = self.__dict__.get("_median_dt_cache")
         if cached is not None and cached[0] == key:
             return cached[1]
-        rate = 0.0
+        med = 0.0
         if len(self.t) >= 2:
             dt = np.diff(self.t)
             dt = dt[dt > 0]
-            rate = float(1.0 / np.median(dt)) if dt.size else 0.0
-        self.__dict__["_rate_cache"] = (key, rate)
-        return rate
+            med = float(np.median(dt)) if dt.size else 0.0
+        self.__dict__["_median_dt_cache"] = (key, med)
+        return med
+
+    @property
+    def rate_hz(self) -> float:
+        """Median sample rate in Hz (0 when fewer than two samples), from :attr:`median_dt`."""
+        med = self.median_dt
+        return float(1.0 / med) if med > 0 else 0.0
 
     def between(self, t0: float, t1: float) -> "Series":
         """The samples with t0 <= t <= t1."""

@@ -26,3 +26,22 @@ def intersect_intervals(a: list[tuple[float, float]], b: list[tuple[float, float
             if hi > lo:
                 out.append((lo, hi))
     return sorted(out)
+
+
+_BLAS_CONTROLLER = None
+
+
+def blas_threads(n: int):
+    """A context that runs NumPy/SciPy's BLAS with at most ``n`` threads (threadpoolctl), or does
+    nothing when threadpoolctl is not installed. The controller is made once per process, on
+    first use (when numpy and scipy's BLAS libraries are loaded)."""
+    global _BLAS_CONTROLLER
+    import contextlib
+
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+        return contextlib.nullcontext()
+    if _BLAS_CONTROLLER is None:
+        _BLAS_CONTROLLER = ThreadpoolController()
+    return _BLAS_CONTROLLER.limit(limits=n, user_api="blas")

@@ -115,3 +115,63 @@ def test_accelerometer_round_trip_and_vertical_equation(tmp_path):
         np.testing.assert_allclose(back.accel.values, acc.values, atol=1e-4)
         assert estimate_effectiveness(back, use_accelerometer=True).used_vertical is used
         assert not estimate_effectiveness(back).used_vertical  # opt-in only
+
+
+def test_lag_search_subset_spreads_its_chunks_and_keeps_short_flights_whole():
+    from flightlog_fd.effectiveness import _lag_search_segments
+    from flightlog_fd.features import Segment
+
+    def seg(t0, seconds, hz=50.0):
+        t = t0 + np.arange(int(seconds * hz)) / hz
+        z = np.zeros((t.size, 4))
+        return Segment(t=t, rates=z[:, :3], attitude=z[:, :2], motors=z, w_sq=z, ang_acc=z[:, :3])
+
+    short = [seg(0.0, 50.0), seg(60.0, 40.0)]
+    assert _lag_search_segments(short, max_s=120.0, chunk_s=15.0) is short
+    long = [seg(0.0, 300.0), seg(400.0, 200.0)]
+    chunks = _lag_search_segments(long, max_s=120.0, chunk_s=15.0)
+    assert len(chunks) == 8
+    assert sum(c.duration_s for c in chunks) <= 120.0
+    for c in chunks:  # each inside one segment
+        assert any(s.t[0] <= c.t[0] and c.t[-1] <= s.t[-1] for s in long)
+    starts = [c.t[0] for c in chunks]
+    assert starts == sorted(starts) and starts[0] < 40.0 and starts[-1] > 540.0  # the whole flight
+
+
+def test_lag_from_the_subset_matches_the_whole_flight(monkeypatch):
+    """A 200 s flight (over LAG_SEARCH_MAX_S): the lag found on the chunks is the whole flight's
+    within 6 ms and the values within 0.02 (the shared logs moved by at most 0.010)."""
+    import flightlog_fd.effectiveness as E
+    from flightlog_fd.sim.api import simulate_flights
+    from flightlog_fd.sim.damage import Damage
+
+    fl = simulate_flights(1, damages=[Damage(2, 0.75)], duration_s=200, profile="px4_high", seed=11)[0]
+    sub = E.estimate_effectiveness(fl)
+    assert sub.seconds > E.LAG_SEARCH_MAX_S
+    monkeypatch.setattr(E, "LAG_SEARCH_MAX_S", float("inf"))
+    whole = E.estimate_effectiveness(fl)
+    assert abs(sub.motor_lag_s - whole.motor_lag_s) <= 0.006
+    assert np.max(np.abs(sub.values - whole.values)) < 0.02
+    assert sub.weakest() == whole.weakest() == 2
+
+
+def test_diagnose_runs_blas_single_threaded(monkeypatch):
+    """diagnose_flight limits BLAS to DIAGNOSE_BLAS_THREADS while it runs, and restores it after."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    import flightlog_fd.diagnose as D
+
+    seen = []
+    real = D._diagnose_flight
+
+    def spy(*a, **k):
+        seen.append({i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"})
+        return real(*a, **k)
+
+    monkeypatch.setattr(D, "_diagnose_flight", spy)
+    from flightlog_fd.sim.api import simulate_flights
+
+    fl = simulate_flights(1, duration_s=20, profile="px4_high", seed=2)[0]
+    before = {i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"}
+    D.diagnose_flight(fl, D.resolve_model(), keep_flight=False)
+    assert seen == [{D.DIAGNOSE_BLAS_THREADS}]
+    assert {i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"} == before
