@@ -31,7 +31,8 @@ first-order motor lag whose time constant is searched per flight (``MOTOR_LAG_GR
 to ``MOTOR_LAG_REFINE_S``) and the same Savitzky-Golay smoothing as the gyro, all on the gyro
 derivative's fine grid when the motors are logged faster than the grid. The candidate lags are
 fitted all at once (:class:`_SegmentLags`, ``BATCHED_LAG_SEARCH``): the same lag and values within
-1e-8 of one lag at a time on 60 real and simulated logs, 5-10x faster.
+1e-8 of one lag at a time on 60 real and simulated logs, 5-10x faster. The search runs on at most
+``LAG_SEARCH_MAX_S`` of the flight, spread over it; the fit at the lag found uses every sample.
 
 Body-rate terms: the rates and their products (damping, gyroscopic ``ω × Iω``) are fitted beside
 the commands (``BODY_RATE_TERMS``).
