@@ -278,3 +278,26 @@ def test_serve_command_bad_input_is_one_line_and_exit_2(tmp_path):
         res = runner.invoke(app, argv)
         assert res.exit_code == 2, (argv, res.output)
         assert msg in res.output and "Traceback" not in res.output
+
+
+def test_internal_errors_are_one_line_with_the_security_headers(tmp_path):
+    """An unhandled error is answered outside Starlette's middleware: the handler adds the
+    headers itself, and falls back to a plain line when the error page cannot be drawn either."""
+    from flightlog_fd.serve.app import SECURITY_HEADERS
+
+    def boom(*a, **k):
+        raise RuntimeError("store down")
+
+    with serve_client(tmp_path, workers=0, view="open") as c:
+        store = c.app_.state.store
+        store.fleet = boom  # the fleet page fails; the error page still renders
+        r = c.get("/")
+        assert r.status_code == 500 and "internal error: RuntimeError" in r.text
+        assert "store down" not in r.text  # no internals to the browser
+        for k, v in SECURITY_HEADERS.items():
+            assert r.headers.get(k) == v
+        store.job_counts = boom  # now the error page itself fails
+        r = c.get("/")
+        assert r.status_code == 500 and r.text == "internal error: RuntimeError"
+        for k, v in SECURITY_HEADERS.items():
+            assert r.headers.get(k) == v

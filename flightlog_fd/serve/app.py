@@ -30,7 +30,7 @@ from urllib.parse import quote
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse, Response
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, PlainTextResponse, RedirectResponse, Response
 from fastapi.staticfiles import StaticFiles
 from jinja2 import Environment, FileSystemLoader
 from starlette.exceptions import HTTPException as StarletteHTTPException
@@ -233,7 +233,17 @@ def create_app(cfg: ServeConfig):
 
     @app.exception_handler(Exception)
     async def _internal(request: Request, exc: Exception):
-        return error_response(request, 500, f"internal error: {type(exc).__name__}")
+        # Starlette answers unhandled errors outside the middleware stack: the security headers
+        # are added here. The page itself asks the store for the job counts, which may be what
+        # failed: then a plain line.
+        message = f"internal error: {type(exc).__name__}"
+        try:
+            resp = error_response(request, 500, message)
+        except Exception:
+            resp = PlainTextResponse(message, status_code=500)
+        for k, v in SECURITY_HEADERS.items():
+            resp.headers.setdefault(k, v)
+        return resp
 
     # ------------------------------------------------------------------ upload
 
