@@ -222,6 +222,11 @@ class CommandShares(Analyzer):
     id = "commands"
     description = "the steady command pattern against the healthy baseline, with each rotor's thrust (eta-hat)"
     requires = ("motors",)
+    #: Which rotor's loss fits the pattern is mixer physics: clipping each motor alone tied every
+    #: rotor above the cap (simulated octaquads with a profile: the weak rotor 6-59 nats, its
+    #: coaxial partner, same roll/pitch levers and the opposite spin, 1-24; both at 8, the decision
+    #: could not choose in 13 of 46 damaged flights; benchmarks/bench_nrotor.py).
+    cap_keeps_order = True
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
         ev = ctx.evidence
