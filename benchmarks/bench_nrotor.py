@@ -137,7 +137,8 @@ def main(argv=None) -> None:
             verdict = (f"damaged right {v_right}/{dam}, false alarms {v_alarm}/{healthy}, "
                        + ", ".join(f"{k} {c}" for k, c in sorted(verdicts.items())))
         if p_n:
-            verdict += f" | with a profile ({p_n} calibrated): damaged right {p_right}/{dam}, " \
+            verdict += f" | with a profile ({p_n} calibrated): damaged right {p_right}/{dam} " \
+                       f"({100 * p_right / max(dam, 1):.0f} %), " \
                        f"right motor named (damaged or uncertain) {p_named}/{dam}, false alarms {p_alarm}/{healthy}"
         print(f"{frame:<11} {right:>14d}/{dam:<3d} {100 * right / max(dam, 1):5.1f} %  "
               f"{alarms:>17d}/{healthy:<3d} {100 * alarms / max(healthy, 1):5.1f} %  "
