@@ -9,7 +9,7 @@ Prints, model alone: damaged flights whose window majority is the damaged motor,
 whose window majority is a motor (a false alarm of the model alone), and window accuracy; then the
 flight verdict of `diagnose_flight` (shipped model, no profile) where the pipeline gives one for
 the frame, else the reason it does not; and the verdict with a profile calibrated (`--no-adapt`)
-on a healthy twin flight of the same airframe (same imbalance, another seed). Figures only;
+on a healthy twin flight of the same airframe (same imbalance, another seed), its analyzers' baselines fitted with the frame's model as `fdlog calibrate --no-adapt` does. Figures only;
 nothing is asserted.
 """
 from __future__ import annotations
@@ -45,6 +45,16 @@ def simulate(frame: str, n: int, seed: int, profile: str, twins: bool = False):
     healthy = simulate_flights(n, airframes=batch.airframes, imbalance=batch.imbalances, damages=[Damage()] * n,
                                seed=seed + 7919, **kw)
     return flights, healthy
+
+
+def _inspected(reason: str) -> set[int]:
+    """The motors a reason sends the pilot to inspect ("inspect propeller 3", "propellers 2 and 5")."""
+    import re
+
+    out: set[int] = set()
+    for a, b in re.findall(r"inspect propellers? (\d+)(?: and (\d+))?", reason):
+        out |= {int(a)} | ({int(b)} if b else set())
+    return out
 
 
 def main(argv=None) -> None:
@@ -111,13 +121,14 @@ def main(argv=None) -> None:
             if twin is not None:
                 try:
                     prof = calibrate_profile([twin])
+                    prof.fit_analyzers([twin], model)  # as `fdlog calibrate --no-adapt`
                 except FlightLogError:
                     continue
                 pv = diagnose_flight(fl, quad, prof, keep_flight=False).verdict
                 p_n += 1
                 if truth:
                     p_right += pv.status == "damaged" and pv.motor == truth
-                    p_named += pv.status in ("damaged", "uncertain") and f"propeller {truth}" in pv.reason
+                    p_named += pv.status in ("damaged", "uncertain") and truth in _inspected(pv.reason)
                 else:
                     p_alarm += pv.status == "damaged"
         if verdicts.get("not_diagnosable", 0) == sum(verdicts.values()):
@@ -126,7 +137,8 @@ def main(argv=None) -> None:
             verdict = (f"damaged right {v_right}/{dam}, false alarms {v_alarm}/{healthy}, "
                        + ", ".join(f"{k} {c}" for k, c in sorted(verdicts.items())))
         if p_n:
-            verdict += f" | with a profile ({p_n} calibrated): damaged right {p_right}/{dam}, " \
+            verdict += f" | with a profile ({p_n} calibrated): damaged right {p_right}/{dam} " \
+                       f"({100 * p_right / max(dam, 1):.0f} %), " \
                        f"right motor named (damaged or uncertain) {p_named}/{dam}, false alarms {p_alarm}/{healthy}"
         print(f"{frame:<11} {right:>14d}/{dam:<3d} {100 * right / max(dam, 1):5.1f} %  "
               f"{alarms:>17d}/{healthy:<3d} {100 * alarms / max(healthy, 1):5.1f} %  "

@@ -307,11 +307,12 @@ def calibrate(
             if output.exists() and not force:
                 raise FlightLogError(output, "already exists (use --force to overwrite)")
             from . import load_flight
-            from .model import FaultModel, default_model_path
+            from .model import FaultModel, default_model_path, model_for_flight
 
             calib_flights = [load_flight(f) for f in files]
             profile = calibrate_profile(calib_flights)
-            profile.fit_analyzers(calib_flights, FaultModel(default_model_path()))
+            # the shipped model diagnose will use for this frame (hexa and octo have their own)
+            profile.fit_analyzers(calib_flights, model_for_flight(FaultModel(default_model_path()), calib_flights[0]))
             profile.save(output, overwrite=force)
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn

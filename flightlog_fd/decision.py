@@ -3,7 +3,9 @@
 For each motor k it weighs "rotor k lost thrust" against "healthy, with this airframe's normal
 trim drift": the log-likelihood ratios (LLR, nats) of the registered analyzers'
 (:mod:`flightlog_fd.analyzers`) findings are summed per motor, each analyzer's total clipped to
-its ``llr_cap`` (``analyzers.base.SOURCE_LLR_CAP`` unless the analyzer says otherwise). The sources today: the model's window votes, the command
+its ``llr_cap`` (``analyzers.base.SOURCE_LLR_CAP`` unless the analyzer says otherwise; the command
+shares are capped keeping their order, so a weak rotor stays apart from its coaxial partner,
+``Analyzer.cap_keeps_order``). The sources today: the model's window votes, the command
 shares (mixer-physics severity fit, which also gives each rotor's thrust eta-hat), the throttle
 against calibration, and the effectiveness fit when it is informative. Their noise figures are
 measured and written beside their constants in their own modules.

@@ -118,3 +118,8 @@ def test_model_card_quotes_the_n_rotor_figures():
         sim = json.loads((root / f"{stem}.json").read_text())["sim_test"]
         assert f"{100 * sim['window_accuracy']:.1f} %" in card
         assert f"{sim['damaged_flights_majority_right']}/{sim['damaged_flights']}" in card
+    from flightlog_fd.analyzers.model_votes import NROTOR_VOTE_STATS
+
+    for st in NROTOR_VOTE_STATS.values():  # the vote statistics the decision uses are the card's
+        assert f"{st.damaged_mean:+.2f} ± {st.damaged_sigma:.2f}" in card
+        assert f"{st.damage_shift:+.2f} ± {st.shift_sigma:.2f}" in card

@@ -197,9 +197,21 @@ def render_nrotor(metas: dict, bench: str | None = None) -> str:
               "`fdlog diagnose` without a profile and with one calibrated (`--no-adapt`) on a healthy twin "
               "flight of the same airframe (the verdict layer is the decision model's, not this model's alone):",
               "", "```", bench.strip(), "```"]
-    L += ["", "**Limits.** Simulation only, like the quad model, and weaker: the model alone raises a motor "
+    from flightlog_fd.analyzers.model_votes import NROTOR_VOTE_STATS
+
+    h, o = NROTOR_VOTE_STATS[6], NROTOR_VOTE_STATS[8]
+    L += ["", "**How the decision weighs them.** Their votes (flight mean of the windows' log(q_k/q_0)) are "
+          "priced with their own statistics, not the quad model's (`model_votes.NROTOR_VOTE_STATS`, "
+          "measured by `python benchmarks/nrotor_vote_stats.py` on simulated flights with seeds neither "
+          f"training nor the benchmark uses): a damaged motor's mean sits at {h.damaged_mean:+.2f} ± "
+          f"{h.damaged_sigma:.2f} (hexa) and {o.damaged_mean:+.2f} ± {o.damaged_sigma:.2f} (octo) against healthy "
+          f"{h.healthy_mean:+.2f} / {o.healthy_mean:+.2f}, and against the airframe's own healthy level (a "
+          f"profile) it moves {h.damage_shift:+.2f} ± {h.shift_sigma:.2f} / {o.damage_shift:+.2f} ± "
+          f"{o.shift_sigma:.2f}. Re-measure them after retraining.",
+          "", "**Limits.** Simulation only, like the quad model, and weaker: the model alone raises a motor "
           "on a fair share of healthy simulated flights and misses many damaged ones, so it is one vote for "
-          "the decision layer, not a verdict. No real hexa or octo damage data exists to measure it on. "
+          "the decision layer, not a verdict (the command pattern against a profile names the motor). No "
+          "real hexa or octo damage data exists to measure it on. "
           "`fdlog calibrate` measures an n-rotor profile (`--no-adapt`) but does not adapt these models yet.", ""]
     return "\n".join(L)
 

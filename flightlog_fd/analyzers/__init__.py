@@ -58,6 +58,7 @@ def run_analyzers(ctx: Context, analyzers: Sequence[Analyzer] | None = None) -> 
         except (ValueError, ArithmeticError, IndexError, KeyError) as e:
             r = AnalyzerResult(a.id, abstained=f"failed: {e}")
         r.llr_cap = a.llr_cap
+        r.cap_keeps_order = a.cap_keeps_order
         out.append(r)
     return out
 

@@ -62,17 +62,24 @@ class AnalyzerResult:
     notes: list[str] = field(default_factory=list)
     extra: dict = field(default_factory=dict)  # analyzer-specific figures (e.g. the healthy chi-square)
     llr_cap: float = SOURCE_LLR_CAP  # set from the analyzer by run_analyzers
+    cap_keeps_order: bool = False  # likewise
 
     def llr(self, n_motors: int) -> Optional[np.ndarray]:
         """(n,) summed LLR of this analyzer's weighed findings, clipped to +-``llr_cap``; None if it
-        weighs nothing."""
+        weighs nothing. With ``cap_keeps_order`` (the analyzer's :attr:`Analyzer.cap_keeps_order`)
+        all motors are first lowered by the top one's excess over the cap, so the cap bounds the
+        evidence against healthy but keeps what the source says between motors."""
         out = np.zeros(n_motors)
         weighed = False
         for f in self.findings:
             if f.llr is not None and np.isfinite(f.llr) and 1 <= f.motor <= n_motors:
                 out[f.motor - 1] += f.llr
                 weighed = True
-        return np.clip(out, -self.llr_cap, self.llr_cap) if weighed else None
+        if not weighed:
+            return None
+        if self.cap_keeps_order:
+            out = out - max(float(out.max()) - self.llr_cap, 0.0)
+        return np.clip(out, -self.llr_cap, self.llr_cap)
 
     def as_dict(self) -> dict:
         return {"analyzer": self.analyzer, "abstained": self.abstained, "notes": list(self.notes),
@@ -117,6 +124,10 @@ class Analyzer(ABC):
     requires: tuple[str, ...] = ()
     #: Its LLR per motor is clipped to +- this before the decision sums the sources.
     llr_cap: float = SOURCE_LLR_CAP
+    #: True: the cap lowers every motor by the top one's excess before clipping (the differences
+    #: between motors survive); False: each motor is clipped alone (motors above the cap tie).
+    #: For a source whose motor-to-motor differences are physics, not a classifier's leaning.
+    cap_keeps_order: bool = False
 
     def missing(self, flight: Any) -> Optional[str]:
         """The reason to abstain when a required stream is absent, else None."""

@@ -12,9 +12,12 @@ the healthy one, with the share noise of the baseline's kind (:func:`share_sigma
 (eta-hat with its 90 % interval, from the fit with the profile's throttle as a fifth
 observation; shown, not weighed again). Needs means only, so 10 Hz ``RCOU`` serves.
 
-Limits: quad X/+ geometry is exact, over-actuated frames use the minimum-norm allocation; the
-pattern cannot separate damage from an equal and opposite trim change (the drift sigma prices it
-in); after a mid-flight onset a steady rise (a drift: motor, ESC, mount) is not weighed.
+Limits: quad X/+ geometry is exact; with more rotors the commands move within the allocator's
+range (:func:`predicted_commands`), which also tells a coaxial octaquad rotor from its partner
+(same arm, opposite spin: only the yaw pattern differs); the pattern cannot separate damage from
+an equal and opposite trim change (the drift sigma prices it in); after a mid-flight onset a
+steady rise (a drift: motor, ESC, mount) is not weighed; without a profile it abstains on
+n-rotor frames (below).
 """
 from __future__ import annotations
 
@@ -222,6 +225,11 @@ class CommandShares(Analyzer):
     id = "commands"
     description = "the steady command pattern against the healthy baseline, with each rotor's thrust (eta-hat)"
     requires = ("motors",)
+    #: Which rotor's loss fits the pattern is mixer physics: clipping each motor alone tied every
+    #: rotor above the cap (simulated octaquads with a profile: the weak rotor 6-59 nats, its
+    #: coaxial partner, same roll/pitch levers and the opposite spin, 1-24; both at 8, the decision
+    #: could not choose in 13 of 46 damaged flights; benchmarks/bench_nrotor.py).
+    cap_keeps_order = True
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
         ev = ctx.evidence
