@@ -17,7 +17,10 @@ profile; target >= 95 % for η <= 0.9), false alarms on healthy and trim-changed
 largest healthy llr, damage direction), on seeds of its own. Bounded: ~2-4 min on one core
 (``--per-cell`` flights per (η, rate) cell, default 12).
 
-    python benchmarks/bench_esc.py [--per-cell N] [--seed S] [--measure]
+``--verdicts`` also prints the fused verdict of `diagnose_flight` (shipped model, no profile) on
+the same damaged and healthy flights: what a pilot would read, all analyzers together.
+
+    python benchmarks/bench_esc.py [--per-cell N] [--seed S] [--measure] [--verdicts]
 """
 from __future__ import annotations
 
@@ -97,7 +100,7 @@ def trim_pairs(rate: float, n: int, seed: int):
     return list(zip(calib, after, what))
 
 
-def run(per_cell: int, seed: int, measure: bool) -> None:
+def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False) -> None:
     t0 = time.time()
     print(f"ESC analyzer, simulated flights ({DURATION_S:.0f} s waypoints, random airframes, realistic "
           f"imbalance); decision llr > {DECISION_LLR:g} nats, no profile unless said")
@@ -196,7 +199,32 @@ def run(per_cell: int, seed: int, measure: bool) -> None:
               f"d / torque loss median {np.median(d[:, 1] / loss):.3f}")
         print(f"  largest healthy llr {max(healthy_llr + trim_llr):.2f} nats; p99 "
               f"{np.percentile(healthy_llr + trim_llr, 99):.2f}")
+    if verdicts:
+        fused_verdicts(per_cell, seed)
     print(f"({time.time() - t0:.0f} s)")
+
+
+def fused_verdicts(per_cell: int, seed: int) -> None:
+    """The flight verdicts (no profile) on this run's damaged and healthy flights."""
+    from collections import Counter
+
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+
+    model = resolve_model()
+    print("\nfused verdict (diagnose_flight, shipped model, no profile): right / wrong motor / uncertain / healthy")
+    for eta in ETAS:
+        c = Counter()
+        for rate in RATES:
+            for _, f in damaged_set(eta, rate, per_cell, seed):
+                v = diagnose_flight(f, model, keep_flight=False).verdict
+                c["right" if v.status == "damaged" and v.motor == f.truth["motor"]
+                  else "wrong" if v.status == "damaged" else v.status] += 1
+        print(f"  eta {eta:g}: {c['right']} / {c['wrong']} / {c['uncertain']} / {c['healthy']}")
+    c = Counter()
+    for rate in RATES:
+        for f in healthy_set(rate, 2 * per_cell, seed):
+            c[diagnose_flight(f, model, keep_flight=False).verdict.status] += 1
+    print(f"  healthy: damaged {c['damaged']} / uncertain {c['uncertain']} / healthy {c['healthy']}")
 
 
 def main() -> None:
@@ -204,8 +232,9 @@ def main() -> None:
     ap.add_argument("--per-cell", type=int, default=12)
     ap.add_argument("--seed", type=int, default=1700)
     ap.add_argument("--measure", action="store_true")
+    ap.add_argument("--verdicts", action="store_true", help="also the fused verdicts of diagnose_flight")
     args = ap.parse_args()
-    run(args.per_cell, args.seed, args.measure)
+    run(args.per_cell, args.seed, args.measure, args.verdicts)
 
 
 if __name__ == "__main__":

@@ -119,3 +119,22 @@ def test_sample_logs_with_esc_telemetry(name, motor):
         "rpm", "current", "voltage", "temperature"}
     a = analyze_esc(f)
     assert a.motor_named() == motor, a.llr
+    # the decision's figure: strong for the damaged motor, negative (clearing) for the others
+    assert a.decision_llr[motor] > 6.0
+    assert all(v < 0.0 for k, v in a.decision_llr.items() if k != motor), a.decision_llr
+
+
+def test_decision_llr_is_a_bayes_factor_over_the_damage_prior():
+    """Exactly healthy relations give about -2.4 nats (the prior's share of invisible losses);
+    the further along the damage direction, the larger; always below the maximised GLR."""
+    from flightlog_fd.analyzers.esc import (DAMAGE_DIRECTION, HEALTHY_SPREAD_COV, _glr, _log_bayes_factor,
+                                            damage_prior_losses)
+
+    losses, cov, mu = damage_prior_losses(), np.array(HEALTHY_SPREAD_COV), np.array(DAMAGE_DIRECTION)
+    assert losses.min() > 0 and losses.max() < 1.6
+    values = [_log_bayes_factor(l * mu, cov, mu, losses) for l in (0.0, 0.05, 0.1, 0.2, 0.4)]
+    assert -3.0 < values[0] < -2.0
+    assert values == sorted(values) and values[-1] > 50
+    for l, v in zip((0.0, 0.05, 0.1, 0.2, 0.4), values):
+        assert v <= _glr(l * mu, cov, mu)[0]
+    assert _log_bayes_factor(-0.1 * mu, cov, mu, losses) < values[0]  # opposite to damage: clears more

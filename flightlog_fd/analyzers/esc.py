@@ -23,8 +23,12 @@ motor-to-motor spread (``HEALTHY_SPREAD_COV``, without a profile; with one, the 
 flight-to-flight spread) + the measurement's own uncertainty (from ``N_BLOCKS`` time blocks);
 "rotor k lost torque ℓ ≥ 0" moves its mean to ``ℓ·DAMAGE_DIRECTION``. The per-motor score
 ``llr`` is the generalised log-likelihood ratio (nats) of that against healthy, maximised over
-ℓ ≥ 0: ``(μᵀΣ⁻¹r)² / (2 μᵀΣ⁻¹μ)`` when ``μᵀΣ⁻¹r > 0``, else 0. Without current telemetry only
-``a_k`` is used.
+ℓ ≥ 0: ``(μᵀΣ⁻¹r)² / (2 μᵀΣ⁻¹μ)`` when ``μᵀΣ⁻¹r > 0``, else 0; it names a motor
+(:meth:`EscAnalysis.motor_named`). The decision model sums another figure, ``decision_llr``: the
+log Bayes factor with ℓ averaged over the same damage prior as the command-share analyzer (η
+0.40-0.99, torque η^m), which is negative for a motor whose relations sit where a healthy one's
+do, so ESC telemetry can also clear a motor that other sources suspect. Without current
+telemetry only ``a_k`` is used.
 
 Inputs: a :class:`~flightlog_fd.flight.Flight` with ``esc`` (rpm for every motor; current
 optional), ``motors`` and ``airborne``; optionally an :class:`EscBaseline` from healthy flights
@@ -162,6 +166,10 @@ class EscAnalysis:
     against: str = "other motors"
     bins: int = 0
     slopes: dict = field(default_factory=dict)
+    #: Per motor, the log Bayes factor (nats) of "lost torque, ℓ from the damage prior" against
+    #: healthy (:func:`_log_bayes_factor`): what the decision model sums. Unlike ``llr`` it goes
+    #: negative when the motor's relations sit where a healthy motor's do.
+    decision_llr: dict[int, float] = field(default_factory=dict)
 
     def motor_named(self, threshold: float = DECISION_LLR) -> Optional[int]:
         """The motor whose llr is largest and above ``threshold`` (None: nothing named)."""
@@ -319,6 +327,30 @@ def _glr(r: np.ndarray, cov: np.ndarray, mu: np.ndarray) -> tuple[float, float]:
     return (num * num / (2.0 * den) if num > 0 else 0.0), max(loss, 0.0)
 
 
+def damage_prior_losses() -> np.ndarray:
+    """Torque losses ℓ = -m·log η of the damage hypothesis, one per point of the command-share
+    analyzer's uniform (η, m) prior grid (command_shares.ETA_GRID x M_GRID: thrust η, torque η^m),
+    so that both sources weigh "rotor k lost thrust" against the same prior."""
+    from .command_shares import ETA_GRID, M_GRID
+
+    eta, m = np.meshgrid(ETA_GRID, M_GRID, indexing="ij")
+    return (-m * np.log(eta)).ravel()
+
+
+def _log_bayes_factor(r: np.ndarray, cov: np.ndarray, mu: np.ndarray, losses: np.ndarray) -> float:
+    """log of mean over ``losses`` of N(r; ℓ·mu, cov) / N(r; 0, cov), computed stably (nats).
+
+    A motor measured exactly healthy gets about -2.4 nats on the grid (the prior's mass on losses
+    too small to see keeps it from going lower); one sitting opposite to damage (a heavier
+    propeller, or a healthy motor beside a damaged one, whose "other motors" include it) less."""
+    inv = np.linalg.inv(cov)
+    b = float(mu @ inv @ r)
+    c = float(mu @ inv @ mu)
+    terms = losses * b - 0.5 * losses * losses * c  # log N(r; ℓμ) - log N(r; 0)
+    top = float(terms.max())
+    return top + float(np.log(np.mean(np.exp(terms - top))))
+
+
 def _pct(x: float) -> float:
     return float(100.0 * np.expm1(x))
 
@@ -349,13 +381,15 @@ def analyze_esc(flight: Flight, baseline: Optional[EscBaseline] = None) -> EscAn
         spread = np.array(HEALTHY_SPREAD_COV)
         against = "other motors"
     mu = np.array(DAMAGE_DIRECTION)[dims]
-    findings, llr = [], {}
+    losses = damage_prior_losses()
+    findings, llr, decision_llr = [], {}, {}
     for k in range(meas.r.shape[0]):
         motor = k + 1
         x = (meas.r[k] - base[k])[dims]
         cov = (spread + meas.cov[k])[np.ix_(dims, dims)]
         score, loss = _glr(x, cov, mu)
         llr[motor] = score
+        decision_llr[motor] = _log_bayes_factor(x, cov, mu, losses)
         for j, (name, direction) in enumerate((("rpm_per_command", "up"), ("current_per_rpm2", "down"))):
             if j not in dims:
                 findings.append(EscFigure(ANALYZER_ID, motor, name, float("nan"), "%", (float("nan"),) * 2, None,
@@ -370,7 +404,7 @@ def analyze_esc(flight: Flight, baseline: Optional[EscBaseline] = None) -> EscAn
                                     direction, one))
         findings.append(EscFigure(ANALYZER_ID, motor, "esc_damage", 100.0 * loss, "% torque",
                                 (float("nan"), float("nan")), 0.0, "up", score))
-    return EscAnalysis(findings, llr, None, against, meas.bins, meas.slopes)
+    return EscAnalysis(findings, llr, None, against, meas.bins, meas.slopes, decision_llr)
 
 
 def fit_esc_baseline(flights: Sequence[Flight], names: Optional[Sequence[str]] = None) -> EscBaseline:
@@ -406,9 +440,12 @@ class Esc(Analyzer):
     requires = ("esc",)
     #: ESC telemetry measures the propeller's load almost directly, so it may outweigh the other
     #: sources further than they may (SOURCE_LLR_CAP 8): up to this. Measured (bench_esc.py
-    #: --measure, simulated): the largest healthy llr without a profile is 11.4 nats (one airframe
+    #: --measure, simulated): the largest healthy GLR without a profile is 11.4 nats (one airframe
     #: whose healthy propeller has a 5.6 % lower torque coefficient), p99 of the rest 4.0; damaged
-    #: eta <= 0.8 flights reach 20-60 nats.
+    #: eta <= 0.8 flights reach 20-60 nats. The decision gets the Bayes factor (decision_llr),
+    #: which can also clear a motor: on 200 simulated healthy flights with ESC telemetry and no
+    #: profile the fused verdict said damaged on 6 (10 when it got the GLR), and eta 0.6-0.8
+    #: stayed 60/60 right (bench_esc.py --verdicts, seed 4242, 2026-11-24).
     llr_cap = 12.0
 
     def fit_baseline(self, flights, model=None):
@@ -437,7 +474,8 @@ class Esc(Analyzer):
             interval = (lo, hi) if np.isfinite(lo) and np.isfinite(hi) else None
             text = f"{f.value:+.1f}%" if f.unit == "%" else f"{f.value:.0f}{f.unit[1:] if f.unit.startswith('%') else ''}"
             out.append(Finding(self.id, f.motor, f.name, f.value, f.unit, interval, f.baseline, f.direction,
-                               f.llr if weighed else None, text if f.name != "esc_damage" else f"{f.value:.0f}%"))
+                               a.decision_llr[f.motor] if weighed else None,
+                               text if f.name != "esc_damage" else f"{f.value:.0f}%"))
         return AnalyzerResult(self.id, out, extra={"against": a.against, "bins": a.bins})
 
 
