@@ -18,9 +18,11 @@ largest healthy llr, damage direction), on seeds of its own. Bounded: ~2-4 min o
 (``--per-cell`` flights per (η, rate) cell, default 12).
 
 ``--verdicts`` also prints the fused verdict of `diagnose_flight` (shipped model, no profile) on
-the same damaged and healthy flights: what a pilot would read, all analyzers together.
+the same damaged and healthy flights, with their ESC telemetry and without it: what a pilot would
+read, all analyzers together (results/no_profile_simulated_healthy.md: ``--verdicts --seed 4242
+--per-cell 10 --verdict-healthy 100``).
 
-    python benchmarks/bench_esc.py [--per-cell N] [--seed S] [--measure] [--verdicts]
+    python benchmarks/bench_esc.py [--per-cell N] [--seed S] [--measure] [--verdicts [--verdict-healthy N]]
 """
 from __future__ import annotations
 
@@ -100,7 +102,7 @@ def trim_pairs(rate: float, n: int, seed: int):
     return list(zip(calib, after, what))
 
 
-def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False) -> None:
+def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict_healthy: int = 0) -> None:
     t0 = time.time()
     print(f"ESC analyzer, simulated flights ({DURATION_S:.0f} s waypoints, random airframes, realistic "
           f"imbalance); decision llr > {DECISION_LLR:g} nats, no profile unless said")
@@ -200,31 +202,40 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False) -> None
         print(f"  largest healthy llr {max(healthy_llr + trim_llr):.2f} nats; p99 "
               f"{np.percentile(healthy_llr + trim_llr, 99):.2f}")
     if verdicts:
-        fused_verdicts(per_cell, seed)
+        fused_verdicts(per_cell, seed, verdict_healthy or 2 * per_cell)
     print(f"({time.time() - t0:.0f} s)")
 
 
-def fused_verdicts(per_cell: int, seed: int) -> None:
-    """The flight verdicts (no profile) on this run's damaged and healthy flights."""
+def fused_verdicts(per_cell: int, seed: int, healthy_per_rate: int) -> None:
+    """The flight verdicts (no profile) on this run's damaged flights and ``healthy_per_rate``
+    healthy flights per ESC rate, each with its ESC telemetry and again without it (most logs
+    have none)."""
     from collections import Counter
+    from dataclasses import replace as dc_replace
 
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
 
     model = resolve_model()
     print("\nfused verdict (diagnose_flight, shipped model, no profile): right / wrong motor / uncertain / healthy")
     for eta in ETAS:
-        c = Counter()
+        c = {True: Counter(), False: Counter()}
         for rate in RATES:
             for _, f in damaged_set(eta, rate, per_cell, seed):
-                v = diagnose_flight(f, model, keep_flight=False).verdict
-                c["right" if v.status == "damaged" and v.motor == f.truth["motor"]
-                  else "wrong" if v.status == "damaged" else v.status] += 1
-        print(f"  eta {eta:g}: {c['right']} / {c['wrong']} / {c['uncertain']} / {c['healthy']}")
-    c = Counter()
+                for with_esc in (True, False):
+                    v = diagnose_flight(f if with_esc else dc_replace(f, esc=None), model, keep_flight=False).verdict
+                    c[with_esc]["right" if v.status == "damaged" and v.motor == f.truth["motor"]
+                                else "wrong" if v.status == "damaged" else v.status] += 1
+        print("  " + "   ".join(f"eta {eta:g} {'with' if w else 'without'} ESC: {c[w]['right']} / {c[w]['wrong']} / "
+                                f"{c[w]['uncertain']} / {c[w]['healthy']}" for w in (True, False)))
+    c = {True: Counter(), False: Counter()}
     for rate in RATES:
-        for f in healthy_set(rate, 2 * per_cell, seed):
-            c[diagnose_flight(f, model, keep_flight=False).verdict.status] += 1
-    print(f"  healthy: damaged {c['damaged']} / uncertain {c['uncertain']} / healthy {c['healthy']}")
+        for f in healthy_set(rate, healthy_per_rate, seed):
+            for with_esc in (True, False):
+                c[with_esc][diagnose_flight(f if with_esc else dc_replace(f, esc=None), model,
+                                            keep_flight=False).verdict.status] += 1
+    for w in (True, False):
+        print(f"  healthy {'with' if w else 'without'} ESC: damaged {c[w]['damaged']} / uncertain {c[w]['uncertain']} "
+              f"/ healthy {c[w]['healthy']}")
 
 
 def main() -> None:
@@ -233,8 +244,10 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1700)
     ap.add_argument("--measure", action="store_true")
     ap.add_argument("--verdicts", action="store_true", help="also the fused verdicts of diagnose_flight")
+    ap.add_argument("--verdict-healthy", type=int, default=0,
+                    help="healthy flights per ESC rate for --verdicts (default 2 x --per-cell)")
     args = ap.parse_args()
-    run(args.per_cell, args.seed, args.measure, args.verdicts)
+    run(args.per_cell, args.seed, args.measure, args.verdicts, args.verdict_healthy)
 
 
 if __name__ == "__main__":
