@@ -347,8 +347,12 @@ def window_effectiveness(flight, windows: Any):
     resampled segments (the flight is resampled once)."""
     from .effectiveness import EffectivenessEstimate, estimate_effectiveness
 
-    if windows.spec.n_motors != 4:  # the effectiveness fit is a 4-motor model so far
-        return EffectivenessEstimate(reason=f"not estimated for {windows.spec.n_motors} rotors yet")
+    if windows.spec.n_motors != 4:
+        # In closed loop an n-rotor's commands follow the allocator's four directions (roll, pitch,
+        # yaw, thrust): on simulated hexa and octo flights singular values 5..n of the command
+        # matrix are 0, so each rotor's effectiveness cannot be told from the others'.
+        return EffectivenessEstimate(reason=f"not identifiable with {windows.spec.n_motors} rotors: the "
+                                            f"controller drives them along four directions only")
     return estimate_effectiveness(PreparedFlight.of(flight), rate_hz=windows.spec.rate_hz,
                                   savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
 

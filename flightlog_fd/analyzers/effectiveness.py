@@ -53,7 +53,8 @@ class Effectiveness(Analyzer):
     def analyze(self, ctx: Context) -> AnalyzerResult:
         eff = None if ctx.evidence is None else ctx.evidence.effectiveness
         if eff is None or not eff.motors:
-            return AnalyzerResult(self.id, abstained=self.missing(ctx.flight) or "no effectiveness fit")
+            why = getattr(eff, "reason", "") if eff is not None else ""
+            return AnalyzerResult(self.id, abstained=self.missing(ctx.flight) or why or "no effectiveness fit")
         if not eff.informative:
             return AnalyzerResult(self.id, abstained=eff.reason)
         llr = effectiveness_llr(eff)
