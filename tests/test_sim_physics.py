@@ -263,3 +263,16 @@ def test_random_damage_on_a_weak_airframe_stays_a_real_damage():
     dmg = random_damages([weak] * 30, np.full(30, 60.0), np.random.default_rng(1), healthy_fraction=0.0,
                          eta_range=(0.6, 0.95))
     assert all(1 <= d.motor <= 4 and d.eta == pytest.approx(0.95) for d in dmg)
+
+
+def test_paper_speed_gain_divides_each_vehicle_by_its_own_speed_scale():
+    """(rotors, vehicles) arrays against (vehicles,) speed scales: 3 vehicles used to fail to
+    broadcast, and 4 divided rotor i by vehicle i's scale."""
+    from flightlog_fd.sim.unbalance import paper_speed_gain
+
+    rho = np.array([[1.0, 1.0, 1.0, 1.0], [1.1, 1.1, 1.1, 1.1], [0.9, 0.9, 0.9, 0.9], [1.0, 1.0, 1.0, 1.0]])
+    for n in (3, 4):
+        omega_max = np.array([1000.0, 2000.0, 4000.0, 8000.0])[:n]
+        w = np.tile(omega_max / 2, (4, 1))  # every rotor at half its vehicle's scale
+        gain = paper_speed_gain(rho[:, :n], w, omega_max)
+        np.testing.assert_allclose(gain, rho[:, :n] / 2)

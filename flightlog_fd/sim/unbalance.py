@@ -59,8 +59,9 @@ def physical_effectiveness(rho: np.ndarray) -> np.ndarray:
 
 
 def paper_speed_gain(rho: np.ndarray, w: np.ndarray, omega_max: np.ndarray) -> np.ndarray:
-    """Speed multiplier of ``"paper"`` mode, ρ_i(w_i) = (w_i / omega_max) · ρ_i (so w_a = gain · w)."""
-    return rho * w / omega_max[:, None]
+    """Speed multiplier of ``"paper"`` mode, ρ_i(w_i) = (w_i / omega_max) · ρ_i (so w_a = gain · w).
+    ``rho``, ``w`` (rotors, vehicles); ``omega_max`` (vehicles,): each vehicle's own speed scale."""
+    return rho * w / omega_max[None, :]
 
 
 def check_mode(rho_mode: str) -> str:
