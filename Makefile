@@ -18,6 +18,10 @@ install: $(STAMP)
 # Exit code 1 means "damage found": expected here, since most sample logs have a damaged propeller.
 demo: $(STAMP)
 	$(BIN)/fdlog diagnose sample_logs/ || [ $$? -eq 1 ]
+	@echo "--- an octocopter calibrated on a healthy flight of the same airframe, then its damaged flight:"
+	@mkdir -p build/demo
+	$(BIN)/fdlog calibrate --no-adapt --force sample_logs/px4_octo_healthy.ulg -o build/demo/octo_profile.json
+	$(BIN)/fdlog diagnose --profile build/demo/octo_profile.json sample_logs/px4_octo_motor2_damaged.ulg || [ $$? -eq 1 ]
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -41,4 +45,5 @@ samples: $(STAMP)
 	$(SIM) -o sample_logs/ardupilot_esc_motor3_damaged.bin --format dataflash --airframe x500 --duration 45 --seed 32 --motor 3 --eta 0.80 --log-profile ardupilot --esc-rate 10
 	$(SIM) -o sample_logs/ardupilot_plus_motor4_damaged.bin --format dataflash --airframe f450 --frame quad_plus --duration 45 --seed 25 --motor 4 --eta 0.70 --log-profile ardupilot
 	$(SIM) -o sample_logs/ardupilot_hexa_motor5_damaged.bin --format dataflash --airframe x500 --frame hexa_x --duration 45 --seed 31 --motor 5 --eta 0.70 --log-profile ardupilot
-	$(SIM) -o sample_logs/px4_octo_motor2_damaged.ulg --airframe heavy --frame octo_x --duration 45 --seed 32 --motor 2 --eta 0.70
+	$(SIM) -o sample_logs/px4_octo_motor2_damaged.ulg --airframe heavy --frame octo_x --duration 45 --seed 32 --motor 2 --eta 0.70 --vehicle-id sim-heavy-octo
+	$(SIM) -o sample_logs/px4_octo_healthy.ulg --airframe heavy --frame octo_x --duration 45 --seed 33 --vehicle-id sim-heavy-octo

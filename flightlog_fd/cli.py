@@ -419,7 +419,7 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
                       frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
                       duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
                       rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
-                      esc_rate: Optional[float] = None) -> list[tuple[Path, dict]]:
+                      esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None) -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
 
     ``esc_rate`` (Hz): add ESC telemetry (rpm, current, voltage, temperature per motor) at that
@@ -484,9 +484,11 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     if count > 1:
         out.mkdir(parents=True, exist_ok=True)
     written = []
-    for p, fl in zip(paths, flights):
+    for i, (p, fl) in enumerate(zip(paths, flights)):
         p.parent.mkdir(parents=True, exist_ok=True)
         fl.path = str(p)
+        if vehicle_id:  # one simulated vehicle flown several times (a calibration flight and others)
+            fl.vehicle_id = vehicle_id if count == 1 else f"{vehicle_id}-{i}"
         (write_ulog if fmt == "ulog" else write_dataflash)(fl, p)
         written.append((p, fl.truth or {}))
     if count > 1:
@@ -521,6 +523,9 @@ def simulate(
     esc_rate: Optional[float] = typer.Option(None, "--esc-rate", help="Add ESC telemetry (rpm, current, voltage, "
                                              "temperature per motor) at this rate, 10-100 Hz, on a realistically "
                                              "unbalanced airframe."),
+    vehicle_id: Optional[str] = typer.Option(None, "--vehicle-id", help="The vehicle id written into the log "
+                                             "(default sim-SEED-i): give two flights of one simulated airframe the "
+                                             "same id, as a real vehicle's logs have."),
 ) -> None:
     """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
     rho_list = None
@@ -535,7 +540,7 @@ def simulate(
     try:
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
                                     onset=onset, duration=duration, mission=mission, log_profile=log_profile,
-                                    rho=rho_list, seed=seed, force=force, esc_rate=esc_rate)
+                                    rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)

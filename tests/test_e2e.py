@@ -41,7 +41,8 @@ SAMPLE_TRUTH = {
     "ardupilot_esc_motor3_damaged.bin": 3,
 }
 #: The hexa and octo samples (sample_logs/README.md); tests/test_nrotor_models.py checks them.
-N_ROTOR_SAMPLE_TRUTH = {"ardupilot_hexa_motor5_damaged.bin": 5, "px4_octo_motor2_damaged.ulg": 2}
+N_ROTOR_SAMPLE_TRUTH = {"ardupilot_hexa_motor5_damaged.bin": 5, "px4_octo_motor2_damaged.ulg": 2,
+                        "px4_octo_healthy.ulg": 0}
 QUAD_SAMPLES = [str(SAMPLES / name) for name in sorted(SAMPLE_TRUTH)]
 #: Damage (eta 0.8 on an unbalanced airframe) that only ESC telemetry shows: the ESC analyzer
 #: names it (tests/test_esc_analyzer.py); the decision model that weighs ESC findings is issue 17.
@@ -59,6 +60,25 @@ def sample_reports():
 def test_sample_logs_are_all_there():
     assert {p.name for p in SAMPLES.iterdir() if p.suffix in (".ulg", ".bin")} == \
         set(SAMPLE_TRUTH) | set(N_ROTOR_SAMPLE_TRUTH)
+
+
+def test_octo_calibrated_on_its_healthy_twin_names_the_damaged_propeller(tmp_path):
+    """What `make demo` shows: a profile from the healthy octo sample (--no-adapt: no torch), then
+    the damaged octo sample is damaged at motor 2 with eta-hat around its true 0.70, and the
+    healthy sample itself stays healthy with that profile."""
+    profile = tmp_path / "octo.json"
+    res = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / "px4_octo_healthy.ulg"), "-o", str(profile)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["diagnose", "--json", "--profile", str(profile), str(SAMPLES / "px4_octo_motor2_damaged.ulg")])
+    assert res.exit_code == 1, res.output
+    d = json.loads(res.stdout)
+    assert d["verdict"]["status"] == "damaged" and d["verdict"]["motor"] == 2
+    assert not any("made on vehicle" in w for w in d["warnings"]), d["warnings"]  # one vehicle id (--vehicle-id)
+    m2 = next(m for m in d["motors"] if m["motor"] == 2)
+    assert m2["eta_hat"] == pytest.approx(0.70, abs=0.08)
+    for extra in (["--profile", str(profile)], []):  # healthy with its own profile, and without one
+        res = runner.invoke(app, ["diagnose", "--json", *extra, str(SAMPLES / "px4_octo_healthy.ulg")])
+        assert res.exit_code == 0 and json.loads(res.stdout)["verdict"]["status"] == "healthy"
 
 
 @pytest.mark.parametrize("name", sorted(SAMPLE_TRUTH))
