@@ -7,8 +7,9 @@ its ``llr_cap`` (``analyzers.base.SOURCE_LLR_CAP`` unless the analyzer says othe
 shares are capped keeping their order, so a weak rotor stays apart from its coaxial partner,
 ``Analyzer.cap_keeps_order``). The sources today: the model's window votes, the command
 shares (mixer-physics severity fit, which also gives each rotor's thrust eta-hat), the throttle
-against calibration, and the effectiveness fit when it is informative. Their noise figures are
-measured and written beside their constants in their own modules.
+against calibration, the effectiveness fit when it is informative, and ESC telemetry where the
+log has it (a Bayes factor that can also clear a motor). Their noise figures are measured and
+written beside their constants in their own modules.
 
 The flight's verdict, confidence and reason come from here alone (:func:`decide`): ``damaged``
 when the best motor's total LLR reaches ``DAMAGED_LLR`` and beats the runner-up by
