@@ -748,6 +748,8 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
 
     usable = _usable(segments, savgol_n, detrend_n)
     search = _lag_search_segments(usable)
+    if search is not usable:  # stretches cut short by their segment's end may be too short to filter
+        search = _usable(search, savgol_n, detrend_n) or usable
     fit = _LagFit(prep, search, rate_hz, savgol_n, detrend_n, savgol_window_s)
     tau = fit.best_lag()
     if tau is None:

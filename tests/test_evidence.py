@@ -175,3 +175,18 @@ def test_diagnose_runs_blas_single_threaded(monkeypatch):
     D.diagnose_flight(fl, D.resolve_model(), keep_flight=False)
     assert seen == [{D.DIAGNOSE_BLAS_THREADS}]
     assert {i["num_threads"] for i in threadpoolctl.threadpool_info() if i["user_api"] == "blas"} == before
+
+
+def test_lag_search_on_many_short_segments():
+    """A long flight cut into 0.2 s pieces (gaps): the search's stretches, clipped by their piece,
+    are filtered like any segment, and the estimate still comes out."""
+    import flightlog_fd.effectiveness as E
+    from flightlog_fd.features import resample
+    from flightlog_fd.prepared import PreparedFlight
+    from flightlog_fd.sim.api import simulate_flights
+
+    fl = simulate_flights(1, duration_s=200, profile="px4_high", seed=3)[0]
+    prep = PreparedFlight(fl)
+    pieces = [E._slice_segment(s, slice(a, a + 10)) for s in resample(prep) for a in range(0, len(s) - 10, 11)]
+    est = E.estimate_effectiveness(prep, segments=pieces)
+    assert est.seconds > E.LAG_SEARCH_MAX_S and est.motor_lag_s is not None and len(est.motors) == 4
