@@ -211,18 +211,20 @@ def fused_verdicts(per_cell: int, seed: int, healthy_per_rate: int) -> None:
     healthy flights per ESC rate, each with its ESC telemetry and again without it (most logs
     have none)."""
     from collections import Counter
-    from dataclasses import replace as dc_replace
 
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
 
     model = resolve_model()
+
+    def verdict(f, with_esc: bool):
+        return diagnose_flight(f if with_esc else replace(f, esc=None), model, keep_flight=False).verdict
     print("\nfused verdict (diagnose_flight, shipped model, no profile): right / wrong motor / uncertain / healthy")
     for eta in ETAS:
         c = {True: Counter(), False: Counter()}
         for rate in RATES:
             for _, f in damaged_set(eta, rate, per_cell, seed):
                 for with_esc in (True, False):
-                    v = diagnose_flight(f if with_esc else dc_replace(f, esc=None), model, keep_flight=False).verdict
+                    v = verdict(f, with_esc)
                     c[with_esc]["right" if v.status == "damaged" and v.motor == f.truth["motor"]
                                 else "wrong" if v.status == "damaged" else v.status] += 1
         print("  " + "   ".join(f"eta {eta:g} {'with' if w else 'without'} ESC: {c[w]['right']} / {c[w]['wrong']} / "
@@ -231,8 +233,7 @@ def fused_verdicts(per_cell: int, seed: int, healthy_per_rate: int) -> None:
     for rate in RATES:
         for f in healthy_set(rate, healthy_per_rate, seed):
             for with_esc in (True, False):
-                c[with_esc][diagnose_flight(f if with_esc else dc_replace(f, esc=None), model,
-                                            keep_flight=False).verdict.status] += 1
+                c[with_esc][verdict(f, with_esc).status] += 1
     for w in (True, False):
         print(f"  healthy {'with' if w else 'without'} ESC: damaged {c[w]['damaged']} / uncertain {c[w]['uncertain']} "
               f"/ healthy {c[w]['healthy']}")
