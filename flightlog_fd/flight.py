@@ -341,6 +341,78 @@ class EscTelemetry:
         return out
 
 
+#: Kinds of logged vibration metric (:class:`Vibration` ``metrics``): ArduPilot ``VIBE`` (per IMU,
+#: X/Y/Z: the RMS of the accelerometer above its 5 Hz floor filter, m/s/s, at the sensor's full
+#: rate) and PX4 ``vehicle_imu_status`` (per IMU: accel_vibration_metric m/s/s, gyro_vibration_metric
+#: rad/s, delta_angle_coning_metric: high-passed differences of successive integrated samples).
+VIBRATION_METRIC_KINDS = ("ardupilot_vibe", "px4_imu_status")
+
+
+@dataclass
+class ImuStream:
+    """One IMU's raw samples as logged, on their own clock (never resampled).
+
+    ``accel`` (n, 3) m/s/s FRD and/or ``gyro`` (n, 3) rad/s FRD; ``instance`` the IMU's index in
+    the log; ``source`` the message ("IMU[1]", "ACC[0]", "sensor_combined", "ISBD accel[0]").
+    ``batch``: a batch-sampler stream (ArduPilot ISBH/ISBD): short bursts at the sensor's full
+    rate with gaps between them (``rate_hz`` is the rate within a burst)."""
+
+    instance: int
+    source: str
+    accel: Optional[Series] = None
+    gyro: Optional[Series] = None
+    batch: bool = False
+
+    @property
+    def rate_hz(self) -> float:
+        """The faster of the two streams' median rates (Hz)."""
+        return max((s.rate_hz for s in (self.accel, self.gyro) if s is not None), default=0.0)
+
+
+@dataclass
+class Vibration:
+    """Every vibration source a log holds (see :data:`VIBRATION_METRIC_KINDS`).
+
+    ``metrics``: per IMU instance a Series of the logged vibration metric (``metric_kind`` says
+    which: ArduPilot VIBE (n, 3) X/Y/Z m/s/s; PX4 vehicle_imu_status (n, 3) accel m/s/s, gyro
+    rad/s, coning); ``clips``: per IMU instance (n, 1) cumulative accelerometer clipping count;
+    ``imus``: raw streams (:class:`ImuStream`), fastest first; ``fft_peaks``: PX4
+    ``sensor_gyro_fft`` (n, k) peak frequencies (Hz, NaN where none), columns named in its source."""
+
+    metric_kind: str = ""
+    metrics: dict[int, Series] = field(default_factory=dict)
+    clips: dict[int, Series] = field(default_factory=dict)
+    imus: list[ImuStream] = field(default_factory=list)
+    fft_peaks: Optional[Series] = None
+
+    def __bool__(self) -> bool:
+        return bool(self.metrics or self.imus or self.fft_peaks is not None)
+
+    def fastest(self, kind: str = "accel", batch: Optional[bool] = None) -> Optional[ImuStream]:
+        """The IMU stream with the fastest ``kind`` ("accel" / "gyro") samples (None when none);
+        ``batch`` True/False restricts to batch-sampler / continuous streams."""
+        best = None
+        for s in self.imus:
+            x = getattr(s, kind)
+            if x is None or len(x) < 2 or (batch is not None and s.batch != batch):
+                continue
+            if best is None or x.rate_hz > getattr(best, kind).rate_hz:
+                best = s
+        return best
+
+    def describe(self) -> dict:
+        """JSON-safe summary for `fdlog info`."""
+        return {"metric_kind": self.metric_kind,
+                "metrics": {str(k): {"source": s.source, "rate_hz": round(s.rate_hz, 2), "samples": len(s)}
+                            for k, s in self.metrics.items()},
+                "imus": [{"instance": s.instance, "source": s.source, "batch": s.batch,
+                          "accel_hz": round(s.accel.rate_hz, 1) if s.accel is not None else None,
+                          "gyro_hz": round(s.gyro.rate_hz, 1) if s.gyro is not None else None}
+                         for s in self.imus],
+                "fft_peaks": None if self.fft_peaks is None else {"source": self.fft_peaks.source,
+                                                                   "rate_hz": round(self.fft_peaks.rate_hz, 2)}}
+
+
 #: The Flight's own time-series fields (``alt_motors`` holds more), in the order `fdlog info` lists them.
 SERIES_FIELDS = ("rates", "attitude", "motors", "esc_rpm", "velocity", "accel")
 
@@ -374,6 +446,8 @@ class Flight:
     esc: Optional[EscTelemetry] = None
     velocity: Optional[Series] = None  # (n, 3) NED m/s where the log has it (hover detection)
     accel: Optional[Series] = None  # (n, 3) accelerometer, body specific force m/s² FRD (effectiveness.py)
+    # every vibration source: VIBE / vehicle_imu_status metrics, raw IMU streams, FFT peaks (Vibration)
+    vibration: Optional[Vibration] = None
     alt_motors: dict[str, Series] = field(default_factory=dict)  # other motor sources, e.g. {"RCOU": ...}
     armed: list[tuple[float, float]] = field(default_factory=list)
     airborne: list[tuple[float, float]] = field(default_factory=list)
@@ -520,6 +594,7 @@ def sanitise_flight(flight: "Flight") -> "Flight":
         clipped = [(max(float(a), flight.t_start), min(float(b), flight.t_end)) for a, b in getattr(flight, attr)]
         setattr(flight, attr, [(a, b) for a, b in clipped if b > a])
     _sanitise_esc(flight)
+    _sanitise_vibration(flight)
     return flight
 
 
@@ -541,3 +616,30 @@ def _sanitise_esc(flight: "Flight") -> None:
         if len(c):
             kept.append(c)
     flight.esc = EscTelemetry(kept, flight.esc.source, flight.esc.units) if kept else None
+
+
+def _sanitise_vibration(flight: "Flight") -> None:
+    """The timestamp checks on every vibration stream, plus: no sample further than
+    ``MAX_SAMPLE_GAP_S`` outside [t_start, t_end]."""
+    v = flight.vibration
+    if v is None:
+        return
+
+    def clean(name: str, s: Optional[Series]) -> Optional[Series]:
+        if s is None or not len(s):
+            return s
+        bad = implausible_times(s.t)
+        bad |= (s.t < flight.t_start - MAX_SAMPLE_GAP_S) | (s.t > flight.t_end + MAX_SAMPLE_GAP_S)
+        if not bad.any():
+            return s
+        flight.warnings.append(describe_dropped(f"vibration {name} ({s.source})", s.t, bad))
+        return Series(s.t[~bad], s.values[~bad], s.source)
+
+    v.metrics = {k: clean(f"metric[{k}]", s) for k, s in v.metrics.items()}
+    v.clips = {k: clean(f"clips[{k}]", s) for k, s in v.clips.items()}
+    for imu in v.imus:
+        if not imu.batch:  # batch bursts jump by design; their times come from the burst headers
+            imu.accel = clean(f"{imu.source} accel", imu.accel)
+            imu.gyro = clean(f"{imu.source} gyro", imu.gyro)
+    v.fft_peaks = clean("fft peaks", v.fft_peaks)
+    flight.vibration = v if v else None

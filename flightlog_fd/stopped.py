@@ -80,6 +80,8 @@ def _output_stream(flight: Flight) -> Optional[Series]:
             return flight.alt_motors[key]
     if flight.autopilot == "ardupilot":
         return None  # a RATE-mixer rebuild is the controller's request: it cannot show a cut output
+    if flight.motors is not None and flight.motors.source.startswith("actuator_controls_0"):
+        return None  # likewise PX4 control demands through the mixer
     return flight.motors
 
 

@@ -114,7 +114,7 @@ import numpy as np
 from . import read_head
 from ..util import intersect_intervals
 from ..errors import CorruptLogError, NotALogError
-from ..flight import Flight, Frame, Rotor, Series, describe_dropped, implausible_times
+from ..flight import Flight, Frame, ImuStream, Rotor, Series, Vibration, describe_dropped, implausible_times
 from ..frames import ardupilot_frame, ardupilot_mixer_factors, ardupilot_motor_channels
 
 # --- file layout ---------------------------------------------------------------------------
@@ -224,7 +224,7 @@ FRAME_TEXT_RE = re.compile(r"^Frame:\s*([A-Z0-9_]+)")
 #: Messages decoded for a Flight (only these are touched).
 NEEDED_TYPES = ("PARM", "MSG", "EV", "ARM", "RATE", "IMU", "GYR", "ATT", "RCOU", "ESC",
                 *(f"ESC{k}" for k in range(1, 9)), "CTUN", "XKF1", "NKF1", "EKF1", "GPS",
-                "FMTU", "MULT", "ESCX", "EDT2")
+                "FMTU", "MULT", "ESCX", "EDT2", "VIBE", "IMU2", "IMU3", "ACC", "ISBH", "ISBD")
 
 #: GPS time -> UTC: the GPS epoch (1980-01-06) in POSIX seconds, and the GPS-UTC leap-second
 #: offset in force from each POSIX time on (18 s since 2017-01-01).
@@ -952,6 +952,104 @@ def _accel(tables) -> Optional[Series]:
     return _sorted_series(imu.t[ok], a[ok], "IMU.AccX/Y/Z")
 
 
+def _instances(tab: MessageTable, field_names=("I", "IMU", "Instance")) -> dict[int, MessageTable]:
+    """{instance: rows} of a multi-instance message (one instance 0 when it has no such field)."""
+    for f in field_names:
+        if f in tab.columns:
+            inst = tab.columns[f]
+            ok = np.isfinite(inst)
+            return {int(i): tab.rows(ok & (inst == i)) for i in np.unique(inst[ok])}
+    return {0: tab}
+
+
+def _xyz(tab: MessageTable, cols: tuple[str, str, str], source: str, t: Optional[np.ndarray] = None) -> Optional[Series]:
+    if not tab.has(*cols) or tab.t is None or not len(tab):
+        return None
+    v = np.column_stack([tab.columns[c] for c in cols])
+    t = tab.t if t is None else t
+    ok = np.isfinite(v).all(axis=1) & np.isfinite(t)
+    return _sorted_series(t[ok], v[ok], source) if ok.sum() >= 2 else None
+
+
+#: ISBH.type of the batch sampler's sensors (AP_InertialSensor::BatchSampler::IMU_SENSOR_TYPE).
+ISB_SENSOR_TYPES = {0: "accel", 1: "gyro"}
+
+
+def _batch_sampler(tables) -> list[ImuStream]:
+    """ArduPilot's batch sampler (ISBH header + ISBD 32-sample chunks): per sensor type and
+    instance, the raw samples at the sensor's rate, int16 / ``mul`` (m/s/s, rad/s); sample times
+    from ``SampleUS`` + k / ``smp_rate``. Chunks whose header is missing are skipped."""
+    if "ISBH" not in tables or "ISBD" not in tables:
+        return []
+    h, d = tables["ISBH"], tables["ISBD"]
+    if not h.has("N", "type", "instance", "mul", "SampleUS", "smp_rate") or not d.has("N", "seqno", "x", "y", "z"):
+        return []
+    heads = {}
+    for i in range(len(h)):
+        heads[int(h.columns["N"][i])] = (int(h.columns["type"][i]), int(h.columns["instance"][i]),
+                                         float(h.columns["mul"][i]), float(h.columns["SampleUS"][i]) / 1e6,
+                                         float(h.columns["smp_rate"][i]))
+    parts: dict[tuple[int, int], list] = {}
+    xs, ys, zs = (np.asarray(d.columns[c], dtype=np.float64) for c in ("x", "y", "z"))
+    for j in range(len(d)):
+        head = heads.get(int(d.columns["N"][j]))
+        if head is None or head[2] == 0 or head[4] <= 0:
+            continue
+        typ, inst, mul, t0, rate = head
+        n = xs.shape[1]
+        k = int(d.columns["seqno"][j]) * n + np.arange(n)
+        parts.setdefault((typ, inst), []).append((t0 + k / rate, np.column_stack([xs[j], ys[j], zs[j]]) / mul))
+    streams: dict[int, ImuStream] = {}
+    for (typ, inst), chunks in sorted(parts.items()):
+        kind = ISB_SENSOR_TYPES.get(typ)
+        if kind is None:
+            continue
+        t = np.concatenate([c[0] for c in chunks])
+        v = np.concatenate([c[1] for c in chunks])
+        s = streams.setdefault(inst, ImuStream(inst, f"ISBH/ISBD[{inst}]", batch=True))
+        setattr(s, kind, _sorted_series(t, v, f"ISBD {kind}[{inst}] (int16 / ISBH.mul)"))
+    return list(streams.values())
+
+
+def _vibration(tables) -> Optional[Vibration]:
+    """Every vibration source of a DataFlash log: VIBE per IMU (4.x: ``IMU`` field and one
+    ``Clip``; 3.3-3.6: one message with ``Clip0..2``), raw IMU streams (IMU / IMU2 / IMU3 per
+    instance, ACC + GYR per instance, sample times from ``SampleUS`` where logged) and the batch
+    sampler (ISBH/ISBD)."""
+    v = Vibration(metric_kind="ardupilot_vibe")
+    if "VIBE" in tables and tables["VIBE"].has("VibeX", "VibeY", "VibeZ"):
+        for inst, tab in _instances(tables["VIBE"], ("IMU",)).items():
+            s = _xyz(tab, ("VibeX", "VibeY", "VibeZ"), f"VIBE[{inst}].VibeX/Y/Z")
+            if s is not None:
+                v.metrics[inst] = s
+            if "Clip" in tab.columns:
+                v.clips[inst] = _sorted_series(tab.t, tab.columns["Clip"], f"VIBE[{inst}].Clip")
+            for k in range(3):
+                if f"Clip{k}" in tab.columns:
+                    v.clips[k] = _sorted_series(tab.t, tab.columns[f"Clip{k}"], f"VIBE.Clip{k}")
+    imus: dict[tuple[str, int], ImuStream] = {}
+    for name, base in (("IMU", 0), ("IMU2", 1), ("IMU3", 2)):
+        if name not in tables:
+            continue
+        for inst, tab in _instances(tables[name], ("I",)).items():
+            inst = inst if name == "IMU" else base
+            s = ImuStream(inst, f"{name}[{inst}]" if name == "IMU" else name,
+                          _xyz(tab, ("AccX", "AccY", "AccZ"), f"{name}[{inst}].AccX/Y/Z"),
+                          _xyz(tab, ("GyrX", "GyrY", "GyrZ"), f"{name}[{inst}].GyrX/Y/Z"))
+            if s.accel is not None or s.gyro is not None:
+                imus[("IMU", inst)] = s
+    for name, kind, cols in (("ACC", "accel", ("AccX", "AccY", "AccZ")), ("GYR", "gyro", ("GyrX", "GyrY", "GyrZ"))):
+        if name not in tables:
+            continue
+        for inst, tab in _instances(tables[name], ("I",)).items():
+            t = tab.columns["SampleUS"] / 1e6 if "SampleUS" in tab.columns else None
+            s = _xyz(tab, cols, f"{name}[{inst}].{cols[0][:3]}X/Y/Z", t)
+            if s is not None:
+                setattr(imus.setdefault(("ACC/GYR", inst), ImuStream(inst, f"ACC/GYR[{inst}]")), kind, s)
+    v.imus = sorted(imus.values(), key=lambda s: -s.rate_hz) + _batch_sampler(tables)
+    return v if v else None
+
+
 def _velocity(tables) -> Optional[Series]:
     for name in ("XKF1", "NKF1", "EKF1"):
         if name in tables and tables[name].has("VN", "VE", "VD"):
@@ -1206,6 +1304,7 @@ def read_dataflash(path) -> Flight:
         esc=esc_telemetry(tables, wiring, n_motors, warnings, idx.name_to_id) if frame.rotor_count else None,
         velocity=_velocity(tables),
         accel=_accel(tables),
+        vibration=_vibration(tables),
         alt_motors=alt_motors,
         armed=armed,
         airborne=airborne,

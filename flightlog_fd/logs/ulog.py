@@ -99,7 +99,8 @@ import numpy as np
 from . import read_head
 from ..util import intersect_intervals  # noqa: F401  (part of this module's API)
 from ..errors import CorruptLogError, FlightLogError, NotALogError
-from ..flight import MAX_SAMPLE_GAP_S, Flight, Frame, Rotor, Series, describe_dropped, implausible_times
+from ..flight import (MAX_SAMPLE_GAP_S, Flight, Frame, ImuStream, Rotor, Series, Vibration, describe_dropped,
+                      implausible_times)
 from .ulog_fast import FastULogUnsupported, read_ulog_bytes
 from ..frames import name_rotors, px4_autostart_frame, px4_ca_rotors
 
@@ -108,6 +109,8 @@ ULOG_TOPICS = [
     "vehicle_angular_velocity", "sensor_combined", "vehicle_attitude", "actuator_motors",
     "actuator_outputs", "esc_status", "vehicle_local_position", "vehicle_status",
     "vehicle_land_detected", "actuator_armed", "vehicle_gps_position", "sensor_gps",
+    # vibration sources (Flight.vibration) and control demands for logs without motor outputs
+    "vehicle_imu_status", "sensor_accel", "sensor_gyro", "sensor_gyro_fft", "actuator_controls_0",
 ]
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 US_PER_S = 1e6
@@ -754,6 +757,96 @@ def _accel(ulog) -> Optional[Series]:
     return None
 
 
+#: vehicle_imu_status fields, in the order of the metric Series' columns (the last has two names
+#: across PX4 versions: delta_angle_coning_metric before 1.13, gyro_coning_vibration since).
+IMU_STATUS_FIELDS = ("accel_vibration_metric", "gyro_vibration_metric",
+                     ("gyro_coning_vibration", "delta_angle_coning_metric"))
+
+
+def _vibration(ulog) -> Optional[Vibration]:
+    """Every vibration source of a PX4 log: ``vehicle_imu_status`` per IMU (accel / gyro vibration
+    metrics, accel clipping counts), raw streams (``sensor_combined``; ``sensor_accel`` /
+    ``sensor_gyro`` per instance) and ``sensor_gyro_fft`` peak frequencies."""
+    v = Vibration(metric_kind="px4_imu_status")
+    for tp in _topics(ulog, "vehicle_imu_status"):
+        cols = []
+        for f in IMU_STATUS_FIELDS:
+            names = (f,) if isinstance(f, str) else f
+            name = next((n for n in names if tp.has(n)), None)
+            cols.append(tp.get(name).astype(np.float64) if name else np.full(len(tp.t), np.nan))
+        if np.isfinite(cols[0]).any():
+            v.metrics[tp.instance] = Series(tp.t, np.column_stack(cols),
+                                            f"vehicle_imu_status[{tp.instance}].accel/gyro_vibration_metric, coning")
+        clip = tp.array("accel_clipping", 3)
+        if clip is not None:
+            v.clips[tp.instance] = Series(tp.t, clip.sum(axis=1), f"vehicle_imu_status[{tp.instance}].accel_clipping")
+    for tp in _topics(ulog, "sensor_combined")[:1]:
+        a, g = tp.array("accelerometer_m_s2", 3), tp.array("gyro_rad", 3)
+        ta = tp.t
+        if a is not None and tp.has("accelerometer_timestamp_relative"):
+            rel = tp.get("accelerometer_timestamp_relative").astype(np.float64)
+            ok = np.abs(rel) < 1e6  # INT32 max = "no accel sample"
+            ta = np.where(ok, tp.t + rel / US_PER_S, tp.t)
+            order = np.argsort(ta, kind="stable")
+            ta, a = ta[order], a[order]
+        s = ImuStream(0, "sensor_combined",
+                      Series(ta, a, "sensor_combined.accelerometer_m_s2") if a is not None else None,
+                      Series(tp.t, g, "sensor_combined.gyro_rad") if g is not None else None)
+        if s.accel is not None or s.gyro is not None:
+            v.imus.append(s)
+    raw: dict[int, ImuStream] = {}
+    for topic, kind in (("sensor_accel", "accel"), ("sensor_gyro", "gyro")):
+        for tp in _topics(ulog, topic):
+            if not all(tp.has(c) for c in "xyz"):
+                continue
+            t = tp.get("timestamp_sample").astype(np.float64) / US_PER_S if tp.has("timestamp_sample") else tp.t
+            x = np.column_stack([tp.get(c).astype(np.float64) for c in "xyz"])
+            order = np.argsort(t, kind="stable")
+            s = raw.setdefault(tp.instance, ImuStream(tp.instance, f"sensor_accel/gyro[{tp.instance}]"))
+            setattr(s, kind, Series(t[order], x[order], f"{topic}[{tp.instance}].x/y/z"))
+    v.imus += [raw[k] for k in sorted(raw)]
+    v.imus.sort(key=lambda s: -s.rate_hz)
+    for tp in _topics(ulog, "sensor_gyro_fft")[:1]:
+        names = sorted(k for k in tp.fields if k.startswith("peak_frequencies"))
+        if names:
+            x = np.column_stack([tp.get(k).astype(np.float64) for k in names])
+            x[~(x > 0)] = np.nan  # 0 / NaN: no peak
+            v.fft_peaks = Series(tp.t, x, "sensor_gyro_fft." + ",".join(names))
+    return v if v else None
+
+
+def _controls_mixed(ulog, frame: Optional[Frame], warnings: list[str]) -> Optional[Series]:
+    """Per-motor thrust commands from ``actuator_controls_0`` (roll, pitch, yaw, thrust demands) through
+    the frame's multirotor mixer, for logs that carry no motor outputs (PX4's system-identification
+    logging profile): motor k = thrust + g·(roll·(-y_k) + pitch·x_k + yaw·spin_k) with positions scaled
+    to unit arm (PX4's quad-X table: ±0.707 roll/pitch, ±1 yaw) and g <= 1 the largest gain that keeps
+    every motor in 0..1. Limits: PX4's own desaturation (a thrust boost before the roll/pitch cut,
+    yaw cut first) is approximated; they are requests, not outputs, so stopped.py does not judge them."""
+    if frame is None or not frame.rotor_count or frame.unplaced:
+        return None
+    tp = _first(ulog, "actuator_controls_0")
+    if tp is None:
+        return None
+    c = tp.array("control", 4)
+    if c is None or not np.isfinite(c).any():
+        return None
+    pos = np.array([(r.x, r.y) for r in frame.rotors], dtype=np.float64)
+    arm = float(np.max(np.hypot(pos[:, 0], pos[:, 1]))) or 1.0
+    spin = np.array([float(np.sign(r.spin)) for r in frame.rotors])
+    mix = np.column_stack([-pos[:, 1] / arm, pos[:, 0] / arm, spin])  # (n, 3) roll, pitch, yaw
+    c = np.nan_to_num(c, nan=0.0)
+    thrust = np.clip(c[:, 3:4], 0.0, 1.0)
+    rpy = c[:, :3] @ mix.T
+    # airmode off: the roll/pitch/yaw part is scaled down until no motor leaves 0..1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = np.where(rpy < 0, thrust / -rpy, np.where(rpy > 0, (1.0 - thrust) / rpy, np.inf))
+    gain = np.clip(np.min(room, axis=1, keepdims=True), 0.0, 1.0)
+    u = np.clip(thrust + gain * rpy, 0.0, 1.0)
+    warnings.append(f"no motor outputs: per-motor commands mixed from actuator_controls_0 with the "
+                    f"{frame.name} mixer (roll/pitch/yaw scaled down where a motor saturates)")
+    return Series(tp.t, u, f"actuator_controls_0 via {frame.name} mixer")
+
+
 def _velocity(ulog) -> Optional[Series]:
     lp = _first(ulog, "vehicle_local_position")
     if lp is None or not all(lp.has(f) for f in ("vx", "vy", "vz")):
@@ -911,8 +1004,9 @@ def read_ulog(path, reader: str = "auto") -> Flight:
     elif motors_signal is not None:
         motors, motor_kind = motors_signal, "signal"
     else:
-        motors, motor_kind = None, "thrust"
-        warnings.append("no motor topic (actuator_motors / actuator_outputs) in the log")
+        motors, motor_kind = _controls_mixed(ulog, frame, warnings), "thrust"
+        if motors is None:
+            warnings.append("no motor topic (actuator_motors / actuator_outputs) in the log")
     n_motors = motors.values.shape[1] if motors is not None else rotor_count
 
     rates = _rates(ulog)
@@ -942,6 +1036,7 @@ def read_ulog(path, reader: str = "auto") -> Flight:
         esc=esc_telemetry(ulog, n_motors, warnings),
         velocity=_velocity(ulog),
         accel=_accel(ulog),
+        vibration=_vibration(ulog),
         alt_motors=alt_motors,
         armed=armed or [],
         airborne=airborne,
