@@ -147,6 +147,10 @@ def decide(results: Sequence[AnalyzerResult], n_motors: int, frame: Optional[Fra
     airframe_changed = _airframe_changed(results, n, best)
     cmd = next((r for r in results if r.analyzer == "commands"), None)
     notes = [note for r in results for note in r.notes]
+    flat = [(r.extra.get("flight_llr"), r.extra.get("level_words", "")) for r in results
+            if not r.abstained and r.extra.get("flight_llr") is not None]
+    flight_llr, flight_words = max(flat, key=lambda x: x[0]) if flat else (-np.inf, "")
+    flight_llr = min(flight_llr, max((r.llr_cap for r in results), default=np.inf))
 
     def severity_words(k: int) -> str:
         m = motors[k - 1]
@@ -161,6 +165,13 @@ def decide(results: Sequence[AnalyzerResult], n_motors: int, frame: Optional[Fra
         return cite + "evidence for it (log-likelihood ratio, nats): " + ", ".join(parts)
 
     def done(status, motor, confidence, reason) -> Decision:
+        # a flight-level finding (vibration with no rotor named) raises what the per-motor sums say
+        if flight_llr >= DAMAGED_LLR and status != "damaged" or flight_llr >= UNCERTAIN_LLR and status == "healthy":
+            status, motor = ("damaged" if flight_llr >= DAMAGED_LLR else "uncertain"), None
+            confidence = float(1.0 / (1.0 + np.exp(-flight_llr)))
+            reason = (f"a propeller is {'likely damaged' if status == 'damaged' else 'possibly out of balance'}: "
+                      f"{flight_words}; no rotor can be named from it: inspect all propellers; "
+                      f"the per-rotor evidence alone said: {reason}")
         for note in notes:
             reason += f"; {note}"
         return Decision(status, motor, float(confidence), reason, motors=motors, airframe_changed=airframe_changed,

@@ -263,6 +263,14 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: Verd
         if stops:  # a frame without a damage model (hexa, octo) still gets its stopped motors
             return Diagnosis(log=log, verdict=stopped_verdict(stops, flight.frame), stopped=stops,
                              diagnosability_facts=dict(check.facts), **common)
+        from .analyzers.vibration import VIBRATION_ONLY_REASONS, vibration_only_verdict
+
+        if flight.vibration is not None and flight.airborne and any(
+                w in r for r in check.reasons for w in VIBRATION_ONLY_REASONS):
+            vib = vibration_only_verdict(flight, profile)
+            if vib is not None:  # vibration judges what the full diagnosis cannot
+                return Diagnosis(log=log, verdict=vib[0], decision=vib[1],
+                                 diagnosability_facts=dict(check.facts), **common)
         reason = check.reason
         if flight.frame is not None and flight.frame.rotor_count > 4 and not flight.frame.unplaced:
             reason += "; no motor stopped while airborne"

@@ -458,6 +458,7 @@ class Flight:
     warnings: list[str] = field(default_factory=list)
     truth: Optional[dict] = None
     reader: str = ""  # which decoder read the file, e.g. "fast numpy ULog reader" or "pyulog (fallback: ...)"
+    part: str = ""  # "flight 2 of 2, 376.8-464.9 s" when cut from a log holding several (flights.py)
 
     @property
     def duration_s(self) -> float:

@@ -11,7 +11,9 @@ results store iterate over the findings, so none of them names an analyzer's fie
 Registered (in this order): ``model`` (:mod:`.model_votes`), ``commands``
 (:mod:`.command_shares`, with each rotor's thrust eta-hat), ``throttle`` (:mod:`.throttle`),
 ``effectiveness`` (:mod:`.effectiveness`), ``esc`` (:mod:`.esc`: rpm per command and current per
-rpm² from ESC telemetry).
+rpm² from ESC telemetry), ``vibration`` (:mod:`.vibration`: the horizontal vibration level against
+the airframe's healthy level, rotor lines in the gyro spectrum tied to a rotor; a flight-level
+finding in ``extra["flight_llr"]`` when no rotor can be named).
 
 How to add an analyzer
 ----------------------
@@ -37,6 +39,7 @@ from .effectiveness import Effectiveness
 from .esc import Esc
 from .model_votes import ModelVotes
 from .throttle import Throttle
+from .vibration import Vibration
 
 #: Every analyzer the diagnosis runs, in report order.
 REGISTRY: list[Analyzer] = [
@@ -45,6 +48,7 @@ REGISTRY: list[Analyzer] = [
     Throttle(),
     Effectiveness(),
     Esc(),
+    Vibration(),
 ]
 
 

@@ -482,3 +482,56 @@ def result_from(a: VibrationAnalysis, n: int) -> AnalyzerResult:
 
 __all__ = ["ANALYZER_ID", "Vibration", "VibrationAnalysis", "VibrationBaseline", "analyze_vibration",
            "fit_vibration_baseline", "measure_level", "find_line", "spectrum", "level_words", "result_from"]
+
+
+#: Reasons of checks.diagnosability after which vibration alone can still judge the propellers
+#: (no per-motor outputs, or no damage model for the frame): the level needs neither.
+VIBRATION_ONLY_REASONS = ("no per-motor outputs", "motor outputs", "propeller-damage model", "only stopped-motor")
+
+
+def vibration_only_verdict(flight: Flight, profile=None):
+    """(Verdict, Decision) from vibration alone, for a log the full diagnosis cannot take (no
+    per-motor outputs, no damage model for its frame); None when vibration says nothing either.
+    Each take-off to landing of the log is judged on its own (:func:`flightlog_fd.flights.split_flights`);
+    the log's verdict is its worst flight's, and the reason lists every flight."""
+    from ..decision import DAMAGED_LLR, UNCERTAIN_LLR, Decision
+    from ..flights import split_flights
+    from ..verdict import Verdict
+
+    b = (getattr(profile, "analyzers", None) or {}).get(ANALYZER_ID) if profile is not None else None
+    baseline = VibrationBaseline.from_dict(b) if b else None
+    rank = {"healthy": 0, "uncertain": 1, "damaged": 2}
+    judged = []
+    for part in split_flights(flight):
+        a = analyze_vibration(part, baseline)
+        if a.abstain or a.flight_llr is None:
+            continue
+        llr = a.flight_llr
+        status = "damaged" if llr >= DAMAGED_LLR else ("uncertain" if llr >= UNCERTAIN_LLR else "healthy")
+        words = level_words(a)
+        if status == "damaged":
+            text = f"a propeller is likely damaged: {words}"
+        elif status == "uncertain":
+            text = (f"a propeller may be out of balance: {words}"
+                    + ("; calibrate on a healthy flight of this airframe to tell" if a.against != "profile" else ""))
+        else:
+            text = f"no propeller out of balance: {words}"
+        for note in a.notes:
+            text += f"; {note}"
+        judged.append((part, a, status, llr, text))
+    if not judged:
+        return None
+    worst = max(judged, key=lambda j: (rank[j[2]], j[3]))
+    part, a, status, llr, text = worst
+    which = ("this log has no motor outputs, so it cannot say which: inspect all propellers"
+             if flight.motors is None else "vibration cannot say which rotor: inspect all propellers")
+    reason = text + (f"; {which}" if status != "healthy" else "; only vibration was judged (" + which.split(",")[0] + ")")
+    if len(judged) > 1 or part.part:
+        reason = f"{part.part}: {reason}" + "".join(f"; {p.part}: {s}" + (f" ({level_words(x)})" if s != status or p is not part else "")
+                                                 for p, x, s, _, _ in judged if p is not part)
+    p_imb = float(1.0 / (1.0 + np.exp(-llr)))
+    conf = p_imb if status != "healthy" else 1.0 - p_imb
+    res = result_from(a, flight.frame.rotor_count if flight.frame is not None else 0)
+    d = Decision(status, None, conf, reason, sources=[ANALYZER_ID], results=[res])
+    first = part.airborne[0][0] if (status == "damaged" and part.airborne) else None
+    return Verdict(status=status, motor=None, position=None, confidence=conf, first_seen=first, reason=reason), d
