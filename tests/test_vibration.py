@@ -1,0 +1,136 @@
+"""Vibration: readers, the analyzer's level and rotor line, vibration-only verdicts, several
+flights in one log. Real-data tests skip when ../shared is absent."""
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from flightlog_fd.analyzers.vibration import (ANALYZER_ID, HEALTHY_LEVEL_REF, analyze_vibration,
+                                              fit_vibration_baseline, vibration_only_verdict)
+from flightlog_fd.decision import DAMAGED_LLR
+from flightlog_fd.flight import Flight, Frame, ImuStream, Series, Vibration
+from flightlog_fd.flights import split_flights
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+if not SHARED.exists():
+    SHARED = Path("/work/shared")
+OCTO = SHARED / "real_vibration" / "octo_air"
+UDESA = SHARED / "real_vibration" / "quad_udesa" / "udesa_f450_prop13.ulg"
+needs_shared = pytest.mark.skipif(not OCTO.exists(), reason="../shared/real_vibration absent")
+
+
+def _synthetic(level=4.0, line_motor=None, rate=400.0, seconds=60.0, seed=0, flights=1):
+    """A quad-X Flight with VIBE at ``level`` (horizontal) and a gyro at ``rate`` Hz carrying, when
+    ``line_motor`` is set, a once-per-revolution line at that rotor's speed (f = 90 Hz·sqrt(u/0.4))."""
+    rng = np.random.default_rng(seed)
+    spans = [(10.0 + i * (seconds + 40.0), 10.0 + i * (seconds + 40.0) + seconds) for i in range(flights)]
+    t_end = spans[-1][1] + 10.0
+    t = np.arange(0.0, t_end, 1.0 / rate)
+    tm = np.arange(0.0, t_end, 0.01)
+    u = 0.4 + 0.08 * np.column_stack([np.sin(2 * np.pi * 0.3 * tm + k * 1.7) for k in range(4)])
+    g = 0.01 * rng.standard_normal((t.size, 3))
+    if line_motor is not None:
+        f = 90.0 * np.sqrt(np.interp(t, tm, u[:, line_motor - 1]) / 0.4)
+        ph = 2 * np.pi * np.cumsum(f) / rate
+        g[:, 0] += 0.2 * np.sin(ph)
+        g[:, 1] += 0.2 * np.cos(ph)
+    tv = np.arange(0.0, t_end, 0.1)
+    vibe = np.column_stack([np.full(tv.size, level / np.sqrt(2))] * 2 + [np.full(tv.size, level)])
+    vib = Vibration("ardupilot_vibe", {0: Series(tv, vibe, "VIBE[0]")}, {},
+                    [ImuStream(0, "IMU[0]", None, Series(t, g, "GYR[0]"))])
+    return Flight(path="synthetic", autopilot="ardupilot", vehicle_type="quadrotor", frame=Frame.quad_x(),
+                  motors=Series(tm, u, "RCOU"), motor_kind="thrust", thrust_curve=0.0,
+                  armed=[(a - 3, b + 3) for a, b in spans], airborne=spans, t_start=0.0, t_end=t_end,
+                  vibration=vib)
+
+
+def test_level_against_reference_and_profile():
+    quiet, shaky = _synthetic(HEALTHY_LEVEL_REF), _synthetic(6 * HEALTHY_LEVEL_REF)
+    a, b = analyze_vibration(quiet), analyze_vibration(shaky)
+    assert a.flight_llr < 0 < b.flight_llr < DAMAGED_LLR  # no profile: never damaged from the level alone
+    base = fit_vibration_baseline([quiet])
+    assert analyze_vibration(shaky, base).flight_llr > DAMAGED_LLR
+    assert analyze_vibration(_synthetic(1.2 * HEALTHY_LEVEL_REF, seed=3), base).flight_llr < 0
+
+
+@pytest.mark.parametrize("motor", [1, 3])
+def test_line_tied_to_the_rotor_whose_speed_it_follows(motor):
+    a = analyze_vibration(_synthetic(line_motor=motor))
+    assert a.line is not None and 80.0 < a.line.freq_hz < 100.0  # the sweep of 90 Hz·sqrt(u/0.4)
+    assert a.line.motor == motor and a.line.tie_posterior[motor] > 0.9
+    assert any("once-per-revolution" in n for n in a.notes)
+
+
+def test_no_line_without_one_and_too_slow_a_gyro():
+    assert analyze_vibration(_synthetic()).line is None
+    assert analyze_vibration(_synthetic(line_motor=2, rate=80.0)).line is None
+
+
+def test_split_flights_and_vibration_only_verdict():
+    f = _synthetic(flights=2)
+    parts = split_flights(f)
+    assert [p.part.split(",")[0] for p in parts] == ["flight 1 of 2", "flight 2 of 2"]
+    assert all(len(p.airborne) == 1 and p.vibration is not None for p in parts)
+    f.motors = None
+    v, d = vibration_only_verdict(f)
+    assert v.status == "healthy" and d.results[0].analyzer == ANALYZER_ID
+
+
+@needs_shared
+def test_octo_air_with_and_without_profile():
+    from flightlog_fd import load_flight
+
+    healthy = load_flight(OCTO / "air_octo_14.BIN")
+    b = fit_vibration_baseline(split_flights(healthy))
+    profile = SimpleNamespace(analyzers={ANALYZER_ID: b.to_dict()})
+    two = split_flights(load_flight(OCTO / "air_octo_03.BIN"))
+    ten = load_flight(OCTO / "air_octo_10.BIN")
+    assert len(two) == 2
+    with_p = [vibration_only_verdict(f, profile)[0] for f in (two[0], two[1], ten, healthy)]
+    assert [v.status for v in with_p] == ["healthy", "damaged", "damaged", "healthy"]
+    assert all(v.motor is None for v in with_p)
+    assert "inspect all" in with_p[1].reason and "no motor outputs" in with_p[1].reason
+    without = [vibration_only_verdict(f)[0].status for f in (two[0], two[1], ten, healthy)]
+    assert without[0] == without[3] == "healthy" and without[1] in ("uncertain", "damaged") \
+        and without[2] in ("uncertain", "damaged")
+
+
+@needs_shared
+def test_octo_air_diagnose_exit_codes():
+    from flightlog_fd.diagnose import diagnose_path
+    from flightlog_fd.model import FaultModel, default_model_path
+
+    m = FaultModel(default_model_path())
+    d03 = diagnose_path(OCTO / "air_octo_03.BIN", m)
+    assert d03.exit_code == 1 and "flight 2 of 2" in d03.verdict.reason and "flight 1 of 2" in d03.verdict.reason
+    assert diagnose_path(OCTO / "air_octo_14.BIN", m).exit_code == 0
+
+
+@pytest.mark.skipif(not UDESA.exists(), reason="../shared/real_vibration absent")
+def test_udesa_line_near_87_hz():
+    from flightlog_fd import load_flight
+
+    f = load_flight(UDESA)
+    assert f.motors is not None and f.motors.source.startswith("actuator_controls_0")
+    a = analyze_vibration(f)
+    assert a.line is not None and 84.0 < a.line.freq_hz < 90.0 and a.line.motor is not None
+    assert any("once-per-revolution" in n and "Hz" in n for n in a.notes)
+
+
+HEALTHY = sorted((SHARED / "real_healthy" / "logs").glob("*.BIN")) + \
+    sorted((SHARED / "real_damaged" / "rrc_straight").glob("good_prop*.BIN")) + \
+    sorted((SHARED / "crazypad_e9" / "ulog").glob("normal_flight*.ulg")) + \
+    [p for p in (SHARED / "real_logs" / "ardupilot").glob("erle_copter34_*.BIN")]
+
+
+@pytest.mark.skipif(not HEALTHY, reason="../shared absent")
+def test_no_false_alarm_on_real_healthy_flights():
+    from flightlog_fd import load_flight
+
+    for p in HEALTHY:
+        for f in split_flights(load_flight(p)):
+            a = analyze_vibration(f)
+            assert a.flight_llr is None or a.flight_llr < DAMAGED_LLR, (p.name, f.part, a.flight_llr)
+            if a.line is not None and a.line.motor is not None:
+                pytest.fail(f"{p.name}: a rotor line on a healthy flight ({a.notes})")
