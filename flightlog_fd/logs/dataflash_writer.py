@@ -44,6 +44,10 @@ rates or accelerations); column names and units follow ArduCopter >= 3.4:
   rpm/10 in a centi field, no FMTU). Offline samples (``online`` False) are not written (ArduPilot
   logs an ESC only when its telemetry updated). Without ``esc``: ``ESC`` (Instance, RPM) from
   ``esc_rpm``. ``XKF1`` (C=0, VN/VE/VD m/s) from ``velocity``.
+- From ``vibration``: ``VIBE`` (IMU, VibeX/Y/Z, Clip; ArduCopter 4.x) per IMU when its metrics are
+  ArduPilot's (a PX4 metric has another definition and is not written), ``ACC`` / ``GYR`` (I,
+  SampleUS, X/Y/Z) for every continuous raw stream other than the IMU message's; batch-sampler
+  streams are not written.
 
 Precision: float32 for rates, attitude, velocity, RATE and parameters; 1 µs for time; 1 µs of
 PWM (1/(max-min) of the signal); 0.01 rpm. ``truth`` is not written. Quad X and + and every
@@ -147,7 +151,11 @@ ESCN_RPM_DIVISOR = 1000.0
 #: The multipliers ArduPilot defines for the ids above (AP_Logger log_Multipliers).
 MULTIPLIER_VALUES = {"-": 0.0, "?": 1.0, "0": 1.0, "B": 1e-2, "C": 1e-3, "F": 1e-6}
 ESC_LAYOUT_NAMES = (*ESC_LAYOUTS, "escn")
-ALL_FORMATS = (FMT, PARM, MSG, FMTU, MULT, EV, IMU, ATT, RATE, RCOU, CTUN, ESC, XKF1)
+#: Vibration (ArduCopter 4.x): VIBE per IMU with its clipping count, raw IMU samples ACC / GYR.
+VIBE = _Format(150, "VIBE", "QBfffI", ("TimeUS", "IMU", "VibeX", "VibeY", "VibeZ", "Clip"))
+ACC = _Format(151, "ACC", "QBQfff", ("TimeUS", "I", "SampleUS", "AccX", "AccY", "AccZ"))
+GYR = _Format(152, "GYR", "QBQfff", ("TimeUS", "I", "SampleUS", "GyrX", "GyrY", "GyrZ"))
+ALL_FORMATS = (FMT, PARM, MSG, FMTU, MULT, EV, IMU, ATT, RATE, RCOU, CTUN, ESC, XKF1, VIBE, ACC, GYR)
 
 
 @dataclass
@@ -362,6 +370,32 @@ def _esc_telemetry_blocks(flight: Flight, params: dict[str, float], n_motors: in
     return [fmtu, mult, esc]
 
 
+def _vibration_blocks(flight: Flight) -> list[_Block]:
+    """VIBE (ArduPilot metrics only) and ACC / GYR from ``flight.vibration``: every continuous raw
+    stream except the one the IMU message already carries (``rates`` / ``accel``)."""
+    v = flight.vibration
+    if v is None:
+        return []
+    out = []
+    if v.metric_kind == "ardupilot_vibe":
+        for inst, m in sorted(v.metrics.items()):
+            clip = v.clips.get(inst)
+            c = (np.interp(m.t, clip.t, clip.values[:, 0]) if clip is not None and len(clip)
+                 else np.zeros(len(m)))
+            out.append(_block(VIBE, _to_us(m.t), IMU=np.full(len(m), inst, dtype=np.uint8), VibeX=m.values[:, 0],
+                              VibeY=m.values[:, 1], VibeZ=m.values[:, 2], Clip=np.round(c).astype(np.uint32)))
+    for s in v.imus:
+        if s.batch or s.gyro is flight.rates or s.accel is flight.accel or s.source.startswith(("IMU", "sensor_combined")):
+            continue
+        for fmt, series, cols in ((ACC, s.accel, ("AccX", "AccY", "AccZ")), (GYR, s.gyro, ("GyrX", "GyrY", "GyrZ"))):
+            if series is None or not len(series):
+                continue
+            us = _to_us(series.t)
+            out.append(_block(fmt, us, I=np.full(len(series), s.instance, dtype=np.uint8), SampleUS=us,
+                              **{c: series.values[:, j] for j, c in enumerate(cols)}))
+    return out
+
+
 def sim_board_uid(vehicle_id: str) -> str:
     """The MSG board-UID line written for ``vehicle_id`` (itself when it already is one)."""
     if BOARD_UID_RE.match(vehicle_id):
@@ -464,6 +498,7 @@ def write_dataflash(flight: Flight, path, *, esc_layout: str = "esc_rawrpm") -> 
         data.append(_block(XKF1, _to_us(v.t), C=np.zeros(len(v), dtype=np.uint8),
                            VN=v.values[:, 0], VE=v.values[:, 1], VD=v.values[:, 2]))
     data.append(_event_block(flight))
+    data.extend(_vibration_blocks(flight))
     blocks = [b for b in data if b is not None]
     extra = [b.fmt for b in blocks if b.fmt not in ALL_FORMATS]
     used = [FMT] + [f for f in ALL_FORMATS[1:] if f in (PARM, MSG) or any(b.fmt is f for b in blocks)] + \

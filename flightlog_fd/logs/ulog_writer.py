@@ -26,6 +26,10 @@ Topics written (PX4 field names; float32 as PX4 logs them):
 - ``vehicle_land_detected`` (``landed`` = not airborne) at ``LAND_DETECTED_RATE_HZ`` plus one at
   every change;
 - ``sensor_combined`` (``accelerometer_m_s2`` and ``gyro_rad`` interpolated to its times) if ``accel``;
+- from ``vibration``: ``vehicle_imu_status`` per IMU (multi_id = instance; accel / gyro vibration
+  metrics, coning, the clipping count in ``accel_clipping[0]``) when its metrics are PX4's (VIBE
+  has another definition and is not written), ``sensor_accel`` / ``sensor_gyro`` (x, y, z,
+  ``timestamp_sample``) for every continuous raw stream other than sensor_combined;
 - ``vehicle_local_position`` (``vx, vy, vz`` and ``x, y, z`` integrated from them) if ``velocity``;
 - ``esc_status`` from ``esc`` (per slot ``esc_index``: ``esc_rpm``, ``esc_current``,
   ``esc_voltage``, ``esc_temperature``, ``timestamp`` of the slot's last report,
@@ -117,6 +121,14 @@ FORMATS: dict[str, list[tuple[str, str, int]]] = {
                                ("bool", "xy_valid", 0), ("bool", "z_valid", 0), ("bool", "v_xy_valid", 0),
                                ("bool", "v_z_valid", 0), ("float", "x", 0), ("float", "y", 0), ("float", "z", 0),
                                ("float", "vx", 0), ("float", "vy", 0), ("float", "vz", 0)],
+    "vehicle_imu_status": [("uint64_t", "timestamp", 0), ("uint32_t", "accel_device_id", 0),
+                           ("uint32_t", "gyro_device_id", 0), ("uint32_t", "accel_clipping", 3),
+                           ("float", "accel_vibration_metric", 0), ("float", "gyro_vibration_metric", 0),
+                           ("float", "gyro_coning_vibration", 0)],
+    "sensor_accel": [("uint64_t", "timestamp", 0), ("uint64_t", "timestamp_sample", 0), ("uint32_t", "device_id", 0),
+                     ("float", "x", 0), ("float", "y", 0), ("float", "z", 0)],
+    "sensor_gyro": [("uint64_t", "timestamp", 0), ("uint64_t", "timestamp_sample", 0), ("uint32_t", "device_id", 0),
+                    ("float", "x", 0), ("float", "y", 0), ("float", "z", 0)],
     "esc_report": [("uint64_t", "timestamp", 0), ("uint32_t", "esc_errorcount", 0), ("int32_t", "esc_rpm", 0),
                    ("float", "esc_voltage", 0), ("float", "esc_current", 0), ("float", "esc_temperature", 0),
                    ("uint8_t", "esc_address", 0), ("uint8_t", "esc_state", 0), ("uint8_t", "actuator_function", 0)],
@@ -129,7 +141,8 @@ ESC_REPORT_LEGACY = [f for f in FORMATS["esc_report"] if f[1] != "actuator_funct
 ESC_LAYOUTS = ("current", "legacy")
 #: Order of the data topics (also their msg_id order).
 DATA_TOPICS = ("vehicle_status", "vehicle_land_detected", "vehicle_angular_velocity", "vehicle_attitude",
-               "actuator_motors", "actuator_outputs", "vehicle_local_position", "esc_status", "sensor_combined")
+               "actuator_motors", "actuator_outputs", "vehicle_local_position", "esc_status", "sensor_combined",
+               "vehicle_imu_status", "sensor_accel", "sensor_gyro")
 
 
 # ---------------------------------------------------------------- thrust model (PX4 FunctionMotors)
@@ -211,6 +224,7 @@ class _TopicData:
     name: str
     timestamp_us: np.ndarray
     values: dict[str, np.ndarray] = field(default_factory=dict)
+    instance: int = 0  # the subscription's multi_id
 
     def records(self, msg_id: int, formats: Optional[dict] = None) -> np.ndarray:
         """(n, message size) uint8: each row one complete 'D' message."""
@@ -424,6 +438,39 @@ def _topics(flight: Flight, esc_layout: str = "current") -> list[_TopicData]:
             vals[f"esc[{i}].esc_rpm"] = np.round(e.values[:, i]).astype(np.int64)
             vals[f"esc[{i}].actuator_function"] = OUTPUT_FUNCTION_MOTOR1 + i
         out.append(_TopicData("esc_status", us, vals))
+    out.extend(_vibration_topics(flight))
+    return out
+
+
+def _vibration_topics(flight: Flight) -> list[_TopicData]:
+    """vehicle_imu_status (PX4 metrics only) and sensor_accel / sensor_gyro from ``flight.vibration``:
+    every continuous raw stream except sensor_combined (written from ``accel`` and ``rates``)."""
+    v = flight.vibration
+    if v is None:
+        return []
+    out = []
+    if v.metric_kind == "px4_imu_status":
+        for inst, m in sorted(v.metrics.items()):
+            clip = v.clips.get(inst)
+            c = (np.interp(m.t, clip.t, clip.values[:, 0]) if clip is not None and len(clip)
+                 else np.zeros(len(m)))
+            vals = np.nan_to_num(m.values[:, :3], nan=0.0) if m.values.shape[1] >= 3 else np.column_stack(
+                [m.values[:, 0], np.zeros((len(m), 2))])
+            out.append(_TopicData("vehicle_imu_status", _us(m.t), {
+                "accel_device_id": 1 + inst, "gyro_device_id": 1 + inst,
+                "accel_clipping[0]": np.round(c).astype(np.int64),
+                "accel_vibration_metric": vals[:, 0], "gyro_vibration_metric": vals[:, 1],
+                "gyro_coning_vibration": vals[:, 2]}, instance=inst))
+    for s in v.imus:
+        if s.batch or s.gyro is flight.rates or s.accel is flight.accel or s.source.startswith(("IMU", "sensor_combined")):
+            continue
+        for topic, series in (("sensor_accel", s.accel), ("sensor_gyro", s.gyro)):
+            if series is None or not len(series):
+                continue
+            us = _us(series.t)
+            out.append(_TopicData(topic, us, {"timestamp_sample": us, "device_id": 1 + s.instance,
+                                              **{c: series.values[:, j] for j, c in enumerate("xyz")}},
+                                  instance=s.instance))
     return out
 
 
@@ -515,9 +562,9 @@ def write_ulog(flight: Flight, path, *, hardware: str = DEFAULT_HARDWARE, esc_la
         head += _info(key, value)
     for name, value in _params(flight).items():
         head += _param(name, value)
-    order = sorted(topics, key=lambda tp: DATA_TOPICS.index(tp.name))
+    order = sorted(topics, key=lambda tp: (DATA_TOPICS.index(tp.name), tp.instance))
     for msg_id, tp in enumerate(order):
-        head += _message(MSG_ADD_LOGGED, struct.pack("<BH", 0, msg_id) + tp.name.encode("ascii"))
+        head += _message(MSG_ADD_LOGGED, struct.pack("<BH", tp.instance, msg_id) + tp.name.encode("ascii"))
 
     # every topic's rows as bytes, then one gather in (timestamp, topic) order
     blocks = [tp.records(msg_id, formats) for msg_id, tp in enumerate(order)]

@@ -32,6 +32,15 @@ Arguments (all keyword except ``n``):
   load-dependent motor model and each Flight carries ``esc`` (per-motor RPM, current, voltage,
   temperature; sim/esc.py) and ``truth["esc"]``. Drawn from its own generator: the other draws
   of a seed do not change.
+- ``prop_imbalance``: None (no propeller vibration model: the flights are as before),
+  ``"residual"`` (every propeller keeps its healthy residual imbalance and the airframe its
+  broadband vibration floor), one :class:`~flightlog_fd.sim.prop_vibration.PropImbalance` for
+  all or a list of n (mass m·r and/or aerodynamic imbalance per rotor on top of the residual):
+  once-per-revolution lines at each rotor's speed in the logged IMU, ``Flight.vibration``
+  (ArduPilot ``VIBE`` / PX4 ``vehicle_imu_status``) and ``truth["prop_imbalance"]``
+  (sim/prop_vibration.py); ``imu_rate_hz`` adds raw IMU samples at that rate (ArduPilot
+  ACC/GYR, PX4 sensor_accel/sensor_gyro). Drawn from generators of their own: the other draws
+  of a seed do not change, nor do the flown trajectories.
 
 Cost: one batch of N vehicles costs about as much as a handful of single flights (all array
 operations), so call it with a few hundred vehicles at a time for datasets (profile "training").
@@ -52,6 +61,7 @@ from flightlog_fd.sim.esc import MAX_RECORD_HZ, EscParams, EscSpec, MotorArrays,
 from flightlog_fd.sim.imbalance import AirframeImbalance, ImbalanceArrays, ImbalanceSpec, resolve_imbalances
 from flightlog_fd.sim.logger import LogProfile, build_flights, get_profile
 from flightlog_fd.sim.missions import MissionPlan, plan_missions
+from flightlog_fd.sim.prop_vibration import PropSpec, add_vibration, resolve as resolve_props
 from flightlog_fd.sim.sensors import SensorParams
 from flightlog_fd.sim.unbalance import RhoSpec, check_mode, resolve_rho
 
@@ -78,6 +88,10 @@ class SimBatch:
     seed: int
     imbalances: Optional[list[AirframeImbalance]] = None
     esc: Optional[list[EscParams]] = None
+    #: propeller vibration model (sim/prop_vibration.py), None when off; may be replaced before
+    #: flights_from_batch to give the same flown batch other propellers
+    prop_imbalance: PropSpec = None
+    imu_rate_hz: Optional[float] = None
 
 
 def _resolve_airframes(n: int, airframes: AirframeSpec, rng: np.random.Generator) -> list[Airframe]:
@@ -115,7 +129,8 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
                    extra_streams: Optional[dict[str, int]] = None, imbalance: ImbalanceSpec = None,
                    mild_fraction: float = 0.0,
                    torque_exponent_range: Optional[tuple[float, float]] = None, noise: str = "default",
-                   accelerometer: bool = True, esc: EscSpec = None) -> SimBatch:
+                   accelerometer: bool = True, esc: EscSpec = None, prop_imbalance: PropSpec = None,
+                   imu_rate_hz: Optional[float] = None) -> SimBatch:
     """Fly the batch and keep the raw recording (see :func:`simulate_flights` for the arguments).
 
     ``extra_streams`` maps engine stream names (engine.STREAM_FIELDS, e.g. ``"w_com"``, ``"pos"``)
@@ -149,12 +164,17 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
         k = int(np.ceil(prof.sim_rate_hz / MAX_RECORD_HZ))
         dec.setdefault("w", k)
         dec.setdefault("torque", dec["w"])
+    if prop_imbalance is not None:  # the rotor phases, rates and specific force at every step
+        if not accelerometer:
+            raise ValueError("prop_imbalance needs the accelerometer")
+        dec.update(w_fine=1, omega_fine=1, sforce=1)
     t_max = float(plan.estimated_s.max()) * OVERTIME_FACTOR + OVERTIME_S
     imb_arr = None if imbalance is None else ImbalanceArrays.build(imbs)
     res = run_batch(afs, plan, dmg_arr, rho_arr, rho_mode, sens, 1.0 / prof.sim_rate_hz, dec, t_max, rng,
                     imbalance=imb_arr, motor_model=None if escs is None else MotorArrays.build(escs, afs))
     return SimBatch(airframes=afs, damages=dmg, rho=rho_arr, rho_mode=rho_mode, plan=plan, sensors=sens,
-                    profile=prof, result=res, seed=seed, imbalances=imbs, esc=escs)
+                    profile=prof, result=res, seed=seed, imbalances=imbs, esc=escs, prop_imbalance=prop_imbalance,
+                    imu_rate_hz=imu_rate_hz)
 
 
 def flights_from_batch(batch: SimBatch) -> list[Flight]:
@@ -175,6 +195,16 @@ def flights_from_batch(batch: SimBatch) -> list[Flight]:
                                    res.data["torque"][:, i].astype(np.float64), p, offset, fl.t_end - offset,
                                    esc_rng, jitter_frac=batch.profile.jitter_frac)
             fl.truth["esc"] = p.to_dict()
+    if batch.prop_imbalance is not None:
+        if "w_fine" not in batch.result.data:
+            raise ValueError("this batch was flown without the propeller vibration model (prop_imbalance=None)")
+        props = resolve_props(batch.prop_imbalance, batch.airframes, batch.seed, batch.sensors.realism)
+        sp, prof = batch.sensors, batch.profile
+        for i, (fl, af, pv) in enumerate(zip(flights, batch.airframes, props)):
+            add_vibration(fl, af, pv, batch.result, i, autopilot=prof.autopilot, rates_hz=prof.rates_hz,
+                          gyro_density=float(sp.gyro_noise_density[i]), gyro_bias=sp.gyro_bias[i],
+                          gyro_cutoff_hz=float(sp.gyro_cutoff_hz[i]), imu_rate_hz=batch.imu_rate_hz,
+                          rng=np.random.default_rng([batch.seed, 10, i]))
     return flights
 
 
@@ -186,12 +216,13 @@ def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageS
                      midflight_fraction: float = MIDFLIGHT_FRACTION, imbalance: ImbalanceSpec = None,
                      mild_fraction: float = 0.0,
                      torque_exponent_range: Optional[tuple[float, float]] = None,
-                     noise: str = "default", accelerometer: bool = True, esc: EscSpec = None) -> list[Flight]:
+                     noise: str = "default", accelerometer: bool = True, esc: EscSpec = None,
+                     prop_imbalance: PropSpec = None, imu_rate_hz: Optional[float] = None) -> list[Flight]:
     """Simulate ``n`` flights and return them as parsed-log `Flight` objects (see module docstring)."""
     batch = simulate_batch(n, airframes=airframes, damages=damages, mission=mission, duration_s=duration_s,
                            profile=profile, rho=rho, rho_mode=rho_mode, seed=seed, realism=realism,
                            vibration_gain=vibration_gain, healthy_fraction=healthy_fraction, eta_range=eta_range,
                            midflight_fraction=midflight_fraction, imbalance=imbalance, mild_fraction=mild_fraction,
                            torque_exponent_range=torque_exponent_range, noise=noise, accelerometer=accelerometer,
-                           esc=esc)
+                           esc=esc, prop_imbalance=prop_imbalance, imu_rate_hz=imu_rate_hz)
     return flights_from_batch(batch)

@@ -17,7 +17,10 @@ Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``
 (estimated quaternion), ``motors`` (thrust setpoints u), ``velocity`` (estimated NED m/s),
 ``accel`` (accelerometer: body specific force + bias + noise, m/s² FRD), ``w_com`` (commanded rotor speed rad/s), ``w`` (actual rotor speed), ``pos`` (true NED m),
 ``thrust`` (per-rotor thrust N, of the step before), ``omega`` (true body rates rad/s), ``eta`` (rotor efficiency),
-``torque`` (each propeller's drag torque N·m, what its motor delivers: ESC current, sim/esc.py).
+``torque`` (each propeller's drag torque N·m, what its motor delivers: ESC current, sim/esc.py);
+``sforce`` (noise-free body specific force m/s², FRD), ``omega_fine`` and ``w_fine`` (true body rates
+and rotor speeds, under names of their own so that sim/prop_vibration.py can record them at every
+step without changing the decimation other users give ``omega`` / ``w``).
 
 ``motor_model`` (sim/esc.py ``MotorArrays``): rotor speeds follow the load-dependent motor model
 (a lighter propeller spins faster at the same command) instead of reaching the commanded speed.
@@ -41,9 +44,10 @@ from flightlog_fd.sim.sensors import SensorParams, Sensors
 from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_effectiveness
 
 STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "accel": 3, "w_com": 4, "w": 4,
-                 "pos": 3, "thrust": 4, "omega": 3, "eta": 4, "torque": 4}
+                 "pos": 3, "thrust": 4, "omega": 3, "eta": 4, "torque": 4,
+                 "sforce": 3, "omega_fine": 3, "w_fine": 4}
 #: Streams with one column per rotor (STREAM_FIELDS gives a quad's 4; a hexa records 6).
-ROTOR_STREAMS = ("motors", "w_com", "w", "thrust", "eta", "torque")
+ROTOR_STREAMS = ("motors", "w_com", "w", "thrust", "eta", "torque", "w_fine")
 #: Simulated time kept after the last disarm (covers the logger's tail after disarming).
 DEFAULT_TAIL_S = 1.0
 
@@ -144,8 +148,12 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
                 v = state.w
             elif name == "pos":
                 v = state.pos
-            elif name == "omega":
+            elif name in ("omega", "omega_fine"):
                 v = state.omega
+            elif name == "w_fine":
+                v = state.w
+            elif name == "sforce":  # specific force of the previous step, noise-free
+                v = dyn.specific_force
             elif name == "eta":
                 v = eta
             elif name == "torque":
