@@ -419,8 +419,15 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
                       frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
                       duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
                       rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
-                      esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None) -> list[tuple[Path, dict]]:
+                      esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
+                      imbalance: Optional[list[str]] = None, imu_rate: Optional[float] = None,
+                      ) -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
+
+    ``imbalance``: ["MOTOR:G_MM"] propeller mass imbalance m·r in g·mm on that motor, or
+    ["MOTOR:aero=FRACTION"] a blade thrust difference (sim/prop_vibration.py); with it (or with
+    ``imu_rate``) every propeller also keeps its healthy residual imbalance, and the logs carry
+    VIBE / vehicle_imu_status; ``imu_rate`` (Hz) adds raw IMU samples (ACC/GYR, sensor_accel/gyro).
 
     ``esc_rate`` (Hz): add ESC telemetry (rpm, current, voltage, temperature per motor) at that
     rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
@@ -478,9 +485,11 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
     eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
     damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
+    props = parse_imbalance(out, imbalance, rotors, imu_rate) if (imbalance or imu_rate) else None
     flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
                                duration_s=duration, profile=profile_name, rho=rho, seed=seed,
-                               esc=esc_rate, imbalance="random" if esc_rate else None)
+                               esc=esc_rate, imbalance="random" if esc_rate else None,
+                               prop_imbalance=props, imu_rate_hz=imu_rate)
     if count > 1:
         out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -501,6 +510,33 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
                 w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("onset_s"),
                             (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed")])
     return written
+
+
+def parse_imbalance(out: Path, items: Optional[list[str]], rotors: int, imu_rate: Optional[float]):
+    """``--imbalance`` values ("MOTOR:G_MM" or "MOTOR:aero=FRACTION", repeatable) as a PropImbalance."""
+    from .sim.prop_vibration import IMU_RATES_HZ, PropImbalance
+
+    if imu_rate is not None and imu_rate not in IMU_RATES_HZ:
+        raise FlightLogError(out, f"--imu-rate must be one of {', '.join(f'{r:g}' for r in IMU_RATES_HZ)} Hz, "
+                                  f"got {imu_rate:g}")
+    mass, aero = [0.0] * rotors, [0.0] * rotors
+    for item in items or []:
+        try:
+            k_text, size = item.split(":", 1)
+            k = int(k_text)
+            is_aero = size.startswith("aero=")
+            value = float(size[5:] if is_aero else size)
+        except ValueError:
+            raise FlightLogError(out, f"--imbalance must be MOTOR:G_MM or MOTOR:aero=FRACTION, got {item!r}") from None
+        if not 1 <= k <= rotors:
+            raise FlightLogError(out, f"--imbalance motor must be 1..{rotors}, got {k}")
+        if is_aero and not 0.0 <= value < 1.0 or not is_aero and not 0.0 <= value <= 10000.0:
+            raise FlightLogError(out, f"--imbalance {item!r}: mass 0..10000 g·mm, aero 0..1")
+        if is_aero:
+            aero[k - 1] += value
+        else:
+            mass[k - 1] += value * 1e-6  # g·mm -> kg·m
+    return PropImbalance(tuple(mass), tuple(aero))
 
 
 @app.command()
@@ -526,6 +562,12 @@ def simulate(
     vehicle_id: Optional[str] = typer.Option(None, "--vehicle-id", help="The vehicle id written into the log "
                                              "(default sim-SEED-i): give two flights of one simulated airframe the "
                                              "same id, as a real vehicle's logs have."),
+    imbalance: Optional[list[str]] = typer.Option(None, "--imbalance", help="Propeller imbalance MOTOR:G_MM (mass "
+                                                  "imbalance m·r in g·mm, e.g. 2:30) or MOTOR:aero=FRACTION (blade "
+                                                  "thrust difference); repeatable. Adds a once-per-revolution "
+                                                  "vibration and the logs' vibration metrics (VIBE, vehicle_imu_status)."),
+    imu_rate: Optional[float] = typer.Option(None, "--imu-rate", help="Also log raw IMU samples at this rate (Hz, "
+                                             "100-1000: ArduPilot ACC/GYR, PX4 sensor_accel/sensor_gyro)."),
 ) -> None:
     """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
     rho_list = None
@@ -540,7 +582,8 @@ def simulate(
     try:
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
                                     onset=onset, duration=duration, mission=mission, log_profile=log_profile,
-                                    rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id)
+                                    rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id,
+                                    imbalance=imbalance, imu_rate=imu_rate)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -550,6 +593,11 @@ def simulate(
     console = _console()
     for p, t in written:
         what = "healthy" if not t.get("motor") else f"propeller {t['motor']} damaged (eta {t['eta']:.2f})"
+        added = (t.get("prop_imbalance") or {})
+        unbalanced = [f"{k + 1}: {m * 1e6:g} g·mm" for k, m in enumerate(added.get("added_mass_kgm", [])) if m > 0]
+        unbalanced += [f"{k + 1}: aero {a:g}" for k, a in enumerate(added.get("added_aero", [])) if a > 0]
+        if unbalanced:
+            what += "; propeller imbalance " + ", ".join(unbalanced)
         console.print(f"wrote {p}: {what}", markup=False)
 
 
