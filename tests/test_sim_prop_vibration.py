@@ -172,3 +172,25 @@ def test_written_and_read_back_gives_the_same_vibration(unbalanced_flights, fmt,
     assert (x.flight_llr is None) == (y.flight_llr is None)
     if x.flight_llr is not None:
         assert y.flight_llr == pytest.approx(x.flight_llr, abs=0.05)
+
+
+def test_cli_simulate_imbalance_is_deterministic_and_checks_its_input(tmp_path):
+    from typer.testing import CliRunner
+
+    from flightlog_fd.cli import app
+
+    runner = CliRunner()
+    args = ["simulate", "-f", "dataflash", "--log-profile", "ardupilot", "--airframe", "f450", "--duration", "20",
+            "--mission", "hover", "--imbalance", "2:30", "--imu-rate", "500", "--seed", "4"]
+    outs = []
+    for name in ("a.bin", "b.bin"):
+        r = runner.invoke(app, args + ["-o", str(tmp_path / name)])
+        assert r.exit_code == 0, r.output
+        assert "propeller imbalance 2: 30 g·mm" in r.output
+        outs.append((tmp_path / name).read_bytes())
+    assert outs[0] == outs[1]
+    f = load_flight(tmp_path / "a.bin")
+    assert f.vibration.metric_kind == "ardupilot_vibe" and f.vibration.fastest("gyro").gyro.rate_hz == pytest.approx(500, rel=0.01)
+    for bad in (["--imbalance", "5:30"], ["--imbalance", "2:x"], ["--imu-rate", "300"]):
+        r = runner.invoke(app, ["simulate", "-o", str(tmp_path / "c.bin"), "-f", "dataflash"] + bad)
+        assert r.exit_code == 2 and "Traceback" not in r.output
