@@ -116,6 +116,18 @@ def test_udesa_line_near_87_hz():
     a = analyze_vibration(f)
     assert a.line is not None and 84.0 < a.line.freq_hz < 90.0 and a.line.motor is not None
     assert any("once-per-revolution" in n and "Hz" in n for n in a.notes)
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+
+    v = diagnose_flight(f, resolve_model(), keep_flight=False).verdict  # the tied line keeps the level's weight
+    assert v.status == "uncertain" and "87." in v.reason
+
+
+def test_tied_line_keeps_the_flight_level_finding():
+    from flightlog_fd.analyzers.vibration import result_from
+
+    a = analyze_vibration(_synthetic(5 * HEALTHY_LEVEL_REF, line_motor=2))
+    r = result_from(a, 4)
+    assert a.line.motor == 2 and r.extra["flight_llr"] == a.flight_llr > 3.5
 
 
 HEALTHY = sorted((SHARED / "real_healthy" / "logs").glob("*.BIN")) + \

@@ -26,8 +26,10 @@ with a profile, against this airframe's calibrated level and its flight-to-fligh
 10x, so a level alone is never "damaged" without the airframe's own baseline). When the line is
 tied to a rotor, the per-motor LLR is ``flight_llr + log(n·p_k)`` with ``p_k`` the tie's posterior
 (under healthy the strongest residual line belongs to any rotor; under "rotor k out of balance" to
-k), so the tie can add at most log n; else the flight-level finding goes to the decision via
-``AnalyzerResult.extra["flight_llr"]`` ("a propeller is out of balance; inspect all").
+k), so the tie can add at most log n. The flight-level finding also goes to the decision via
+``AnalyzerResult.extra["flight_llr"]`` ("a propeller is out of balance; inspect all"), tied or
+not: the per-motor sums add the other analyzers' evidence about thrust loss, which a mass
+imbalance does not cause, so a tied line must not weigh less than an untied one.
 
 Limits: needs ``MIN_AIRBORNE_S`` of airborne samples; a symmetric cut (both blades shortened)
 loses thrust without imbalance and does not raise vibration (rrc quad: 3.6-6.6 m/s/s against
@@ -473,7 +475,7 @@ def result_from(a: VibrationAnalysis, n: int) -> AnalyzerResult:
             out.append(Finding(ANALYZER_ID, k, "rotor_line", a.line.freq_hz if k == a.line.motor else None, "Hz",
                                None, None, "up", llr,
                                f"{a.line.freq_hz:.1f} Hz, p={p:.2f}" if k == a.line.motor else f"p={p:.2f}"))
-    extra = {"flight_llr": None if tied else a.flight_llr, "against": a.against,
+    extra = {"flight_llr": a.flight_llr, "against": a.against,
              "ratio": a.ratio, "level_words": level_words(a),
              "line_hz": None if a.line is None else a.line.freq_hz,
              "line_motor": None if a.line is None else a.line.motor}
