@@ -30,9 +30,8 @@ runner = CliRunner()
 
 
 def _sample_files() -> list[Path]:
-    """The quad samples (the hexa and octo ones are checked in tests/test_nrotor_models.py)."""
-    return sorted(p for p in SAMPLES.iterdir() if p.suffix in (".ulg", ".bin")
-                  and not any(k in p.name for k in ("_hexa_", "_octo_")))
+    """Every sample log: quads, hexa and octo."""
+    return sorted(p for p in SAMPLES.iterdir() if p.suffix in (".ulg", ".bin"))
 
 
 def _corrupt(tmp_path: Path) -> Path:

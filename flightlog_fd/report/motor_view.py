@@ -257,16 +257,17 @@ class MotorView:
         """Words for the baseline, e.g. "calibration" ("" without evidence)."""
         return BASELINE_WORDS.get(self.baseline, "")
 
-    def table(self, short_positions: bool = False) -> tuple[list[str], list[list[Cell]]]:
+    def table(self, narrow: bool = False) -> tuple[list[str], list[list[Cell]]]:
         """(header, rows of cells): motor, position, one column per finding column, weight. A
-        dash's cell carries its reason. Empty without rows."""
+        dash's cell carries its reason. ``narrow`` (an 80-column terminal): "#" for the motor's
+        head, "FR" for "front-right". Empty without rows."""
         if not self.rows:
             return [], []
-        header = ["motor", "pos" if short_positions else "position"] + [c.label for c in self.columns] + ["weight"]
+        header = ["#" if narrow else "motor", "pos" if narrow else "position"] + [c.label for c in self.columns] + ["weight"]
         out = []
         for r in self.rows:
             pos = r.position or DASH
-            cells = [Cell(str(r.motor)), Cell(short_position(pos) if short_positions and r.position else pos)]
+            cells = [Cell(str(r.motor)), Cell(short_position(pos) if narrow and r.position else pos)]
             for c in self.columns:
                 text = r.cells.get(c.key, DASH)
                 cells.append(Cell(text, c.abstained if text == DASH else None))

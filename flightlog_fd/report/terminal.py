@@ -150,7 +150,7 @@ def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table
     view = view or MotorView.of(diagnosis)
     t = Table(title=f"per-motor findings (commands against {view.against})", title_justify="left", box=None,
               padding=(0, 0, 0, 1), pad_edge=False, title_style="dim")
-    header, rows = view.table(short_positions=True)
+    header, rows = view.table(narrow=True)
     for h in header:
         t.add_column(h, justify="left" if h in ("pos", "share", "thrust %", "effect.") else "right", no_wrap=True)
     for row in rows:
