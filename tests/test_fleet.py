@@ -63,7 +63,7 @@ def test_dask_local_cluster_keeps_order_and_turns_a_corrupt_log_into_one_row(tmp
     assert bad.diagnosis.verdict.status == "not_diagnosable" and bad.diagnosis.exit_code == 2
     assert bad.diagnosis.verdict.reason and "\n" not in bad.diagnosis.verdict.reason
     good = [r for i, r in enumerate(results) if i != 3]
-    assert all(r.diagnosis.verdict.status in ("healthy", "damaged") for r in good)
+    assert all(r.diagnosis.verdict.status in ("healthy", "damaged", "uncertain") for r in good)  # hexa: uncertain
     # same verdicts as the in-process engine
     serial = run_batch(files, model, None)
     assert [(r.diagnosis.verdict.status, r.diagnosis.verdict.motor) for r in serial] == \
