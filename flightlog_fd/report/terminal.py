@@ -139,11 +139,6 @@ def facts_line(diagnosis: Diagnosis) -> str:
     return " | ".join(parts)
 
 
-def analyzer_notes(diagnosis: Diagnosis) -> list[str]:
-    """One line per analyzer that abstained (why) and per note an analyzer left."""
-    return MotorView.of(diagnosis).notes
-
-
 def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table:
     """Per-motor findings table: what the verdict rests on, in numbers a pilot can check. A dash's
     reason is among the notes under it."""
