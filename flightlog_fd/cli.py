@@ -122,7 +122,7 @@ def diagnose(
     logs: List[Path] = typer.Argument(..., help="Log files (.ulg / .bin) or folders of them."),
     profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate` (its adapted model is used)."),
     model: Optional[Path] = typer.Option(None, "--model", "-m", help="ONNX model to use instead of the profile's or the shipped one."),
-    as_json: bool = typer.Option(False, "--json", help="Print the versioned JSON report (schema 3, see flightlog_fd/report/json_report.py) instead of text."),
+    as_json: bool = typer.Option(False, "--json", help="Print the versioned JSON report (its schema: flightlog_fd/report/json_report.py) instead of text."),
     csv_out: Optional[Path] = typer.Option(None, "--csv", help="Write the per-window timeline of every log to this CSV file."),
     html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),

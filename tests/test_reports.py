@@ -12,7 +12,7 @@ from rich.console import Console
 
 from flightlog_fd.diagnose import Diagnosis, FlightFacts, ModelInfo, WindowResult
 from flightlog_fd.flight import Flight, Frame, Series
-from flightlog_fd.report.csv_report import CSV_COLUMNS, render_csv, write_csv
+from flightlog_fd.report.csv_report import csv_columns, render_csv, write_csv
 from flightlog_fd.report.html_report import decimate, nice_ticks, render_html, write_html
 from flightlog_fd.report.json_report import JSON_SCHEMA, render_json, to_dict, validate
 from flightlog_fd.report.terminal import render, summary_table, timeline_strip, verdict_sentence
@@ -55,7 +55,7 @@ def test_json_validates_and_holds_the_verdict():
     d = make_diagnosis()
     doc = json.loads(render_json(d))
     assert validate(doc) == []
-    assert doc["schema"] == 3 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["schema"] == 4 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
     assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
     assert doc["verdict"]["position"] == "front-left"
     assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
@@ -85,7 +85,7 @@ def test_validator_catches_schema_violations():
     assert any("verdict.status" in e for e in errors)
     assert any("windows[0].probabilities" in e for e in errors)
     assert any("missing 'warnings'" in e for e in errors)
-    assert JSON_SCHEMA["properties"]["schema"]["const"] == 3
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 4
 
 
 # ---------------------------------------------------------------- CSV
@@ -93,7 +93,9 @@ def test_validator_catches_schema_violations():
 def test_csv_columns_and_rows(tmp_path):
     d = make_diagnosis()
     rows = list(csv.DictReader(io.StringIO(render_csv([d, bad_file_diagnosis()]))))
-    assert tuple(rows[0].keys()) == CSV_COLUMNS
+    assert tuple(rows[0].keys()) == csv_columns(d)
+    assert tuple(rows[0].keys())[:9] == ("log", "t_start", "t_end", "class", "p_healthy", "p_motor1", "p_motor2",
+                                         "p_motor3", "p_motor4")
     assert len(rows) == len(d.windows)  # the bad file adds no rows
     first, last = rows[0], rows[-1]
     assert first["class"] == "0" and last["class"] == "3" and last["smoothed_class"] == "3"
@@ -101,7 +103,7 @@ def test_csv_columns_and_rows(tmp_path):
     assert float(first["p_healthy"]) > 0.8 and last["verdict"] == "damaged"
     out = tmp_path / "w.csv"
     write_csv(d, out)
-    assert out.read_text(encoding="utf-8").splitlines()[0] == ",".join(CSV_COLUMNS)
+    assert out.read_text(encoding="utf-8").splitlines()[0] == ",".join(csv_columns(d))
 
 
 # ---------------------------------------------------------------- HTML

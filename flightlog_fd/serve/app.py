@@ -38,6 +38,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from .. import __version__
 from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS
 from ..errors import FlightLogError
+from ..report.motor_view import MotorView, summary_cell, summary_header
 from .security import SESSION_COOKIE, Sessions, TokenSet, bearer
 from .store import ServeStore
 from .worker import DataDir, JobRunner, diagnose_task
@@ -148,6 +149,7 @@ def create_app(cfg: ServeConfig):
     env = Environment(loader=FileSystemLoader(str(HERE / "templates")), autoescape=True)
     env.filters["fmt"] = fmt_number
     env.filters["q"] = lambda s: quote(str(s), safe="")
+    env.globals.update(summary_header=summary_header, summary_cell=summary_cell)  # the per-motor summary names
 
     @asynccontextmanager
     async def lifespan(app):
@@ -466,16 +468,13 @@ def create_app(cfg: ServeConfig):
         f = get_flight(fid)
         doc = json.loads(f["diagnosis_json"]) if f["diagnosis_json"] else None
         plot = json.loads(f["plot_json"]) if f["plot_json"] else None
-        motor_cols: list[str] = []
-        for m in (doc or {}).get("motors") or []:
-            for k in m:
-                if k not in motor_cols:
-                    motor_cols.append(k)
+        mview = MotorView.from_doc(doc or {})
+        mheader, mrows = mview.table()
         windows = [{"t0": w.get("t_start"), "t1": w.get("t_end"), "p": w.get("probabilities") or [],
                     "label": w.get("smoothed_class")} for w in (doc or {}).get("windows") or []
                    if isinstance(w, dict) and w.get("t_start") is not None]
         airframe = store.resolve(f["airframe"]) if f["airframe"] else None
-        return page(request, "flight.html", f=f, doc=doc, motor_cols=motor_cols,
+        return page(request, "flight.html", f=f, doc=doc, mview=mview, mheader=mheader, mrows=mrows,
                     plotdata={"plot": plot, "windows": windows}, airframe=airframe,
                     has_html=data.report_path(f["sha256"], "html").exists(),
                     has_csv=data.report_path(f["sha256"], "csv").exists())

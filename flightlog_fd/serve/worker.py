@@ -122,7 +122,13 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
         d.facts.path = name
     rd = Path(reports_dir)
     rd.mkdir(parents=True, exist_ok=True)
-    for ext, text in (("html", render_html(d)), ("csv", render_csv(d))):
+    for ext, render in (("html", render_html), ("csv", render_csv)):
+        try:
+            text = render(d)
+        except Exception as e:  # a report's bug costs that file, said on the flight's page, not the diagnosis
+            first = (str(e).strip().splitlines() or [""])[0][:200]
+            d.warnings.append(f"the {ext.upper()} report could not be drawn ({type(e).__name__}: {first})")
+            continue
         tmp = rd / f"{sha256}.{ext}.{os.getpid()}.part"
         tmp.write_text(text, encoding="utf-8")
         os.replace(tmp, rd / f"{sha256}.{ext}")
