@@ -735,7 +735,10 @@ def _record_of(f: dict, source: str) -> FlightRecord:
 
 
 def drift_of(key: str, flights: list[dict]) -> list:
-    """The drift rule over this airframe's diagnosed flights (the same rule as `fdlog history`)."""
+    """The drift rule over this airframe's diagnosed flights (the same rule as `fdlog history`;
+    none for ``unknown``, which is not one airframe)."""
+    if key == UNKNOWN_VEHICLE:
+        return []
     return find_drift(key, [_record_of(f, "") for f in flights if f["state"] == "done" and f["motors"]])
 
 
