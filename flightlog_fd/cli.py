@@ -128,7 +128,7 @@ def diagnose(
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
     jobs: Optional[int] = typer.Option(None, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes (with --scheduler local: the number of Dask workers, default one per core)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd[fleet])."),
-    db: Optional[Path] = typer.Option(None, "--db", help="Append every diagnosis to this SQLite results store (see `fdlog history`)."),
+    db: Optional[str] = typer.Option(None, "--db", help="Write every diagnosis to this store: a SQLite file or a postgresql:// URL (see `fdlog history`, `fdlog serve --db`)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
 ) -> None:
     """Diagnose logs: per-window timeline, flight verdict (healthy / propeller k damaged / uncertain) and reports.
@@ -166,10 +166,10 @@ def diagnose(
             raise typer.Exit(EXIT_INVALID)
     store = run_info = None
     if db is not None:
-        from .store import ResultStore, RunInfo
+        from .store import RunInfo, Store
 
         try:
-            store = ResultStore(db)
+            store = Store(db)
         except FlightLogError as e:
             _fail(e)
             raise typer.Exit(EXIT_INVALID)
@@ -186,7 +186,7 @@ def diagnose(
             # Runs in this process as each log finishes: the client writes the store, never a worker.
             if store is not None:
                 try:
-                    store.add(r, run_info)
+                    store.add_result(r, run_info)
                 except FlightLogError as e:
                     store_errors.append(str(e))
             bar.advance(task)
@@ -231,7 +231,7 @@ def diagnose(
 
 @app.command()
 def history(
-    db: Path = typer.Option(..., "--db", help="SQLite results store written by `fdlog diagnose --db`."),
+    db: str = typer.Option(..., "--db", help="The store written by `fdlog diagnose --db` or `fdlog serve` (SQLite file or postgresql:// URL)."),
     vehicle: Optional[str] = typer.Option(None, "--vehicle", help="Only this airframe (as history lists it)."),
     html_out: Optional[Path] = typer.Option(None, "--html", help="Also write a self-contained HTML page with a trend plot per airframe."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON for machines instead of text."),

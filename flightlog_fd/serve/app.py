@@ -1,7 +1,7 @@
 """The `fdlog serve` web application (FastAPI + Jinja2 templates, run by uvicorn).
 
 What: :func:`create_app` builds the ASGI app from a :class:`ServeConfig`: the store
-(:class:`~flightlog_fd.serve.store.ServeStore`, SQLite or PostgreSQL), the data folder, the job
+(:class:`~flightlog_fd.store.Store`, SQLite or PostgreSQL), the data folder, the job
 runner, the tokens. Pages: fleet (``/``), airframe (``/airframe?key=K``), flight
 (``/flights/ID``) with its JSON / CSV / HTML reports; API: ``POST /api/logs`` (multipart field
 ``log``), ``GET /api/logs/ID``, ``GET /api/logs``, ``GET /api/jobs/ID``.
@@ -39,8 +39,8 @@ from .. import __version__
 from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS
 from ..errors import FlightLogError
 from ..report.motor_view import MotorView, summary_cell, summary_header
+from ..store import TREND_FIGURES, Store
 from .security import SESSION_COOKIE, Sessions, TokenSet, bearer
-from .store import ServeStore
 from .worker import DataDir, JobRunner, diagnose_task
 
 HERE = Path(__file__).resolve().parent
@@ -72,9 +72,6 @@ SECURITY_HEADERS = {
     "X-Frame-Options": "DENY",
     "Referrer-Policy": "same-origin",
 }
-#: Per-motor trends on the airframe page: (JSON motor field, title). Missing fields are skipped.
-TRENDS = (("command_change", "command-share change"), ("severity", "severity: estimated remaining thrust η̂ (1 = healthy)"),
-          ("model_vote", "model vote"), ("effectiveness", "effectiveness"))
 
 
 @dataclass
@@ -119,7 +116,7 @@ def fmt_number(x: Any, decimals: int = 3) -> str:
     return f"{x:.{decimals}f}"
 
 
-def ingest_file(store: ServeStore, data: DataDir, path) -> tuple[int, bool]:
+def ingest_file(store: Store, data: DataDir, path) -> tuple[int, bool]:
     """Queue a local log file as if uploaded (`fdlog serve LOGS`): copied by content hash.
     Raises FlightLogError for a file that is not a log."""
     import shutil
@@ -142,7 +139,7 @@ def ingest_file(store: ServeStore, data: DataDir, path) -> tuple[int, bool]:
 def create_app(cfg: ServeConfig):
     """The ASGI app; the job runner starts and stops with the app's lifespan."""
     data = DataDir(cfg.data_dir)
-    store = ServeStore(cfg.db or str(data.root / "fdlog.sqlite"))
+    store = Store(cfg.db or str(data.root / "fdlog.sqlite"))
     kw = {"job_timeout_s": cfg.job_timeout_s} if cfg.job_timeout_s else {}
     runner = JobRunner(store, data, workers=cfg.workers, scheduler=cfg.scheduler, diagnose_fn=cfg.diagnose_fn, **kw)
     sessions = Sessions()
@@ -359,8 +356,7 @@ def create_app(cfg: ServeConfig):
     @app.get("/api/logs")
     def api_logs(request: Request):
         require_view(request)
-        rows = store.db.query("SELECT id, name, sha256, state, status, motor, airframe, uploaded_at FROM flight ORDER BY id")
-        return JSONResponse({"logs": rows, "jobs": store.job_counts()})
+        return JSONResponse({"logs": store.logs(), "jobs": store.job_counts()})
 
     @app.get("/api/jobs/{jid}")
     def api_job(jid: int, request: Request):
@@ -374,7 +370,7 @@ def create_app(cfg: ServeConfig):
     @app.get("/api/health")
     def api_health():
         return JSONResponse({"ok": True, "version": __version__, "jobs": store.job_counts(),
-                             "database": store.db.dialect})
+                             "database": store.dialect})
 
     # ------------------------------------------------------------------ sign-in
 
@@ -442,7 +438,7 @@ def create_app(cfg: ServeConfig):
         for i, f in enumerate(a["flights"], 1):
             trend["flights"].append({"n": i, "id": int(f["id"]), "name": f["name"], "status": f["status"] or f["state"]})
         n_motors = max([4] + [int(k) for f in a["flights"] for k in f["motors"]])  # hexa, octo: more
-        for fig, title in TRENDS:
+        for fig, title in TREND_FIGURES:
             lines = []
             for k in range(1, n_motors + 1):
                 ys = [(f["motors"].get(k) or {}).get(fig) for f in a["flights"]]
@@ -456,8 +452,7 @@ def create_app(cfg: ServeConfig):
             except (OSError, ValueError):
                 profile = {"error": "the profile file cannot be read"}
         others = [o for o in store.fleet() if o["key"] != key]
-        cal_jobs = [j for j in store.db.query("SELECT * FROM job WHERE kind = 'calibrate' AND airframe = ? ORDER BY id DESC",
-                                              (key,))]
+        cal_jobs = store.calibration_jobs(key)
         rule = {"min_flights": MIN_FLIGHTS, "slope": DRIFT_SLOPE_MIN, "z": DRIFT_Z_MIN, "floors": FIGURE_FLOORS}
         return page(request, "airframe.html", a=a, trend=trend, n_motors=n_motors, profile=profile, others=others, rule=rule,
                     cal_jobs=cal_jobs, adapt=cfg.calibrate_adapt)
