@@ -22,7 +22,7 @@ DEFAULT_CALIB = {"px4_sih_dev": "sih_004", "crazypad_e9": "normal_flight__E9_log
 
 def window_truth(lg, windows) -> np.ndarray:
     """Truth per diagnosed window (-1 for windows straddling a mid-flight onset)."""
-    from flightlog_fd.features import labels_for_spans
+    from flightlog_fd.windows import labels_for_spans
 
     return labels_for_spans(lg.truth, [w.t_start for w in windows], [w.t_end for w in windows])
 

@@ -94,7 +94,7 @@ def command_shares(flight) -> Optional[list[float]]:
     """Each motor's mean thrust command (thrust proxy) while airborne divided by the mean of the
     four (1 = an even share), the convention of :class:`flightlog_fd.evidence.MotorEvidence`."""
     from .evidence import command_shares as shares_of
-    from .features import flight_thrust_proxy
+    from .streams import flight_thrust_proxy
 
     m = flight.motors
     if m is None or m.values.shape[1] != 4 or len(m) == 0:

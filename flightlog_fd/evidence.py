@@ -1,7 +1,7 @@
 """Per-motor evidence a pilot can check, and whether it supports the model's verdict.
 
 Inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
-:attr:`flightlog_fd.features.Windows.segments`), the model's window probabilities, the rotor
+:attr:`flightlog_fd.windows.Windows.segments`), the model's window probabilities, the rotor
 layout, and optionally the calibration profile's healthy baseline.
 
 Per motor it gives:
@@ -13,7 +13,7 @@ Per motor it gives:
 - **command change**: with a profile, the share minus the profile's healthy baseline at this
   flight's throttle (:meth:`Baseline.share_at`); without one, the share minus the mean of the
   other three ("against its neighbours").
-- **effectiveness**: :mod:`flightlog_fd.effectiveness` (relative angular acceleration per unit
+- **effectiveness**: :mod:`flightlog_fd.analyzers.effectiveness_fit` (relative angular acceleration per unit
   command, with its bootstrap interval; ``informative`` says whether the flight manoeuvred enough).
 - **model vote**: the mean probability the model gave to "this motor's propeller is damaged".
 
@@ -35,8 +35,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .effectiveness import EffectivenessEstimate
-from .features import DEFAULT_RATE_HZ
+from .analyzers.effectiveness_fit import EffectivenessEstimate
+from .streams import DEFAULT_RATE_HZ
 from .flight import Frame
 
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.

@@ -4,7 +4,7 @@ The paper's "adjusted simulation model" needs, per motor, the unbalance ratio
 ``rho_i = mean w_i / mean w_1`` measured in steady hover of a HEALTHY flight of the real vehicle
 (a real quad never runs its four motors alike: CG offset, motor/ESC/propeller spread, yaw trim).
 Here ``w`` is the motor SPEED proxy, ``sqrt`` of the thrust proxy of
-:func:`flightlog_fd.features.thrust_proxy` (thrust ~ w^2), averaged over the steady-hover segments
+:func:`flightlog_fd.streams.thrust_proxy` (thrust ~ w^2), averaged over the steady-hover segments
 of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
 
 - :func:`estimate_imbalance` (flights -> :class:`ImbalanceEstimate`) uses, in this order, what
@@ -24,7 +24,7 @@ of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
 - :class:`Profile` is a versioned JSON file (``"schema"``: ``PROFILE_SCHEMA``): airframe identity (autopilot,
   frame name, firmware, vehicle_id, rotor count), the learned values (trailing underscore:
   ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
-  ``n_windows_``), the streams' rates, the :class:`~flightlog_fd.features.FeatureSpec` with the
+  ``n_windows_``), the streams' rates, the :class:`~flightlog_fd.windows.FeatureSpec` with the
   per-channel statistics of the healthy windows, the source logs (file name + sha256), creation
   time (UTC), tool version and an optional ``model`` entry (path of an ONNX file RELATIVE to the
   profile's folder + its sha256). Loading validates everything and raises
@@ -50,7 +50,8 @@ import numpy as np
 
 from .util import file_sha256  # noqa: F401  (part of this module's API)
 from .errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
-from .features import DEFAULT_RATE_HZ, FeatureSpec, make_windows
+from .streams import DEFAULT_RATE_HZ
+from .windows import FeatureSpec, make_windows
 from .flight import Flight
 from .hover import HOVER_MAX_RATE_RMS, HOVER_MAX_SPEED_M_S, HOVER_MIN_DURATION_S, HoverSegment, hover_seconds, hover_segments
 
@@ -105,7 +106,7 @@ class ImbalanceEstimate:
 def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
     """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
     airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
-    from .features import resample
+    from .prepared import resample
     from .hover import motor_count
 
     return [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ, n_motors=motor_count(fl))]

@@ -8,7 +8,7 @@ import pytest
 
 from flightlog_fd import load_flight
 from flightlog_fd.errors import ModelError, ProfileError, UnsupportedVehicleError
-from flightlog_fd.features import FeatureSpec, make_windows, nif_channels
+from flightlog_fd.windows import FeatureSpec, make_windows, nif_channels
 from flightlog_fd.model import FaultModel, classes_for, default_model_path, model_for_flight, shipped_model_path
 
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_logs"

@@ -35,7 +35,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec, make_windows
+from flightlog_fd.windows import FeatureSpec, make_windows
 from flightlog_fd.flight import Flight
 from flightlog_fd.profile import Profile
 
@@ -131,7 +131,7 @@ def attitude_time_constant(flight: Flight, rate_hz: float = 50.0) -> float:
     """Robust scale of roll/pitch rates over that of roll/pitch angular accelerations, seconds.
 
     A size-free signature of how fast the airframe's attitude moves (small quads are fast)."""
-    from flightlog_fd.features import resample
+    from flightlog_fd.prepared import resample
 
     segs = resample(flight, rate_hz)
     if not segs:

@@ -111,7 +111,7 @@ from typing import Iterable, Optional
 
 import numpy as np
 
-from . import read_head
+from .sniff import read_head
 from ..util import intersect_intervals
 from ..errors import CorruptLogError, NotALogError
 from ..flight import Flight, Frame, Rotor, Series, describe_dropped, implausible_times
