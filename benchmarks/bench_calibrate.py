@@ -36,7 +36,8 @@ def main() -> None:
 
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
     from flightlog_fd.profile import Profile
-    from flightlog_fd.training.adapt import AdaptSettings, calibrate
+    from flightlog_fd.calibration import calibrate
+    from flightlog_fd.training.adapt import AdaptSettings
     from flightlog_fd.training.targets import crazypad_logs, sih_logs
 
     from flightlog_fd.training.targets import available
@@ -50,7 +51,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "profile.json"
         t0 = time.perf_counter()
-        calibrate([cal.path], out, settings=AdaptSettings(seed=args.seed))
+        calibrate([cal.path], adapt=True, output=out, settings=AdaptSettings(seed=args.seed))
         t_cal = time.perf_counter() - t0
         profile = Profile.load(out)
         adapted = resolve_model(None, profile)

@@ -72,13 +72,13 @@ def _offsets(flights) -> np.ndarray:
 
 def _profile(name: str, logs: list[Path], profiles: Path | None, tmp: Path):
     from flightlog_fd.profile import Profile
-    from flightlog_fd.training.adapt import calibrate
+    from flightlog_fd.calibration import calibrate
 
     if profiles is not None and (profiles / f"{name}.json").exists():
         return Profile.load(profiles / f"{name}.json")
     out = (profiles if profiles is not None else tmp) / f"{name}.json"
     t0 = time.perf_counter()
-    calibrate(logs, out)
+    calibrate(logs, adapt=True, output=out)
     print(f"  calibrated {name} on {', '.join(p.name for p in logs)} in {time.perf_counter() - t0:.0f} s", flush=True)
     return Profile.load(out)
 

@@ -55,8 +55,6 @@ from .diagnose import Diagnosis, diagnose_flight
 from .errors import FlightLogError
 from .verdict import not_diagnosable
 
-#: Engine names, as benchmarks report them.
-ENGINES = ("serial", "processes", "dask")
 #: LocalCluster workers are processes (one thread each); tests may set False (threads start faster).
 LOCAL_CLUSTER_PROCESSES = True
 

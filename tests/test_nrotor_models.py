@@ -105,10 +105,10 @@ def test_n_rotor_profile(tmp_path):
         Profile.from_dict({**d, "rotor_count": 5})
     with pytest.raises(ProfileError):
         Profile.from_dict({**d, "rho_": d["rho_"][:4]})
-    from flightlog_fd.training.adapt import calibrate
+    from flightlog_fd.calibration import calibrate
 
     with pytest.raises(UnsupportedVehicleError, match="--no-adapt"):
-        calibrate([tmp_path / "o.ulg"], tmp_path / "o.json")
+        calibrate([tmp_path / "o.ulg"], adapt=True, output=tmp_path / "o.json")
 
 
 def test_model_card_quotes_the_n_rotor_figures():

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from ..errors import CorruptLogError, FlightLogError
 from ..flight import Flight, sanitise_flight
-from .sniff import DATAFLASH_FMT_ID, DATAFLASH_HEAD, ULOG_MAGIC, read_head, sniff_format  # noqa: F401  (the package's API)
+from .sniff import (DATAFLASH_FMT_ID, DATAFLASH_HEAD, ULOG_MAGIC, collect_logs, read_head,  # noqa: F401  (the package's API)
+                    sniff_format)
 
 def load_flight(path) -> Flight:
     """Read a log into a :class:`Flight`, choosing the parser by content, not extension.

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Iterable
 
 from ..errors import NotALogError
 
@@ -38,3 +39,27 @@ def sniff_format(path) -> str:
     if head.startswith(b"ULog"):
         return "ulog"  # unknown ULog version: let the reader say what is wrong
     raise NotALogError(path, "not a PX4 ULog or ArduPilot DataFlash log (unrecognised header)")
+
+
+def collect_logs(paths: Iterable[Path]) -> tuple[list[Path], list[str]]:
+    """Expand folders into the log files they hold (by content, not extension).
+
+    Returns (files, errors): a path that does not exist is an error; inside a folder, files that
+    are not logs (READMEs, CSVs...) are skipped silently.
+    """
+    files: list[Path] = []
+    errors: list[str] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            for f in sorted(x for x in p.rglob("*") if x.is_file()):
+                try:
+                    sniff_format(f)
+                except NotALogError:
+                    continue
+                files.append(f)
+            continue
+        if not p.exists():
+            errors.append(f"{p}: no such file")
+            continue
+        files.append(p)
+    return files, errors
