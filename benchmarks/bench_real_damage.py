@@ -176,12 +176,11 @@ def real_part(args) -> None:
 def spread_figures() -> None:
     """The measurements decision.py's constants cite."""
     from flightlog_fd import load_flight
-    from flightlog_fd.profile import airborne_thrust
-    from flightlog_fd.evidence import command_shares
+    from flightlog_fd.analyzers.share_fit import airborne_thrust, shares_of
     from flightlog_fd.training.targets import crazypad_logs, real_healthy_logs
 
     def shares(path):
-        return command_shares(airborne_thrust([load_flight(path)]))
+        return shares_of(airborne_thrust([load_flight(path)]))
 
     print("\n== spreads behind decision.py's constants ==")
     if (SHARED / "real_healthy").is_dir():

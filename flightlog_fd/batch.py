@@ -90,8 +90,8 @@ def error_result(index: int, path: str, reason: str) -> LogResult:
 
 def command_shares(flight) -> Optional[list[float]]:
     """Each motor's mean thrust command (thrust proxy) while airborne divided by the mean of the
-    four (1 = an even share), the convention of :class:`flightlog_fd.evidence.MotorEvidence`."""
-    from .evidence import command_shares as shares_of
+    four (1 = an even share), the convention of :class:`flightlog_fd.analyzers.share_fit.MotorEvidence`."""
+    from .analyzers.share_fit import shares_of
     from .streams import flight_thrust_proxy
 
     m = flight.motors

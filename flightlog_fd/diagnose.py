@@ -12,7 +12,7 @@ Steps (pure: nothing is printed, nothing imports torch):
    standardised with the model's statistics, then class probabilities from the ONNX model.
 4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's verdict from all
    windows (:mod:`flightlog_fd.verdict`).
-5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
+5. Per-motor evidence (:mod:`flightlog_fd.analyzers.share_fit`: command shares against the profile's
    baseline, the flight before an onset or an even split; :mod:`flightlog_fd.analyzers.effectiveness_fit`) from
    the same resampled segments as the windows, every registered analyzer's findings
    (:mod:`flightlog_fd.analyzers`), and the flight verdict, each motor's severity and weight from
@@ -139,7 +139,7 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     diagnosability_facts: dict = field(default_factory=dict)
     flight: Optional[Flight] = field(default=None, repr=False)
-    #: Per-motor evidence (:class:`flightlog_fd.evidence.FlightEvidence`); None when not diagnosable.
+    #: Per-motor evidence (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`); None when not diagnosable.
     evidence: Any = None
     #: The decision model's output (:class:`flightlog_fd.decision.Decision`: per-motor severity,
     #: LLR by source, weight); None when not diagnosable.
@@ -149,7 +149,7 @@ class Diagnosis:
 
     @property
     def motors(self) -> list:
-        """Per-motor figures (:class:`flightlog_fd.evidence.MotorEvidence`), [] without evidence."""
+        """Per-motor figures (:class:`flightlog_fd.analyzers.share_fit.MotorEvidence`), [] without evidence."""
         return list(self.evidence.motors) if self.evidence is not None else []
 
     @property
@@ -363,7 +363,7 @@ def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None
     windows' segments, the model's window probabilities and the profile's baseline, if any;
     ``since`` = a mid-flight damage onset; ``effectiveness`` = its estimate when already made
     (:func:`window_effectiveness`)."""
-    from .evidence import build_evidence
+    from .analyzers.share_fit import build_evidence
 
     prepared = PreparedFlight.of(flight)
     eff = effectiveness if effectiveness is not None else window_effectiveness(prepared, windows)

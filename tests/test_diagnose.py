@@ -60,7 +60,7 @@ class FakeProfile:
         return []
 
     def baseline(self):
-        from flightlog_fd.evidence import Baseline
+        from flightlog_fd.analyzers.share_fit import Baseline
 
         return Baseline(share=np.ones(4), slope=np.zeros(4), throttle_ref=0.5, source="test")
 

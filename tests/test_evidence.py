@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from flightlog_fd.evidence import Baseline, build_evidence
+from flightlog_fd.analyzers.share_fit import Baseline, build_evidence
 from flightlog_fd.flight import Frame
 
 

@@ -22,7 +22,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("streams",),                                                 # cleaned streams, thrust proxy, airborne grid
     ("prepared",),                                                # one prepared flight per diagnosis
     ("windows", "hover", "phases", "stopped", "verdict", "model"),  # views of a prepared flight, the model
-    ("checks", "analyzers", "evidence"),                          # per-motor estimation and findings
+    ("checks", "analyzers"),                                      # per-motor estimation and findings
     ("decision", "profile"),                                      # the verdict; the calibration profile
     ("diagnose",),                                                # one flight, end to end
     ("training",),                                                # model training and adaptation
