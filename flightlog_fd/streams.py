@@ -47,6 +47,11 @@ Pipeline (every step documented where it is implemented):
    grid itself.
 3. **Thrust proxy** (:func:`thrust_proxy`): the paper's w^2 "stands for thrust"; the commanded
    speed replaces the measured speed. ``motor_kind == "thrust"``: the setpoint is linear in
+   thrust and used as it is. ``"signal"`` (PWM after the autopilot's thrust curve) is mapped
+   back through the curve (sources in :func:`thrust_proxy`). ``FeatureSpec.speed_source``
+   chooses ``"command"`` (default: every log has it, and the simulator makes the same thing, so
+   training and diagnosis agree), ``"esc_rpm"`` or ``"auto"`` (ESC rpm^2 / max rpm^2 where the log
+   has rpm at >= rate_hz / 2 for all four motors). :attr:`flightlog_fd.windows.Windows.speed_source` says which was used.
 
 Also here: the autopilot's gyro low-pass cutoff from the log's parameters (:func:`gyro_cutoff_hz`),
 which the effectiveness fit applies to the commands.

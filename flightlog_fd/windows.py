@@ -4,11 +4,6 @@ Layer: above :mod:`flightlog_fd.prepared`; the windows are cut from the prepared
 segments (:func:`flightlog_fd.prepared.resample`: grid, gaps, angular acceleration and thrust proxy
 are documented in :mod:`flightlog_fd.streams`). Then:
 
-   thrust and used as it is. ``"signal"`` (PWM after the autopilot's thrust curve) is mapped
-   back through the curve (sources in :func:`thrust_proxy`). ``FeatureSpec.speed_source``
-   chooses ``"command"`` (default: every log has it, and the simulator makes the same thing, so
-   training and diagnosis agree), ``"esc_rpm"`` or ``"auto"`` (ESC rpm^2 / max rpm^2 where the log
-   has rpm at >= rate_hz / 2 for all four motors). :attr:`Windows.speed_source` says which was used.
 1. **Scale-free transform** (``FeatureSpec.transform == "scale_free"``, the default) so that a
    30 g and a 5 kg quadrotor look alike: the motor channels are divided by the window's mean
    over all four motors and all samples (each becomes a thrust share ~1; the damaged motor's
