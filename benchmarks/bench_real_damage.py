@@ -72,13 +72,13 @@ def _offsets(flights) -> np.ndarray:
 
 def _profile(name: str, logs: list[Path], profiles: Path | None, tmp: Path):
     from flightlog_fd.profile import Profile
-    from flightlog_fd.training.adapt import calibrate
+    from flightlog_fd.calibration import calibrate
 
     if profiles is not None and (profiles / f"{name}.json").exists():
         return Profile.load(profiles / f"{name}.json")
     out = (profiles if profiles is not None else tmp) / f"{name}.json"
     t0 = time.perf_counter()
-    calibrate(logs, out)
+    calibrate(logs, adapt=True, output=out)
     print(f"  calibrated {name} on {', '.join(p.name for p in logs)} in {time.perf_counter() - t0:.0f} s", flush=True)
     return Profile.load(out)
 
@@ -176,12 +176,11 @@ def real_part(args) -> None:
 def spread_figures() -> None:
     """The measurements decision.py's constants cite."""
     from flightlog_fd import load_flight
-    from flightlog_fd.profile import airborne_thrust
-    from flightlog_fd.evidence import command_shares
+    from flightlog_fd.analyzers.share_fit import airborne_thrust, shares_of
     from flightlog_fd.training.targets import crazypad_logs, real_healthy_logs
 
     def shares(path):
-        return command_shares(airborne_thrust([load_flight(path)]))
+        return shares_of(airborne_thrust([load_flight(path)]))
 
     print("\n== spreads behind decision.py's constants ==")
     if (SHARED / "real_healthy").is_dir():

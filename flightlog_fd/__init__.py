@@ -1,7 +1,7 @@
 """flightlog-fd: offline propeller-fault diagnosis for multirotor flight logs.
 
 Data flows one way: log file -> :func:`load_flight` -> :class:`Flight` -> NIF/CF windows
-(:mod:`flightlog_fd.features`) -> ONNX model (:mod:`flightlog_fd.model`) -> per-window timeline
+(:mod:`flightlog_fd.windows`) -> ONNX model (:mod:`flightlog_fd.model`) -> per-window timeline
 -> verdict (:mod:`flightlog_fd.verdict`) -> report (:mod:`flightlog_fd.report`).
 """
 __version__ = "0.1.0"

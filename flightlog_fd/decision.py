@@ -207,7 +207,7 @@ def flight_verdict(model_verdict, t_start, t_end, probs, evidence, frame: Option
                    flight=None, profile=None, segments=(), analyzers=None, model_sha256: str = ""):
     """The flight's :class:`~flightlog_fd.verdict.Verdict` and :class:`Decision` from the model's
     window verdict (timeline labels, mid-flight onset), the window probabilities, the per-motor
-    evidence (:class:`~flightlog_fd.evidence.FlightEvidence`) and the registered analyzers
+    evidence (:class:`~flightlog_fd.analyzers.share_fit.FlightEvidence`) and the registered analyzers
     (``analyzers`` overrides the registry, for tests). A not-diagnosable model verdict passes
     through (Decision None)."""
     from .verdict import Verdict, covered_seconds

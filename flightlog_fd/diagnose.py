@@ -8,12 +8,12 @@ Steps (pure: nothing is printed, nothing imports torch):
 1. Is the log diagnosable? (:func:`flightlog_fd.checks.diagnosability` with the model's feature
    spec: a placed frame the model is for, its motor outputs, fast enough rates, enough airborne time.)
 2. Is the calibration profile, if any, made for this airframe? (``profile.check_compatible``.)
-3. Windows with the model's own feature spec (:func:`flightlog_fd.features.make_windows`),
+3. Windows with the model's own feature spec (:func:`flightlog_fd.windows.make_windows`),
    standardised with the model's statistics, then class probabilities from the ONNX model.
 4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's verdict from all
    windows (:mod:`flightlog_fd.verdict`).
-5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
-   baseline, the flight before an onset or an even split; :mod:`flightlog_fd.effectiveness`) from
+5. Per-motor evidence (:mod:`flightlog_fd.analyzers.share_fit`: command shares against the profile's
+   baseline, the flight before an onset or an even split; :mod:`flightlog_fd.analyzers.effectiveness_fit`) from
    the same resampled segments as the windows, every registered analyzer's findings
    (:mod:`flightlog_fd.analyzers`), and the flight verdict, each motor's severity and weight from
    the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
@@ -23,7 +23,7 @@ Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) b
 never stops on one bad file. Exit codes: 0 healthy, 1 damaged, stopped or uncertain, 2 not
 diagnosable or invalid input.
 
-Limits: windows come from airborne time only (features.py decides); a model whose class list
+Limits: windows come from airborne time only (streams.py decides); a model whose class list
 is not healthy + the flight's motors is refused (:class:`~flightlog_fd.errors.ModelError`).
 """
 from __future__ import annotations
@@ -139,7 +139,7 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     diagnosability_facts: dict = field(default_factory=dict)
     flight: Optional[Flight] = field(default=None, repr=False)
-    #: Per-motor evidence (:class:`flightlog_fd.evidence.FlightEvidence`); None when not diagnosable.
+    #: Per-motor evidence (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`); None when not diagnosable.
     evidence: Any = None
     #: The decision model's output (:class:`flightlog_fd.decision.Decision`: per-motor severity,
     #: LLR by source, weight); None when not diagnosable.
@@ -149,7 +149,7 @@ class Diagnosis:
 
     @property
     def motors(self) -> list:
-        """Per-motor figures (:class:`flightlog_fd.evidence.MotorEvidence`), [] without evidence."""
+        """Per-motor figures (:class:`flightlog_fd.analyzers.share_fit.MotorEvidence`), [] without evidence."""
         return list(self.evidence.motors) if self.evidence is not None else []
 
     @property
@@ -246,7 +246,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
 
 def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: VerdictSettings,
                      keep_flight: bool) -> Diagnosis:
-    from .features import FeatureSpec, make_windows
+    from .windows import FeatureSpec, make_windows
 
     from .model import model_for_flight
 
@@ -345,7 +345,7 @@ def stopped_verdict(stops: list, frame: Any, underneath: Optional[Verdict] = Non
 def window_effectiveness(flight, windows: Any):
     """The effectiveness estimate of one flight (a Flight or PreparedFlight) on the windows' own
     resampled segments (the flight is resampled once)."""
-    from .effectiveness import EffectivenessEstimate, estimate_effectiveness
+    from .analyzers.effectiveness_fit import EffectivenessEstimate, estimate_effectiveness
 
     if windows.spec.n_motors != 4:
         # In closed loop an n-rotor's commands follow the allocator's four directions (roll, pitch,
@@ -363,7 +363,7 @@ def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None
     windows' segments, the model's window probabilities and the profile's baseline, if any;
     ``since`` = a mid-flight damage onset; ``effectiveness`` = its estimate when already made
     (:func:`window_effectiveness`)."""
-    from .evidence import build_evidence
+    from .analyzers.share_fit import build_evidence
 
     prepared = PreparedFlight.of(flight)
     eff = effectiveness if effectiveness is not None else window_effectiveness(prepared, windows)

@@ -373,7 +373,7 @@ class Flight:
     # per-motor ESC telemetry (rpm, A, V, degC) on each ESC's own samples, gaps kept (EscTelemetry)
     esc: Optional[EscTelemetry] = None
     velocity: Optional[Series] = None  # (n, 3) NED m/s where the log has it (hover detection)
-    accel: Optional[Series] = None  # (n, 3) accelerometer, body specific force m/s² FRD (effectiveness.py)
+    accel: Optional[Series] = None  # (n, 3) accelerometer, body specific force m/s² FRD
     alt_motors: dict[str, Series] = field(default_factory=dict)  # other motor sources, e.g. {"RCOU": ...}
     armed: list[tuple[float, float]] = field(default_factory=list)
     airborne: list[tuple[float, float]] = field(default_factory=list)

@@ -12,7 +12,7 @@ from flightlog_fd.analyzers import Context, run_analyzers
 from flightlog_fd.analyzers import command_shares as CS
 from flightlog_fd.analyzers.effectiveness import effectiveness_llr
 from flightlog_fd.analyzers.model_votes import model_llr
-from flightlog_fd.evidence import Baseline, FlightEvidence, MotorEvidence
+from flightlog_fd.analyzers.share_fit import Baseline, FlightEvidence, MotorEvidence
 from flightlog_fd.flight import Frame
 
 

@@ -11,7 +11,7 @@ from flightlog_fd import decision as D
 from flightlog_fd.analyzers import REGISTRY, AnalyzerResult, Context, Finding, run_analyzers
 from flightlog_fd.analyzers import command_shares as CS
 from flightlog_fd.analyzers import model_votes as MV
-from flightlog_fd.evidence import Baseline, FlightEvidence, MotorEvidence
+from flightlog_fd.analyzers.share_fit import Baseline, FlightEvidence, MotorEvidence
 from flightlog_fd.frames import ardupilot_frame
 
 OCTAQUAD = ardupilot_frame(4, 1)  # motors 1-4 on top, 5-8 below: 1/6, 2/5, 3/8, 4/7 share an arm

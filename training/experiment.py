@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec
+from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.profile import calibrate_profile
 from flightlog_fd.verdict import decide
 

@@ -91,7 +91,7 @@ class Context:
     """Everything an analyzer may read about one flight, prepared once by the diagnose pipeline.
 
     ``probs`` (N, n+1) and ``covered_s``: the windows the decision rests on; ``evidence``: the
-    command shares against their baseline (:class:`flightlog_fd.evidence.FlightEvidence`);
+    command shares against their baseline (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`);
     ``profile``: the calibration profile or None (``profile.analyzers.get(id)`` holds each
     analyzer's fitted baseline)."""
 

@@ -1,7 +1,7 @@
 """Command shares as evidence, with each rotor's severity from steady flight (mixer physics).
 
 Input: the airborne-mean thrust-command shares (mean 1) against the healthy baseline the diagnose
-pipeline prepared (:class:`flightlog_fd.evidence.FlightEvidence`: the profile's at this
+pipeline prepared (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`: the profile's at this
 throttle, the flight before a mid-flight onset, or none). Physics: one rotor at thrust
 efficiency ``eta`` (drag torque ``eta**m``) in closed loop needs commands that hold the same force
 and moments as the healthy ones; the mixer geometry (collective, roll, pitch and yaw rows)

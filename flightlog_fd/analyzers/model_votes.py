@@ -139,7 +139,7 @@ class ModelVotes(Analyzer):
     def fit_baseline(self, flights, model=None):
         """Each motor's flight-mean window log ratio on the calibration flights with ``model``
         (the profile's): the airframe's own healthy level, keyed to the model's sha256."""
-        from ..features import FeatureSpec, make_windows
+        from ..windows import FeatureSpec, make_windows
 
         if model is None:
             return None

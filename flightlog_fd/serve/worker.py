@@ -143,16 +143,10 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
 def calibrate_task(log_paths: list[str], out_path: str, adapt: bool) -> str:
     """Calibrate a profile from healthy logs (in a worker process); returns its sha256.
     ``adapt`` also adapts the model (needs torch, minutes); else only measures (``--no-adapt``)."""
+    from ..calibration import calibrate
     from ..util import file_sha256
 
-    if adapt:
-        from flightlog_fd.training.adapt import calibrate
-
-        calibrate([Path(p) for p in log_paths], Path(out_path), overwrite=True)
-    else:
-        from ..profile import calibrate_profile
-
-        calibrate_profile([Path(p) for p in log_paths]).save(out_path, overwrite=True)
+    calibrate([Path(p) for p in log_paths], adapt=adapt, output=Path(out_path), overwrite=True)
     return file_sha256(out_path)
 
 

@@ -1,7 +1,8 @@
-"""Per-motor evidence a pilot can check, and whether it supports the model's verdict.
+"""The command-share analyzer's estimation: each motor's share of the thrust commands against the
+healthy baseline, and that baseline fitted from calibration flights.
 
-Inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
-:attr:`flightlog_fd.features.Windows.segments`), the model's window probabilities, the rotor
+Per flight (:func:`build_evidence`), inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
+:attr:`flightlog_fd.windows.Windows.segments`), the model's window probabilities, the rotor
 layout, and optionally the calibration profile's healthy baseline.
 
 Per motor it gives:
@@ -13,7 +14,7 @@ Per motor it gives:
 - **command change**: with a profile, the share minus the profile's healthy baseline at this
   flight's throttle (:meth:`Baseline.share_at`); without one, the share minus the mean of the
   other three ("against its neighbours").
-- **effectiveness**: :mod:`flightlog_fd.effectiveness` (relative angular acceleration per unit
+- **effectiveness**: :mod:`flightlog_fd.analyzers.effectiveness_fit` (relative angular acceleration per unit
   command, with its bootstrap interval; ``informative`` says whether the flight manoeuvred enough).
 - **model vote**: the mean probability the model gave to "this motor's propeller is damaged".
 
@@ -27,17 +28,22 @@ baseline, the motor with the largest change and its excess over the next; agains
 
 With a mid-flight onset and no profile, the flight before the onset (at least
 ``MIN_BEFORE_ONSET_S``) is the baseline: the same airframe, healthy, minutes earlier.
+
+From calibration flights (:func:`estimate_baseline`, the profile's ``baseline_``): the healthy
+airframe's airborne-mean command shares, the same quantity the diagnosis measures (so their
+biases cancel), as a line in throttle fitted over ``BASELINE_CHUNK_S`` chunks when the chunks span
+at least ``BASELINE_MIN_THROTTLE_RANGE`` of throttle (else flat).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
-from .effectiveness import EffectivenessEstimate
-from .features import DEFAULT_RATE_HZ
-from .flight import Frame
+from ..flight import Flight, Frame
+from ..streams import DEFAULT_RATE_HZ
+from .effectiveness_fit import EffectivenessEstimate
 
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
 MIN_BEFORE_ONSET_S = 10.0
@@ -46,6 +52,9 @@ MIN_BEFORE_ONSET_S = 10.0
 #: "healthy" Erle flight 11-2-2015_112: motor 2 climbs from 0.58 to 0.88 PWM over 40 s before a
 #: hard landing; SITL steps: the share is flat after the onset).
 ONSET_DRIFT_SHARE = 0.5
+#: Chunk length (s) for the baseline's share-vs-throttle fit, and the throttle span it needs to fit a slope.
+BASELINE_CHUNK_S = 10.0
+BASELINE_MIN_THROTTLE_RANGE = 0.05
 
 
 @dataclass
@@ -170,7 +179,7 @@ def single_motor_fit(change: np.ndarray, spins: np.ndarray) -> tuple[int, float,
     return best
 
 
-def command_shares(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
+def shares_of(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
     """(n,) mean thrust-command shares (mean 1) over the (samples, n) blocks of the thrust proxy
     (e.g. each segment's ``w_sq``), and the mean thrust command (throttle)."""
     blocks = [np.asarray(b, dtype=np.float64) for b in thrust_blocks if len(b)]
@@ -198,11 +207,11 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         after = [s.w_sq[s.t >= since] for s in segments]
         drift = _drift(after)
         if baseline is None and sum(len(b) for b in before) / DEFAULT_RATE_HZ >= MIN_BEFORE_ONSET_S:
-            pre, pre_thr = command_shares(before)
+            pre, pre_thr = shares_of(before)
             baseline = Baseline(share=pre, slope=np.zeros(len(pre)), throttle_ref=pre_thr, source="before onset")
-        share, throttle = command_shares(after)
+        share, throttle = shares_of(after)
     else:
-        share, throttle = command_shares([s.w_sq for s in segments])
+        share, throttle = shares_of([s.w_sq for s in segments])
     probs = np.asarray(probs, dtype=np.float64)
     n = len(share)
     votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(n)
@@ -248,3 +257,51 @@ def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
     return last / last.mean() - first / first.mean()
 
 
+# ----------------------------------------------------------------------------- the baseline from calibration flights
+
+def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
+    """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
+    airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
+    from ..hover import motor_count
+    from ..prepared import resample
+
+    return [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ, n_motors=motor_count(fl))]
+
+
+def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None,
+                      per_flight: Optional[list[list[np.ndarray]]] = None) -> dict:
+    """The healthy airframe's command shares against throttle (module docstring), as the
+    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds,
+    and with two or more flights ``spread`` (4,): each motor's flight-to-flight standard deviation
+    of its share, and ``throttle_spread``: the relative one of the throttle (the decision model's
+    drift noise; ``per_flight`` = each flight's thrust blocks)."""
+    rate = DEFAULT_RATE_HZ
+    flights = list(flights)
+    if per_flight is None and thrust_blocks is None:
+        per_flight = [airborne_thrust([fl]) for fl in flights]
+    blocks = thrust_blocks if thrust_blocks is not None else [b for pf in per_flight for b in pf]
+    spread = throttle_spread = None
+    if per_flight is not None and sum(1 for pf in per_flight if pf) >= 2:
+        each = [shares_of(pf) for pf in per_flight if pf]
+        spread = [float(x) for x in np.std([sh for sh, _ in each], axis=0, ddof=1)]
+        thr = np.array([th for _, th in each])
+        throttle_spread = float(np.std(thr, ddof=1) / np.mean(thr))
+    share, throttle = shares_of(blocks)
+    shares, throttles = [], []
+    n = int(BASELINE_CHUNK_S * rate)
+    for w_sq in blocks:
+        for a in range(0, len(w_sq) - n + 1, n):
+            sh, th = shares_of([w_sq[a:a + n]])
+            shares.append(sh)
+            throttles.append(th)
+    slope = np.zeros(len(share))
+    rng = (float(min(throttles)), float(max(throttles))) if throttles else (throttle, throttle)
+    if len(throttles) >= 3 and rng[1] - rng[0] >= BASELINE_MIN_THROTTLE_RANGE:
+        th = np.asarray(throttles) - throttle
+        slope = (np.asarray(shares) - share).T @ th / float(th @ th)
+    seconds = sum(len(b) for b in blocks) / rate
+    return {"share": [float(x) for x in share], "slope": [float(x) for x in slope], "throttle_ref": float(throttle),
+            "throttle_range": [rng[0], rng[1]], "seconds": round(float(seconds), 1),
+            "source": "airborne mean of the thrust-command shares",
+            "n_flights": len(per_flight) if per_flight is not None else len(flights),
+            "spread": spread, "throttle_spread": throttle_spread}
