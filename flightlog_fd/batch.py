@@ -53,7 +53,7 @@ import numpy as np
 
 from .diagnose import Diagnosis, diagnose_flight
 from .errors import FlightLogError
-from .verdict import not_diagnosable
+from .decision import not_diagnosable
 
 #: Engine names, as benchmarks report them.
 ENGINES = ("serial", "processes", "dask")

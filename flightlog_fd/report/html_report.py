@@ -28,7 +28,7 @@ import numpy as np
 from .. import __version__
 from ..diagnose import Diagnosis
 from ..flight import Series
-from ..verdict import UNCERTAIN_LABEL, timeline_labels
+from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .terminal import CLASS_NAMES, verdict_sentence
 
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
@@ -209,8 +209,8 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("profile", d.profile.path if d.profile is not None and d.profile.path else "none"))
     v = d.verdict
     rows.append(("reason", v.reason))
-    if v.evidence is not None and v.evidence.n_windows:
-        ev = v.evidence
+    if d.timeline is not None and d.timeline.shortfall is None:
+        ev = d.timeline
         share = ", ".join(f"{CLASS_NAMES[k]} {100 * s:.0f} %" for k, s in enumerate(ev.smoothed_share))
         rows.append(("windows", f"{ev.n_windows} covering {ev.covered_s:.1f} s; votes: {share}; "
                                 f"abstained {100 * ev.abstained_share:.0f} %"))

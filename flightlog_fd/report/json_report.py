@@ -1,4 +1,4 @@
-"""JSON report, schema version 3 (``fdlog diagnose --json``).
+"""JSON report, schema version 4 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals.
@@ -6,7 +6,7 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
 .. code-block:: text
 
     {
-      "schema": 3,
+      "schema": 4,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -34,14 +34,14 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
                   "model_vote": 0-1,                      # mean model probability "this propeller damaged"
                   "eta_hat": float|null,                  # thrust efficiency from steady flight (1 = healthy)
                   "eta_ci": [lo, hi]|null,                # its 90 % interval
-                  "weight": 0-1|null,                     # the decision's posterior "this rotor lost thrust"
+                  "weight": 0-1|null,                     # the decision's P("this rotor lost thrust")
                   "llr": float|null,                      # total log-likelihood ratio, nats
                   "llr_by_source": {"model": float, "commands": float, "effectiveness": float}|null}],
       "motor_evidence": {"baseline": "profile" | "before onset" | "neighbours",
-                         "throttle": float, "top_motor": 1-n, "single_motor_gap": float,
+                         "throttle": float,
                          "effectiveness": {"informative": bool, "reason": str, "seconds": float,
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
-                         "airframe_changed": str | null, "notes": [str],
+                         "airframe_changed": str | null,
                          "decision": {"sources": [str], "healthy_chi2": float|null,
                                       "share_sigma": float|null} | null} | null,
       "windows": [{"t_start": s, "t_end": s,
@@ -68,7 +68,9 @@ document against it without needing the ``jsonschema`` package (it implements ex
 keywords the schema uses). Adding a field is a compatible change; renaming or removing one
 bumps ``schema``. Schema 2 added ``motors`` and ``motor_evidence``; schema 3 (this one) gives the
 verdict to the one decision model (:mod:`flightlog_fd.decision`) and adds each motor's severity
-(``eta_hat``, ``eta_ci``), its decision weight and log-likelihood ratios.
+(``eta_hat``, ``eta_ci``), its decision weight and log-likelihood ratios; schema 4 drops
+``motor_evidence``'s ``top_motor``, ``single_motor_gap`` and ``notes`` (the analyzers' results
+carry the notes) and makes ``confidence`` and ``weight`` the probability of what they state.
 """
 from __future__ import annotations
 
@@ -80,7 +82,7 @@ import numpy as np
 from .. import __version__
 from ..diagnose import Diagnosis
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -157,20 +159,16 @@ JSON_SCHEMA: dict = {
         },
         "motor_evidence": {
             "type": ["object", "null"],
-            "required": ["baseline", "throttle", "top_motor", "single_motor_gap", "effectiveness",
-                         "airframe_changed", "notes"],
+            "required": ["baseline", "throttle", "effectiveness", "airframe_changed"],
             "properties": {
                 "baseline": {"enum": ["profile", "before onset", "neighbours"]},
                 "throttle": _NUM_OR_NULL,
-                "top_motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
-                "single_motor_gap": _NUM,
                 "effectiveness": {"type": ["object", "null"],
                                   "required": ["informative", "reason", "seconds", "motor_lag_s", "r2"],
                                   "properties": {"informative": {"type": "boolean"}, "reason": {"type": "string"},
                                                  "seconds": _NUM, "motor_lag_s": _NUM,
                                                  "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
-                "notes": {"type": "array", "items": {"type": "string"}},
                 "decision": {"type": ["object", "null"],
                              "required": ["sources", "healthy_chi2", "share_sigma"],
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
@@ -229,9 +227,8 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
     if ev is None:
         return None
     return {"baseline": ev.baseline, "throttle": None if not np.isfinite(ev.throttle) else round(float(ev.throttle), 4),
-            "top_motor": int(ev.top_motor), "single_motor_gap": round(float(ev.single_motor_gap), 4),
             "effectiveness": None if ev.effectiveness is None else ev.effectiveness.as_dict(),
-            "airframe_changed": ev.airframe_changed, "notes": list(ev.notes),
+            "airframe_changed": None if d.decision is None else d.decision.airframe_changed,
             "decision": None if d.decision is None else {
                 "sources": list(d.decision.sources),
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
@@ -246,9 +243,9 @@ def _motors(d: Diagnosis) -> list[dict]:
 
 
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-3 object for one diagnosis."""
+    """The schema-4 object for one diagnosis."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
-    ev = v.evidence
+    ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {
         "schema": SCHEMA_VERSION,
         "tool": {"name": "flightlog-fd", "version": __version__},
