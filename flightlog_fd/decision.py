@@ -61,9 +61,8 @@ AIRFRAME_CHANGE_CHI2_PER_DOF = 3.8
 #: thrust"): no measured base rate of damaged flights exists, and which flights get diagnosed
 #: (routinely, or after a bad landing) is the user's choice. The damage half is not diluted by
 #: the rotor count: the thresholds above are per-motor LLRs whatever n is, so a flight the
-#: decision calls healthy at a given LLR must read as equally sure on a quad and an octo. (The
-#: former flat prior over {healthy, motor 1..n} gave healthy 1/(n+1) a priori: an octo with every
-#: motor at LLR -1 read "healthy, 0.25", here 0.73.)
+#: decision calls healthy at a given LLR must read as equally sure on a quad and an octo (every
+#: motor at LLR -1: healthy 0.73 for any n).
 PRIOR_DAMAGED = 0.5
 
 
