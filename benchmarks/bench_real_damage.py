@@ -147,7 +147,7 @@ def real_part(args) -> None:
                 eta = f" eta-hat {m.eta_hat:.2f} [{m.eta_ci[0]:.2f}-{m.eta_ci[1]:.2f}]"
             detail.append(f"    {name}: {v.status}{' motor ' + str(v.motor) if v.motor else ''}{eta}")
             if pname is None and d.windows:
-                from flightlog_fd.verdict import PROB_FLOOR_MIX
+                from flightlog_fd.timeline import PROB_FLOOR_MIX
 
                 pr = np.array([w.probabilities for w in d.windows])
                 q = (1 - PROB_FLOOR_MIX) * pr + PROB_FLOOR_MIX / pr.shape[1]

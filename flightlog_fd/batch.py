@@ -53,7 +53,7 @@ import numpy as np
 
 from .diagnose import Diagnosis, diagnose_flight
 from .errors import FlightLogError
-from .verdict import not_diagnosable
+from .decision import not_diagnosable
 
 #: LocalCluster workers are processes (one thread each); tests may set False (threads start faster).
 LOCAL_CLUSTER_PROCESSES = True

@@ -22,7 +22,7 @@ from flightlog_fd.cli import app
 from flightlog_fd.diagnose import Diagnosis, WindowResult
 from flightlog_fd.drift import DRIFT_SLOPE_MIN
 from flightlog_fd.store import SCHEMA_VERSION, RunInfo, Store, load_history, motor_rows
-from flightlog_fd.verdict import Verdict
+from flightlog_fd.decision import Verdict
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = ROOT / "sample_logs"

@@ -21,7 +21,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("logs", "sim", ""),                                          # what makes a Flight ("": the package's __init__)
     ("streams",),                                                 # cleaned streams, thrust proxy, airborne grid
     ("prepared",),                                                # one prepared flight per diagnosis
-    ("windows", "hover", "phases", "stopped", "verdict", "model"),  # views of a prepared flight, the model
+    ("windows", "hover", "phases", "stopped", "timeline", "model"),  # views of a prepared flight, the model
     ("checks", "analyzers"),                                      # per-motor estimation and findings
     ("decision", "profile"),                                      # the verdict; the calibration profile
     ("diagnose",),                                                # one flight, end to end

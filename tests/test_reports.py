@@ -16,7 +16,8 @@ from flightlog_fd.report.csv_report import csv_columns, render_csv, write_csv
 from flightlog_fd.report.html_report import decimate, nice_ticks, render_html, write_html
 from flightlog_fd.report.json_report import JSON_SCHEMA, render_json, to_dict, validate
 from flightlog_fd.report.terminal import render, summary_table, timeline_strip, verdict_sentence
-from flightlog_fd.verdict import decide, not_diagnosable
+from flightlog_fd.decision import Verdict, not_diagnosable
+from flightlog_fd.timeline import build as build_timeline
 
 HOSTILE = '<script>alert("x")</script>'
 
@@ -32,17 +33,22 @@ def make_diagnosis(onset_s=34.5, motor=3, path="flight.ulg", firmware="v1.14.0")
     probs += rng.uniform(0, 0.01, probs.shape)
     probs /= probs.sum(axis=1, keepdims=True)
     frame = Frame.quad_x()
-    verdict = decide(ts, te, probs, frame=frame)
+    timeline = build_timeline(ts, te, probs)
+    run = timeline.run if timeline.run is not None and timeline.run.confirmed else None
+    verdict = (Verdict("damaged", run.motor, frame.position(run.motor), 0.91, run.first_seen,
+                       f"motor {run.motor} ({frame.position(run.motor)}) lost thrust from t={run.first_seen:.1f} s")
+               if run else Verdict("healthy", confidence=0.88, reason="no rotor lost thrust"))
     t = np.arange(0.0, 100.0, 0.02)
     flight = Flight(path=path, autopilot="px4", firmware=firmware, vehicle_type="quadrotor", frame=frame,
                     rates=Series(t, 0.1 * np.sin(np.outer(t, [1.0, 1.3, 0.7])), "rates"),
                     motors=Series(t, np.full((t.size, 4), 0.5), "motors"),
                     airborne=[(8.0, 99.0)], t_start=0.0, t_end=100.0)
     windows = [WindowResult(float(a), float(b), int(c), [float(x) for x in p], "hover", int(lab))
-               for a, b, c, p, lab in zip(ts, te, probs.argmax(axis=1), probs, verdict.window_labels)]
+               for a, b, c, p, lab in zip(ts, te, probs.argmax(axis=1), probs, timeline.labels)]
     return Diagnosis(log=path, verdict=verdict, facts=FlightFacts.from_flight(flight),
                      model=ModelInfo("/m/default.onnx", "1.0.0", "cd" * 32, list("hABCD"), False),
-                     profile=None, windows=windows, warnings=["no calibration profile"], flight=flight)
+                     profile=None, windows=windows, warnings=["no calibration profile"], flight=flight,
+                     timeline=timeline)
 
 
 def bad_file_diagnosis() -> Diagnosis:

@@ -476,7 +476,7 @@ class Esc(Analyzer):
             out.append(Finding(self.id, f.motor, f.name, f.value, f.unit, interval, f.baseline, f.direction,
                                a.decision_llr[f.motor] if weighed else None,
                                text if f.name != "esc_damage" else f"{f.value:.0f}%"))
-        return AnalyzerResult(self.id, out, extra={"against": a.against, "bins": a.bins})
+        return AnalyzerResult(self.id, out)
 
 
 __all__ = ["ANALYZER_ID", "EscFigure", "Esc", "EscAnalysis", "EscBaseline", "analyze_esc", "measure_esc",

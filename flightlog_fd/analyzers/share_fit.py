@@ -20,11 +20,8 @@ Per motor it gives:
 
 What the figures mean, and what decides
 ---------------------------------------
-These are the figures a pilot checks; they decide nothing here. :mod:`flightlog_fd.decision`
-weighs them (with the model's windows) into the verdict, prices the airframe's trim drift and
-gives each motor's severity. ``top_motor`` / ``single_motor_gap`` describe the pattern: without a
-baseline, the motor with the largest change and its excess over the next; against a baseline
-(profile, before onset), the best one-motor-plus-yaw fit (:func:`single_motor_fit`).
+These are the figures a pilot checks; they decide nothing here. The analyzers
+(:mod:`flightlog_fd.analyzers`) weigh them, and :mod:`flightlog_fd.decision` makes the verdict.
 
 With a mid-flight onset and no profile, the flight before the onset (at least
 ``MIN_BEFORE_ONSET_S``) is the baseline: the same airframe, healthy, minutes earlier.
@@ -112,13 +109,7 @@ class FlightEvidence:
     motors: list[MotorEvidence]
     baseline: str  # "profile" | "before onset" | "neighbours"
     throttle: float
-    top_motor: int  # 1-based motor the command change singles out (largest change / best one-motor fit)
-    #: Against neighbours: its change minus the second-largest change. Against a baseline
-    #: (profile, before onset): its own rise in the one-motor-plus-yaw fit (single_motor_fit).
-    single_motor_gap: float
     effectiveness: Optional[EffectivenessEstimate] = None
-    airframe_changed: Optional[str] = None  # why, when the decision model found it
-    notes: list[str] = field(default_factory=list)
     #: The baseline the changes are taken against (profile or before onset), None for neighbours.
     baseline_: Optional[Baseline] = None
     #: (4,) after a mid-flight onset: each share's change from the first to the last third of it.
@@ -150,33 +141,6 @@ class FlightEvidence:
             return (f"needs {100 * m.command_change / max(m.command_share_baseline or 1.0, 1e-9):+.0f} % command "
                     f"share against {against} (share {m.command_share:.3f}, baseline {m.command_share_baseline:.3f})")
         return f"runs {100 * m.command_change:+.0f} % command share against its neighbours"
-
-
-def _spins(frame: Optional[Frame], n: int = 4) -> np.ndarray:
-    """(n,) rotor spins of ``frame`` (quad X's when the frame does not have n rotors)."""
-    frame = frame if frame is not None and frame.rotor_count == n else Frame.quad_x()
-    return np.array([float(r.spin) for r in frame.rotors])
-
-
-def single_motor_fit(change: np.ndarray, spins: np.ndarray) -> tuple[int, float, float]:
-    """Explain a share change (n,) as one motor k rising by ``a`` (the others falling by a/n each,
-    after normalisation) plus a yaw re-trim ``b`` along the rotor spins; returns the best k
-    (1-based, smallest residual among rising fits), its ``a`` and the residual's L2 norm."""
-    c = np.nan_to_num(np.asarray(change, dtype=np.float64))
-    n = len(c)
-    y = spins - spins.mean()
-    best = (1, 0.0, float("inf"))
-    for k in range(n):
-        v = -np.ones(n) / n
-        v[k] += 1.0
-        A = np.stack([v, y], axis=1)
-        coef, *_ = np.linalg.lstsq(A, c, rcond=None)
-        resid = float(np.linalg.norm(c - A @ coef))
-        if coef[0] > 0 and resid < best[2]:
-            best = (k + 1, float(coef[0]), resid)
-    if not np.isfinite(best[2]):
-        best = (int(np.argmax(c)) + 1, 0.0, float(np.linalg.norm(c - c.mean())))
-    return best
 
 
 def shares_of(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
@@ -215,19 +179,14 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
     probs = np.asarray(probs, dtype=np.float64)
     n = len(share)
     votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(n)
-    notes: list[str] = []
     if baseline is not None:
         base = baseline.share_at(throttle)
         change = share - base
         kind = "before onset" if baseline.source == "before onset" else "profile"
-        top, gap, _ = single_motor_fit(change, _spins(frame, len(change)))
     else:
         base = None
         change = np.array([share[i] - np.delete(share, i).mean() for i in range(n)])
         kind = "neighbours"
-        order = np.argsort(-np.nan_to_num(change, nan=-np.inf))
-        top = int(order[0]) + 1
-        gap = float(change[order[0]] - change[order[1]]) if np.all(np.isfinite(change)) else 0.0
 
     motors = []
     for i in range(n):
@@ -240,8 +199,8 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
             command_share=float(share[i]), command_share_baseline=None if base is None else float(base[i]),
             command_change=float(change[i]), effectiveness=eff, effectiveness_ci=ci, model_vote=float(votes[i])))
     # why the effectiveness fit says nothing is the effectiveness analyzer's to report
-    return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, top_motor=top, single_motor_gap=gap,
-                          effectiveness=effectiveness, notes=notes, baseline_=baseline, onset_drift=drift)
+    return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, effectiveness=effectiveness,
+                          baseline_=baseline, onset_drift=drift)
 
 
 def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:

@@ -30,7 +30,7 @@ import numpy as np
 from .. import __version__
 from ..diagnose import Diagnosis
 from ..flight import Series
-from ..verdict import UNCERTAIN_LABEL, timeline_labels
+from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
 from .terminal import verdict_sentence
 
@@ -218,8 +218,8 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("profile", d.profile.path if d.profile is not None and d.profile.path else "none"))
     v = d.verdict
     rows.append(("reason", v.reason))
-    if v.evidence is not None and v.evidence.n_windows:
-        ev = v.evidence
+    if d.timeline is not None and d.timeline.shortfall is None:
+        ev = d.timeline
         names = class_names(len(ev.smoothed_share) - 1)
         share = ", ".join(f"{names[k]} {100 * s:.0f} %" for k, s in enumerate(ev.smoothed_share))
         rows.append(("windows", f"{ev.n_windows} covering {ev.covered_s:.1f} s; votes: {share}; "

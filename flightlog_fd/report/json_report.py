@@ -39,7 +39,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                   "effectiveness": float|null,            # relative to the others (1 = as they), null
                   "effectiveness_ci": [lo, hi]|null,      #   when the analyzer called it uninformative
                   "throttle": float|null,                 # the flight's throttle / calibration's
-                  "weight": 0-1|null,                     # the decision's posterior "this rotor lost thrust"
+                  "weight": 0-1|null,                     # the decision's P("this rotor lost thrust")
                   "llr": float|null,                      # total log-likelihood ratio, nats
                   "llr_by_source": {analyzer id: nats}|null,
                   "cells": {column key: text},            # the per-motor table as every report draws it
@@ -48,7 +48,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                          "throttle": float,
                          "effectiveness": {"informative": bool, "reason": str, "seconds": float,
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
-                         "airframe_changed": str | null, "notes": [str],
+                         "airframe_changed": str | null,
                          "decision": {"sources": [str], "healthy_chi2": float|null,
                                       "share_sigma": float|null} | null} | null,
       "windows": [{"t_start": s, "t_end": s,
@@ -79,7 +79,9 @@ changing what one means, bumps ``schema``. Schema 2 added ``motors`` and ``motor
 schema 3 added each motor's severity, decision weight and log-likelihood ratios; schema 4 (this
 one) makes ``motors`` the per-motor view (``class``, ``throttle``, ``cells``, ``unavailable`` and
 ``motor_columns`` added; ``effectiveness`` null when its analyzer did not weigh it; any rotor
-count) and drops ``motor_evidence.top_motor`` and ``single_motor_gap``.
+count), drops ``motor_evidence``'s ``top_motor``, ``single_motor_gap`` and ``notes`` (the
+analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the probability of
+what they state.
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 documents too.
 """
 from __future__ import annotations
@@ -183,7 +185,7 @@ JSON_SCHEMA: dict = {
         },
         "motor_evidence": {
             "type": ["object", "null"],
-            "required": ["baseline", "throttle", "effectiveness", "airframe_changed", "notes"],
+            "required": ["baseline", "throttle", "effectiveness", "airframe_changed"],
             "properties": {
                 "baseline": {"enum": ["profile", "before onset", "neighbours"]},
                 "throttle": _NUM_OR_NULL,
@@ -193,7 +195,6 @@ JSON_SCHEMA: dict = {
                                                  "seconds": _NUM, "motor_lag_s": _NUM,
                                                  "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
-                "notes": {"type": "array", "items": {"type": "string"}},
                 "decision": {"type": ["object", "null"],
                              "required": ["sources", "healthy_chi2", "share_sigma"],
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
@@ -254,7 +255,6 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
     return {"baseline": ev.baseline, "throttle": None if not np.isfinite(ev.throttle) else round(float(ev.throttle), 4),
             "effectiveness": None if ev.effectiveness is None else ev.effectiveness.as_dict(),
             "airframe_changed": None if d.decision is None else d.decision.airframe_changed,
-            "notes": list(getattr(ev, "notes", [])),
             "decision": None if d.decision is None else {
                 "sources": list(d.decision.sources),
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
@@ -264,7 +264,7 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
 def to_dict(d: Diagnosis) -> dict:
     """The schema-4 object for one diagnosis."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
-    ev = v.evidence
+    ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {
         "schema": SCHEMA_VERSION,
         "tool": {"name": "flightlog-fd", "version": __version__},

@@ -28,7 +28,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ..diagnose import Diagnosis
-from ..verdict import UNCERTAIN_LABEL, timeline_labels
+from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
 
 #: Characters in the timeline strip (fits an 80-column terminal with its time labels).
@@ -51,8 +51,9 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
     if v.status == "healthy":
-        n = v.evidence.n_windows if v.evidence else len(diagnosis.windows)
-        covered = f", {v.evidence.covered_s:.0f} s of flight" if v.evidence else ""
+        tl = diagnosis.timeline
+        n = tl.n_windows if tl else len(diagnosis.windows)
+        covered = f", {tl.covered_s:.0f} s of flight" if tl else ""
         return f"No propeller damage found, confidence {v.confidence:.2f} ({n} windows{covered})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"

@@ -104,7 +104,7 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
     from ..report.terminal import verdict_sentence
     from ..store import utc_iso
     from ..util import file_sha256
-    from ..verdict import not_diagnosable
+    from ..decision import not_diagnosable
 
     flight = None
     prof_sha = ""
