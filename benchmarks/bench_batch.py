@@ -28,7 +28,7 @@ SHARED_DIRS = ("px4_sih_dev/logs", "real_healthy/logs", "real_logs/px4", "real_l
 
 
 def candidate_logs() -> list[Path]:
-    from flightlog_fd.cli import collect_logs
+    from flightlog_fd.logs import collect_logs
 
     paths = [ROOT / "sample_logs"] + [SHARED / d for d in SHARED_DIRS if (SHARED / d).is_dir()]
     files, _ = collect_logs(paths)

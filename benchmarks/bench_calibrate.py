@@ -22,7 +22,7 @@ DEFAULT_CALIB = {"px4_sih_dev": "sih_004", "crazypad_e9": "normal_flight__E9_log
 
 def window_truth(lg, windows) -> np.ndarray:
     """Truth per diagnosed window (-1 for windows straddling a mid-flight onset)."""
-    from flightlog_fd.features import labels_for_spans
+    from flightlog_fd.windows import labels_for_spans
 
     return labels_for_spans(lg.truth, [w.t_start for w in windows], [w.t_end for w in windows])
 
@@ -36,7 +36,8 @@ def main() -> None:
 
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
     from flightlog_fd.profile import Profile
-    from flightlog_fd.training.adapt import AdaptSettings, calibrate
+    from flightlog_fd.calibration import calibrate
+    from flightlog_fd.training.adapt import AdaptSettings
     from flightlog_fd.training.targets import crazypad_logs, sih_logs
 
     from flightlog_fd.training.targets import available
@@ -50,7 +51,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "profile.json"
         t0 = time.perf_counter()
-        calibrate([cal.path], out, settings=AdaptSettings(seed=args.seed))
+        calibrate([cal.path], adapt=True, output=out, settings=AdaptSettings(seed=args.seed))
         t_cal = time.perf_counter() - t0
         profile = Profile.load(out)
         adapted = resolve_model(None, profile)

@@ -8,36 +8,17 @@ healthy ones, for the high-rate PX4 profile (250 Hz motors), ArduPilot RATE at 5
 10 Hz motor logging of PX4's default profile; then prints per profile and η: the mean and the
 largest absolute error of the damaged rotor's estimate, how often it is the weakest motor, how
 often the estimate says it is informative, the median interval width, and for healthy flights the
-largest deviation of any motor from 1; each twice, without and with the accelerometer's vertical equation (the
-same flights, one run). Figures only; nothing is asserted.
+largest deviation of any motor from 1. Figures only; nothing is asserted.
 """
 from __future__ import annotations
 
 import argparse
-import contextlib
 import time
 
 import numpy as np
 
 ETAS = (0.6, 0.7, 0.8, 0.9, 0.95)
 PROFILES = ("px4_high", "ardupilot", "px4_default")
-
-
-@contextlib.contextmanager
-def _previous_estimator():
-    """The estimator as it was before the ground trim, the fine motor-lag search, the fine-grid
-    commands and the body-rate terms (the "before" row), by restoring its old settings."""
-    import flightlog_fd.effectiveness as eff
-    names = ("EDGE_TRIM_S", "MOTOR_LAG_GRID_S", "MOTOR_LAG_REFINE_S", "FINE_COMMANDS", "BODY_RATE_TERMS")
-    saved = {n: getattr(eff, n) for n in names}
-    eff.EDGE_TRIM_S, eff.MOTOR_LAG_GRID_S = (0.0, 0.0), (0.0, 0.02, 0.04, 0.06, 0.09, 0.13)
-    eff.MOTOR_LAG_REFINE_S, eff.FINE_COMMANDS = 0.02, False  # refine step = grid step: no refinement
-    eff.BODY_RATE_TERMS = False
-    try:
-        yield
-    finally:
-        for n, v in saved.items():
-            setattr(eff, n, v)
 
 
 def main() -> None:
@@ -48,7 +29,7 @@ def main() -> None:
     ap.add_argument("--profiles", default=",".join(PROFILES))
     args = ap.parse_args()
 
-    from flightlog_fd.effectiveness import estimate_effectiveness
+    from flightlog_fd.analyzers.effectiveness_fit import estimate_effectiveness
     from flightlog_fd.sim.api import simulate_flights
     from flightlog_fd.sim.damage import Damage
 
@@ -57,10 +38,6 @@ def main() -> None:
     for eta in ETAS:
         damages += [Damage(int(rng.integers(1, 5)), eta) for _ in range(args.per_eta)]
     print(f"{len(damages)} flights per profile, {args.duration:.0f} s, random airframes, balanced motors")
-    print("inputs: 'before' = the estimator before this change (6-point lag grid, lag at the grid rate, "
-          "ground seconds kept, no body-rate terms), gyro only; 'gyro' = now, as fdlog uses it (roll/pitch "
-          "equations); 'gyro+acc' = now, with the opt-in accelerometer vertical equation where the log "
-          "allows it")
     print(f"{'profile':12s} {'inputs':8s} {'eta':>5s} {'mean est':>8s} {'max |err|':>9s} {'±0.03':>6s} "
           f"{'weakest':>7s} {'informative':>11s} {'CI width':>8s}")
     for prof in args.profiles.split(","):
@@ -71,11 +48,7 @@ def main() -> None:
         t0 = time.perf_counter()
         runs = {"gyro": [estimate_effectiveness(f) for f in flights]}
         t_est = (time.perf_counter() - t0) / len(flights)
-        runs["gyro+acc"] = [estimate_effectiveness(f, use_accelerometer=True) for f in flights]
-        with _previous_estimator():
-            runs["before"] = [estimate_effectiveness(f) for f in flights]
-        used = np.mean([e.used_vertical for e in runs["gyro+acc"]])
-        for inputs in ("before", "gyro", "gyro+acc"):
+        for inputs in runs:
             ests = runs[inputs]
             healthy = [e for d, e in zip(damages, ests) if d.motor == 0]
             dev = [np.nanmax(np.abs(e.values - 1.0)) for e in healthy]
@@ -97,7 +70,7 @@ def main() -> None:
                 print(f"{prof:12s} {inputs:8s} {eta:5.2f} {np.nanmean(est):8.3f} {np.nanmax(np.abs(est - eta)):9.3f} "
                       f"{np.mean(ok):6.0%} {weakest:7.0%} {informative:11.0%} {width:8.3f}")
             print(f"{prof:12s} {inputs:8s} eta<=0.9: {np.mean(within):.0%} of damaged flights within ±0.03")
-        print(f"{prof:12s} vertical equation used in {used:.0%} of flights; simulated in {t_sim:.1f} s; "
+        print(f"{prof:12s} simulated in {t_sim:.1f} s; "
               f"estimate {1000 * t_est:.0f} ms per flight")
 
 

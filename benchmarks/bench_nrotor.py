@@ -70,7 +70,7 @@ def main(argv=None) -> None:
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
     from flightlog_fd.errors import FlightLogError
     from flightlog_fd.profile import calibrate_profile
-    from flightlog_fd.features import FeatureSpec, make_windows
+    from flightlog_fd.windows import FeatureSpec, make_windows
     from flightlog_fd.model import FaultModel, shipped_model_path
 
     models = {6: FaultModel(args.model6 or shipped_model_path(6)), 8: FaultModel(args.model8 or shipped_model_path(8))}

@@ -14,13 +14,15 @@ WITHOUT a profile and prints per set:
 - window accuracy (the model's argmax against the truth; healthy flights: share of windows called
   healthy),
 
-twice per model: ``model only`` (the verdict from the window probabilities alone, as fdlog decided
-before the per-motor evidence existed) and ``model + evidence`` (what ``fdlog diagnose`` prints
+twice per model: ``model only`` (the window probabilities alone: a confirmed damage run in the
+timeline names its motor, else healthy; never uncertain) and ``model + evidence`` (what ``fdlog diagnose`` prints
 now), and once for the motor-balance rule (``training/peer_rule.py``: a motor whose mean command
 in steady flight exceeds the others' by 0.05 of full scale). Figures only; nothing is asserted.
 Give the previous model with ``--model`` to get before/after figures from one run.
 """
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import argparse
 import time
@@ -59,7 +61,7 @@ def main() -> None:
     from flightlog_fd.errors import FlightLogError
     from flightlog_fd.model import FaultModel, default_model_path
     from flightlog_fd.training.peer_rule import peer_rule
-    from flightlog_fd.verdict import decide
+    from flightlog_fd.timeline import build as build_timeline
 
     if not SHARED.exists():
         print(f"{SHARED} is absent: nothing to measure")
@@ -91,7 +93,9 @@ def main() -> None:
             t_s = np.array([w.t_start for w in d.windows])
             t_e = np.array([w.t_end for w in d.windows])
             probs = np.array([w.probabilities for w in d.windows])
-            model_only = decide(t_s, t_e, probs, frame=fl.frame)
+            tl = build_timeline(t_s, t_e, probs)  # the model alone: a confirmed damage run names its motor
+            run = tl.run if tl.run is not None and tl.run.confirmed else None
+            model_only = SimpleNamespace(status="damaged" if run else "healthy", motor=run.motor if run else None)
             for v, verdict in ((variants[-2], model_only), (variants[-1], d.verdict)):
                 tally[(v, set_name)][outcome(verdict.status, verdict.motor, motor, eta)] += 1
                 if args.verbose:

@@ -72,13 +72,13 @@ def _offsets(flights) -> np.ndarray:
 
 def _profile(name: str, logs: list[Path], profiles: Path | None, tmp: Path):
     from flightlog_fd.profile import Profile
-    from flightlog_fd.training.adapt import calibrate
+    from flightlog_fd.calibration import calibrate
 
     if profiles is not None and (profiles / f"{name}.json").exists():
         return Profile.load(profiles / f"{name}.json")
     out = (profiles if profiles is not None else tmp) / f"{name}.json"
     t0 = time.perf_counter()
-    calibrate(logs, out)
+    calibrate(logs, adapt=True, output=out)
     print(f"  calibrated {name} on {', '.join(p.name for p in logs)} in {time.perf_counter() - t0:.0f} s", flush=True)
     return Profile.load(out)
 
@@ -147,7 +147,7 @@ def real_part(args) -> None:
                 eta = f" eta-hat {m.eta_hat:.2f} [{m.eta_ci[0]:.2f}-{m.eta_ci[1]:.2f}]"
             detail.append(f"    {name}: {v.status}{' motor ' + str(v.motor) if v.motor else ''}{eta}")
             if pname is None and d.windows:
-                from flightlog_fd.verdict import PROB_FLOOR_MIX
+                from flightlog_fd.timeline import PROB_FLOOR_MIX
 
                 pr = np.array([w.probabilities for w in d.windows])
                 q = (1 - PROB_FLOOR_MIX) * pr + PROB_FLOOR_MIX / pr.shape[1]
@@ -176,12 +176,11 @@ def real_part(args) -> None:
 def spread_figures() -> None:
     """The measurements decision.py's constants cite."""
     from flightlog_fd import load_flight
-    from flightlog_fd.profile import airborne_thrust
-    from flightlog_fd.evidence import command_shares
+    from flightlog_fd.analyzers.share_fit import airborne_thrust, shares_of
     from flightlog_fd.training.targets import crazypad_logs, real_healthy_logs
 
     def shares(path):
-        return command_shares(airborne_thrust([load_flight(path)]))
+        return shares_of(airborne_thrust([load_flight(path)]))
 
     print("\n== spreads behind decision.py's constants ==")
     if (SHARED / "real_healthy").is_dir():

@@ -37,9 +37,9 @@ def main(argv=None) -> None:
     from bench_nrotor import FRAMES, PROFILES, simulate
 
     from flightlog_fd.analyzers.model_votes import MODEL_DECORRELATION_S, MODEL_WINDOW_SIGMA, mean_log_ratio
-    from flightlog_fd.features import FeatureSpec, make_windows
+    from flightlog_fd.windows import FeatureSpec, make_windows
     from flightlog_fd.model import FaultModel, shipped_model_path
-    from flightlog_fd.verdict import covered_seconds
+    from flightlog_fd.timeline import covered_seconds
 
     models = {6: FaultModel(shipped_model_path(6)), 8: FaultModel(shipped_model_path(8))}
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from flightlog_fd import load_flight
 from flightlog_fd.errors import FlightLogError
-from flightlog_fd.features import FeatureSpec, make_windows
+from flightlog_fd.windows import FeatureSpec, make_windows
 from flightlog_fd.hover import hover_segments, hover_seconds
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"

@@ -53,10 +53,8 @@ import numpy as np
 
 from .diagnose import Diagnosis, diagnose_flight
 from .errors import FlightLogError
-from .verdict import not_diagnosable
+from .decision import not_diagnosable
 
-#: Engine names, as benchmarks report them.
-ENGINES = ("serial", "processes", "dask")
 #: LocalCluster workers are processes (one thread each); tests may set False (threads start faster).
 LOCAL_CLUSTER_PROCESSES = True
 
@@ -92,9 +90,9 @@ def error_result(index: int, path: str, reason: str) -> LogResult:
 
 def command_shares(flight) -> Optional[list[float]]:
     """Each motor's mean thrust command (thrust proxy) while airborne divided by the mean of the
-    four (1 = an even share), the convention of :class:`flightlog_fd.evidence.MotorEvidence`."""
-    from .evidence import command_shares as shares_of
-    from .features import flight_thrust_proxy
+    four (1 = an even share), the convention of :class:`flightlog_fd.analyzers.share_fit.MotorEvidence`."""
+    from .analyzers.share_fit import shares_of
+    from .streams import flight_thrust_proxy
 
     m = flight.motors
     if m is None or m.values.shape[1] != 4 or len(m) == 0:

@@ -29,7 +29,7 @@ MIN_MOTORS_HZ = 5.0
 #: A verdict from less than this is too easily swayed by one manoeuvre.
 MIN_AIRBORNE_S = 8.0
 # The verdict needs several windows to smooth over: use its own minimum so that both agree.
-from .verdict import MIN_WINDOWS  # noqa: E402
+from .timeline import MIN_WINDOWS  # noqa: E402
 
 #: ArduPilot quad layouts diagnosed as quads: motors 1-4 where quad-X's (X, V, H) or quad-+'s sit. The
 #: other quad tables (BF_X, DJI_X, CW_X, V-/A-tail, Y4...) are placed for `fdlog info` and the

@@ -43,32 +43,6 @@ def _fail(err: FlightLogError | str) -> None:
     _console(stderr=True).print(f"fdlog: {err}", markup=False)
 
 
-def collect_logs(paths: List[Path]) -> tuple[list[Path], list[str]]:
-    """Expand folders into the log files they hold (by content, not extension).
-
-    Returns (files, errors): a path that does not exist is an error; inside a folder, files that
-    are not logs (READMEs, CSVs...) are skipped silently.
-    """
-    from .logs import sniff_format
-
-    files: list[Path] = []
-    errors: list[str] = []
-    for p in paths:
-        if p.is_dir():
-            for f in sorted(x for x in p.rglob("*") if x.is_file()):
-                try:
-                    sniff_format(f)
-                except NotALogError:
-                    continue
-                files.append(f)
-            continue
-        if not p.exists():
-            errors.append(f"{p}: no such file")
-            continue
-        files.append(p)
-    return files, errors
-
-
 @app.command()
 def info(
     logs: List[Path] = typer.Argument(..., help="Log files (.ulg / .bin) or folders of them."),
@@ -77,6 +51,7 @@ def info(
     """Describe logs: autopilot, vehicle, frame, streams and rates, airborne time, and whether they can be diagnosed."""
     from . import load_flight
     from .checks import describe_flight
+    from .logs import collect_logs
     from .report.info_text import print_info
 
     files, errors = collect_logs(logs)
@@ -122,13 +97,13 @@ def diagnose(
     logs: List[Path] = typer.Argument(..., help="Log files (.ulg / .bin) or folders of them."),
     profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate` (its adapted model is used)."),
     model: Optional[Path] = typer.Option(None, "--model", "-m", help="ONNX model to use instead of the profile's or the shipped one."),
-    as_json: bool = typer.Option(False, "--json", help="Print the versioned JSON report (schema 3, see flightlog_fd/report/json_report.py) instead of text."),
+    as_json: bool = typer.Option(False, "--json", help="Print the versioned JSON report (its schema: flightlog_fd/report/json_report.py) instead of text."),
     csv_out: Optional[Path] = typer.Option(None, "--csv", help="Write the per-window timeline of every log to this CSV file."),
     html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
     jobs: Optional[int] = typer.Option(None, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes (with --scheduler local: the number of Dask workers, default one per core)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd[fleet])."),
-    db: Optional[Path] = typer.Option(None, "--db", help="Append every diagnosis to this SQLite results store (see `fdlog history`)."),
+    db: Optional[str] = typer.Option(None, "--db", help="Write every diagnosis to this store: a SQLite file or a postgresql:// URL (see `fdlog history`, `fdlog serve --db`)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
 ) -> None:
     """Diagnose logs: per-window timeline, flight verdict (healthy / propeller k damaged / uncertain) and reports.
@@ -144,6 +119,8 @@ def diagnose(
         if out is not None and out.exists() and not force:
             _fail(f"{out}: already exists (use --force to overwrite)")
             raise typer.Exit(EXIT_INVALID)
+    from .logs import collect_logs
+
     files, errors = collect_logs(logs)
     for e in errors:
         _fail(e)
@@ -166,10 +143,10 @@ def diagnose(
             raise typer.Exit(EXIT_INVALID)
     store = run_info = None
     if db is not None:
-        from .store import ResultStore, RunInfo
+        from .store import RunInfo, Store
 
         try:
-            store = ResultStore(db)
+            store = Store(db)
         except FlightLogError as e:
             _fail(e)
             raise typer.Exit(EXIT_INVALID)
@@ -186,7 +163,7 @@ def diagnose(
             # Runs in this process as each log finishes: the client writes the store, never a worker.
             if store is not None:
                 try:
-                    store.add(r, run_info)
+                    store.add_result(r, run_info)
                 except FlightLogError as e:
                     store_errors.append(str(e))
             bar.advance(task)
@@ -231,7 +208,7 @@ def diagnose(
 
 @app.command()
 def history(
-    db: Path = typer.Option(..., "--db", help="SQLite results store written by `fdlog diagnose --db`."),
+    db: str = typer.Option(..., "--db", help="The store written by `fdlog diagnose --db` or `fdlog serve` (SQLite file or postgresql:// URL)."),
     vehicle: Optional[str] = typer.Option(None, "--vehicle", help="Only this airframe (as history lists it)."),
     html_out: Optional[Path] = typer.Option(None, "--html", help="Also write a self-contained HTML page with a trend plot per airframe."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON for machines instead of text."),
@@ -283,6 +260,8 @@ def calibrate(
 
     Needs the training extra (torch): pip install 'flightlog-fd[train]'.
     """
+    from .logs import collect_logs
+
     files, errors = collect_logs(logs)
     for e in errors:
         _fail(e)
@@ -293,27 +272,18 @@ def calibrate(
     if not no_adapt:
         try:
             import torch  # noqa: F401
-            from flightlog_fd.training.adapt import AdaptSettings, calibrate as run_calibration
+            from flightlog_fd.training.adapt import AdaptSettings
         except ImportError:
             _fail("calibration adapts the model and needs torch: pip install 'flightlog-fd[train]' "
                   "(or use --no-adapt to measure the imbalance only)")
             raise typer.Exit(EXIT_INVALID)
+    from .calibration import calibrate as run_calibration
+
     console = _console()
     err_console = _console(stderr=True)
     try:
         if no_adapt:
-            from .profile import calibrate_profile
-
-            if output.exists() and not force:
-                raise FlightLogError(output, "already exists (use --force to overwrite)")
-            from . import load_flight
-            from .model import FaultModel, default_model_path, model_for_flight
-
-            calib_flights = [load_flight(f) for f in files]
-            profile = calibrate_profile(calib_flights)
-            # the shipped model diagnose will use for this frame (hexa and octo have their own)
-            profile.fit_analyzers(calib_flights, model_for_flight(FaultModel(default_model_path()), calib_flights[0]))
-            profile.save(output, overwrite=force)
+            profile = run_calibration(files, output=output, overwrite=force)
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -327,7 +297,8 @@ def calibrate(
                     bar.update(tasks[stage], completed=min(1.0, frac))
 
                 settings = AdaptSettings(n_flights=flights, max_epochs=epochs, seed=seed)
-                profile = run_calibration(files, output, settings=settings, overwrite=force, progress=progress)
+                profile = run_calibration(files, adapt=True, output=output, overwrite=force, settings=settings,
+                                          progress=progress)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -375,6 +346,8 @@ def serve(
         _fail(f"--view must be open or token, got {view!r}")
         raise typer.Exit(EXIT_INVALID)
     err = _console(stderr=True)
+    from .logs import collect_logs
+
     files, errors = collect_logs(list(logs or []))
     for e in errors:
         _fail(e)
@@ -408,135 +381,6 @@ def serve(
     except (OSError, SystemExit) as e:
         _fail(f"cannot serve on {host}:{port}: {e}")
         raise typer.Exit(EXIT_INVALID)
-
-
-FORMATS = {"ulog": ".ulg", "dataflash": ".bin"}
-#: eta_torque = eta ** this for simulated flights with ESC telemetry (see simulate_to_files).
-ESC_SAMPLE_TORQUE_EXPONENT = 1.3
-
-
-def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe: str = "x500",
-                      frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
-                      duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
-                      rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
-                      esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
-                      imbalance: Optional[list[str]] = None, imu_rate: Optional[float] = None,
-                      ) -> list[tuple[Path, dict]]:
-    """Simulate flights and write them as real log files; returns [(path, truth)].
-
-    ``imbalance``: ["MOTOR:G_MM"] propeller mass imbalance m·r in g·mm on that motor, or
-    ["MOTOR:aero=FRACTION"] a blade thrust difference (sim/prop_vibration.py); with it (or with
-    ``imu_rate``) every propeller also keeps its healthy residual imbalance, and the logs carry
-    VIBE / vehicle_imu_status; ``imu_rate`` (Hz) adds raw IMU samples (ACC/GYR, sensor_accel/gyro).
-
-    ``esc_rate`` (Hz): add ESC telemetry (rpm, current, voltage, temperature per motor) at that
-    rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
-    loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py).
-
-    ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
-    Existing files are never overwritten unless ``force``.
-    """
-    from .logs.dataflash_writer import write_dataflash
-    from .logs.ulog_writer import write_ulog
-    from .sim.airframe import preset
-    from .sim.api import simulate_flights
-    from .sim.damage import Damage
-
-    if fmt not in FORMATS:
-        raise FlightLogError(out, f"unknown format {fmt!r}: use ulog or dataflash")
-    from .sim.airframe import N_ROTOR_FRAMES, SIM_FRAMES
-
-    if frame is not None and frame not in SIM_FRAMES:
-        raise FlightLogError(out, f"--frame must be one of {', '.join(SIM_FRAMES)}, got {frame!r}")
-    rotors = 4 if frame is None or frame not in N_ROTOR_FRAMES else preset("x500", frame).rotor_count
-    if not 0 <= motor <= rotors:
-        raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..{rotors}, got {motor}")
-    if rho is not None and len(rho) != rotors:
-        raise FlightLogError(out, f"--rho needs {rotors} values (one per rotor), got {len(rho)}")
-    if motor and not 0.0 < eta < 1.0:
-        raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {eta}")
-    profile_name = log_profile or ("px4_high" if fmt == "ulog" else "ardupilot_fast")
-    want_autopilot = "px4" if fmt == "ulog" else "ardupilot"
-    if not profile_name.startswith(want_autopilot) and profile_name != "training":
-        raise FlightLogError(out, f"logging profile {profile_name!r} does not match format {fmt!r}")
-    if count == 1:
-        paths = [out]
-    else:
-        paths = [out / f"sim_{i:03d}{FORMATS[fmt]}" for i in range(count)]
-    for p in paths + ([out / "truth.csv"] if count > 1 else []):
-        if p.exists() and not force:
-            raise FlightLogError(p, "already exists (use --force to overwrite)")
-    try:
-        if airframe != "random":
-            af = [preset(airframe, frame)] * count
-        elif frame is not None:  # random airframes flown as this frame (without --frame: random quads as before)
-            import numpy as np
-
-            from .sim.airframe import random_airframes
-
-            af = random_airframes(count, np.random.default_rng([seed, 3]), frames=(frame,))
-        else:
-            af = None
-    except ValueError as e:
-        raise FlightLogError(None, str(e)) from None
-    if esc_rate is not None and not 10.0 <= esc_rate <= 100.0:
-        raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
-    # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
-    # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
-    eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
-    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
-    props = parse_imbalance(out, imbalance, rotors, imu_rate) if (imbalance or imu_rate) else None
-    flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
-                               duration_s=duration, profile=profile_name, rho=rho, seed=seed,
-                               esc=esc_rate, imbalance="random" if esc_rate else None,
-                               prop_imbalance=props, imu_rate_hz=imu_rate)
-    if count > 1:
-        out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for i, (p, fl) in enumerate(zip(paths, flights)):
-        p.parent.mkdir(parents=True, exist_ok=True)
-        fl.path = str(p)
-        if vehicle_id:  # one simulated vehicle flown several times (a calibration flight and others)
-            fl.vehicle_id = vehicle_id if count == 1 else f"{vehicle_id}-{i}"
-        (write_ulog if fmt == "ulog" else write_dataflash)(fl, p)
-        written.append((p, fl.truth or {}))
-    if count > 1:
-        import csv
-
-        with open(out / "truth.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["file", "label", "motor", "eta", "onset_s", "airframe", "mission", "seed"])
-            for p, t in written:
-                w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("onset_s"),
-                            (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed")])
-    return written
-
-
-def parse_imbalance(out: Path, items: Optional[list[str]], rotors: int, imu_rate: Optional[float]):
-    """``--imbalance`` values ("MOTOR:G_MM" or "MOTOR:aero=FRACTION", repeatable) as a PropImbalance."""
-    from .sim.prop_vibration import IMU_RATES_HZ, PropImbalance
-
-    if imu_rate is not None and imu_rate not in IMU_RATES_HZ:
-        raise FlightLogError(out, f"--imu-rate must be one of {', '.join(f'{r:g}' for r in IMU_RATES_HZ)} Hz, "
-                                  f"got {imu_rate:g}")
-    mass, aero = [0.0] * rotors, [0.0] * rotors
-    for item in items or []:
-        try:
-            k_text, size = item.split(":", 1)
-            k = int(k_text)
-            is_aero = size.startswith("aero=")
-            value = float(size[5:] if is_aero else size)
-        except ValueError:
-            raise FlightLogError(out, f"--imbalance must be MOTOR:G_MM or MOTOR:aero=FRACTION, got {item!r}") from None
-        if not 1 <= k <= rotors:
-            raise FlightLogError(out, f"--imbalance motor must be 1..{rotors}, got {k}")
-        if is_aero and not 0.0 <= value < 1.0 or not is_aero and not 0.0 <= value <= 10000.0:
-            raise FlightLogError(out, f"--imbalance {item!r}: mass 0..10000 g·mm, aero 0..1")
-        if is_aero:
-            aero[k - 1] += value
-        else:
-            mass[k - 1] += value * 1e-6  # g·mm -> kg·m
-    return PropImbalance(tuple(mass), tuple(aero))
 
 
 @app.command()
@@ -579,6 +423,8 @@ def simulate(
         if len(rho_list) < 3 or min(rho_list) <= 0:
             _fail(f"--rho must be one positive number per rotor (four on a quad), got {rho!r}")
             raise typer.Exit(EXIT_INVALID)
+    from .sim.files import simulate_to_files
+
     try:
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
                                     onset=onset, duration=duration, mission=mission, log_profile=log_profile,

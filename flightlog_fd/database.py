@@ -13,11 +13,13 @@ is taken at once, so a read-then-write inside one transaction is atomic); Postgr
 READ COMMITTED, so code that must not race uses ``SELECT ... FOR UPDATE SKIP LOCKED`` or a
 conditional ``UPDATE ... WHERE state = ...``.
 
-Migrations: :meth:`Database.migrate` applies a list of ``(version, name, sql)`` in order, each in
-the transaction that records it in ``schema_migrations``; concurrent servers starting at once take
-a lock first (SQLite's write lock; ``pg_advisory_xact_lock`` on PostgreSQL), so each migration
-runs once. A database whose newest migration is unknown to this code is refused (made by a newer
-fdlog). Connections are per thread (web server threads and job threads each get their own).
+Migrations: :meth:`Database.migrate` applies a list of ``(version, name, step)`` in order (``step``
+is SQL, or a function of the Database for what SQL alone cannot say), in one transaction that
+records each in ``schema_migrations``; concurrent processes starting at once take a lock first
+(SQLite's write lock; ``pg_advisory_xact_lock`` on PostgreSQL), so each migration runs once. A
+SQLite file also carries the version in ``PRAGMA user_version``. A database whose newest migration
+is unknown to this code is refused (made by a newer fdlog). Connections are per thread (web server
+threads and job threads each get their own).
 
 Limits: SQLite needs a local file system (WAL); PostgreSQL needs ``psycopg`` (the ``[serve]``
 extra) and is imported only when a URL is given.
@@ -213,17 +215,25 @@ class Database:
 
     # -------------------------------------------------------------------- migrations
 
-    def migrate(self, migrations: Sequence[tuple[int, str, str]]) -> list[int]:
-        """Apply the migrations not yet applied (in version order); returns their versions."""
+    def migrate(self, migrations: Sequence[tuple[int, str, Any]],
+                adopt: Optional[Callable[[set], Optional[Callable[[], None]]]] = None) -> list[int]:
+        """Apply the migrations not yet applied (in version order); returns their versions.
+
+        ``adopt(tables)`` is asked about a SQLite file that holds tables but no migrations (one
+        written before them): it may move its tables aside and return a function run after the
+        migrations (to copy them in), or return None to refuse the file."""
         known = max(v for v, _, _ in migrations)
 
         def apply() -> list[int]:
+            finish = None
             if self.dialect == "postgres":
                 self.run("SELECT pg_advisory_xact_lock(?)", (PG_MIGRATION_LOCK,))
             else:
                 tables = {r["name"] for r in self.query("SELECT name FROM sqlite_master WHERE type = 'table'")}
                 if tables and "schema_migrations" not in tables:
-                    raise DatabaseError(self.where, "not an fdlog serve store (it holds other tables)")
+                    finish = adopt(tables) if adopt is not None else None
+                    if finish is None:
+                        raise DatabaseError(self.where, "not an fdlog store (it holds other tables)")
             self.run("CREATE TABLE IF NOT EXISTS schema_migrations (version INTEGER PRIMARY KEY, "
                      "name TEXT NOT NULL, applied_at TEXT NOT NULL)")
             done = {int(r["version"]) for r in self.query("SELECT version FROM schema_migrations")}
@@ -234,11 +244,18 @@ class Database:
             for version, name, text in sorted(migrations):
                 if version in done:
                     continue
-                for stmt in filter(str.strip, text.split(";")):
-                    self.run(stmt)
+                if callable(text):
+                    text(self)
+                else:
+                    for stmt in filter(str.strip, text.split(";")):
+                        self.run(stmt)
                 self.run("INSERT INTO schema_migrations (version, name, applied_at) VALUES (?, ?, ?)",
                          (version, name, utc_now()))
                 applied.append(version)
+            if finish is not None:
+                finish()
+            if applied and self.dialect == "sqlite":
+                self.run(f"PRAGMA user_version = {int(max(applied))}")
             return applied
 
         return self.transaction(apply, "migrate the store's schema")

@@ -8,22 +8,24 @@ Steps (pure: nothing is printed, nothing imports torch):
 1. Is the log diagnosable? (:func:`flightlog_fd.checks.diagnosability` with the model's feature
    spec: a placed frame the model is for, its motor outputs, fast enough rates, enough airborne time.)
 2. Is the calibration profile, if any, made for this airframe? (``profile.check_compatible``.)
-3. Windows with the model's own feature spec (:func:`flightlog_fd.features.make_windows`),
+3. Windows with the model's own feature spec (:func:`flightlog_fd.windows.make_windows`),
    standardised with the model's statistics, then class probabilities from the ONNX model.
-4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's verdict from all
-   windows (:mod:`flightlog_fd.verdict`).
-5. Per-motor evidence (:mod:`flightlog_fd.evidence`: command shares against the profile's
-   baseline, the flight before an onset or an even split; :mod:`flightlog_fd.effectiveness`) from
-   the same resampled segments as the windows, every registered analyzer's findings
-   (:mod:`flightlog_fd.analyzers`), and the flight verdict, each motor's severity and weight from
-   the one decision model (:func:`flightlog_fd.decision.flight_verdict`).
+4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's timeline: smoothed
+   labels and a confirmed mid-flight damage onset (:mod:`flightlog_fd.timeline`).
+5. Per-motor evidence (:mod:`flightlog_fd.analyzers.share_fit`: command shares against the
+   profile's baseline, the flight before an onset or an even split;
+   :mod:`flightlog_fd.analyzers.effectiveness_fit`) from
+   the same resampled segments as the windows, and every registered analyzer's findings
+   (:mod:`flightlog_fd.analyzers`).
+6. The verdict, from :func:`flightlog_fd.decision.decide` alone: stopped motors, the reason a
+   flight cannot be judged, the timeline and the analyzers' results.
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
 never stops on one bad file. Exit codes: 0 healthy, 1 damaged, stopped or uncertain, 2 not
 diagnosable or invalid input.
 
-Limits: windows come from airborne time only (features.py decides); a model whose class list
+Limits: windows come from airborne time only (streams.py decides); a model whose class list
 is not healthy + the flight's motors is refused (:class:`~flightlog_fd.errors.ModelError`).
 """
 from __future__ import annotations
@@ -35,15 +37,18 @@ from typing import Any, Optional
 
 import numpy as np
 
+from .analyzers import Context, run_analyzers
 from .checks import diagnosability
+from .analyzers.vibration import Vibration, vibration_can_judge
+from .decision import Decision, Verdict, decide, log_verdict, not_diagnosable, worst_flight
 from .errors import FlightLogError, ModelError
 from .flight import Flight
+from .flights import split_flights
 from .phases import window_phases
 from .prepared import PreparedFlight
-from .decision import flight_verdict
 from .stopped import diagnose_stopped
+from .timeline import Timeline, build as build_timeline, covered_seconds
 from .util import blas_threads
-from .verdict import N_CLASSES, Verdict, VerdictSettings, decide, not_diagnosable
 
 EXIT_HEALTHY = 0
 EXIT_DAMAGED_OR_UNCERTAIN = 1
@@ -139,17 +144,24 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     diagnosability_facts: dict = field(default_factory=dict)
     flight: Optional[Flight] = field(default=None, repr=False)
-    #: Per-motor evidence (:class:`flightlog_fd.evidence.FlightEvidence`); None when not diagnosable.
+    #: Per-motor evidence (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`); None when not diagnosable.
     evidence: Any = None
-    #: The decision model's output (:class:`flightlog_fd.decision.Decision`: per-motor severity,
-    #: LLR by source, weight); None when not diagnosable.
-    decision: Any = None
+    #: Why the evidence gave its verdict (per-motor severity, LLR by source, weight); None when it
+    #: was not weighed.
+    decision: Optional[Decision] = None
+    #: The model's windows over time (smoothed labels, onset); None when no window was judged.
+    timeline: Optional[Timeline] = None
     #: "motor k stopped" findings (:class:`flightlog_fd.stopped.StoppedMotor`), on any frame.
     stopped: list = field(default_factory=list)
+    #: Which flight of the log this is ("flight 2 of 2, 376.8-464.9 s"), "" for a log's only one.
+    part: str = ""
+    #: Each take-off to landing of a log holding several, diagnosed on its own (the log's verdict
+    #: is the worst of theirs); [] for a log with one flight.
+    flights: list = field(default_factory=list)
 
     @property
     def motors(self) -> list:
-        """Per-motor figures (:class:`flightlog_fd.evidence.MotorEvidence`), [] without evidence."""
+        """Per-motor figures (:class:`flightlog_fd.analyzers.share_fit.MotorEvidence`), [] without evidence."""
         return list(self.evidence.motors) if self.evidence is not None else []
 
     @property
@@ -220,7 +232,7 @@ def is_shipped_model(model: Any) -> bool:
     return bool(path) and Path(path).resolve() in [p.resolve() for p in shipped_model_paths()]
 
 
-def _check_model_classes(model: Any, n_motors: int = N_CLASSES - 1) -> None:
+def _check_model_classes(model: Any, n_motors: int) -> None:
     classes = list(getattr(model, "classes", []))
     if classes and len(classes) != n_motors + 1:
         raise ModelError(getattr(model, "path", None),
@@ -228,12 +240,7 @@ def _check_model_classes(model: Any, n_motors: int = N_CLASSES - 1) -> None:
                          f"(healthy + {n_motors} motors)")
 
 
-def _not_diagnosable(log: str, reason: str, **kw) -> Diagnosis:
-    return Diagnosis(log=log, verdict=not_diagnosable(reason), **kw)
-
-
-def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
-                    settings: VerdictSettings = VerdictSettings(), keep_flight: bool = True) -> Diagnosis:
+def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_flight: bool = True) -> Diagnosis:
     """Diagnose one loaded flight with ``model`` (a FaultModel or any object with the same
     ``feature_spec``, ``standardise`` and ``predict_proba``) and an optional calibration profile.
 
@@ -241,12 +248,11 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *,
     send back from a worker process when many logs are diagnosed in parallel).
     Runs with at most ``DIAGNOSE_BLAS_THREADS`` BLAS threads."""
     with blas_threads(DIAGNOSE_BLAS_THREADS):
-        return _diagnose_flight(flight, model, profile, settings=settings, keep_flight=keep_flight)
+        return _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
 
 
-def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: VerdictSettings,
-                     keep_flight: bool) -> Diagnosis:
-    from .features import FeatureSpec, make_windows
+def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
+    from .windows import FeatureSpec, make_windows
 
     from .model import model_for_flight
 
@@ -258,27 +264,25 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: Verd
                   warnings=warnings, flight=flight if keep_flight else None)
 
     stops = diagnose_stopped(flight)
+    n_motors = flight.frame.rotor_count if flight.frame is not None else 4
     check = diagnosability(flight, model.feature_spec)
-    if not check.ok:
-        if stops:  # a frame without a damage model (hexa, octo) still gets its stopped motors
-            return Diagnosis(log=log, verdict=stopped_verdict(stops, flight.frame), stopped=stops,
-                             diagnosability_facts=dict(check.facts), **common)
-        from .analyzers.vibration import VIBRATION_ONLY_REASONS, vibration_only_verdict
+    facts_kw = dict(stopped=stops, diagnosability_facts=dict(check.facts), **common)
 
-        if flight.vibration is not None and flight.airborne and any(
-                w in r for r in check.reasons for w in VIBRATION_ONLY_REASONS):
-            vib = vibration_only_verdict(flight, profile)
-            if vib is not None:  # vibration judges what the full diagnosis cannot
-                return Diagnosis(log=log, verdict=vib[0], decision=vib[1],
-                                 diagnosability_facts=dict(check.facts), **common)
+    def cannot_judge(reason: str) -> Diagnosis:
+        verdict, _ = decide(n_motors, flight.frame, stopped=stops, not_diagnosable_reason=reason)
+        return Diagnosis(log=log, verdict=verdict, **facts_kw)
+
+    if not check.ok:
         reason = check.reason
         if flight.frame is not None and flight.frame.rotor_count > 4 and not flight.frame.unplaced:
             reason += "; no motor stopped while airborne"
-        return _not_diagnosable(log, reason, diagnosability_facts=dict(check.facts), **common)
+        if flight.vibration is not None and flight.airborne and vibration_can_judge(check.reasons):
+            return _vibration_only(flight, profile, n_motors, reason, log, facts_kw, keep_flight)
+        return cannot_judge(reason)
     if profile is None:  # only worth saying when a verdict follows
         warnings.append(NO_PROFILE_WARNING if is_shipped_model(model) else NO_PROFILE_OWN_MODEL_WARNING)
     try:
-        _check_model_classes(model, flight.frame.rotor_count if flight.frame is not None else N_CLASSES - 1)
+        _check_model_classes(model, n_motors)
         if profile is not None:
             # Raises ProfileError for another airframe; returns softer mismatches (vehicle id, firmware).
             warnings.extend(profile.check_compatible(flight) or [])
@@ -289,8 +293,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: Verd
         prepared = PreparedFlight(flight)  # built once: the windows, phases and evidence share it
         win = make_windows(prepared, spec)
         if len(win.t_start) == 0:
-            return _not_diagnosable(log, win.reason or "no complete window of airborne data",
-                                    diagnosability_facts=dict(check.facts), **common)
+            return cannot_judge(win.reason or "no complete window of airborne data")
         # The model (onnxruntime, which releases the GIL) runs beside the effectiveness fit, which
         # does not need its answer: on two free cores the two take the time of the longer one.
         with ThreadPoolExecutor(max_workers=1) as pool:
@@ -300,27 +303,25 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: Verd
             finally:
                 probs = np.asarray(model_run.result(), dtype=np.float64)
     except FlightLogError as e:
-        if stops:  # the motor that stopped in the air is still found
-            return Diagnosis(log=log, verdict=stopped_verdict(stops, flight.frame), stopped=stops,
-                             diagnosability_facts=dict(check.facts), **common)
-        return _not_diagnosable(log, e.message, diagnosability_facts=dict(check.facts), **common)
+        return cannot_judge(e.message)
 
     t_start = np.asarray(win.t_start, dtype=np.float64)
     t_end = np.asarray(win.t_end, dtype=np.float64)
     phases = window_phases(prepared, t_start, t_end)
-    model_verdict = decide(t_start, t_end, probs, settings=settings, frame=flight.frame)
-    run = model_verdict.evidence.run if model_verdict.evidence is not None else None
-    onset = run.t_start if (run is not None and run.start_index > 0 and model_verdict.status == "damaged") else None
-    evidence = flight_evidence(prepared, win, probs, profile, since=onset, effectiveness=eff)
-    verdict, decision = flight_verdict(model_verdict, t_start, t_end, probs, evidence, flight.frame, flight=flight,
-                                       profile=profile, segments=win.segments,
-                                       model_sha256=str(getattr(model, "sha256", "") or ""))
-    if stops:  # a motor that stopped in the air outranks any propeller verdict
-        verdict = stopped_verdict(stops, flight.frame, verdict)
+    timeline = build_timeline(t_start, t_end, probs)
+    onset = timeline.onset
+    evidence = flight_evidence(prepared, win, probs, profile, since=onset.t_start if onset else None,
+                               effectiveness=eff)
+    results = []
+    if timeline.shortfall is None:
+        ctx = _analyzer_context(flight, t_start, t_end, probs, onset, evidence, profile, win.segments,
+                                str(getattr(model, "sha256", "") or ""))
+        results = run_analyzers(ctx)
+    verdict, decision = decide(probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops)
     order = np.argsort(t_start, kind="stable")
     # one conversion to Python numbers per array (not per window: 740 windows of a 600 s flight)
     starts, ends, probs_l = t_start[order].tolist(), t_end[order].tolist(), probs[order].tolist()
-    classes, labels = np.argmax(probs, axis=1)[order].tolist(), np.asarray(verdict.window_labels)[order].tolist()
+    classes, labels = np.argmax(probs, axis=1)[order].tolist(), np.asarray(timeline.labels)[order].tolist()
     windows = [WindowResult(starts[j], ends[j], int(classes[j]), probs_l[j], phases[i], int(labels[j]))
                for j, i in enumerate(order.tolist())]
     manoeuvre_share = sum(ph == "manoeuvre" for ph in phases) / len(phases)
@@ -328,32 +329,51 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, settings: Verd
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
     return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence, decision=decision,
-                     stopped=stops, diagnosability_facts=dict(check.facts), **common)
+                     timeline=timeline, **facts_kw)
 
 
-def stopped_verdict(stops: list, frame: Any, underneath: Optional[Verdict] = None) -> Verdict:
-    """The "stopped" verdict for the earliest stopped motor (a motor or ESC failure, not a damaged
-    propeller); the propeller verdict it replaces, if any, is kept in the reason."""
-    from .stopped import describe
+def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, log: str, facts_kw: dict,
+                    keep_flight: bool) -> Diagnosis:
+    """A log the full diagnosis cannot take, judged from vibration by :func:`decide`: each take-off
+    to landing on its own (:func:`flightlog_fd.flights.split_flights`), the log's verdict its worst
+    flight's (:func:`flightlog_fd.decision.log_verdict`)."""
+    parts = split_flights(flight)
+    subs = []
+    for part in parts:
+        ctx = Context(flight=part, frame=part.frame, n_motors=n_motors, probs=np.zeros((0, n_motors + 1)),
+                      covered_s=0.0, profile=profile)
+        results = run_analyzers(ctx, [Vibration()])
+        stops = [s for s in facts_kw["stopped"] if part.t_start <= s.t_start <= part.t_end]
+        verdict, decision = decide(n_motors, part.frame, results=results, stopped=stops,
+                                   not_diagnosable_reason=reason)
+        kw = {**facts_kw, "stopped": stops, "facts": FlightFacts.from_flight(part),
+              "flight": part if keep_flight else None}
+        subs.append(Diagnosis(log=log, verdict=verdict, decision=decision, part=part.part, **kw))
+    if len(subs) == 1:
+        return subs[0]
+    verdict = log_verdict([(d.part, d.verdict) for d in subs])
+    worst = subs[worst_flight([d.verdict for d in subs])]
+    return Diagnosis(log=log, verdict=verdict, decision=worst.decision, flights=subs, **facts_kw)
 
-    first = stops[0]
-    others = "".join(f"; also {describe(s)}" for s in stops[1:])
-    was = (f"; the propeller diagnosis alone said {underneath.status}"
-           + (f" (motor {underneath.motor})" if underneath.motor else "") if underneath is not None else "")
-    v = Verdict(status="stopped", motor=first.motor,
-                position=frame.position(first.motor) if frame is not None else None, confidence=1.0,
-                first_seen=first.t_start,
-                reason=f"{describe(first)}{others}: check motor {first.motor}, its ESC, wiring and output "
-                       f"assignment before the next flight{was}",
-                evidence=underneath.evidence if underneath is not None else None,
-                window_labels=underneath.window_labels if underneath is not None else [])
-    return v
+
+def _analyzer_context(flight: Flight, t_start: np.ndarray, t_end: np.ndarray, probs: np.ndarray, onset: Any,
+                      evidence: Any, profile: Any, segments, model_sha256: str) -> Context:
+    """What the analyzers read. After a mid-flight onset the model's votes are weighed from the
+    onset on (the windows before it are the healthy airframe, and the shares are taken against
+    them), unless the commands show a drift: the onset run is the stretch the model itself picked
+    as most damaged, so without a step in the commands its votes alone would count the selection
+    as evidence (real healthy Erle 11-2-2015_112 was called damaged that way)."""
+    order = np.argsort(t_start, kind="stable")
+    idx = order[onset.start_index:] if (onset is not None and evidence.drifting() is None) else order
+    return Context(flight=flight, frame=flight.frame, n_motors=probs.shape[1] - 1, probs=probs[idx],
+                   covered_s=covered_seconds(t_start[idx], t_end[idx]), segments=segments, evidence=evidence,
+                   profile=profile, model_sha256=model_sha256)
 
 
 def window_effectiveness(flight, windows: Any):
     """The effectiveness estimate of one flight (a Flight or PreparedFlight) on the windows' own
     resampled segments (the flight is resampled once)."""
-    from .effectiveness import EffectivenessEstimate, estimate_effectiveness
+    from .analyzers.effectiveness_fit import EffectivenessEstimate, estimate_effectiveness
 
     if windows.spec.n_motors != 4:
         # In closed loop an n-rotor's commands follow the allocator's four directions (roll, pitch,
@@ -371,7 +391,7 @@ def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None
     windows' segments, the model's window probabilities and the profile's baseline, if any;
     ``since`` = a mid-flight damage onset; ``effectiveness`` = its estimate when already made
     (:func:`window_effectiveness`)."""
-    from .evidence import build_evidence
+    from .analyzers.share_fit import build_evidence
 
     prepared = PreparedFlight.of(flight)
     eff = effectiveness if effectiveness is not None else window_effectiveness(prepared, windows)
@@ -379,13 +399,12 @@ def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None
     return build_evidence(windows.segments, probs, prepared.flight.frame, eff, baseline, since=since)
 
 
-def diagnose_path(path, model: Any, profile: Any = None, *,
-                  settings: VerdictSettings = VerdictSettings(), keep_flight: bool = True) -> Diagnosis:
+def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = True) -> Diagnosis:
     """Load ``path`` and diagnose it; a bad file gives a not_diagnosable Diagnosis (exit 2)."""
     from . import load_flight
 
     try:
         flight = load_flight(path)
     except FlightLogError as e:
-        return _not_diagnosable(str(path), e.message)
-    return diagnose_flight(flight, model, profile, settings=settings, keep_flight=keep_flight)
+        return Diagnosis(log=str(path), verdict=not_diagnosable(e.message))
+    return diagnose_flight(flight, model, profile, keep_flight=keep_flight)

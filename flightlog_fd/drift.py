@@ -17,9 +17,8 @@ are set from the simulator's spread and should be revisited on real data.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from .store import FlightRecord
+from dataclasses import dataclass, field
+from typing import Optional
 
 MIN_FLIGHTS = 3
 DRIFT_SLOPE_MIN = 0.5  # robust z per flight, in the damage direction
@@ -28,6 +27,30 @@ DRIFT_Z_MIN = 2.0  # latest flight's robust z, in the damage direction
 FIGURE_FLOORS = {"model_vote": 0.05, "command_share": 0.005, "effectiveness": 0.02}
 FIGURE_DIRECTION = {"model_vote": +1, "command_share": +1, "effectiveness": -1}
 FIGURES = tuple(FIGURE_FLOORS)
+
+
+@dataclass
+class FlightRecord:
+    """One flight of an airframe as history and the drift rule see it (its latest diagnosis);
+    ``motors``: motor -> its figures, named as the JSON report's per-motor fields."""
+
+    id: int
+    log_path: str
+    log_sha256: str
+    flight_start_utc: Optional[str]
+    airborne_s: Optional[float]
+    status: str
+    motor: Optional[int]
+    confidence: Optional[float]
+    reason: str
+    diagnosed_at: str
+    vehicle_source: str
+    motors: dict[int, dict] = field(default_factory=dict)
+
+    def figure(self, name: str) -> Optional[list[float]]:
+        """Every motor's value of ``name`` (motor order), or None unless all are known."""
+        vals = [self.motors.get(k, {}).get(name) for k in sorted(self.motors) or range(1, 5)]
+        return [float(v) for v in vals] if all(v is not None for v in vals) else None
 
 
 def robust_z(values: list[float], k: int, floor: float) -> float:

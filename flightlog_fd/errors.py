@@ -26,7 +26,8 @@ class CorruptLogError(FlightLogError):
 
 
 class UnsupportedVehicleError(FlightLogError):
-    """The log is from a vehicle this tool cannot diagnose (hexa, octo, fixed-wing, VTOL...)."""
+    """The log is from a vehicle this tool cannot diagnose (fixed-wing, VTOL, a multirotor frame
+    with no motor table or no shipped model...)."""
 
 
 class MissingDataError(FlightLogError):

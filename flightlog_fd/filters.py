@@ -4,7 +4,7 @@ What: :func:`savgol_at` gives ``scipy.signal.savgol_filter(x, n, p, deriv, delta
 mode="interp")[idx]`` bit for bit (the same coefficients from ``scipy.linalg.lstsq``, the same
 symmetric summation order as ``scipy.ndimage.correlate1d``, the same polynomial edge fits) while
 computing only the rows ``idx``; :func:`lag` and :func:`lag_at_grid` give the first-order lag of
-:func:`flightlog_fd.effectiveness` (``lfilter([1-a], [1, -a], u, zi=a*u[0])``) within float noise.
+:func:`flightlog_fd.analyzers.effectiveness_fit` (``lfilter([1-a], [1, -a], u, zi=a*u[0])``) within float noise.
 
 Why: ``scipy.signal`` costs 0.6-1.6 s to import on this project's machines (it imports
 ``scipy.stats``), more than a whole diagnosis, and the features only keep every k-th sample of a

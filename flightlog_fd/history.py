@@ -1,7 +1,9 @@
 """Per-airframe history for `fdlog history`: flights in time order, drift flags, HTML and text.
 
-Reads what :func:`flightlog_fd.store.load_history` returns; the drift rule is
-:mod:`flightlog_fd.drift`. ``unknown`` (logs with no identity, no profile) is not one airframe.
+Reads what :meth:`flightlog_fd.store.Store.history` returns; the drift rule is
+:mod:`flightlog_fd.drift`. The per-motor cell and the trend plots are those of the web airframe
+page (:func:`~flightlog_fd.report.motor_view.summary_cell`, :data:`~flightlog_fd.store.TREND_FIGURES`), under the
+JSON report's names. ``unknown`` (logs with no identity, no profile) is not one airframe.
 """
 from __future__ import annotations
 
@@ -10,8 +12,9 @@ import json
 from pathlib import Path
 from typing import Iterable, Optional
 
-from .drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, FIGURES, MIN_FLIGHTS, find_drift
-from .store import UNKNOWN_VEHICLE, FlightRecord
+from .drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS, FlightRecord, find_drift
+from .report.motor_view import summary_cell, summary_header
+from .store import TREND_FIGURES, UNKNOWN_VEHICLE
 
 def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
     """JSON-ready: per vehicle its flights, drifts and whether its latest flight is damaged.
@@ -115,27 +118,32 @@ def render_html(summary: dict) -> str:
             f = v["latest"]
             out.append(f"<p class='flag'>latest flight: propeller {f['motor']} damaged ({e(f['log'])})</p>")
         out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
-                   + "".join(f"<th>m{k} vote / share</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
+                   + "".join(f"<th>{html.escape(summary_header(k))}</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
         for i, f in enumerate(v["flights"], 1):
             verdict = f["status"] + (f" (motor {f['motor']})" if f["motor"] else "")
             cells = []
             by_motor = {m["motor"]: m for m in f["motors"]}
             for k in _motor_numbers(v["flights"]):
                 m = by_motor.get(k, {})
-                cells.append(f"<td>{_fmt(m.get('model_vote'))} / {_fmt(m.get('command_share'))}</td>")
+                cells.append(f"<td>{_cell(m, ' / ')}</td>")
             out.append(f"<tr><td>{i}</td><td>{e(f['flight_start_utc'] or '-')}</td><td>{e(Path(f['log']).name)}</td>"
                        f"<td>{e(verdict)}</td><td>{_fmt(f['confidence'])}</td>{''.join(cells)}</tr>")
         out.append("</table>")
-        for figure in FIGURES:
+        for figure, title in TREND_FIGURES:
             svg = _svg_trend(v["flights"], figure)
             if svg:
-                out.append(f"<h3>{e(figure.replace('_', ' '))}</h3>{svg}")
+                out.append(f"<h3>{e(title)}</h3>{svg}")
     out.append("</body></html>")
     return "\n".join(out)
 
 
-def _fmt(x: Optional[float]) -> str:
-    return "-" if x is None else f"{x:.3f}"
+def _fmt(x: Optional[float], decimals: int = 3) -> str:
+    return "-" if x is None else f"{x:.{decimals}f}"
+
+
+def _cell(m: Optional[dict], sep: str) -> str:
+    """One motor's cell of the flights table: the fleet summary's figures (motor_view)."""
+    return summary_cell(m).replace(" / ", sep)
 
 
 def iter_text_lines(summary: dict) -> Iterable[str]:
@@ -143,12 +151,11 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
     for v in summary["vehicles"]:
         yield f"{v['vehicle']}  ({v['vehicle_source']}, {len(v['flights'])} flights)"
         yield f"  {'#':>3} {'start (UTC)':<24} {'verdict':<18} {'conf':>5}  " + "  ".join(
-            f"m{k} vote/share" for k in _motor_numbers(v["flights"])) + "  log"
+            summary_header(k).replace(" / ", "/") for k in _motor_numbers(v["flights"])) + "  log"
         for i, f in enumerate(v["flights"], 1):
             verdict = f["status"] + (f" m{f['motor']}" if f["motor"] else "")
             by_motor = {m["motor"]: m for m in f["motors"]}
-            figs = "  ".join(f"{_fmt(by_motor.get(k, {}).get('model_vote'))}/{_fmt(by_motor.get(k, {}).get('command_share'))}"
-                             for k in _motor_numbers(v["flights"]))
+            figs = "  ".join(_cell(by_motor.get(k, {}), "/") for k in _motor_numbers(v["flights"]))
             yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "
                    f"{figs}  {Path(f['log']).name}")
         for d in v["drift"]:

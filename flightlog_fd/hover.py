@@ -2,7 +2,7 @@
 
 Input: a :class:`~flightlog_fd.flight.Flight` with angular rates and motor commands (attitude and
 NED velocity are used where the log has them). The streams are put on a 50 Hz grid by
-:func:`flightlog_fd.features.resample` (airborne only, 1 s trimmed after take-off and before
+:func:`flightlog_fd.prepared.resample` (airborne only, 1 s trimmed after take-off and before
 landing, split at data gaps, gyro smoothed by the 0.1 s Savitzky-Golay filter, slow motor streams
 interpolated - so 10 Hz motor logs work), then every grid point is judged on a centred
 ``HOVER_WINDOW_S`` (1 s) moving window. A point is steady when ALL of these hold:
@@ -42,7 +42,9 @@ from typing import Optional
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from .features import DEFAULT_MAX_GAP_S, DEFAULT_SAVGOL_WINDOW_S, DEFAULT_TRIM_S, flight_thrust_proxy, resample
+from .prepared import resample
+
+from .streams import DEFAULT_MAX_GAP_S, DEFAULT_SAVGOL_WINDOW_S, DEFAULT_TRIM_S, flight_thrust_proxy
 from .flight import Flight
 from .prepared import PreparedFlight
 

@@ -9,7 +9,7 @@ and one ONNX metadata_props entry, key METADATA_KEY ("flightlog_fd"), whose valu
 object:
 
     version       str   who/what made the model, e.g. "default-1"
-    feature_spec  dict  FeatureSpec.to_dict() of flightlog_fd.features: features (nif|cf),
+    feature_spec  dict  FeatureSpec.to_dict() of flightlog_fd.windows: features (nif|cf),
                         rate_hz, window, stride, channels (C names, in input order),
                         transform, ..., and the per-channel standardisation "mean"/"std"
     classes       list  ["healthy", "motor1", "motor2", "motor3", "motor4"] (output order; an

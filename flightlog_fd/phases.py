@@ -31,7 +31,6 @@ import numpy as np
 
 from .flight import Flight, Series
 
-PHASES = ("hover", "climb", "descent", "manoeuvre", "unknown")
 
 #: Roll/pitch rate RMS (rad/s) above which a window is a manoeuvre whatever else it is.
 MANOEUVRE_RATE_RMS_RAD_S = 0.6

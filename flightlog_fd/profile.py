@@ -4,7 +4,7 @@ The paper's "adjusted simulation model" needs, per motor, the unbalance ratio
 ``rho_i = mean w_i / mean w_1`` measured in steady hover of a HEALTHY flight of the real vehicle
 (a real quad never runs its four motors alike: CG offset, motor/ESC/propeller spread, yaw trim).
 Here ``w`` is the motor SPEED proxy, ``sqrt`` of the thrust proxy of
-:func:`flightlog_fd.features.thrust_proxy` (thrust ~ w^2), averaged over the steady-hover segments
+:func:`flightlog_fd.streams.thrust_proxy` (thrust ~ w^2), averaged over the steady-hover segments
 of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
 
 - :func:`estimate_imbalance` (flights -> :class:`ImbalanceEstimate`) uses, in this order, what
@@ -17,14 +17,12 @@ of :func:`flightlog_fd.hover.hover_segments` with their durations as weights.
   (0 with a single segment). Motor 1 is the reference (rho_1 = 1). ``source`` records which.
   Measured: the project's own healthy sample logs (constant manoeuvring missions) hold 0 s of
   hover and 1.8-2.3 s of steady flight, 40-47 s airborne; the Erle-Copter 34_7 holds 30 s of hover.
-- :func:`estimate_baseline` (flights -> :class:`~flightlog_fd.evidence.Baseline`): the healthy
-  airframe's airborne-mean command shares, the same quantity `diagnose` measures (so their
-  biases cancel), as a line in throttle fitted over ``BASELINE_CHUNK_S`` chunks when the chunks
-  span at least ``BASELINE_MIN_THROTTLE_RANGE`` of throttle (else flat).
+- the command-share baseline (``baseline_``) is the command-share analyzer's fit
+  (:func:`flightlog_fd.analyzers.share_fit.estimate_baseline`).
 - :class:`Profile` is a versioned JSON file (``"schema"``: ``PROFILE_SCHEMA``): airframe identity (autopilot,
   frame name, firmware, vehicle_id, rotor count), the learned values (trailing underscore:
   ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
-  ``n_windows_``), the streams' rates, the :class:`~flightlog_fd.features.FeatureSpec` with the
+  ``n_windows_``), the streams' rates, the :class:`~flightlog_fd.windows.FeatureSpec` with the
   per-channel statistics of the healthy windows, the source logs (file name + sha256), creation
   time (UTC), tool version and an optional ``model`` entry (path of an ONNX file RELATIVE to the
   profile's folder + its sha256). Loading validates everything and raises
@@ -50,7 +48,9 @@ import numpy as np
 
 from .util import file_sha256  # noqa: F401  (part of this module's API)
 from .errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
-from .features import DEFAULT_RATE_HZ, FeatureSpec, make_windows
+from .streams import DEFAULT_RATE_HZ
+from .windows import FeatureSpec, make_windows
+from .analyzers.share_fit import airborne_thrust, estimate_baseline
 from .flight import Flight
 from .hover import HOVER_MAX_RATE_RMS, HOVER_MAX_SPEED_M_S, HOVER_MIN_DURATION_S, HoverSegment, hover_seconds, hover_segments
 
@@ -66,9 +66,6 @@ STEADY_MAX_TILT_RAD = 0.35  # rad (20 deg)
 STEADY_MIN_DURATION_S = 1.0
 #: Least usable airborne time (s) for the whole-flight fallback.
 MIN_AIRBORNE_S = 20.0
-#: Chunk length (s) for the share-vs-throttle fit, and the throttle span it needs to fit a slope.
-BASELINE_CHUNK_S = 10.0
-BASELINE_MIN_THROTTLE_RANGE = 0.05
 #: Least total steady hover (s) for rho: 2 segments of the 2 s minimum, or one of 4 s. At 4 s a
 #: 100 Hz log has 400 samples per motor; the ratios then repeat within ~1 % across flights.
 MIN_HOVER_S = 4.0
@@ -102,15 +99,6 @@ class ImbalanceEstimate:
     source: str = "hover"  # "hover" | "steady flight" | "airborne mean"
 
 
-def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
-    """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
-    airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
-    from .features import resample
-    from .hover import motor_count
-
-    return [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ, n_motors=motor_count(fl))]
-
-
 def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER_S,
                        min_segment_s: float = HOVER_MIN_DURATION_S,
                        thrust_blocks: Optional[list[np.ndarray]] = None) -> ImbalanceEstimate:
@@ -118,7 +106,7 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
 
     Raises NotDiagnosableError (naming the logs, what was found and what would do) when the
     flights hold neither ``min_hover_s`` of steady flight nor ``MIN_AIRBORNE_S`` of airborne data.
-    ``thrust_blocks``: :func:`airborne_thrust` of the flights when the caller has it already.
+    ``thrust_blocks``: :func:`~flightlog_fd.analyzers.share_fit.airborne_thrust` of the flights when the caller has it already.
     """
     flights = list(flights)
     if not flights:
@@ -164,47 +152,6 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
     spread = per_chunk.std(axis=0, ddof=1) if len(per_chunk) > 1 else np.zeros(rho.shape)
     return ImbalanceEstimate(rho=rho, rho_spread=spread, hover_s=float(airborne_s), n_segments=len(chunks),
                              hover_throttle=float(mean_thrust.mean()), segments=[], source="airborne mean")
-
-
-def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None,
-                      per_flight: Optional[list[list[np.ndarray]]] = None) -> dict:
-    """The healthy airframe's command shares against throttle (module docstring), as the
-    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds,
-    and with two or more flights ``spread`` (4,): each motor's flight-to-flight standard deviation
-    of its share, and ``throttle_spread``: the relative one of the throttle (the decision model's
-    drift noise; ``per_flight`` = each flight's thrust blocks)."""
-    from .evidence import command_shares
-
-    rate = DEFAULT_RATE_HZ
-    flights = list(flights)
-    if per_flight is None and thrust_blocks is None:
-        per_flight = [airborne_thrust([fl]) for fl in flights]
-    blocks = thrust_blocks if thrust_blocks is not None else [b for pf in per_flight for b in pf]
-    spread = throttle_spread = None
-    if per_flight is not None and sum(1 for pf in per_flight if pf) >= 2:
-        each = [command_shares(pf) for pf in per_flight if pf]
-        spread = [float(x) for x in np.std([sh for sh, _ in each], axis=0, ddof=1)]
-        thr = np.array([th for _, th in each])
-        throttle_spread = float(np.std(thr, ddof=1) / np.mean(thr))
-    share, throttle = command_shares(blocks)
-    shares, throttles = [], []
-    n = int(BASELINE_CHUNK_S * rate)
-    for w_sq in blocks:
-        for a in range(0, len(w_sq) - n + 1, n):
-            sh, th = command_shares([w_sq[a:a + n]])
-            shares.append(sh)
-            throttles.append(th)
-    slope = np.zeros(len(share))
-    rng = (float(min(throttles)), float(max(throttles))) if throttles else (throttle, throttle)
-    if len(throttles) >= 3 and rng[1] - rng[0] >= BASELINE_MIN_THROTTLE_RANGE:
-        th = np.asarray(throttles) - throttle
-        slope = (np.asarray(shares) - share).T @ th / float(th @ th)
-    seconds = sum(len(b) for b in blocks) / rate
-    return {"share": [float(x) for x in share], "slope": [float(x) for x in slope], "throttle_ref": float(throttle),
-            "throttle_range": [rng[0], rng[1]], "seconds": round(float(seconds), 1),
-            "source": "airborne mean of the thrust-command shares",
-            "n_flights": len(per_flight) if per_flight is not None else len(flights),
-            "spread": spread, "throttle_spread": throttle_spread}
 
 
 @dataclass
@@ -280,9 +227,9 @@ class Profile:
         self.analyzers = fit_baselines(flights, model)
 
     def baseline(self):
-        """The healthy command-share baseline (:class:`~flightlog_fd.evidence.Baseline`); a
+        """The healthy command-share baseline (:class:`~flightlog_fd.analyzers.share_fit.Baseline`); a
         schema-1 profile has none recorded, so it is derived from rho_ at the hover throttle."""
-        from .evidence import Baseline
+        from .analyzers.share_fit import Baseline
 
         b = self.baseline_
         if b:

@@ -13,7 +13,7 @@ from flightlog_fd import analyzers
 from flightlog_fd.analyzers import Analyzer, AnalyzerResult, Context, Finding
 from flightlog_fd.cli import app
 from flightlog_fd.report.json_report import validate
-from flightlog_fd.store import load_findings
+from flightlog_fd.store import Store
 
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_logs"
 runner = CliRunner()
@@ -67,9 +67,10 @@ def test_a_registered_analyzer_reaches_every_report_and_the_store(registered, tm
     page = html.read_text(encoding="utf-8")
     assert "<th>heat</th>" in page and "<td>43 degC</td>" in page and "no_such_stream" in page
     with sqlite3.connect(db) as conn:
-        (rid,) = conn.execute("SELECT id FROM diagnosis").fetchone()
-    stored = [f for f in load_findings(db, rid) if f["analyzer"] == "toy"]
-    assert [(f["motor"], f["value"], f["lo"], f["hi"], f["unit"]) for f in stored] == [
+        (rid,) = conn.execute("SELECT id FROM flight").fetchone()
+    with Store(db, create=False) as store:
+        stored = [f for f in store.findings(rid) if f["analyzer"] == "toy"]
+    assert [(f["motor"], f["value"], f["interval_lo"], f["interval_hi"], f["unit"]) for f in stored] == [
         (k, 40.0 + k, 39.0 + k, 41.0 + k, "degC") for k in range(1, 5)]
 
 
@@ -89,20 +90,3 @@ def test_a_failing_analyzer_abstains_instead_of_losing_the_diagnosis():
     ctx = Context(flight=None, frame=None, n_motors=4, probs=[[1, 0, 0, 0, 0]], covered_s=1.0)
     (r,) = analyzers.run_analyzers(ctx, [Broken()])
     assert r.abstained == "failed: bad input" and r.findings == []
-
-
-def test_a_version_1_store_is_upgraded_in_place(tmp_path):
-    from flightlog_fd.store import SCHEMA_VERSION, ResultStore, check_store
-
-    db = tmp_path / "old.sqlite"
-    ResultStore(db).close()
-    with sqlite3.connect(db) as conn:  # what fdlog wrote before findings were stored
-        conn.execute("DROP TABLE finding")
-        conn.execute("UPDATE schema_version SET version = 1")
-        conn.execute("PRAGMA user_version = 1")
-    check_store(db)  # readable as it is
-    ResultStore(db).close()
-    with sqlite3.connect(db) as conn:
-        assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
-        assert conn.execute("SELECT version FROM schema_version").fetchone()[0] == SCHEMA_VERSION
-        assert conn.execute("SELECT name FROM sqlite_master WHERE name = 'finding'").fetchone()

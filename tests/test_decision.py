@@ -1,5 +1,5 @@
 """The decision model: mixer physics and severity, each source's LLR, and every verdict branch's
-reason (decision.decide_flight)."""
+reason, and the confidence (decision.decide)."""
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from flightlog_fd import decision as D
-from flightlog_fd.analyzers import Context, run_analyzers
+from flightlog_fd.analyzers import AnalyzerResult, Context, Finding, run_analyzers
 from flightlog_fd.analyzers import command_shares as CS
 from flightlog_fd.analyzers.effectiveness import effectiveness_llr
 from flightlog_fd.analyzers.model_votes import model_llr
-from flightlog_fd.evidence import Baseline, FlightEvidence, MotorEvidence
+from flightlog_fd.analyzers.share_fit import Baseline, FlightEvidence, MotorEvidence
 from flightlog_fd.flight import Frame
+from flightlog_fd.timeline import DamageRun, Timeline
 
 
 def window_probs(motor: int, p_motor: float, n: int = 60) -> np.ndarray:
@@ -100,11 +101,16 @@ def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None)
     motors = [MotorEvidence(k + 1, Frame.quad_x().position(k + 1), float(shares[k]),
                             None if b is None else float(b[k]), 0.0, None, None, 0.0) for k in range(4)]
     baseline = None if b is None else Baseline(share=b, slope=np.zeros(4), throttle_ref=0.5)
-    ev = FlightEvidence(motors=motors, baseline=kind, throttle=0.5 * ratio, top_motor=1, single_motor_gap=0.0,
-                        baseline_=baseline)
+    ev = FlightEvidence(motors=motors, baseline=kind, throttle=0.5 * ratio, baseline_=baseline)
     ctx = Context(flight=SimpleNamespace(motors=[1]), frame=Frame.quad_x(), n_motors=4, probs=probs,
                   covered_s=60.0, evidence=ev)
-    return D.decide(run_analyzers(ctx), 4, Frame.quad_x(), first_seen=first_seen)
+    tl = Timeline(n_windows=len(probs), covered_s=60.0, t_first=0.0)
+    if first_seen is not None:  # a confirmed run after healthy flight: a mid-flight onset
+        tl.run = DamageRun(motor=1, start_index=10, n_windows=len(probs) - 10, t_start=first_seen - 1.0,
+                           covered_s=50.0, share=1.0, agreement=1.0, log_likelihood_ratio=10.0,
+                           first_seen=first_seen, confirmed=True)
+    v, d = D.decide(4, Frame.quad_x(), timeline=tl, results=run_analyzers(ctx))
+    return SimpleNamespace(**vars(v), motors=d.motors, airframe_changed=d.airframe_changed)
 
 
 def test_branch_damaged_names_the_motor_its_severity_and_inspection():
@@ -163,17 +169,54 @@ def test_without_a_profile_a_trim_is_not_damage_but_a_large_one_motor_loss_is():
 def test_branch_uncertain_when_the_commands_do_not_rise_for_the_named_motor():
     """Strong evidence for motor 1 from other sources may not name it when its command share fell:
     a rotor that lost thrust must need more."""
-    from flightlog_fd.analyzers import AnalyzerResult, Finding
+    def res(analyzer, name, llr, value=None, baseline=None, kind=AnalyzerResult):
+        return kind(analyzer, [Finding(analyzer, k, name, value if k == 1 else 1.0, "", None, baseline,
+                                       "up", llr if k == 1 else -3.0) for k in range(1, 5)])
 
-    def res(analyzer, name, llr, value=None, baseline=None):
-        return AnalyzerResult(analyzer, [Finding(analyzer, k, name, value if k == 1 else 1.0, "", None, baseline,
-                                                 "up", llr if k == 1 else -3.0) for k in range(1, 5)])
-    results = [res("model", "vote", 5.0, 0.9), res("commands", "share", -0.5, 0.98, 1.0), res("esc", "esc_damage", 4.0, 30.0)]
-    d = D.decide(results, 4, Frame.quad_x())
-    assert d.status == "uncertain" and d.motor is None, d.reason
-    assert "did not rise" in d.reason and "inspect propeller 1" in d.reason
-    results[1] = res("commands", "share", -0.5, 1.02, 1.0)  # the same with its share up 2 %
-    assert D.decide(results, 4, Frame.quad_x()).status == "damaged"
+    def verdict(results):
+        return D.decide(4, Frame.quad_x(), timeline=Timeline(60, 60.0, 0.0), results=results)[0]
+    shares = CS.CommandSharesResult
+    results = [res("model", "vote", 5.0, 0.9), res("commands", "share", -0.5, 0.98, 1.0, shares),
+               res("esc", "esc_damage", 4.0, 30.0)]
+    v = verdict(results)
+    assert v.status == "uncertain" and v.motor is None, v.reason
+    assert "did not rise" in v.reason and "inspect propeller 1" in v.reason
+    results[1] = res("commands", "share", -0.5, 1.02, 1.0, shares)  # the same with its share up 2 %
+    assert verdict(results).status == "damaged"
+
+
+def test_confidence_is_the_probability_of_the_statement_whatever_the_rotor_count():
+    """Healthy: P(no rotor lost thrust); the same per-motor LLRs read alike on a quad and an octo
+    (the prior's damage half is not diluted by the rotor count), and never "healthy, 0.15"."""
+    for n in (4, 6, 8):
+        w = D.posterior(np.full(n, -1.0))
+        assert w[0] == pytest.approx(1 / (1 + np.exp(-1.0)))  # 0.73 for every n
+        assert w.sum() == pytest.approx(1.0)
+    assert D.posterior(np.zeros(8))[0] == pytest.approx(1 - D.PRIOR_DAMAGED)
+
+    def verdict(llrs, n):
+        r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=float(v)) for k, v in enumerate(llrs)])
+        return D.decide(n, None, timeline=Timeline(60, 60.0, 0.0), results=[r])
+
+    v, d = verdict([-1.0] * 8, 8)
+    assert v.status == "healthy" and v.confidence > 0.7
+    v, d = verdict([7.0, -2.0, -2.0, -2.0], 4)
+    assert v.status == "damaged" and v.confidence == pytest.approx(d.motors[0].weight)
+    assert v.confidence == pytest.approx(D.posterior(np.array([7.0, -2, -2, -2]))[1])
+    v, d = verdict([4.0, 4.5, -2.0, -2.0, -2.0, -2.0], 6)  # two motors it cannot tell apart
+    assert v.status == "uncertain" and v.confidence == pytest.approx(d.motors[0].weight + d.motors[1].weight)
+
+
+def test_stopped_outranks_and_not_diagnosable_passes_through():
+    stop = SimpleNamespace(motor=2, t_start=12.5, duration_s=8.0, evidence="output at its minimum")
+    v, d = D.decide(4, Frame.quad_x(), stopped=[stop], not_diagnosable_reason="too slow")
+    assert v.status == "stopped" and v.motor == 2 and v.confidence == 1.0 and d is None
+    assert "propeller diagnosis alone" not in v.reason  # no window was judged
+    v, d = D.decide(4, Frame.quad_x(), timeline=Timeline(3, 1.5, 0.0, shortfall="only 3 windows"),
+                    stopped=[stop])
+    assert v.status == "stopped" and "alone said not_diagnosable" in v.reason
+    v, d = D.decide(4, Frame.quad_x(), not_diagnosable_reason="too slow")
+    assert v.status == "not_diagnosable" and v.reason == "too slow" and v.confidence == 0.0 and d is None
 
 
 @pytest.mark.parametrize("frame", [Frame.quad_x(), Frame.quad_plus()])

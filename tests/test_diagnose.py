@@ -1,6 +1,6 @@
 """diagnose_flight / diagnose_path on synthetic Flights with a small fake model.
 
-The fake model reads the same NIF windows a real one would get (built by features.py from the
+The fake model reads the same NIF windows a real one would get (built by windows.py from the
 model's feature spec) and calls a motor damaged when its scale-free thrust share stands out.
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 from flightlog_fd.diagnose import (EXIT_DAMAGED_OR_UNCERTAIN, EXIT_HEALTHY, EXIT_NOT_DIAGNOSABLE,
                                    NO_PROFILE_OWN_MODEL_WARNING, Diagnosis, diagnose_flight, diagnose_path,
                                    model_info, profile_info)
-from flightlog_fd.features import FeatureSpec
+from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.flight import Flight, Frame, Series
 from flightlog_fd.profile import Profile
 
@@ -60,7 +60,7 @@ class FakeProfile:
         return []
 
     def baseline(self):
-        from flightlog_fd.evidence import Baseline
+        from flightlog_fd.analyzers.share_fit import Baseline
 
         return Baseline(share=np.ones(4), slope=np.zeros(4), throttle_ref=0.5, source="test")
 

@@ -1,4 +1,4 @@
-"""features.py: resampling, derivative, thrust proxy, windows, labels, FeatureSpec."""
+"""streams.py, prepared.resample and windows.py: resampling, derivative, thrust proxy, windows, labels, FeatureSpec."""
 from __future__ import annotations
 
 import json
@@ -6,7 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from flightlog_fd import features as F
+from flightlog_fd import prepared as P
+from flightlog_fd import streams as S
+from flightlog_fd import windows as F
 from flightlog_fd.errors import MissingDataError, NotDiagnosableError, UnsupportedVehicleError
 from flightlog_fd.flight import Flight, Frame, Rotor, Series
 
@@ -40,7 +42,7 @@ def test_derivative_of_sine_is_cosine(gyro_hz, freq):
     amp = 0.8  # rad/s
     fl = synthetic_flight(rate_hz=gyro_hz, motor_hz=50.0,
                           rates_fn=lambda t: np.c_[amp * np.sin(2 * np.pi * freq * t), np.zeros(t.size), np.zeros(t.size)])
-    segs = F.resample(fl, 50.0)
+    segs = P.resample(fl, 50.0)
     assert len(segs) == 1
     s = segs[0]
     got_amp, got_phase = _fit_sinusoid(s.t, s.ang_acc[:, 0], freq)
@@ -56,7 +58,7 @@ def test_derivative_reduces_noise_versus_finite_difference():
     rng = np.random.default_rng(0)
     sigma = np.deg2rad(6.0)  # SIH's roll noise
     fl = synthetic_flight(rate_hz=250.0, rates_fn=lambda t: rng.normal(0, sigma, (t.size, 3)))
-    s = F.resample(fl, 50.0)[0]
+    s = P.resample(fl, 50.0)[0]
     naive = np.std(np.diff(fl.rates.values[:, 0]) * 250.0)
     assert np.std(s.ang_acc[:, 0]) < naive / 10.0
 
@@ -127,7 +129,7 @@ def test_gap_splits_segments_and_no_window_crosses_it():
     r = fl.rates.values.copy()
     r[(fl.rates.t > 40.0) & (fl.rates.t < 40.3)] = np.nan
     fl.rates = Series(fl.rates.t, r, fl.rates.source)
-    segs = F.resample(fl, 50.0)
+    segs = P.resample(fl, 50.0)
     assert len(segs) == 3
     assert segs[0].t[-1] <= 20.0 and segs[1].t[0] >= 20.8
     assert segs[1].t[-1] <= 40.0 and segs[2].t[0] >= 40.3
@@ -144,7 +146,7 @@ def test_slow_motors_are_interpolated_and_usable():
     # 10 Hz actuator_motors (PX4 default profile): a ramp is reproduced exactly on the 50 Hz grid.
     fl = synthetic_flight(motor_hz=10.0, rate_hz=50.0,
                           motors_fn=lambda t: np.c_[0.3 + 0.001 * t, 0.3 + 0.002 * t, 0.3 + 0 * t, 0.3 + 0 * t])
-    segs = F.resample(fl, 50.0)
+    segs = P.resample(fl, 50.0)
     assert len(segs) == 1
     s = segs[0]
     assert np.allclose(s.motors[:, 0], 0.3 + 0.001 * s.t, atol=1e-9)
@@ -155,11 +157,11 @@ def test_slow_motors_are_interpolated_and_usable():
     drop1 = np.ones(len(m), bool)
     drop1[100] = False
     fl.motors = Series(m.t[drop1], m.values[drop1])
-    assert len(F.resample(fl, 50.0)) == 1
+    assert len(P.resample(fl, 50.0)) == 1
     drop3 = np.ones(len(m), bool)
     drop3[100:103] = False
     fl.motors = Series(m.t[drop3], m.values[drop3])
-    assert len(F.resample(fl, 50.0)) == 2
+    assert len(P.resample(fl, 50.0)) == 2
 
 
 def test_trim_and_multiple_airborne_intervals():
@@ -176,8 +178,8 @@ def test_thrust_proxy_inverts_px4_thr_mdl_fac():
     f = 0.3
     # PX4 FunctionMotors: signal x solves f x^2 + (1-f) x = thrust.
     x = (-(1 - f) + np.sqrt((1 - f) ** 2 + 4 * f * thrust)) / (2 * f)
-    assert np.allclose(F.thrust_proxy(x, "signal", f, "px4"), thrust, atol=1e-12)
-    assert np.allclose(F.thrust_proxy(thrust, "thrust", f, "px4"), thrust)
+    assert np.allclose(S.thrust_proxy(x, "signal", f, "px4"), thrust, atol=1e-12)
+    assert np.allclose(S.thrust_proxy(thrust, "thrust", f, "px4"), thrust)
 
 
 def test_thrust_proxy_inverts_ardupilot_expo_with_spin_range():
@@ -186,17 +188,17 @@ def test_thrust_proxy_inverts_ardupilot_expo_with_spin_range():
     # AP Thrust_Linearization::thrust_to_actuator
     ratio = ((e - 1) + np.sqrt((1 - e) ** 2 + 4 * e * thrust)) / (2 * e)
     actuator = lo + (hi - lo) * ratio
-    got = F.thrust_proxy(actuator, "signal", e, "ardupilot", spin_min=lo, spin_max=hi)
+    got = S.thrust_proxy(actuator, "signal", e, "ardupilot", spin_min=lo, spin_max=hi)
     assert np.allclose(got, thrust, atol=1e-12)
     # Defaults (0.15 / 0.95 / 0.65) when the log has no parameters: half thrust at the default curve.
     default_ratio = ((0.65 - 1) + np.sqrt(0.35 ** 2 + 4 * 0.65 * 0.5)) / (2 * 0.65)
     u = 0.15 + 0.8 * default_ratio
-    assert F.thrust_proxy(np.array([u]), "signal", None, "ardupilot")[0] == pytest.approx(0.5)
+    assert S.thrust_proxy(np.array([u]), "signal", None, "ardupilot")[0] == pytest.approx(0.5)
     # flight_thrust_proxy reads MOT_SPIN_MIN / MAX from the log's parameters.
     fl = synthetic_flight(autopilot="ardupilot", motor_kind="signal", thrust_curve=e,
                           params={"MOT_SPIN_MIN": lo, "MOT_SPIN_MAX": hi},
                           motors_fn=lambda t: np.full((t.size, 4), actuator[50]))
-    assert np.allclose(F.flight_thrust_proxy(fl), thrust[50])
+    assert np.allclose(S.flight_thrust_proxy(fl), thrust[50])
 
 
 def test_esc_rpm_used_in_auto_mode_only_when_fast_enough():

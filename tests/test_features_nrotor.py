@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from flightlog_fd.errors import UnsupportedVehicleError
-from flightlog_fd.features import (CF_CHANNELS, NIF_CHANNELS, FeatureSpec, cf_channels, labels_for_spans,
-                                   make_windows, nif_channels)
+from flightlog_fd.windows import CF_CHANNELS, FeatureSpec, NIF_CHANNELS, cf_channels, labels_for_spans, make_windows, nif_channels
 
 
 def test_channel_names_and_quad_spec_dict_unchanged():

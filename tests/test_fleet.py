@@ -21,8 +21,8 @@ from flightlog_fd.batch import LogResult, run_batch
 from flightlog_fd.cli import app
 from flightlog_fd.diagnose import Diagnosis, WindowResult
 from flightlog_fd.drift import DRIFT_SLOPE_MIN
-from flightlog_fd.store import SCHEMA_VERSION, ResultStore, RunInfo, load_history, motor_figures
-from flightlog_fd.verdict import Verdict
+from flightlog_fd.store import SCHEMA_VERSION, RunInfo, Store, load_history, motor_rows
+from flightlog_fd.decision import Verdict
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = ROOT / "sample_logs"
@@ -30,9 +30,8 @@ runner = CliRunner()
 
 
 def _sample_files() -> list[Path]:
-    """The quad samples (the hexa and octo ones are checked in tests/test_nrotor_models.py)."""
-    return sorted(p for p in SAMPLES.iterdir() if p.suffix in (".ulg", ".bin")
-                  and not any(k in p.name for k in ("_hexa_", "_octo_")))
+    """Every sample log: quads, hexa and octo."""
+    return sorted(p for p in SAMPLES.iterdir() if p.suffix in (".ulg", ".bin"))
 
 
 def _corrupt(tmp_path: Path) -> Path:
@@ -64,7 +63,7 @@ def test_dask_local_cluster_keeps_order_and_turns_a_corrupt_log_into_one_row(tmp
     assert bad.diagnosis.verdict.status == "not_diagnosable" and bad.diagnosis.exit_code == 2
     assert bad.diagnosis.verdict.reason and "\n" not in bad.diagnosis.verdict.reason
     good = [r for i, r in enumerate(results) if i != 3]
-    assert all(r.diagnosis.verdict.status in ("healthy", "damaged") for r in good)
+    assert all(r.diagnosis.verdict.status in ("healthy", "damaged", "uncertain") for r in good)  # hexa: uncertain
     # same verdicts as the in-process engine
     serial = run_batch(files, model, None)
     assert [(r.diagnosis.verdict.status, r.diagnosis.verdict.motor) for r in serial] == \
@@ -169,7 +168,8 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
     assert res.exit_code == 2, res.output  # the corrupt log
     assert "corrupt.ulg" in res.stderr
     with sqlite3.connect(db) as c:
-        rows = c.execute("SELECT log_path, vehicle, vehicle_source, status, motor FROM diagnosis ORDER BY log_path").fetchall()
+        rows = c.execute("SELECT flight.name, flight.airframe, airframe.source, flight.status, flight.motor FROM flight "
+                         "JOIN airframe ON airframe.key = flight.airframe ORDER BY flight.name").fetchall()
         n_motor_rows = c.execute("SELECT COUNT(*) FROM motor_figure").fetchone()[0]
         assert c.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
         # every analyzer's findings came back from the Dask workers with the diagnosis
@@ -186,7 +186,7 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
     # the same logs again (now serial): no duplicates
     res = runner.invoke(app, ["diagnose", str(logs), "--db", str(db)])
     with sqlite3.connect(db) as c:
-        assert c.execute("SELECT COUNT(*) FROM diagnosis").fetchone()[0] == 4
+        assert c.execute("SELECT COUNT(*) FROM flight").fetchone()[0] == 4
         assert c.execute("SELECT COUNT(*) FROM motor_figure").fetchone()[0] == 12
 
     res = runner.invoke(app, ["history", "--db", str(db)])
@@ -216,12 +216,12 @@ RUN = RunInfo(model_sha256="m" * 64, model_version="test-1", tool_version="0.1.0
 
 def _drifting_db(db: Path, n: int = 5) -> None:
     """Airframe A1: motor 2's command share grows 1 % a flight; airframe B2 stays even."""
-    with ResultStore(db) as store:
+    with Store(db) as store:
         for i in range(n):
             extra = 0.01 * i
             share = [0.25 - extra / 3, 0.25 + extra, 0.25 - extra / 3, 0.25 - extra / 3]
-            store.add(_result(f"a{i}.ulg", f"a{i:063d}", [0.0] * 4, share, utc=1.7e9 + 86400 * i), RUN)
-            store.add(_result(f"b{i}.ulg", f"b{i:063d}", [0.0] * 4, [0.25, 0.251, 0.249, 0.25],
+            store.add_result(_result(f"a{i}.ulg", f"a{i:063d}", [0.0] * 4, share, utc=1.7e9 + 86400 * i), RUN)
+            store.add_result(_result(f"b{i}.ulg", f"b{i:063d}", [0.0] * 4, [0.25, 0.251, 0.249, 0.25],
                               vehicle="B2", utc=1.7e9 + 86400 * i), RUN)
 
 
@@ -246,11 +246,11 @@ def test_history_flags_a_drifting_motor_and_writes_html(tmp_path):
 
 def test_history_needs_three_flights_and_ignores_a_steady_offset(tmp_path):
     db = tmp_path / "r.sqlite"
-    with ResultStore(db) as store:
+    with Store(db) as store:
         for i in range(2):  # strong drift but only two flights
-            store.add(_result(f"a{i}.ulg", f"a{i:063d}", [0.0] * 4, [0.24, 0.25 + 0.05 * i, 0.24, 0.24]), RUN)
+            store.add_result(_result(f"a{i}.ulg", f"a{i:063d}", [0.0] * 4, [0.24, 0.25 + 0.05 * i, 0.24, 0.24]), RUN)
         for i in range(6):  # motor 3 always needs 3 % more: an offset, not a drift
-            store.add(_result(f"c{i}.ulg", f"c{i:063d}", [0.0] * 4, [0.24, 0.24, 0.27, 0.25], vehicle="C3"), RUN)
+            store.add_result(_result(f"c{i}.ulg", f"c{i:063d}", [0.0] * 4, [0.24, 0.24, 0.27, 0.25], vehicle="C3"), RUN)
     res = runner.invoke(app, ["history", "--db", str(db), "--json"])
     assert res.exit_code == 0, res.output
     assert not json.loads(res.stdout)["flagged"]
@@ -274,17 +274,17 @@ def test_diagnose_refuses_a_db_that_is_not_ours(tmp_path):
     with sqlite3.connect(db) as c:
         c.execute("CREATE TABLE t (x)")
     res = runner.invoke(app, ["diagnose", str(SAMPLES / "px4_healthy.ulg"), "--db", str(db)])
-    assert res.exit_code == 2 and "not an fdlog results database" in res.stderr
+    assert res.exit_code == 2 and "not an fdlog store" in res.stderr
 
 
 def _write_many(args) -> None:
     db, worker, n = args
-    with ResultStore(db) as store:
+    with Store(db) as store:
         for i in range(n):
-            store.add(_result(f"w{worker}_{i}.ulg", f"{worker:032d}{i:032d}", [0.1, 0.0, 0.0, 0.0],
+            store.add_result(_result(f"w{worker}_{i}.ulg", f"{worker:032d}{i:032d}", [0.1, 0.0, 0.0, 0.0],
                               [0.25] * 4, vehicle=f"V{worker}"), RUN)
             if i % 10 == 0:  # re-write an earlier log: an upsert, never a second row
-                store.add(_result(f"w{worker}_0.ulg", f"{worker:032d}{0:032d}", [0.2, 0.0, 0.0, 0.0],
+                store.add_result(_result(f"w{worker}_0.ulg", f"{worker:032d}{0:032d}", [0.2, 0.0, 0.0, 0.0],
                                   [0.25] * 4, vehicle=f"V{worker}"), RUN)
 
 
@@ -296,28 +296,30 @@ def test_concurrent_writers_do_not_corrupt_the_store(tmp_path):
         pool.map(_write_many, [(str(db), w, n_rows) for w in range(n_procs)])
     with sqlite3.connect(db) as c:
         assert c.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
-        assert c.execute("SELECT COUNT(*) FROM diagnosis").fetchone()[0] == n_procs * n_rows
-        assert c.execute("SELECT COUNT(DISTINCT log_sha256) FROM diagnosis").fetchone()[0] == n_procs * n_rows
+        assert c.execute("SELECT COUNT(*) FROM flight").fetchone()[0] == n_procs * n_rows
+        assert c.execute("SELECT COUNT(DISTINCT sha256) FROM flight").fetchone()[0] == n_procs * n_rows
         assert c.execute("SELECT COUNT(*) FROM motor_figure").fetchone()[0] == 4 * n_procs * n_rows
-        assert c.execute("SELECT COUNT(*) FROM diagnosis d JOIN motor_figure m ON m.diagnosis_id = d.id "
-                         "WHERE d.log_path = 'w0_0.ulg' AND m.motor = 1 AND m.model_vote > 0.15").fetchone()[0] == 1
+        assert c.execute("SELECT COUNT(*) FROM flight d JOIN motor_figure m ON m.flight_id = d.id "
+                         "WHERE d.name = 'w0_0.ulg' AND m.motor = 1 AND m.model_vote > 0.15").fetchone()[0] == 1
     assert {v: len(f) for v, f in load_history(db).items()} == {f"V{w}": n_rows for w in range(n_procs)}
 
 
 # ----------------------------------------------------------------------------- figures and identity
 
-def test_motor_figures_prefers_the_diagnosis_own_motor_evidence():
-    from types import SimpleNamespace
+def test_motor_rows_prefer_the_report_motors_else_the_windows_and_batch_shares():
+    from flightlog_fd.report.json_report import to_dict
 
-    d = _result("a.ulg", "a" * 64, [0.4, 0.0, 0.0, 0.0], [0.3, 0.23, 0.23, 0.24]).diagnosis
-    own = motor_figures(d, [0.3, 0.23, 0.23, 0.24])
+    doc = to_dict(_result("a.ulg", "a" * 64, [0.4, 0.0, 0.0, 0.0], [1.2, 0.92, 0.92, 0.96]).diagnosis)
+    own = motor_rows(doc, [1.2, 0.92, 0.92, 0.96])
     assert [round(m["model_vote"], 6) for m in own] == [0.4, 0.0, 0.0, 0.0]
-    assert own[0]["command_share"] == 0.3 and own[0]["effectiveness"] is None
-    d.evidence = SimpleNamespace(motors=[SimpleNamespace(
-        motor=k, position="front", command_share=0.25, command_share_baseline=0.25, effectiveness=0.9,
-        effectiveness_ci=(0.8, 1.0), model_vote=0.1) for k in range(1, 5)])
-    ev = motor_figures(d, [0.3, 0.23, 0.23, 0.24])
-    assert ev[0]["effectiveness"] == 0.9 and ev[0]["effectiveness_ci_lo"] == 0.8 and ev[0]["command_share"] == 0.25
+    assert own[0]["command_share"] == 1.2 and own[0]["effectiveness"] is None
+    assert abs(own[0]["command_change"] - (1.2 - (0.92 + 0.92 + 0.96) / 3)) < 1e-12
+    doc["motors"] = [{"motor": k, "position": "front", "command_share": 1.0, "command_share_baseline": 1.0,
+                      "command_change": 0.0, "effectiveness": 0.9, "effectiveness_ci": [0.8, 1.0], "model_vote": 0.1,
+                      "eta_hat": 0.95, "eta_ci": [0.9, 1.0], "weight": 0.01, "llr": -3.0} for k in range(1, 5)]
+    ev = motor_rows(doc, [1.2, 0.92, 0.92, 0.96])
+    assert ev[0]["effectiveness"] == 0.9 and ev[0]["effectiveness_ci_lo"] == 0.8 and ev[0]["command_share"] == 1.0
+    assert (ev[0]["eta_hat"], ev[0]["eta_ci_hi"], ev[0]["weight"], ev[0]["llr"]) == (0.95, 1.0, 0.01, -3.0)
 
 
 def test_simulated_logs_carry_a_vehicle_identity(tmp_path):

@@ -302,7 +302,7 @@ def test_flipped_ulog_header_timestamp_finishes_quickly(model, tmp_path):
 def test_resampler_grid_is_bounded_by_the_data_not_the_airborne_span():
     """Shared code, whatever reader made the Flight: an airborne interval reaching 10^12 s
     builds grid points only where the streams have samples."""
-    from flightlog_fd.features import resample
+    from flightlog_fd.prepared import resample
     from flightlog_fd.flight import Flight, Frame, Series
 
     t = np.arange(0.0, 30.0, 0.004)

@@ -14,7 +14,7 @@ import torch
 
 import flightlog_fd.models
 from flightlog_fd.errors import ModelError
-from flightlog_fd.features import FeatureSpec
+from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.model import CLASSES, INFERENCE_BATCH, METADATA_KEY, FaultModel, default_model_path
 from flightlog_fd.training.dcnn import DCNN, DCNNConfig
 from flightlog_fd.training.export import export_onnx

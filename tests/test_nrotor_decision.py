@@ -11,8 +11,9 @@ from flightlog_fd import decision as D
 from flightlog_fd.analyzers import REGISTRY, AnalyzerResult, Context, Finding, run_analyzers
 from flightlog_fd.analyzers import command_shares as CS
 from flightlog_fd.analyzers import model_votes as MV
-from flightlog_fd.evidence import Baseline, FlightEvidence, MotorEvidence
+from flightlog_fd.analyzers.share_fit import Baseline, FlightEvidence, MotorEvidence
 from flightlog_fd.frames import ardupilot_frame
+from flightlog_fd.timeline import Timeline
 
 OCTAQUAD = ardupilot_frame(4, 1)  # motors 1-4 on top, 5-8 below: 1/6, 2/5, 3/8, 4/7 share an arm
 COAX_PARTNER = {1: 6, 6: 1, 2: 5, 5: 2, 3: 8, 8: 3, 4: 7, 7: 4}
@@ -42,12 +43,13 @@ def _octaquad_decision(motor: int, eta: float, probs: np.ndarray):
     shares = u / u.mean()
     motors = [MotorEvidence(k + 1, OCTAQUAD.position(k + 1), float(shares[k]), float(base[k]), 0.0, None, None, 0.0)
               for k in range(8)]
-    ev = FlightEvidence(motors=motors, baseline="profile", throttle=0.5 * u.mean() / base.mean(), top_motor=motor,
-                        single_motor_gap=0.0, baseline_=Baseline(share=base, slope=np.zeros(8), throttle_ref=0.5))
+    ev = FlightEvidence(motors=motors, baseline="profile", throttle=0.5 * u.mean() / base.mean(),
+                        baseline_=Baseline(share=base, slope=np.zeros(8), throttle_ref=0.5))
     ctx = Context(flight=SimpleNamespace(motors=[1]), frame=OCTAQUAD, n_motors=8, probs=probs, covered_s=40.0,
                   evidence=ev)
     results = run_analyzers(ctx)
-    return D.decide(results, 8, OCTAQUAD), results
+    v, d = D.decide(8, OCTAQUAD, timeline=Timeline(n_windows=len(probs), covered_s=40.0, t_first=0.0), results=results)
+    return SimpleNamespace(**vars(v), motors=d.motors), results
 
 
 @pytest.mark.parametrize("motor", [1, 2, 6, 7])

@@ -8,7 +8,7 @@ import pytest
 
 from flightlog_fd import load_flight
 from flightlog_fd.errors import ModelError, ProfileError, UnsupportedVehicleError
-from flightlog_fd.features import FeatureSpec, make_windows, nif_channels
+from flightlog_fd.windows import FeatureSpec, make_windows, nif_channels
 from flightlog_fd.model import FaultModel, classes_for, default_model_path, model_for_flight, shipped_model_path
 
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_logs"
@@ -105,10 +105,10 @@ def test_n_rotor_profile(tmp_path):
         Profile.from_dict({**d, "rotor_count": 5})
     with pytest.raises(ProfileError):
         Profile.from_dict({**d, "rho_": d["rho_"][:4]})
-    from flightlog_fd.training.adapt import calibrate
+    from flightlog_fd.calibration import calibrate
 
     with pytest.raises(UnsupportedVehicleError, match="--no-adapt"):
-        calibrate([tmp_path / "o.ulg"], tmp_path / "o.json")
+        calibrate([tmp_path / "o.ulg"], adapt=True, output=tmp_path / "o.json")
 
 
 def test_model_card_quotes_the_n_rotor_figures():

@@ -44,7 +44,7 @@ def test_lag_matches_lfilter(tau, rate):
 @pytest.mark.parametrize("m, k, n", [(4001, 8, 41), (1001, 5, 25), (300, 1, 5), (41, 8, 41), (57, 8, 41)])
 def test_many_lags_at_once_equal_one_at_a_time(m, k, n):
     """_SegmentLags (commuted filters, decimated scan, exact ends) against lag-then-smooth per lag."""
-    from flightlog_fd.effectiveness import _SegmentLags
+    from flightlog_fd.analyzers.effectiveness_fit import _SegmentLags
 
     rng = np.random.default_rng(m)
     m = (m - 1) // k * k + 1  # kept samples 0, k, ..., m-1
@@ -56,21 +56,27 @@ def test_many_lags_at_once_equal_one_at_a_time(m, k, n):
         assert np.max(np.abs(got[i] - ref)) < 1e-12, tau
 
 
-def test_batched_lag_search_gives_the_same_estimate(flight, monkeypatch):
-    from flightlog_fd import effectiveness as E
+def test_batched_lag_search_equals_one_lag_at_a_time(flight):
+    """The lag search's batched commands (_SegmentLags) are the definition's, one lag at a time."""
+    from flightlog_fd.analyzers import effectiveness_fit as E
+    from flightlog_fd.prepared import PreparedFlight, resample
+    from flightlog_fd.streams import odd_window
 
-    fast = E.estimate_effectiveness(flight)
-    monkeypatch.setattr(E, "BATCHED_LAG_SEARCH", False)
-    slow = E.estimate_effectiveness(flight)
-    assert fast.motor_lag_s == slow.motor_lag_s
-    assert np.max(np.abs(fast.values - slow.values)) < 1e-8
-    assert np.max(np.abs(fast.ci - slow.ci)) < 1e-8
-    assert fast.reason == slow.reason
+    prep = PreparedFlight(flight)
+    segs = E._usable(E._away_from_ground(resample(prep), flight.airborne), odd_window(0.1, 50.0), 21)
+    fit = E._LagFit(prep, segs, 50.0, odd_window(0.1, 50.0), 21, 0.1)
+    taus = [0.0, 0.03, 0.074, 0.15]
+    batched = fit.commands(taus)
+    for i, tau in enumerate(taus):
+        one = E._detrended_commands(segs, tau, 50.0, odd_window(0.1, 50.0), 21, fit.fine, 0.1)
+        assert np.max(np.abs(batched[i] - one)) < 1e-8 * np.max(np.abs(one)), tau
+    assert fit.best_lag() is not None
 
 
 def test_prepared_flight_is_shared_and_changes_no_number(flight):
-    from flightlog_fd.effectiveness import estimate_effectiveness
-    from flightlog_fd.features import FeatureSpec, make_windows, resample
+    from flightlog_fd.analyzers.effectiveness_fit import estimate_effectiveness
+    from flightlog_fd.prepared import resample
+    from flightlog_fd.windows import FeatureSpec, make_windows
     from flightlog_fd.hover import hover_segments
     from flightlog_fd.prepared import PreparedFlight
 
@@ -87,7 +93,7 @@ def test_prepared_flight_is_shared_and_changes_no_number(flight):
 
 
 def test_window_phases_match_the_per_window_rule(flight):
-    from flightlog_fd.features import FeatureSpec, make_windows
+    from flightlog_fd.windows import FeatureSpec, make_windows
     from flightlog_fd.phases import window_phases
 
     w = make_windows(flight, FeatureSpec("nif"))

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from flightlog_fd.errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
-from flightlog_fd.features import FeatureSpec
+from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.flight import Frame, Rotor
 from flightlog_fd.profile import (MIN_HOVER_S, PROFILE_SCHEMA, Profile, calibrate_profile, estimate_imbalance,
                                   file_sha256)

@@ -12,11 +12,12 @@ from rich.console import Console
 
 from flightlog_fd.diagnose import Diagnosis, FlightFacts, ModelInfo, WindowResult
 from flightlog_fd.flight import Flight, Frame, Series
-from flightlog_fd.report.csv_report import CSV_COLUMNS, render_csv, write_csv
+from flightlog_fd.report.csv_report import csv_columns, render_csv, write_csv
 from flightlog_fd.report.html_report import decimate, nice_ticks, render_html, write_html
 from flightlog_fd.report.json_report import JSON_SCHEMA, render_json, to_dict, validate
 from flightlog_fd.report.terminal import render, summary_table, timeline_strip, verdict_sentence
-from flightlog_fd.verdict import decide, not_diagnosable
+from flightlog_fd.decision import Verdict, not_diagnosable
+from flightlog_fd.timeline import build as build_timeline
 
 HOSTILE = '<script>alert("x")</script>'
 
@@ -32,17 +33,22 @@ def make_diagnosis(onset_s=34.5, motor=3, path="flight.ulg", firmware="v1.14.0")
     probs += rng.uniform(0, 0.01, probs.shape)
     probs /= probs.sum(axis=1, keepdims=True)
     frame = Frame.quad_x()
-    verdict = decide(ts, te, probs, frame=frame)
+    timeline = build_timeline(ts, te, probs)
+    run = timeline.run if timeline.run is not None and timeline.run.confirmed else None
+    verdict = (Verdict("damaged", run.motor, frame.position(run.motor), 0.91, run.first_seen,
+                       f"motor {run.motor} ({frame.position(run.motor)}) lost thrust from t={run.first_seen:.1f} s")
+               if run else Verdict("healthy", confidence=0.88, reason="no rotor lost thrust"))
     t = np.arange(0.0, 100.0, 0.02)
     flight = Flight(path=path, autopilot="px4", firmware=firmware, vehicle_type="quadrotor", frame=frame,
                     rates=Series(t, 0.1 * np.sin(np.outer(t, [1.0, 1.3, 0.7])), "rates"),
                     motors=Series(t, np.full((t.size, 4), 0.5), "motors"),
                     airborne=[(8.0, 99.0)], t_start=0.0, t_end=100.0)
     windows = [WindowResult(float(a), float(b), int(c), [float(x) for x in p], "hover", int(lab))
-               for a, b, c, p, lab in zip(ts, te, probs.argmax(axis=1), probs, verdict.window_labels)]
+               for a, b, c, p, lab in zip(ts, te, probs.argmax(axis=1), probs, timeline.labels)]
     return Diagnosis(log=path, verdict=verdict, facts=FlightFacts.from_flight(flight),
                      model=ModelInfo("/m/default.onnx", "1.0.0", "cd" * 32, list("hABCD"), False),
-                     profile=None, windows=windows, warnings=["no calibration profile"], flight=flight)
+                     profile=None, windows=windows, warnings=["no calibration profile"], flight=flight,
+                     timeline=timeline)
 
 
 def bad_file_diagnosis() -> Diagnosis:
@@ -55,7 +61,7 @@ def test_json_validates_and_holds_the_verdict():
     d = make_diagnosis()
     doc = json.loads(render_json(d))
     assert validate(doc) == []
-    assert doc["schema"] == 3 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["schema"] == 5 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
     assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
     assert doc["verdict"]["position"] == "front-left"
     assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
@@ -85,7 +91,7 @@ def test_validator_catches_schema_violations():
     assert any("verdict.status" in e for e in errors)
     assert any("windows[0].probabilities" in e for e in errors)
     assert any("missing 'warnings'" in e for e in errors)
-    assert JSON_SCHEMA["properties"]["schema"]["const"] == 3
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 5
 
 
 # ---------------------------------------------------------------- CSV
@@ -93,7 +99,9 @@ def test_validator_catches_schema_violations():
 def test_csv_columns_and_rows(tmp_path):
     d = make_diagnosis()
     rows = list(csv.DictReader(io.StringIO(render_csv([d, bad_file_diagnosis()]))))
-    assert tuple(rows[0].keys()) == CSV_COLUMNS
+    assert tuple(rows[0].keys()) == csv_columns(d)
+    assert tuple(rows[0].keys())[:9] == ("log", "t_start", "t_end", "class", "p_healthy", "p_motor1", "p_motor2",
+                                         "p_motor3", "p_motor4")
     assert len(rows) == len(d.windows)  # the bad file adds no rows
     first, last = rows[0], rows[-1]
     assert first["class"] == "0" and last["class"] == "3" and last["smoothed_class"] == "3"
@@ -101,7 +109,7 @@ def test_csv_columns_and_rows(tmp_path):
     assert float(first["p_healthy"]) > 0.8 and last["verdict"] == "damaged"
     out = tmp_path / "w.csv"
     write_csv(d, out)
-    assert out.read_text(encoding="utf-8").splitlines()[0] == ",".join(CSV_COLUMNS)
+    assert out.read_text(encoding="utf-8").splitlines()[0] == ",".join(csv_columns(d))
 
 
 # ---------------------------------------------------------------- HTML

@@ -17,7 +17,8 @@ from serve_helpers import (AUTH, RUNLOG_ENV, SAMPLES, Postgres, counting_diagnos
 
 from flightlog_fd.database import DatabaseError  # noqa: E402
 from flightlog_fd.report.json_report import validate  # noqa: E402
-from flightlog_fd.serve.store import LEASE_S, MAX_ATTEMPTS, ServeStore  # noqa: E402
+from flightlog_fd.store import LEASE_S, MAX_ATTEMPTS, MIGRATIONS, SCHEMA_VERSION  # noqa: E402
+from flightlog_fd.store import Store as ServeStore  # noqa: E402
 from flightlog_fd.serve.worker import wait_idle  # noqa: E402
 
 
@@ -135,8 +136,8 @@ def test_a_log_that_keeps_killing_servers_becomes_an_error_row(db_url):
 
 def test_migrations_run_once_and_a_newer_store_is_refused(db_url):
     a = ServeStore(db_url)
-    assert a.db.schema_version() == 2
-    assert ServeStore(db_url).db.migrate(__import__("flightlog_fd.serve.store", fromlist=["x"]).MIGRATIONS) == []
+    assert a.db.schema_version() == SCHEMA_VERSION
+    assert ServeStore(db_url).db.migrate(MIGRATIONS) == []
     a.db.run("INSERT INTO schema_migrations (version, name, applied_at) VALUES (99, 'future', 'x')")
     with pytest.raises(DatabaseError, match="newer than this fdlog"):
         ServeStore(db_url)
@@ -148,7 +149,7 @@ def test_a_sqlite_file_of_something_else_is_refused(tmp_path):
 
     p = tmp_path / "other.sqlite"
     sqlite3.connect(p).execute("CREATE TABLE t (x)")
-    with pytest.raises(DatabaseError, match="not an fdlog serve store"):
+    with pytest.raises(DatabaseError, match="not an fdlog store"):
         ServeStore(str(p))
     with pytest.raises(DatabaseError, match="folder"):
         ServeStore(str(tmp_path))
@@ -292,7 +293,6 @@ def test_a_killed_server_process_restarts_and_finishes_every_log_once(tmp_path):
 
 def test_an_older_store_is_upgraded_in_place(db_url):
     from flightlog_fd.database import open_database
-    from flightlog_fd.serve.store import MIGRATIONS
 
     old = open_database(db_url)
     assert old.migrate(MIGRATIONS[:1]) == [1]  # a store made by the first version
@@ -300,7 +300,7 @@ def test_an_older_store_is_upgraded_in_place(db_url):
             "VALUES ('aa', 'old.ulg', 1, 'ulog', 'x', 'done')")
     old.close()
     s = ServeStore(db_url)
-    assert s.db.schema_version() == 2
+    assert s.db.schema_version() == SCHEMA_VERSION
     assert s.db.one("SELECT name FROM flight WHERE sha256 = 'aa'")["name"] == "old.ulg"
     assert s.db.query("SELECT * FROM finding") == []
     s.close()

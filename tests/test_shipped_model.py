@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec
+from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.model import FaultModel, default_model_path
 
 from conftest import ROOT

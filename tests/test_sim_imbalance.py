@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flightlog_fd.features import FeatureSpec, make_windows
+from flightlog_fd.windows import FeatureSpec, make_windows
 from flightlog_fd.sim.airframe import preset, random_airframes
 from flightlog_fd.sim.api import simulate_batch, simulate_flights
 from flightlog_fd.sim.damage import TORQUE_EXPONENT_RANGE, Damage, DamageArrays, random_damages

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flightlog_fd.features import FeatureSpec, labels_for_spans, make_windows
+from flightlog_fd.windows import FeatureSpec, labels_for_spans, make_windows
 from flightlog_fd.frames import ardupilot_frame
 from flightlog_fd.sim.airframe import N_ROTOR_FRAMES, preset, random_airframes
 from flightlog_fd.sim.api import simulate_flights
@@ -13,7 +13,7 @@ from flightlog_fd.sim.damage import Damage, random_damages
 
 
 def nif_windows(f, n_motors: int):
-    """NIF windows with n motor channels (features.nif_windows was removed as unused on main)."""
+    """NIF windows with n motor channels ."""
     return make_windows(f, FeatureSpec(n_motors=n_motors))
 
 

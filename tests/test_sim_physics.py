@@ -13,7 +13,7 @@ from flightlog_fd.sim.damage import MAX_DAMAGED_COMMAND, MAX_STATIC_TILT_DEG, Da
 from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams
 from flightlog_fd.sim.logger import thrust_to_signal
 from flightlog_fd.sim.sensors import SensorParams, Sensors
-from flightlog_fd.sim.unbalance import resolve_rho
+from flightlog_fd.sim.rho import resolve_rho
 
 PRESET_SET = [preset("sih"), preset("x500"), preset("crazyflie"), preset("heavy"), preset("f450", "quad_plus")]
 
@@ -268,7 +268,7 @@ def test_random_damage_on_a_weak_airframe_stays_a_real_damage():
 def test_paper_speed_gain_divides_each_vehicle_by_its_own_speed_scale():
     """(rotors, vehicles) arrays against (vehicles,) speed scales: 3 vehicles used to fail to
     broadcast, and 4 divided rotor i by vehicle i's scale."""
-    from flightlog_fd.sim.unbalance import paper_speed_gain
+    from flightlog_fd.sim.rho import paper_speed_gain
 
     rho = np.array([[1.0, 1.0, 1.0, 1.0], [1.1, 1.1, 1.1, 1.1], [0.9, 0.9, 0.9, 0.9], [1.0, 1.0, 1.0, 1.0]])
     for n in (3, 4):

@@ -6,9 +6,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from flightlog_fd.analyzers.vibration import (ANALYZER_ID, HEALTHY_LEVEL_REF, analyze_vibration,
-                                              fit_vibration_baseline, vibration_only_verdict)
-from flightlog_fd.decision import DAMAGED_LLR
+from flightlog_fd.analyzers.vibration import (ANALYZER_ID, HEALTHY_LEVEL_REF, VibrationBaseline, VibrationResult,
+                                              analyze_vibration, fit_vibration_baseline, result_from)
+from flightlog_fd.decision import DAMAGED_LLR, decide
 from flightlog_fd.flight import Flight, Frame, ImuStream, Series, Vibration
 from flightlog_fd.flights import split_flights
 
@@ -67,14 +67,26 @@ def test_no_line_without_one_and_too_slow_a_gyro():
     assert analyze_vibration(_synthetic(line_motor=2, rate=80.0)).line is None
 
 
+NO_OUTPUTS = "no per-motor outputs in the log (actuator_motors / actuator_outputs / RCOU)"
+
+
+def vibration_only_verdict(flight, profile=None):
+    """(Verdict, Decision) of decision.decide from vibration alone, as diagnose gives a log without motor outputs."""
+    b = (getattr(profile, "analyzers", None) or {}).get(ANALYZER_ID) if profile is not None else None
+    n = flight.frame.rotor_count if flight.frame is not None else 4
+    r = result_from(analyze_vibration(flight, VibrationBaseline.from_dict(b) if b else None), n)
+    return decide(n, flight.frame, results=[r], not_diagnosable_reason=NO_OUTPUTS)
+
+
 def test_split_flights_and_vibration_only_verdict():
     f = _synthetic(flights=2)
     parts = split_flights(f)
     assert [p.part.split(",")[0] for p in parts] == ["flight 1 of 2", "flight 2 of 2"]
     assert all(len(p.airborne) == 1 and p.vibration is not None for p in parts)
     f.motors = None
-    v, d = vibration_only_verdict(f)
-    assert v.status == "healthy" and d.results[0].analyzer == ANALYZER_ID
+    for p in parts:
+        v, d = vibration_only_verdict(p)
+        assert v.status == "healthy" and d.results[0].analyzer == ANALYZER_ID and "only vibration" in v.reason
 
 
 @needs_shared
@@ -127,7 +139,8 @@ def test_tied_line_keeps_the_flight_level_finding():
 
     a = analyze_vibration(_synthetic(5 * HEALTHY_LEVEL_REF, line_motor=2))
     r = result_from(a, 4)
-    assert a.line.motor == 2 and r.extra["flight_llr"] == a.flight_llr > 3.5
+    assert isinstance(r, VibrationResult) and a.line.motor == 2 and r.line_motor == 2
+    assert r.flight_llr == a.flight_llr > 3.5
 
 
 HEALTHY = sorted((SHARED / "real_healthy" / "logs").glob("*.BIN")) + \

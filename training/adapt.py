@@ -2,7 +2,8 @@
 
 Inputs: a calibration :class:`~flightlog_fd.profile.Profile` (ρ, hover throttle, frame, stream
 rates, from :func:`~flightlog_fd.profile.calibrate_profile`) and the HEALTHY flights it came
-from. No damaged real flight is ever needed.
+from. No damaged real flight is ever needed. :func:`flightlog_fd.calibration.calibrate` with
+``adapt=True`` (`fdlog calibrate`) runs it.
 
 1. **Adjusted simulation model.** Simulate a family of airframes like this one: random airframes
    (mass, inertia, motor lag, gains...) whose thrust is rescaled so that they hover at the
@@ -35,7 +36,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec, make_windows
+from flightlog_fd.windows import FeatureSpec, make_windows
 from flightlog_fd.flight import Flight
 from flightlog_fd.profile import Profile
 
@@ -131,7 +132,7 @@ def attitude_time_constant(flight: Flight, rate_hz: float = 50.0) -> float:
     """Robust scale of roll/pitch rates over that of roll/pitch angular accelerations, seconds.
 
     A size-free signature of how fast the airframe's attitude moves (small quads are fast)."""
-    from flightlog_fd.features import resample
+    from flightlog_fd.prepared import resample
 
     segs = resample(flight, rate_hz)
     if not segs:
@@ -235,46 +236,3 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
                                                 "version": f"calibrated-{base.version}",
                                                 "logit_bias": [float(b) for b in bias]})
     return AdaptResult(out_onnx, summary)
-
-
-def calibrate(paths: Sequence[Path], out_profile: Path, *, settings: AdaptSettings = AdaptSettings(),
-              base_model: Optional[Path] = None, overwrite: bool = False, adapt: bool = True,
-              progress: Optional[Callable[[str, float], None]] = None) -> Profile:
-    """`fdlog calibrate`: profile (ρ, statistics) from healthy logs, then the adapted model beside it.
-
-    Writes ``out_profile`` (JSON) and ``<out_profile stem>.onnx``; refuses to overwrite either
-    unless ``overwrite``. Raises FlightLogError subclasses for bad input.
-    """
-    from flightlog_fd import load_flight
-    from flightlog_fd.errors import ProfileError
-    from flightlog_fd.profile import calibrate_profile
-
-    out_profile = Path(out_profile)
-    out_onnx = out_profile.with_suffix(".onnx")
-    for p in (out_profile, out_onnx):
-        if p.exists() and not overwrite:
-            raise ProfileError(p, "already exists (use --force to overwrite)")
-    flights = [load_flight(p) for p in paths]
-    from flightlog_fd.errors import UnsupportedVehicleError
-
-    for fl in flights:  # the adjusted simulation and the base weights are the quad's
-        if adapt and fl.frame is not None and fl.frame.rotor_count not in (0, 4):
-            raise UnsupportedVehicleError(fl.path, f"adapting the model is for quadrotors so far; this is a "
-                                                   f"{fl.frame.rotor_count}-rotor {fl.frame.name}: use --no-adapt "
-                                                   f"to measure its profile (imbalance and command shares)")
-    if progress:
-        progress("measuring hover", 0.0)
-    base_onnx, _ = base_model_files(base_model)
-    from flightlog_fd.model import FaultModel
-
-    spec = FeatureSpec.from_dict(FaultModel(base_onnx).feature_spec)
-    profile = calibrate_profile(flights, spec=FeatureSpec.from_dict({**spec.to_dict(), "mean": None, "std": None}))
-    if adapt:
-        res = adapt_model(profile, flights, out_onnx, settings=settings, base_model=base_model, progress=progress)
-        profile.extra = {**(profile.extra or {}), "adaptation": res.summary}
-        profile.set_model(out_onnx, profile_path=out_profile)
-        profile.fit_analyzers(flights, FaultModel(out_onnx))
-    else:
-        profile.fit_analyzers(flights, FaultModel(base_onnx))
-    profile.save(out_profile, overwrite=overwrite)
-    return profile

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec
+from flightlog_fd.windows import FeatureSpec
 
 #: Logging profiles mixed into the shipped model's training data, batch by batch: real logs
 #: come at 250 Hz (PX4 high-rate), with 10 Hz motors (PX4 default) or from ArduPilot.

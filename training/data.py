@@ -1,6 +1,6 @@
 """Windows for training and evaluation: simulated flights and labelled logs through ONE path.
 
-Every window, simulated or parsed, comes out of :func:`flightlog_fd.features.make_windows`; this
+Every window, simulated or parsed, comes out of :func:`flightlog_fd.windows.make_windows`; this
 module only decides which flights to make and how to label them:
 
 - :func:`simulate_windows` flies batches of simulated quads (``flightlog_fd.sim``) and windows
@@ -19,7 +19,7 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec, make_windows, window_labels
+from flightlog_fd.windows import FeatureSpec, make_windows, window_labels
 from flightlog_fd.flight import Flight
 
 #: Missions mixed in simulated datasets: autonomous waypoints (like the PX4 SITL set) and

@@ -26,30 +26,23 @@ from dataclasses import asdict, dataclass
 import torch
 from torch import nn
 
-NIF_CHANNELS = 7  # p_dot, q_dot, r_dot, w1^2, w2^2, w3^2, w4^2
-CF_CHANNELS = 9  # roll, pitch, p, q, r, w1, w2, w3, w4
-WINDOW_SAMPLES = 80  # T in the paper
-N_CLASSES = 5  # healthy + one class per damaged propeller
-CONV_FILTERS = 64
-CONV_KERNEL = 3
-CONV_BLOCKS = 4
-DENSE_UNITS = 128
-DROPOUT = 0.1
+NIF_CHANNELS = 7  # p_dot, q_dot, r_dot, w1^2, w2^2, w3^2, w4^2 (a quad)
+CF_CHANNELS = 9  # roll, pitch, p, q, r, w1, w2, w3, w4 (a quad)
 POOL = 2  # every block halves the time axis
 
 
 @dataclass
 class DCNNConfig:
-    """Shape of the network; the defaults are the paper's NIF model."""
+    """Shape of the network; the defaults are the paper's NIF model for a quad (written once, here)."""
 
     in_channels: int = NIF_CHANNELS
-    window: int = WINDOW_SAMPLES
-    n_classes: int = N_CLASSES
-    filters: int = CONV_FILTERS
-    kernel: int = CONV_KERNEL
-    n_blocks: int = CONV_BLOCKS
-    dense: int = DENSE_UNITS
-    dropout: float = DROPOUT
+    window: int = 80  # T in the paper
+    n_classes: int = 5  # healthy + one class per damaged propeller (n + 1 for n rotors)
+    filters: int = 64
+    kernel: int = 3
+    n_blocks: int = 4
+    dense: int = 128
+    dropout: float = 0.1
 
     def __post_init__(self) -> None:
         if self.kernel % 2 != 1:

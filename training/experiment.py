@@ -14,7 +14,7 @@ Protocol (no labelled target data is used for training or model selection):
    target = the calibration flight's healthy NIF windows), Adam 5e-4, batch 128, at most
    ``--epochs`` epochs, patience ``--patience``, lowest-training-loss model kept.
 4. Test on S-test and on every OTHER target flight: window accuracy mean ± std over runs, a
-   per-class confusion matrix (summed over runs), the flight verdict (:mod:`flightlog_fd.verdict`)
+   per-class confusion matrix (summed over runs), the windows' flight call (:mod:`flightlog_fd.timeline`: a confirmed damage run names its motor, else healthy)
    of every test flight, first-seen time for mid-flight onsets, and the peer rule
    (:mod:`flightlog_fd.training.peer_rule`) on the same flights.
 5. A t-SNE figure of first-dense-layer features of S-test and T, NIF vs NIF+DA (PNG).
@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from flightlog_fd.features import FeatureSpec
+from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.profile import calibrate_profile
-from flightlog_fd.verdict import decide
+from flightlog_fd.timeline import build as build_timeline
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 CLASS_NAMES = ["healthy", "motor 1", "motor 2", "motor 3", "motor 4"]
@@ -74,12 +74,17 @@ def flight_verdicts(probs: np.ndarray, ws, logs) -> list[dict]:
             out.append({"name": lg.name, "truth": lg.truth["label"], "status": "not_diagnosable", "motor": None,
                         "ok": False, "first_seen": None, "onset": lg.truth.get("onset_s")})
             continue
-        fl = lg.load()
-        v = decide(ws.t_start[m], ws.t_end[m], probs[m], frame=fl.frame)
+        tl = build_timeline(ws.t_start[m], ws.t_end[m], probs[m])
+        run = tl.run if tl.run is not None and tl.run.confirmed else None
+        status = "not_diagnosable" if tl.shortfall else ("damaged" if run else "healthy")
+        motor = run.motor if run else None
+        # the mean window probability of the class named, over the windows the call rests on
+        p = probs[m][np.argsort(ws.t_start[m], kind="stable")]
+        conf = float(np.mean(p[run.start_index:, run.motor])) if run else float(np.mean(p[:, 0]))
         truth = lg.truth["label"]
-        ok = (v.status == "healthy" and truth == 0) or (v.status == "damaged" and v.motor == truth)
-        out.append({"name": lg.name, "truth": truth, "status": v.status, "motor": v.motor, "ok": bool(ok),
-                    "confidence": round(float(v.confidence), 3), "first_seen": v.first_seen,
+        ok = (status == "healthy" and truth == 0) or (status == "damaged" and motor == truth)
+        out.append({"name": lg.name, "truth": truth, "status": status, "motor": motor, "ok": bool(ok),
+                    "confidence": round(conf, 3), "first_seen": run.first_seen if run else None,
                     "onset": lg.truth.get("onset_s"), "detail": lg.detail})
     return out
 

@@ -133,7 +133,7 @@ def render(meta: dict, verdicts: dict | None = None) -> str:
         "- Every training airframe, healthy or damaged, is unbalanced the way real healthy quads are (centre of "
         "mass off the middle, motor tilt / yaw trim, thrust and torque coefficient spread: steady offsets up to "
         "~±0.10 of full scale, measured on real healthy logs), so one motor running high is not damage by "
-        "itself. The verdict also asks the per-motor evidence (`flightlog_fd/evidence.py`): without a profile "
+        "itself. The verdict also asks the per-motor evidence (`flightlog_fd/analyzers/share_fit.py`): without a profile "
         "it confirms a one-motor excess from about η ≈ 0.83 down; milder damage needs `fdlog calibrate` on a "
         "healthy flight of the airframe.",
         "- Windows are 1.6 s; the flight verdict smooths over several seconds and abstains (`uncertain`) when "

@@ -6,7 +6,7 @@
   take-off), with the damaged motor in PX4 numbering.
 
 These are for adaptation (healthy flights only) and testing, never for training the shipped
-model. Returns `Flight` objects plus truth dicts in the form `features.window_labels` reads.
+model. Returns `Flight` objects plus truth dicts in the form `windows.window_labels` reads.
 """
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ Registered (in this order): ``model`` (:mod:`.model_votes`), ``commands``
 ``effectiveness`` (:mod:`.effectiveness`), ``esc`` (:mod:`.esc`: rpm per command and current per
 rpm² from ESC telemetry), ``vibration`` (:mod:`.vibration`: the horizontal vibration level against
 the airframe's healthy level, rotor lines in the gyro spectrum tied to a rotor; a flight-level
-finding in ``extra["flight_llr"]`` when no rotor can be named).
+finding, :class:`~.vibration.VibrationResult`, the decision weighs when no rotor can be named).
 
 How to add an analyzer
 ----------------------

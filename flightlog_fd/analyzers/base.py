@@ -54,15 +54,19 @@ class Finding:
 
 @dataclass
 class AnalyzerResult:
-    """What one analyzer said about the flight: its findings, or why it abstained."""
+    """What one analyzer said about the flight: its findings, or why it abstained. An analyzer
+    with figures the decision reads beyond its findings returns a typed subclass of its own."""
 
     analyzer: str
     findings: list[Finding] = field(default_factory=list)
     abstained: Optional[str] = None  # the reason, when it had nothing to say
     notes: list[str] = field(default_factory=list)
-    extra: dict = field(default_factory=dict)  # analyzer-specific figures (e.g. the healthy chi-square)
     llr_cap: float = SOURCE_LLR_CAP  # set from the analyzer by run_analyzers
     cap_keeps_order: bool = False  # likewise
+
+    def finding(self, name: str, motor: int) -> Optional[Finding]:
+        """Its finding ``name`` about ``motor`` (1-based), or None."""
+        return next((f for f in self.findings if f.name == name and f.motor == motor), None)
 
     def llr(self, n_motors: int) -> Optional[np.ndarray]:
         """(n,) summed LLR of this analyzer's weighed findings, clipped to +-``llr_cap``; None if it
@@ -91,7 +95,7 @@ class Context:
     """Everything an analyzer may read about one flight, prepared once by the diagnose pipeline.
 
     ``probs`` (N, n+1) and ``covered_s``: the windows the decision rests on; ``evidence``: the
-    command shares against their baseline (:class:`flightlog_fd.evidence.FlightEvidence`);
+    command shares against their baseline (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`);
     ``profile``: the calibration profile or None (``profile.analyzers.get(id)`` holds each
     analyzer's fitted baseline)."""
 

@@ -1,7 +1,7 @@
 """Command shares as evidence, with each rotor's severity from steady flight (mixer physics).
 
 Input: the airborne-mean thrust-command shares (mean 1) against the healthy baseline the diagnose
-pipeline prepared (:class:`flightlog_fd.evidence.FlightEvidence`: the profile's at this
+pipeline prepared (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`: the profile's at this
 throttle, the flight before a mid-flight onset, or none). Physics: one rotor at thrust
 efficiency ``eta`` (drag torque ``eta**m``) in closed loop needs commands that hold the same force
 and moments as the healthy ones; the mixer geometry (collective, roll, pitch and yaw rows)
@@ -21,7 +21,7 @@ n-rotor frames (below).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional, Sequence
 
 import numpy as np
@@ -77,6 +77,20 @@ class SeverityFit:
     eta_ci: tuple[float, float]
     m_hat: float
     chi2: float  # at the best eta, m
+
+
+@dataclass
+class CommandSharesResult(AnalyzerResult):
+    """The command-share analyzer's result: its findings (``share``, ``thrust`` per motor) and the
+    fit's figures the decision weighs for "airframe changed" (None when it abstained)."""
+
+    baseline: Optional[str] = None  # "profile" | "before onset" | "neighbours"
+    healthy_chi2: Optional[float] = None  # of the shares (and the throttle, ``with_throttle``) against healthy
+    fit_chi2: list[float] = field(default_factory=list)  # per motor, at its best eta and m
+    share_sigma: Optional[float] = None  # the share noise used (mean over motors)
+    with_throttle: bool = False  # the throttle against the profile's is one of the observations
+    words: list[str] = field(default_factory=list)  # per motor, plain words for its command share
+    drifting: Optional[int] = None  # the motor whose command rose steadily after an onset
 
 
 def _mixer_rows(frame: Optional[Frame], n: int) -> np.ndarray:
@@ -235,20 +249,20 @@ class CommandShares(Analyzer):
         ev = ctx.evidence
         why = self.missing(ctx.flight)
         if why or ev is None:
-            return AnalyzerResult(self.id, abstained=why or "no command shares")
+            return CommandSharesResult(self.id, abstained=why or "no command shares")
         if ev.baseline == "neighbours" and len(ev.motors) != 4:
-            return AnalyzerResult(self.id, abstained=(
+            return CommandSharesResult(self.id, abstained=(
                 f"without a profile the healthy spread of {len(ev.motors)}-rotor command patterns is not measured "
                 f"on real airframes (NEIGHBOUR_SHARE_SIGMA is from real quads); calibrate on a healthy flight"))
         drifting = ev.drifting() if ev.baseline == "before onset" else None
         if drifting is not None:
-            return AnalyzerResult(self.id, abstained=f"motor {drifting}'s command rose steadily after the onset",
+            return CommandSharesResult(self.id, abstained=f"motor {drifting}'s command rose steadily after the onset",
                                   notes=[f"motor {drifting} needed steadily more command after the onset (a drift, not "
                                          f"the step a broken propeller makes): inspect motor {drifting}, its ESC and mount"],
-                                  extra={"drifting": drifting})
+                                       drifting=drifting)
         plain = fits_for(ctx, with_throttle=False)
         if plain is None:
-            return AnalyzerResult(self.id, abstained="the command shares are not finite")
+            return CommandSharesResult(self.id, abstained="the command shares are not finite")
         chi_h, fits, sig = plain
         full = fits_for(ctx, with_throttle=True) if ev.throttle_ratio is not None else plain
         chi_full, fits_full, _ = full
@@ -260,6 +274,7 @@ class CommandShares(Analyzer):
             lo, hi = ff.eta_ci
             findings.append(Finding(self.id, k + 1, "thrust", ff.eta_hat, "of normal", ff.eta_ci, 1.0, "down", None,
                                     f"{100 * ff.eta_hat:.0f} ({100 * lo:.0f}-{100 * hi:.0f})"))
-        return AnalyzerResult(self.id, findings, extra={
-            "baseline": ev.baseline, "healthy_chi2": chi_full, "fit_chi2": [f.chi2 for f in fits_full],
-            "share_sigma": float(np.mean(sig)), "with_throttle": ev.throttle_ratio is not None})
+        return CommandSharesResult(self.id, findings, baseline=ev.baseline, healthy_chi2=chi_full,
+                                   fit_chi2=[f.chi2 for f in fits_full], share_sigma=float(np.mean(sig)),
+                                   with_throttle=ev.throttle_ratio is not None,
+                                   words=[ev.summary(k + 1) for k in range(len(ev.motors))])

@@ -1,6 +1,6 @@
 """The effectiveness fit as evidence: angular acceleration per unit command, relative to the others.
 
-Input: :func:`flightlog_fd.effectiveness.estimate_effectiveness` (computed once by the diagnose
+Input: :func:`.effectiveness_fit.estimate_effectiveness` (computed once by the diagnose
 pipeline on the windows' segments; ``FlightEvidence.effectiveness``). Finding per motor:
 ``effectiveness`` (1 = as effective as its neighbours) with its 90 % block-bootstrap interval
 and its LLR: likelihood of the value under a damaged rotor (eta uniform on the severity grid)

@@ -5,7 +5,7 @@ time, two relations, each as the motor's offset against the other motors of the 
 (natural log, reported in %):
 
 - **rpm per command** ``a_k``: ``log mean rpm = c_k + β·log mean sqrt(thrust command)`` (β
-  fitted, prior 1: rpm ∝ sqrt(thrust); ``features.flight_thrust_proxy`` makes the command linear
+  fitted, prior 1: rpm ∝ sqrt(thrust); ``streams.flight_thrust_proxy`` makes the command linear
   in thrust). A lighter (cut, chipped) propeller loads its motor less, so on an
   open-loop ESC it turns faster at the same command: ``a_k`` goes **up**.
 - **current per rpm²** ``d_k``: ``log mean current = e_k + γ·log mean rpm²`` (γ fitted, prior 1:
@@ -250,7 +250,7 @@ def measure_esc(flight: Flight) -> tuple[Optional[_Measurement], Optional[str]]:
     edges = _bin_edges(flight.airborne)
     if not edges:
         return None, "too little airborne time"
-    from ..features import flight_thrust_proxy
+    from ..streams import flight_thrust_proxy
 
     # Bin means of LINEAR quantities, logged afterwards: the rotor speed is the commanded speed
     # (∝ sqrt(thrust)) through the motor's lag, a linear filter that keeps the mean, so
@@ -476,7 +476,7 @@ class Esc(Analyzer):
             out.append(Finding(self.id, f.motor, f.name, f.value, f.unit, interval, f.baseline, f.direction,
                                a.decision_llr[f.motor] if weighed else None,
                                text if f.name != "esc_damage" else f"{f.value:.0f}%"))
-        return AnalyzerResult(self.id, out, extra={"against": a.against, "bins": a.bins})
+        return AnalyzerResult(self.id, out)
 
 
 __all__ = ["ANALYZER_ID", "EscFigure", "Esc", "EscAnalysis", "EscBaseline", "analyze_esc", "measure_esc",

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..verdict import PROB_FLOOR_MIX  # the same floor the timeline's votes use
+from ..timeline import floored  # the same floor the timeline's votes use
 from .base import Analyzer, AnalyzerResult, Context, Finding
 
 #: Healthy flights: mean and between-flight standard deviation of a motor's flight-mean window
@@ -96,9 +96,7 @@ def _gauss_logpdf(x: float, mu: float, sd: float) -> float:
 
 def mean_log_ratio(probs: np.ndarray) -> np.ndarray:
     """(n_motors,) flight mean of the windows' log(q_k / q_0) on floored probabilities."""
-    p = np.asarray(probs, float)
-    k = p.shape[1]
-    q = (1.0 - PROB_FLOOR_MIX) * p / p.sum(axis=1, keepdims=True) + PROB_FLOOR_MIX / k
+    q = floored(probs)
     return (np.log(q[:, 1:]) - np.log(q[:, :1])).mean(axis=0)
 
 
@@ -139,7 +137,7 @@ class ModelVotes(Analyzer):
     def fit_baseline(self, flights, model=None):
         """Each motor's flight-mean window log ratio on the calibration flights with ``model``
         (the profile's): the airframe's own healthy level, keyed to the model's sha256."""
-        from ..features import FeatureSpec, make_windows
+        from ..windows import FeatureSpec, make_windows
 
         if model is None:
             return None

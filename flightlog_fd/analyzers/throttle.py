@@ -11,8 +11,19 @@ command pattern.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Optional
+
 from .base import Analyzer, AnalyzerResult, Context, Finding
 from .command_shares import fits_for
+
+
+@dataclass
+class ThrottleResult(AnalyzerResult):
+    """The throttle analyzer's result; ``ratio``: the flight's throttle over the profile's (None
+    when it abstained)."""
+
+    ratio: Optional[float] = None
 
 
 class Throttle(Analyzer):
@@ -24,12 +35,12 @@ class Throttle(Analyzer):
         ev = ctx.evidence
         ratio = None if ev is None else ev.throttle_ratio
         if ratio is None:
-            return AnalyzerResult(self.id, abstained="no calibration profile: the healthy throttle is unknown")
+            return ThrottleResult(self.id, abstained="no calibration profile: the healthy throttle is unknown")
         if ev.baseline == "before onset" or (ev.baseline == "profile" and ev.drifting() is not None):
-            return AnalyzerResult(self.id, abstained="the commands drift after the onset")
+            return ThrottleResult(self.id, abstained="the commands drift after the onset")
         plain, full = fits_for(ctx, with_throttle=False), fits_for(ctx, with_throttle=True)
         if plain is None or full is None:
-            return AnalyzerResult(self.id, abstained="the command shares are not finite")
-        return AnalyzerResult(self.id, [
+            return ThrottleResult(self.id, abstained="the command shares are not finite")
+        return ThrottleResult(self.id, [
             Finding(self.id, k + 1, "throttle", ratio, "x calibration", None, 1.0, "up", f.llr - p.llr, f"{ratio:.2f}x")
-            for k, (p, f) in enumerate(zip(plain[1], full[1]))])
+            for k, (p, f) in enumerate(zip(plain[1], full[1]))], ratio=ratio)

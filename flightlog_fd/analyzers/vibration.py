@@ -26,10 +26,12 @@ with a profile, against this airframe's calibrated level and its flight-to-fligh
 10x, so a level alone is never "damaged" without the airframe's own baseline). When the line is
 tied to a rotor, the per-motor LLR is ``flight_llr + log(n·p_k)`` with ``p_k`` the tie's posterior
 (under healthy the strongest residual line belongs to any rotor; under "rotor k out of balance" to
-k), so the tie can add at most log n. The flight-level finding also goes to the decision via
-``AnalyzerResult.extra["flight_llr"]`` ("a propeller is out of balance; inspect all"), tied or
-not: the per-motor sums add the other analyzers' evidence about thrust loss, which a mass
-imbalance does not cause, so a tied line must not weigh less than an untied one.
+k), so the tie can add at most log n; only a tie by ESC rpm at once per revolution is weighed per
+motor (a tie by the commanded speed alone can follow the wrong rotor: simulated 1 kHz flights tied
+2-4 of 12 lines at 20 m/s/s to another motor). The flight-level finding goes to the decision in
+:class:`VibrationResult` ("a propeller is out of balance; inspect all"), tied or not: the per-motor
+sums add the other analyzers' evidence about thrust loss, which a mass imbalance does not cause,
+so a tied line must not weigh less than an untied one.
 
 Limits: needs ``MIN_AIRBORNE_S`` of airborne samples; a symmetric cut (both blades shortened)
 loses thrust without imbalance and does not raise vibration (rrc quad: 3.6-6.6 m/s/s against
@@ -245,7 +247,7 @@ def _rotor_speeds(flight: Flight, centres: np.ndarray, half: float) -> tuple[Opt
             return out, "ESC rpm"
     if flight.motors is None:
         return None, ""
-    from ..features import flight_thrust_proxy
+    from ..streams import flight_thrust_proxy
 
     u = np.sqrt(np.clip(flight_thrust_proxy(flight), 0.0, None))
     t = flight.motors.t
@@ -436,9 +438,34 @@ def level_words(a: VibrationAnalysis) -> str:
             f"{'m/s/s' if a.level.kind != 'px4_metric' else 'PX4 metric'}, {a.level.source})")
 
 
+#: A line tied by ESC rpm is trusted (the advice names its rotor) when its frequency is this close
+#: to once per revolution of that rotor: a mis-set pole count or a line of another origin (a frame
+#: mode, twice per revolution) scales the ratio by a whole factor (0.5, 2, 14/12...).
+ONCE_PER_REV_TOLERANCE = 0.1
+
+
+@dataclass
+class VibrationResult(AnalyzerResult):
+    """The vibration analyzer's result: per-motor ``rotor_line`` findings (weighed only when the
+    tie is trusted) and the flight-level finding the decision reads: ``flight_llr`` (nats, "a
+    propeller is out of balance" against healthy; None without a level), the level's plain words,
+    and the line with the rotor it follows (``line_motor``; ``tie_trusted`` when tied by ESC rpm at
+    once per revolution: a tie by the commanded speed alone can follow the wrong rotor, since all
+    rotors' commands move together in manoeuvres)."""
+
+    flight_llr: Optional[float] = None
+    against: str = ""  # "profile" / "healthy airframes" / ""
+    ratio: Optional[float] = None
+    level_words: str = ""
+    line_hz: Optional[float] = None
+    line_motor: Optional[int] = None
+    tie_source: str = ""
+    tie_trusted: bool = False
+
+
 class Vibration(Analyzer):
-    """The registry's vibration analyzer: per motor an LLR when a rotor line is tied to a rotor,
-    else the flight-level finding in ``extra["flight_llr"]`` for the decision."""
+    """The registry's vibration analyzer: per motor an LLR when a rotor line is tied to a rotor by
+    ESC rpm, and the flight-level finding (:class:`VibrationResult`) the decision weighs."""
 
     id = ANALYZER_ID
     description = "vibration: level against the airframe's healthy level, rotor lines in the gyro spectrum"
@@ -451,39 +478,43 @@ class Vibration(Analyzer):
     def analyze(self, ctx: Context) -> AnalyzerResult:
         flight = ctx.flight
         if flight is None or getattr(flight, "vibration", None) is None:
-            return AnalyzerResult(self.id, abstained="no vibration data in this log")
+            return VibrationResult(self.id, abstained="no vibration data in this log")
         b = ctx.baseline_for(self.id)
         a = analyze_vibration(flight, VibrationBaseline.from_dict(b) if b else None)
         return result_from(a, ctx.n_motors)
 
 
-def result_from(a: VibrationAnalysis, n: int) -> AnalyzerResult:
-    """The AnalyzerResult of one analysis: findings, notes and the flight-level LLR in ``extra``."""
+def tie_trusted(line: Optional[RotorLine]) -> bool:
+    """True when the line is tied by ESC rpm at once per revolution (``ONCE_PER_REV_TOLERANCE``)."""
+    return (line is not None and line.motor is not None and line.speed_source == "ESC rpm"
+            and line.rev_per_speed is not None and abs(line.rev_per_speed - 1.0) <= ONCE_PER_REV_TOLERANCE)
+
+
+def result_from(a: VibrationAnalysis, n: int) -> VibrationResult:
+    """The :class:`VibrationResult` of one analysis. The per-motor LLR of a trusted tie is
+    ``flight_llr + log(n·p_k)`` (the tie adds at most log n); an untrusted tie is shown, not weighed."""
     if a.abstain:
-        return AnalyzerResult(ANALYZER_ID, abstained=a.abstain)
+        return VibrationResult(ANALYZER_ID, abstained=a.abstain)
     out = []
-    tied = a.line is not None and a.line.motor is not None and a.line.tie_posterior and n >= 1
+    line = a.line
+    trusted = tie_trusted(line) and bool(line.tie_posterior) and n >= 1
     base_llr = a.flight_llr if a.flight_llr is not None else 0.0
     if a.level is not None:
         out.append(Finding(ANALYZER_ID, 0, "level", a.level.value, "m/s/s" if a.level.kind != "px4_metric" else "",
                            None, None if a.ratio is None else a.level.value / a.ratio, "up", None,
                            level_words(a) or f"{a.level.value:.1f}"))
-    if tied:
+    if line is not None and line.motor is not None and line.tie_posterior and n >= 1:
         for k in range(1, n + 1):
-            p = a.line.tie_posterior.get(k, 0.0)
-            llr = base_llr + float(np.clip(np.log(max(n * p, 1e-12)), -np.log(n), np.log(n)))
-            out.append(Finding(ANALYZER_ID, k, "rotor_line", a.line.freq_hz if k == a.line.motor else None, "Hz",
+            p = line.tie_posterior.get(k, 0.0)
+            llr = (base_llr + float(np.clip(np.log(max(n * p, 1e-12)), -np.log(n), np.log(n)))) if trusted else None
+            out.append(Finding(ANALYZER_ID, k, "rotor_line", line.freq_hz if k == line.motor else None, "Hz",
                                None, None, "up", llr,
-                               f"{a.line.freq_hz:.1f} Hz, p={p:.2f}" if k == a.line.motor else f"p={p:.2f}"))
-    extra = {"flight_llr": a.flight_llr, "against": a.against,
-             "ratio": a.ratio, "level_words": level_words(a),
-             "line_hz": None if a.line is None else a.line.freq_hz,
-             "line_motor": None if a.line is None else a.line.motor}
-    return AnalyzerResult(ANALYZER_ID, out, notes=list(a.notes), extra=extra)
-
-
-__all__ = ["ANALYZER_ID", "Vibration", "VibrationAnalysis", "VibrationBaseline", "analyze_vibration",
-           "fit_vibration_baseline", "measure_level", "find_line", "spectrum", "level_words", "result_from"]
+                               f"{line.freq_hz:.0f}Hz {p:.2f}" if k == line.motor else f"{p:.2f}"))
+    return VibrationResult(ANALYZER_ID, out, notes=list(a.notes), flight_llr=a.flight_llr, against=a.against,
+                           ratio=a.ratio, level_words=level_words(a),
+                           line_hz=None if line is None else line.freq_hz,
+                           line_motor=None if line is None else line.motor,
+                           tie_source="" if line is None else line.speed_source, tie_trusted=trusted)
 
 
 #: Reasons of checks.diagnosability after which vibration alone can still judge the propellers
@@ -491,49 +522,11 @@ __all__ = ["ANALYZER_ID", "Vibration", "VibrationAnalysis", "VibrationBaseline",
 VIBRATION_ONLY_REASONS = ("no per-motor outputs", "motor outputs", "propeller-damage model", "only stopped-motor")
 
 
-def vibration_only_verdict(flight: Flight, profile=None):
-    """(Verdict, Decision) from vibration alone, for a log the full diagnosis cannot take (no
-    per-motor outputs, no damage model for its frame); None when vibration says nothing either.
-    Each take-off to landing of the log is judged on its own (:func:`flightlog_fd.flights.split_flights`);
-    the log's verdict is its worst flight's, and the reason lists every flight."""
-    from ..decision import DAMAGED_LLR, UNCERTAIN_LLR, Decision
-    from ..flights import split_flights
-    from ..verdict import Verdict
+def vibration_can_judge(reasons: Sequence[str]) -> bool:
+    """True when the full diagnosis refused the log for a reason vibration does not depend on."""
+    return any(w in r for r in reasons for w in VIBRATION_ONLY_REASONS)
 
-    b = (getattr(profile, "analyzers", None) or {}).get(ANALYZER_ID) if profile is not None else None
-    baseline = VibrationBaseline.from_dict(b) if b else None
-    rank = {"healthy": 0, "uncertain": 1, "damaged": 2}
-    judged = []
-    for part in split_flights(flight):
-        a = analyze_vibration(part, baseline)
-        if a.abstain or a.flight_llr is None:
-            continue
-        llr = a.flight_llr
-        status = "damaged" if llr >= DAMAGED_LLR else ("uncertain" if llr >= UNCERTAIN_LLR else "healthy")
-        words = level_words(a)
-        if status == "damaged":
-            text = f"a propeller is likely damaged: {words}"
-        elif status == "uncertain":
-            text = (f"a propeller may be out of balance: {words}"
-                    + ("; calibrate on a healthy flight of this airframe to tell" if a.against != "profile" else ""))
-        else:
-            text = f"no propeller out of balance: {words}"
-        for note in a.notes:
-            text += f"; {note}"
-        judged.append((part, a, status, llr, text))
-    if not judged:
-        return None
-    worst = max(judged, key=lambda j: (rank[j[2]], j[3]))
-    part, a, status, llr, text = worst
-    which = ("this log has no motor outputs, so it cannot say which: inspect all propellers"
-             if flight.motors is None else "vibration cannot say which rotor: inspect all propellers")
-    reason = text + (f"; {which}" if status != "healthy" else "; only vibration was judged (" + which.split(",")[0] + ")")
-    if len(judged) > 1 or part.part:
-        reason = f"{part.part}: {reason}" + "".join(f"; {p.part}: {s}" + (f" ({level_words(x)})" if s != status or p is not part else "")
-                                                 for p, x, s, _, _ in judged if p is not part)
-    p_imb = float(1.0 / (1.0 + np.exp(-llr)))
-    conf = p_imb if status != "healthy" else 1.0 - p_imb
-    res = result_from(a, flight.frame.rotor_count if flight.frame is not None else 0)
-    d = Decision(status, None, conf, reason, sources=[ANALYZER_ID], results=[res])
-    first = part.airborne[0][0] if (status == "damaged" and part.airborne) else None
-    return Verdict(status=status, motor=None, position=None, confidence=conf, first_seen=first, reason=reason), d
+
+__all__ = ["ANALYZER_ID", "Vibration", "VibrationAnalysis", "VibrationBaseline", "VibrationResult", "analyze_vibration",
+           "fit_vibration_baseline", "measure_level", "find_line", "spectrum", "level_words", "result_from",
+           "tie_trusted", "vibration_can_judge", "VIBRATION_ONLY_REASONS"]

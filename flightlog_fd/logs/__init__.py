@@ -6,45 +6,10 @@ id 128 (0x80).
 """
 from __future__ import annotations
 
-from pathlib import Path
-
-from ..errors import CorruptLogError, FlightLogError, NotALogError
+from ..errors import CorruptLogError, FlightLogError
 from ..flight import Flight, sanitise_flight
-
-ULOG_MAGIC = b"ULog\x01\x12\x35"
-DATAFLASH_HEAD = b"\xa3\x95"
-DATAFLASH_FMT_ID = 0x80
-
-
-def read_head(path, n: int = 16) -> bytes:
-    """The first ``n`` bytes of a log file; NotALogError (one line) for a missing path, a folder,
-    an unreadable or an empty file. Every reader starts here."""
-    p = Path(path)
-    if not p.exists():
-        raise NotALogError(path, "no such file")
-    if p.is_dir():
-        raise NotALogError(path, "is a folder, not a log file")
-    try:
-        with open(p, "rb") as f:
-            head = f.read(n)
-    except OSError as e:
-        raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
-    if not head:
-        raise NotALogError(path, "empty file (0 bytes)")
-    return head
-
-
-def sniff_format(path) -> str:
-    """Return ``"ulog"`` or ``"dataflash"`` from the file's first bytes, else raise NotALogError."""
-    head = read_head(path)
-    if head.startswith(ULOG_MAGIC):
-        return "ulog"
-    if len(head) >= 3 and head[:2] == DATAFLASH_HEAD and head[2] == DATAFLASH_FMT_ID:
-        return "dataflash"
-    if head.startswith(b"ULog"):
-        return "ulog"  # unknown ULog version: let the reader say what is wrong
-    raise NotALogError(path, "not a PX4 ULog or ArduPilot DataFlash log (unrecognised header)")
-
+from .sniff import (DATAFLASH_FMT_ID, DATAFLASH_HEAD, ULOG_MAGIC, collect_logs, read_head,  # noqa: F401  (the package's API)
+                    sniff_format)
 
 def load_flight(path) -> Flight:
     """Read a log into a :class:`Flight`, choosing the parser by content, not extension.

@@ -111,7 +111,7 @@ from typing import Iterable, Optional
 
 import numpy as np
 
-from . import read_head
+from .sniff import read_head
 from ..util import intersect_intervals
 from ..errors import CorruptLogError, NotALogError
 from ..flight import Flight, Frame, ImuStream, Rotor, Series, Vibration, describe_dropped, implausible_times
@@ -186,11 +186,6 @@ MIXER_SINCE = (3, 4)
 MODERN_FIRMWARE = (4, 0, 0)
 
 # ArduPilot frame classes / types (AP_Motors_Class.h).
-FRAME_CLASS_NAMES = {
-    1: "quad", 2: "hexa", 3: "octo", 4: "octaquad", 5: "y6", 6: "heli", 7: "tri", 8: "singlecopter",
-    9: "coax", 10: "bicopter", 11: "heli_dual", 12: "dodecahexa", 13: "heli_quad", 14: "deca",
-    15: "scripting_matrix", 16: "6dof_scripting", 17: "dynamic_scripting_matrix",
-}
 FRAME_CLASS_VEHICLE = {
     1: "quadrotor", 2: "hexarotor", 3: "octorotor", 4: "octorotor", 5: "hexarotor", 6: "helicopter",
     7: "tricopter", 8: "singlecopter", 9: "coaxial", 10: "bicopter", 11: "helicopter",

@@ -96,7 +96,7 @@ from typing import Optional
 
 import numpy as np
 
-from . import read_head
+from .sniff import read_head
 from ..util import intersect_intervals  # noqa: F401  (part of this module's API)
 from ..errors import CorruptLogError, FlightLogError, NotALogError
 from ..flight import (MAX_SAMPLE_GAP_S, Flight, Frame, ImuStream, Rotor, Series, Vibration, describe_dropped,

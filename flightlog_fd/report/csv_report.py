@@ -1,15 +1,17 @@
 """Windows as CSV (``fdlog diagnose --csv F``): one row per window, all logs in one file.
 
-Columns (:data:`CSV_COLUMNS`): ``log`` (the path as given), ``t_start``, ``t_end`` (seconds on
-the log's clock, 3 decimals), ``class`` (the model's most probable class, 0 healthy, k motor k),
-``p_healthy``, ``p_motor1`` .. ``p_motor4`` (0..1, 4 decimals), ``phase`` (hover, climb, descent,
-manoeuvre, unknown), ``smoothed_class`` (the verdict's label: -1 uncertain, 0..4), ``verdict``
-(the flight's status, repeated on every row so one file of many logs can be filtered), then
-(:func:`csv_columns`) the analyzers' findings, also repeated on every row, one column per
+Columns (:func:`csv_columns`, for n = the most rotors among the logs): ``log`` (the path as
+given), ``t_start``, ``t_end`` (seconds on the log's clock, 3 decimals), ``class`` (the model's
+most probable class, 0 healthy, k motor k), ``p_healthy``, ``p_motor1`` .. ``p_motor<n>`` (0..1,
+4 decimals; empty past a log's own rotor count), ``phase`` (hover, climb, descent, manoeuvre,
+unknown), ``smoothed_class`` (the verdict's label: -1 uncertain, 0..n), ``verdict`` (the flight's
+status, repeated on every row so one file of many logs can be filtered), then the per-motor view's
+(:mod:`flightlog_fd.report.motor_view`) findings, also repeated on every row, one column per
 analyzer, finding and motor: ``<analyzer>_<name>_m<k>`` (e.g. ``commands_share_m1``,
 ``commands_thrust_m1``, ``model_vote_m1``, ``effectiveness_effectiveness_m1``; empty where an
 analyzer abstained), and ``weight_m<k>`` (the decision's probability that rotor k lost thrust).
-A log that could not be diagnosed contributes no rows. Comma-separated, UTF-8, ``\\n`` line ends.
+Every row has as many fields as the header. A log that could not be diagnosed contributes no rows.
+Comma-separated, UTF-8, ``\\n`` line ends.
 """
 from __future__ import annotations
 
@@ -19,34 +21,43 @@ from pathlib import Path
 from typing import Sequence, TextIO, Union
 
 from ..diagnose import Diagnosis
+from .motor_view import MotorView
 
-CSV_COLUMNS = ("log", "t_start", "t_end", "class", "p_healthy", "p_motor1", "p_motor2", "p_motor3",
-               "p_motor4", "phase", "smoothed_class", "verdict")
+#: The window columns before the class probabilities, and after them.
+LEAD_COLUMNS = ("log", "t_start", "t_end", "class", "p_healthy")
+TAIL_COLUMNS = ("phase", "smoothed_class", "verdict")
 
 
-def _finding_keys(diagnoses: Sequence[Diagnosis]) -> list[tuple[str, str, int]]:
-    """(analyzer, name, motor) of every finding in the diagnoses: findings in report order, motors
-    ascending within each."""
+def _finding_keys(views: Sequence[MotorView]) -> list[tuple[str, str, int]]:
+    """(analyzer, name, motor) of every finding column in the views: columns in report order,
+    motors ascending within each."""
     columns: list[tuple[str, str]] = []
     motors: set[int] = set()
-    for d in diagnoses:
-        for r in (d.decision.results if d.decision is not None else []):
-            for f in r.findings:
-                if (r.analyzer, f.name) not in columns:
-                    columns.append((r.analyzer, f.name))
-                motors.add(f.motor)
+    for v in views:
+        for c in v.columns:
+            if c.name and (c.analyzer, c.name) not in columns:
+                columns.append((c.analyzer, c.name))
+        motors.update(r.motor for r in v.rows if r.values)
     return [(a, n, k) for a, n in columns for k in sorted(motors)]
 
 
-def _motor_count(diagnoses: Sequence[Diagnosis]) -> int:
-    return max((len(d.decision.motors) for d in diagnoses if d.decision is not None), default=0)
+def _motor_count(diagnoses: Sequence[Diagnosis], views: Sequence[MotorView]) -> int:
+    """The most motors among the diagnoses (their views' rows, their windows' classes)."""
+    return max([len(v.rows) for v in views]
+               + [len(w.probabilities) - 1 for d in diagnoses for w in d.windows[:1]] + [0])
+
+
+def _header(diagnoses: Sequence[Diagnosis], views: Sequence[MotorView]) -> tuple[str, ...]:
+    n = _motor_count(diagnoses, views)
+    return (LEAD_COLUMNS + tuple(f"p_motor{k}" for k in range(1, n + 1)) + TAIL_COLUMNS
+            + tuple(f"{a}_{name}_m{k}" for a, name, k in _finding_keys(views))
+            + tuple(f"weight_m{k}" for k in range(1, n + 1)))
 
 
 def csv_columns(diagnoses: Union[Diagnosis, Sequence[Diagnosis]]) -> tuple[str, ...]:
     """The header: the window columns, then the findings' and weights' columns of these diagnoses."""
     ds = [diagnoses] if isinstance(diagnoses, Diagnosis) else list(diagnoses)
-    return CSV_COLUMNS + tuple(f"{a}_{n}_m{k}" for a, n, k in _finding_keys(ds)) + tuple(
-        f"weight_m{k}" for k in range(1, _motor_count(ds) + 1))
+    return _header(ds, [MotorView.of(d) for d in ds])
 
 
 def write_csv(diagnoses: Union[Diagnosis, Sequence[Diagnosis]], out: Union[str, Path, TextIO]) -> None:
@@ -69,16 +80,16 @@ def render_csv(diagnoses: Union[Diagnosis, Sequence[Diagnosis]]) -> str:
 
 def _write(diagnoses: Sequence[Diagnosis], fh: TextIO) -> None:
     writer = csv.writer(fh, lineterminator="\n")
-    keys = _finding_keys(diagnoses)
-    n = _motor_count(diagnoses)
-    writer.writerow(csv_columns(diagnoses))
-    for d in diagnoses:
-        values = {(r.analyzer, f.name, f.motor): f.value
-                  for r in (d.decision.results if d.decision is not None else []) for f in r.findings}
+    views = [MotorView.of(d) for d in diagnoses]
+    keys = _finding_keys(views)
+    n = _motor_count(diagnoses, views)
+    writer.writerow(_header(diagnoses, views))
+    for d, view in zip(diagnoses, views):
+        values = {(c.analyzer, c.name, r.motor): r.values.get(c.key) for r in view.rows for c in view.columns}
         found = ["" if values.get(k) is None else f"{values[k]:.4f}" for k in keys]
-        dec = d.decision.motors if d.decision is not None else []
-        weight = [f"{m.weight:.4f}" for m in dec] + [""] * (n - len(dec))
+        weight = ["" if r.weight is None else f"{r.weight:.4f}" for r in view.rows] + [""] * (n - len(view.rows))
         for w in d.windows:
-            writer.writerow([d.log, f"{w.t_start:.3f}", f"{w.t_end:.3f}", w.cls,
-                             *(f"{p:.4f}" for p in w.probabilities), w.phase, w.label, d.verdict.status,
+            probs = [f"{p:.4f}" for p in w.probabilities[1:]]
+            writer.writerow([d.log, f"{w.t_start:.3f}", f"{w.t_end:.3f}", w.cls, f"{w.probabilities[0]:.4f}",
+                             *probs, *[""] * (n - len(probs)), w.phase, w.label, d.verdict.status,
                              *found, *weight])

@@ -5,12 +5,14 @@ plots). For each log the page shows the verdict sentence first, the log's facts 
 firmware, frame, durations, model, profile, warnings) and three inline SVG plots drawn here:
 
 - angular rates p, q, r in deg/s,
-- motor commands 1-4 (0..1, autopilot numbering),
-- class probabilities per window (plotted at the window's centre),
+- motor commands 1-n (0..1, autopilot numbering, labelled with their positions),
+- class probabilities per window (healthy and each motor, plotted at the window's centre),
 
 all over the same time axis (seconds on the log's clock), with the background shaded by the
 verdict's smoothed window labels (green healthy, red damaged, amber uncertain, white no window).
-Several logs get a summary table at the top. A window table sits in a closed ``<details>``.
+Beside the facts, the per-motor table of :mod:`flightlog_fd.report.motor_view` (a dash's reason is
+its tooltip and a note under the table). Several logs get a summary table at the top. A window
+table sits in a closed ``<details>``.
 
 Every text that comes from the log or the user (file names, firmware strings, frame sources,
 warnings, reasons) is HTML-escaped; nothing is ever inserted raw. Lines are decimated to at most
@@ -28,8 +30,9 @@ import numpy as np
 from .. import __version__
 from ..diagnose import Diagnosis
 from ..flight import Series
-from ..verdict import UNCERTAIN_LABEL, timeline_labels
-from .terminal import CLASS_NAMES, verdict_sentence
+from ..timeline import UNCERTAIN_LABEL, timeline_labels
+from .motor_view import MotorView, class_names
+from .terminal import verdict_sentence
 
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
 MAX_POINTS_PER_LINE = 1600
@@ -40,10 +43,12 @@ MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, MARGIN_BOTTOM = 60, 150, 24, 30
 SHADING_SLOTS = 400
 RAD_TO_DEG = 180.0 / math.pi
 
-LINE_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
-CLASS_COLOURS = ("#2e7d32", "#d62728", "#9467bd", "#ff7f0e", "#1f77b4")  # healthy, motors 1-4
-SHADE_COLOURS = {0: "#e8f5e9", 1: "#ffebee", 2: "#ffebee", 3: "#ffebee", 4: "#ffebee",
-                 UNCERTAIN_LABEL: "#fff8e1"}
+#: Line colours (motors 1-12 and the rates p, q, r; distinct enough for a dodecahexa).
+LINE_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+                "#bcbd22", "#17becf", "#393b79", "#ad494a")
+HEALTHY_COLOUR = "#2e7d32"  # the healthy class's probability line
+#: Background per smoothed label: healthy, any motor damaged, uncertain.
+SHADE_HEALTHY, SHADE_DAMAGED, SHADE_UNCERTAIN = "#e8f5e9", "#ffebee", "#fff8e1"
 STATUS_COLOURS = {"healthy": "#2e7d32", "damaged": "#c62828", "stopped": "#c62828", "uncertain": "#ef6c00",
                   "not_diagnosable": "#6a1b9a"}
 
@@ -103,6 +108,7 @@ def _shading_rects(d: Diagnosis, t0: float, t1: float, x_of, y_top: float, heigh
         return []
     slots = timeline_labels([x.t_start for x in w], [x.t_end for x in w], [x.label for x in w],
                             t0, t1, SHADING_SLOTS)
+    names = class_names(len(w[0].probabilities) - 1)
     edges = np.linspace(t0, t1, len(slots) + 1)
     rects, i = [], 0
     while i < len(slots):
@@ -112,17 +118,19 @@ def _shading_rects(d: Diagnosis, t0: float, t1: float, x_of, y_top: float, heigh
         label = slots[i]
         if label is not None:
             xa, xb = x_of(edges[i]), x_of(edges[j + 1])
-            title = "uncertain" if label == UNCERTAIN_LABEL else CLASS_NAMES[label]
+            title = "uncertain" if label == UNCERTAIN_LABEL else names[label]
+            fill = SHADE_UNCERTAIN if label == UNCERTAIN_LABEL else SHADE_HEALTHY if label == 0 else SHADE_DAMAGED
             rects.append(f'<rect x="{xa:.1f}" y="{y_top:.1f}" width="{max(xb - xa, 0.5):.1f}" '
-                         f'height="{height:.1f}" fill="{SHADE_COLOURS[label]}"><title>{esc(title)}</title></rect>')
+                         f'height="{height:.1f}" fill="{fill}"><title>{esc(title)}</title></rect>')
         i = j + 1
     return rects
 
 
 def svg_plot(title: str, y_label: str, lines: Sequence[tuple[str, np.ndarray, np.ndarray]],
              t0: float, t1: float, diagnosis: Optional[Diagnosis] = None,
-             y_range: Optional[tuple[float, float]] = None) -> str:
-    """One time plot as an ``<svg>`` element: ``lines`` are (name, t seconds, values)."""
+             y_range: Optional[tuple[float, float]] = None, colours: Optional[Sequence[str]] = None) -> str:
+    """One time plot as an ``<svg>`` element: ``lines`` are (name, t seconds, values), drawn in
+    ``colours`` (default :data:`LINE_COLOURS`, cycled)."""
     w, h = PLOT_WIDTH, PLOT_HEIGHT
     left, right = MARGIN_LEFT, w - MARGIN_RIGHT
     top, bottom = MARGIN_TOP, h - MARGIN_BOTTOM
@@ -164,7 +172,8 @@ def svg_plot(title: str, y_label: str, lines: Sequence[tuple[str, np.ndarray, np
     parts.append(f'<text x="{left}" y="{top - 8}" font-weight="bold">{esc(title)}</text>')
     parts.append(f'<text x="{right + 18}" y="{bottom + 16}">s (log clock)</text>')
     for i, (name, t, v) in enumerate(lines):
-        colour = LINE_COLOURS[i % len(LINE_COLOURS)] if len(lines) != 5 else CLASS_COLOURS[i]
+        palette = colours or LINE_COLOURS
+        colour = palette[i % len(palette)]
         m = (t >= t0) & (t <= t1) & np.isfinite(v)
         td, vd = decimate(t[m], v[m])
         if td.size:
@@ -209,9 +218,10 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("profile", d.profile.path if d.profile is not None and d.profile.path else "none"))
     v = d.verdict
     rows.append(("reason", v.reason))
-    if v.evidence is not None and v.evidence.n_windows:
-        ev = v.evidence
-        share = ", ".join(f"{CLASS_NAMES[k]} {100 * s:.0f} %" for k, s in enumerate(ev.smoothed_share))
+    if d.timeline is not None and d.timeline.shortfall is None:
+        ev = d.timeline
+        names = class_names(len(ev.smoothed_share) - 1)
+        share = ", ".join(f"{names[k]} {100 * s:.0f} %" for k, s in enumerate(ev.smoothed_share))
         rows.append(("windows", f"{ev.n_windows} covering {ev.covered_s:.1f} s; votes: {share}; "
                                 f"abstained {100 * ev.abstained_share:.0f} %"))
     rows.append(("exit code", str(d.exit_code)))
@@ -220,41 +230,49 @@ def _facts_table(d: Diagnosis) -> str:
 
 
 def _window_table(d: Diagnosis) -> str:
-    head = "".join(f"<th>{esc(c)}</th>" for c in ("t_start s", "t_end s", "class", "p healthy", "p m1",
-                                                    "p m2", "p m3", "p m4", "phase", "verdict label"))
+    n = len(d.windows[0].probabilities) - 1 if d.windows else 0
+    names = class_names(n)
+    head = "".join(f"<th>{esc(c)}</th>" for c in ("t_start s", "t_end s", "class", "p healthy",
+                                                    *(f"p m{k}" for k in range(1, n + 1)), "phase", "verdict label"))
     rows = []
     for w in d.windows:
-        label = "uncertain" if w.label == UNCERTAIN_LABEL else CLASS_NAMES[w.label]
-        cells = [f"{w.t_start:.2f}", f"{w.t_end:.2f}", CLASS_NAMES[w.cls],
+        label = "uncertain" if w.label == UNCERTAIN_LABEL else names[w.label]
+        cells = [f"{w.t_start:.2f}", f"{w.t_end:.2f}", names[w.cls],
                  *(f"{p:.3f}" for p in w.probabilities), w.phase, label]
         rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
     return (f"<details><summary>{len(d.windows)} windows</summary>"
             f"<table><tr>{head}</tr>{''.join(rows)}</table></details>")
 
 
-def motor_panel(d: Diagnosis) -> str:
-    """The per-motor findings panel (same cells as the terminal's), beside the timeline."""
-    from .terminal import analyzer_notes, motor_table
-
-    headers, rows = motor_table(d)
+def motor_table_html(view: MotorView, table_id: str = "") -> str:
+    """The per-motor table as HTML (the web flight page draws the same): the verdict's motor is
+    highlighted; a dash's reason is its tooltip."""
+    header, rows = view.table()
     if not rows:
         return ""
-    ev = d.evidence
-    against = {"profile": "calibration", "before onset": "the flight before the onset",
-               "neighbours": "an even split"}.get(getattr(ev, "baseline", ""), "")
-    head = "".join(f"<th>{esc(h)}</th>" for h in headers)
-    body = "".join(
-        ("<tr class=\"top\">" if d.verdict.motor is not None and r[0] == str(d.verdict.motor) else "<tr>")
-        + "".join(f"<td>{esc(c)}</td>" for c in r) + "</tr>" for r in rows)
-    notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in analyzer_notes(d))
-    sources = ", ".join(d.decision.sources) if d.decision is not None else ""
-    return (f'<div class="motors"><h3>Per-motor evidence</h3><table class="motor-panel"><tr>{head}</tr>{body}</table>'
-            f'<p class="muted">Share: mean thrust command / mean of all motors (1 = even) and its change against '
-            f'{esc(against)}. Thrust: the share of its normal thrust each rotor gives, fitted from the steady '
-            f'command pattern (90 % interval). Effect.: angular acceleration per unit command relative to the '
-            f'others (1 = as they; shown only when the flight manoeuvred enough). Vote: the model\'s mean '
-            f'probability that this propeller is damaged. Weight: the decision model\'s probability that this '
-            f'rotor lost thrust, from {esc(sources)}; the shaded windows are the model\'s alone.</p>{notes}</div>')
+    head = "".join(f"<th>{esc(h)}</th>" for h in header)
+    body = []
+    for r in rows:
+        top = view.verdict_motor is not None and r[0].text == str(view.verdict_motor)
+        tds = "".join(f'<td title="{esc(c.reason)}">{esc(c.text)}</td>' if c.reason else f"<td>{esc(c.text)}</td>"
+                      for c in r)
+        body.append(("<tr class=\"top\">" if top else "<tr>") + tds + "</tr>")
+    ident = f' id="{esc(table_id)}"' if table_id else ""
+    return f'<table class="motor-panel"{ident}><tr>{head}</tr>{"".join(body)}</table>'
+
+
+def motor_panel(d: Diagnosis) -> str:
+    """The per-motor findings panel (the terminal's table), beside the timeline."""
+    view = MotorView.of(d)
+    table = motor_table_html(view)
+    if not table:
+        return ""
+    legend = "; ".join(f"{esc(label)}: {esc(text)}" for label, text in view.legend())
+    sources = ", ".join(view.sources)
+    notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in view.notes)
+    return (f'<div class="motors"><h3>Per-motor evidence</h3>{table}'
+            f'<p class="muted">Commands against {esc(view.against)}. {legend}. The weight comes from '
+            f'{esc(sources)}; the shaded windows are the model\'s alone.</p>{notes}</div>')
 
 
 def log_section(d: Diagnosis) -> str:
@@ -273,15 +291,17 @@ def log_section(d: Diagnosis) -> str:
             out.append(svg_plot("Angular rates", "deg/s", _series_lines(fl.rates, ("p (roll)", "q (pitch)", "r (yaw)"),
                                                                        RAD_TO_DEG), t0, t1, d))
         if fl.motors is not None:
-            names = [f"{k + 1} {fl.frame.position(k + 1)}" if fl.frame else f"motor {k + 1}"
-                     for k in range(fl.motors.values.shape[1])]
+            names = [f"{k + 1} {fl.frame.position(k + 1)}" if fl.frame and k < fl.frame.rotor_count
+                     else f"motor {k + 1}" for k in range(fl.motors.values.shape[1])]
             out.append(svg_plot(f"Motor commands ({fl.motor_kind})", "command 0..1",
                                 _series_lines(fl.motors, names), t0, t1, d, y_range=(0.0, 1.0)))
     if d.windows:
         centres = np.array([(w.t_start + w.t_end) / 2 for w in d.windows])
         probs = np.array([w.probabilities for w in d.windows])
-        lines = [(CLASS_NAMES[k], centres, probs[:, k]) for k in range(probs.shape[1])]
-        out.append(svg_plot("Class probabilities per window", "probability", lines, t0, t1, d, y_range=(0.0, 1.0)))
+        names = class_names(probs.shape[1] - 1)
+        lines = [(names[k], centres, probs[:, k]) for k in range(probs.shape[1])]
+        out.append(svg_plot("Class probabilities per window", "probability", lines, t0, t1, d, y_range=(0.0, 1.0),
+                            colours=(HEALTHY_COLOUR,) + LINE_COLOURS))
         out.append('<p class="muted">Background: green healthy, red propeller damaged, amber uncertain '
                    "(the verdict's smoothed window labels); white: no window (on the ground or not used).</p>")
         out.append(_window_table(d))

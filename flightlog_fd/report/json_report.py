@@ -1,58 +1,65 @@
-"""JSON report, schema version 3 (``fdlog diagnose --json``).
+"""JSON report, schema version 5 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
-Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals.
+Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals; n is the
+frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, class k = motor k).
 
 .. code-block:: text
 
     {
-      "schema": 3,
+      "schema": 5,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
       "firmware": "v1.14.0" | null,
       "vehicle_type": "quadrotor" | ... | null,
-      "frame": "quad_x" | "quad_plus" | ... | null,
+      "frame": "quad_x" | "quad_plus" | "hexa_x" | "octo_x" | ... | null,
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
       "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
-                  "motor": 1-n | null,            # autopilot numbering (n = the frame's rotor count)
+                  "motor": 1-n | null,
                   "position": "front-right" | ... | null,
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
-                  "reason": "motor 3 (front-left) damaged in 78 % of 120 windows from t=34.5 s"},
+                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ..."},
       "evidence": {"n_windows": int, "covered_s": float,
-                   "share": [healthy, m1, m2, m3, m4],   # smoothed votes, 0..1
+                   "share": [healthy, m1, ..., mn],   # smoothed votes, 0..1
                    "abstained": 0-1} | null,
-      "motors": [{"motor": 1-4, "position": str|null,
-                  "command_share": float,                 # mean thrust command / mean of the four (1 = even)
-                  "command_share_baseline": float|null,   # the profile's (or pre-onset) healthy share
-                  "command_change": float,                # share - baseline, or - mean of the other three
-                  "effectiveness": float|null,            # relative to the other three (1 = as they)
-                  "effectiveness_ci": [lo, hi]|null,      # 90 % block-bootstrap interval
+      "motor_columns": [{"key": "commands.share",       # "<analyzer>.<finding>", or the analyzer
+                         "analyzer": str, "name": str,  # id alone ("name" "") when it abstained
+                         "label": "share", "description": str,
+                         "abstained": str | null}],     # why its cells are dashes
+      "motors": [{"motor": 1-n, "position": str|null, "class": "motor k",
                   "model_vote": 0-1,                      # mean model probability "this propeller damaged"
-                  "eta_hat": float|null,                  # thrust efficiency from steady flight (1 = healthy)
-                  "eta_ci": [lo, hi]|null,                # its 90 % interval
-                  "weight": 0-1|null,                     # the decision's posterior "this rotor lost thrust"
+                  "command_share": float,                 # mean thrust command / mean of all motors (1 = even)
+                  "command_share_baseline": float|null,   # the profile's (or pre-onset) healthy share
+                  "command_change": float,                # share - baseline, or - mean of the others
+                  "eta_hat": float|null, "eta_ci": [lo, hi]|null,   # thrust efficiency (1 = healthy), 90 %
+                  "effectiveness": float|null,            # relative to the others (1 = as they), null
+                  "effectiveness_ci": [lo, hi]|null,      #   when the analyzer called it uninformative
+                  "throttle": float|null,                 # the flight's throttle / calibration's
+                  "weight": 0-1|null,                     # the decision's P("this rotor lost thrust")
                   "llr": float|null,                      # total log-likelihood ratio, nats
-                  "llr_by_source": {"model": float, "commands": float, "effectiveness": float}|null}],
+                  "llr_by_source": {analyzer id: nats}|null,
+                  "cells": {column key: text},            # the per-motor table as every report draws it
+                  "unavailable": {figure: reason}}],      # why an estimate above is null
       "motor_evidence": {"baseline": "profile" | "before onset" | "neighbours",
-                         "throttle": float, "top_motor": 1-n, "single_motor_gap": float,
+                         "throttle": float,
                          "effectiveness": {"informative": bool, "reason": str, "seconds": float,
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
-                         "airframe_changed": str | null, "notes": [str],
+                         "airframe_changed": str | null,
                          "decision": {"sources": [str], "healthy_chi2": float|null,
                                       "share_sigma": float|null} | null} | null,
       "windows": [{"t_start": s, "t_end": s,
                    "class": 0-n,                  # the model's most probable class
                    "probabilities": [p0, p1, ..., pn],   # healthy, then motor 1..n
                    "phase": "hover" | "climb" | "descent" | "manoeuvre" | "unknown",
-                   "smoothed_class": -1..4}],     # the verdict's label: -1 uncertain
-      "analyzers": [{"analyzer": "model" | "commands" | "throttle" | "effectiveness" | ...,
+                   "smoothed_class": -1..n}],     # the verdict's label: -1 uncertain
+      "analyzers": [{"analyzer": "model" | "commands" | "throttle" | "effectiveness" | "esc" | ...,
                      "abstained": str | null,            # why it had nothing to say
                      "notes": [str],
-                     "findings": [{"motor": 1-n, "name": str, "value": float|null, "unit": str,
+                     "findings": [{"motor": 0-n, "name": str,   # 0: about the flight (vibration level) "value": float|null, "unit": str,
                                    "interval": [lo, hi]|null, "baseline": float|null,
                                    "direction": "up" | "down" | "",   # which way damage moves it
                                    "llr": float|null,                 # its weight in the decision, nats
@@ -60,15 +67,25 @@ Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 de
       "stopped_motors": [{"motor": 1-n, "t_start": s, "t_end": s,   # "motor k stopped" while airborne,
                           "evidence": str, "source": str}],        # any frame (status "stopped")
       "warnings": [str],
-      "exit_code": 0 | 1 | 2
-    }
+      "exit_code": 0 | 1 | 2,
+      "part": "flight 2 of 2, 376.8-464.9 s" | null,   # which flight of the log this object is
+      "flights": [object, ...]   # a log holding several flights: one object of this schema per
+    }                            # take-off to landing ("part" set); the log's verdict is the worst
 
+``motors`` is the one per-motor shape (:mod:`flightlog_fd.report.motor_view`, which every report
+draws); ``analyzers`` is each analyzer's own record (what the results store keeps per finding).
 :data:`JSON_SCHEMA` is the same as a JSON Schema (draft 2020-12) dict; :func:`validate` checks a
 document against it without needing the ``jsonschema`` package (it implements exactly the
-keywords the schema uses). Adding a field is a compatible change; renaming or removing one
-bumps ``schema``. Schema 2 added ``motors`` and ``motor_evidence``; schema 3 (this one) gives the
-verdict to the one decision model (:mod:`flightlog_fd.decision`) and adds each motor's severity
-(``eta_hat``, ``eta_ci``), its decision weight and log-likelihood ratios.
+keywords the schema uses). Adding a field is a compatible change; renaming or removing one, or
+changing what one means, bumps ``schema``. Schema 2 added ``motors`` and ``motor_evidence``;
+schema 3 added each motor's severity, decision weight and log-likelihood ratios; schema 4 (this
+one) makes ``motors`` the per-motor view (``class``, ``throttle``, ``cells``, ``unavailable`` and
+``motor_columns`` added; ``effectiveness`` null when its analyzer did not weigh it; any rotor
+count), drops ``motor_evidence``'s ``top_motor``, ``single_motor_gap`` and ``notes`` (the
+analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the probability of
+what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
+own verdict) and flight-level findings (``motor`` 0: the vibration level).
+:func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
 
@@ -79,8 +96,9 @@ import numpy as np
 
 from .. import __version__
 from ..diagnose import Diagnosis
+from .motor_view import MotorView
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 5
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -91,13 +109,14 @@ _NUM = {"type": "number"}
 _STR_OR_NULL = {"type": ["string", "null"]}
 _NUM_OR_NULL = {"type": ["number", "null"]}
 _PROB = {"type": "number", "minimum": 0, "maximum": 1}
+_PAIR_OR_NULL = {"type": ["array", "null"], "items": _NUM_OR_NULL, "minItems": 2, "maxItems": 2}
 
 JSON_SCHEMA: dict = {
     "$schema": "https://json-schema.org/draft/2020-12/schema",
     "title": "fdlog diagnose report",
     "type": "object",
     "required": ["schema", "log", "autopilot", "frame", "model", "profile", "verdict", "motors",
-                 "motor_evidence", "windows", "warnings", "exit_code"],
+                 "motor_columns", "motor_evidence", "windows", "warnings", "exit_code"],
     "properties": {
         "schema": {"const": SCHEMA_VERSION},
         "tool": {"type": "object", "required": ["name", "version"],
@@ -132,45 +151,53 @@ JSON_SCHEMA: dict = {
                                     "share": {"type": "array", "items": _PROB, "minItems": 2,
                                               "maxItems": MAX_ROTORS + 1},
                                     "abstained": _PROB}},
+        "motor_columns": {
+            "type": "array",
+            "items": {"type": "object", "required": ["key", "analyzer", "name", "label", "description", "abstained"],
+                      "properties": {"key": {"type": "string"}, "analyzer": {"type": "string"},
+                                     "name": {"type": "string"}, "label": {"type": "string"},
+                                     "description": {"type": "string"}, "abstained": _STR_OR_NULL}},
+        },
         "motors": {
-            "type": "array", "maxItems": 4,
+            "type": "array", "maxItems": MAX_ROTORS,
             "items": {
                 "type": "object",
-                "required": ["motor", "position", "command_share", "command_share_baseline", "command_change",
-                             "effectiveness", "effectiveness_ci", "model_vote"],
+                "required": ["motor", "position", "class", "model_vote", "command_share", "command_share_baseline",
+                             "command_change", "eta_hat", "eta_ci", "effectiveness", "effectiveness_ci", "throttle",
+                             "weight", "llr", "llr_by_source", "cells", "unavailable"],
                 "properties": {
                     "motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
                     "position": _STR_OR_NULL,
+                    "class": {"type": "string"},
+                    "model_vote": {"type": ["number", "null"], "minimum": 0, "maximum": 1},
                     "command_share": _NUM_OR_NULL,
                     "command_share_baseline": _NUM_OR_NULL,
                     "command_change": _NUM_OR_NULL,
-                    "effectiveness": _NUM_OR_NULL,
-                    "effectiveness_ci": {"type": ["array", "null"], "items": _NUM_OR_NULL, "minItems": 2, "maxItems": 2},
-                    "model_vote": _PROB,
                     "eta_hat": _NUM_OR_NULL,
-                    "eta_ci": {"type": ["array", "null"], "items": _NUM_OR_NULL, "minItems": 2, "maxItems": 2},
+                    "eta_ci": _PAIR_OR_NULL,
+                    "effectiveness": _NUM_OR_NULL,
+                    "effectiveness_ci": _PAIR_OR_NULL,
+                    "throttle": _NUM_OR_NULL,
                     "weight": {"type": ["number", "null"], "minimum": 0, "maximum": 1},
                     "llr": _NUM_OR_NULL,
                     "llr_by_source": {"type": ["object", "null"]},
+                    "cells": {"type": "object"},
+                    "unavailable": {"type": "object"},
                 },
             },
         },
         "motor_evidence": {
             "type": ["object", "null"],
-            "required": ["baseline", "throttle", "top_motor", "single_motor_gap", "effectiveness",
-                         "airframe_changed", "notes"],
+            "required": ["baseline", "throttle", "effectiveness", "airframe_changed"],
             "properties": {
                 "baseline": {"enum": ["profile", "before onset", "neighbours"]},
                 "throttle": _NUM_OR_NULL,
-                "top_motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
-                "single_motor_gap": _NUM,
                 "effectiveness": {"type": ["object", "null"],
                                   "required": ["informative", "reason", "seconds", "motor_lag_s", "r2"],
                                   "properties": {"informative": {"type": "boolean"}, "reason": {"type": "string"},
                                                  "seconds": _NUM, "motor_lag_s": _NUM,
                                                  "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
-                "notes": {"type": "array", "items": {"type": "string"}},
                 "decision": {"type": ["object", "null"],
                              "required": ["sources", "healthy_chi2", "share_sigma"],
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
@@ -204,7 +231,7 @@ JSON_SCHEMA: dict = {
                                            "direction", "llr", "text"],
                               "properties": {
                                   "analyzer": {"type": "string"},
-                                  "motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                  "motor": {"type": "integer", "minimum": 0, "maximum": MAX_ROTORS},
                                   "name": {"type": "string"}, "value": _NUM_OR_NULL, "unit": {"type": "string"},
                                   "interval": {"type": ["array", "null"], "items": _NUM_OR_NULL,
                                                "minItems": 2, "maxItems": 2},
@@ -220,8 +247,11 @@ JSON_SCHEMA: dict = {
         },
         "warnings": {"type": "array", "items": {"type": "string"}},
         "exit_code": {"enum": [0, 1, 2]},
+        "part": _STR_OR_NULL,
+        "flights": {"type": "array"},  # items: this schema (set below)
     },
 }
+JSON_SCHEMA["properties"]["flights"]["items"] = JSON_SCHEMA
 
 
 def _motor_evidence(d: Diagnosis) -> Optional[dict]:
@@ -229,26 +259,18 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
     if ev is None:
         return None
     return {"baseline": ev.baseline, "throttle": None if not np.isfinite(ev.throttle) else round(float(ev.throttle), 4),
-            "top_motor": int(ev.top_motor), "single_motor_gap": round(float(ev.single_motor_gap), 4),
             "effectiveness": None if ev.effectiveness is None else ev.effectiveness.as_dict(),
-            "airframe_changed": ev.airframe_changed, "notes": list(ev.notes),
+            "airframe_changed": None if d.decision is None else d.decision.airframe_changed,
             "decision": None if d.decision is None else {
                 "sources": list(d.decision.sources),
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
                 "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4)}}
 
 
-def _motors(d: Diagnosis) -> list[dict]:
-    """Per motor: the evidence figures and, from the decision model, severity, weight and LLRs."""
-    dec = {m.motor: m.as_dict() for m in (d.decision.motors if d.decision is not None else [])}
-    empty = {"eta_hat": None, "eta_ci": None, "weight": None, "llr": None, "llr_by_source": None}
-    return [{**m.as_dict(), **{k: v for k, v in dec.get(m.motor, empty).items() if k != "motor"}} for m in d.motors]
-
-
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-3 object for one diagnosis."""
+    """The schema-5 object for one diagnosis (and, in ``flights``, each flight of its log)."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
-    ev = v.evidence
+    ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {
         "schema": SCHEMA_VERSION,
         "tool": {"name": "flightlog-fd", "version": __version__},
@@ -268,7 +290,7 @@ def to_dict(d: Diagnosis) -> dict:
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),
             "share": [round(x, PROB_DECIMALS) for x in ev.smoothed_share],
             "abstained": round(ev.abstained_share, PROB_DECIMALS)},
-        "motors": _motors(d),
+        **MotorView.of(d).to_json(),
         "motor_evidence": _motor_evidence(d),
         "windows": [{"t_start": round(w.t_start, TIME_DECIMALS), "t_end": round(w.t_end, TIME_DECIMALS),
                      "class": w.cls, "probabilities": [round(x, PROB_DECIMALS) for x in w.probabilities],
@@ -279,6 +301,8 @@ def to_dict(d: Diagnosis) -> dict:
                             "source": x.source} for x in d.stopped],
         "warnings": list(d.warnings),
         "exit_code": d.exit_code,
+        "part": d.part or None,
+        "flights": [to_dict(x) for x in d.flights],
     }
 
 

@@ -6,10 +6,13 @@ only words and draws what the verdict says.
 - :func:`verdict_sentence`: "Propeller 3 (front-left) damaged, confidence 0.93, first seen at
   t=34.5 s" / "No propeller damage found ..." / "Uncertain: ..." / "Not diagnosable: ...".
 - :func:`timeline_strip`: ``TIMELINE_WIDTH`` characters spanning the first window's start to the
-  last window's end (seconds on the log's clock), one per equal time slot: ``.`` healthy, ``1``-``4``
-  the motor judged damaged, ``?`` uncertain, a space where there is no window (on the ground).
-  The characters are the verdict's smoothed window labels, so the strip shows what the verdict saw.
-- :func:`window_table` (``--windows``): every window with its times, class, probabilities, phase.
+  last window's end (seconds on the log's clock), one per equal time slot: ``.`` healthy, ``1``-``9``
+  then ``a``-``c`` the motor judged damaged (any rotor count up to 12), ``?`` uncertain, a space
+  where there is no window (on the ground). The characters are the verdict's smoothed window
+  labels, so the strip shows what the verdict saw.
+- :func:`motor_panel`: the per-motor table of :mod:`flightlog_fd.report.motor_view`.
+- :func:`window_table` (``--windows``): every window with its times, class, the probabilities of
+  healthy and of each motor, phase.
 - :func:`summary_table`: one row per log when several logs are diagnosed (file names; the full
   path where two logs share a name).
 - :func:`render`: all of the above for one log onto a rich Console.
@@ -25,17 +28,16 @@ from rich.table import Table
 from rich.text import Text
 
 from ..diagnose import Diagnosis
-from ..verdict import UNCERTAIN_LABEL, timeline_labels
+from ..timeline import UNCERTAIN_LABEL, timeline_labels
+from .motor_view import MotorView, class_names
 
 #: Characters in the timeline strip (fits an 80-column terminal with its time labels).
 TIMELINE_WIDTH = 60
-#: Timeline characters and styles per smoothed label.
-#: Timeline characters: motors 1-9, then a, b, c for 10-12 (dodecahexa).
+#: Timeline characters and styles per smoothed label: motors 1-9, then a, b, c for 10-12 (dodecahexa).
 LABEL_CHARS = {UNCERTAIN_LABEL: "?", 0: ".", **{k: "123456789abc"[k - 1] for k in range(1, 13)}}
 LABEL_STYLES = {UNCERTAIN_LABEL: "bold yellow", 0: "green", **{k: "bold red" for k in range(1, 13)}}
 STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "stopped": "bold red", "uncertain": "bold yellow",
                  "not_diagnosable": "bold magenta"}
-CLASS_NAMES = ("healthy", "motor 1", "motor 2", "motor 3", "motor 4")
 
 
 def _motor_words(motor: int, position: Optional[str]) -> str:
@@ -49,8 +51,9 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
     if v.status == "healthy":
-        n = v.evidence.n_windows if v.evidence else len(diagnosis.windows)
-        covered = f", {v.evidence.covered_s:.0f} s of flight" if v.evidence else ""
+        tl = diagnosis.timeline
+        n = tl.n_windows if tl else len(diagnosis.windows)
+        covered = f", {tl.covered_s:.0f} s of flight" if tl else ""
         return f"No propeller damage found, confidence {v.confidence:.2f} ({n} windows{covered})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
@@ -77,15 +80,27 @@ def timeline_strip(diagnosis: Diagnosis, width: int = TIMELINE_WIDTH) -> Text:
 
 
 def window_table(diagnosis: Diagnosis) -> Table:
-    """Every window: start, end (s), the model's class, its five probabilities, phase, verdict label."""
-    table = Table(title="Windows", show_lines=False)
-    for name in ("t_start s", "t_end s", "class", "p healthy", "p m1", "p m2", "p m3", "p m4", "phase", "label"):
-        table.add_column(name, justify="right" if name.startswith(("t_", "p ")) else "left")
+    """Every window: start, end (s), the model's class, its probabilities (healthy ``p h``, then
+    ``p1``..``pn`` for each motor; ".12" for 0.12, to fit an octocopter in 80 columns), phase,
+    verdict label."""
+    table = Table(title="Windows", box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 0))
+    n = len(diagnosis.windows[0].probabilities) - 1 if diagnosis.windows else 0
+    names = class_names(n)
+    heads = ["start s", "end s", "class", "p h", *(f"p{k}" for k in range(1, n + 1)), "phase", "label"]
+    for name in heads:
+        table.add_column(name, justify="right" if name.startswith(("start", "end", "p")) and name != "phase"
+                         else "left", no_wrap=True)
     for x in diagnosis.windows:
-        table.add_row(f"{x.t_start:.2f}", f"{x.t_end:.2f}", CLASS_NAMES[x.cls],
-                      *(f"{p:.2f}" for p in x.probabilities), x.phase,
+        table.add_row(f"{x.t_start:.2f}", f"{x.t_end:.2f}", names[x.cls],
+                      *(_prob(p) for p in x.probabilities), x.phase,
                       Text(LABEL_CHARS[x.label], style=LABEL_STYLES[x.label]))
     return table
+
+
+def _prob(p: float) -> str:
+    """0.12 -> ".12", 1.0 -> "1.00" (a narrow probability column)."""
+    t = f"{p:.2f}"
+    return t[1:] if t.startswith("0.") else t
 
 
 def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
@@ -125,69 +140,17 @@ def facts_line(diagnosis: Diagnosis) -> str:
     return " | ".join(parts)
 
 
-def motor_table(diagnosis: Diagnosis) -> tuple[list[str], list[list[str]]]:
-    """The per-motor panel as (headers, rows) of text cells, shared by the terminal and HTML:
-    motor, position, one column per finding the analyzers returned (in registry order; each
-    analyzer formats its own cell), and the decision's weight. Empty without a decision."""
-    dec = diagnosis.decision
-    if dec is None or not dec.motors:
-        return [], []
-    columns: list[tuple[str, str]] = []
-    cells: dict[tuple[str, str, int], str] = {}
-    for r in dec.results:
-        for f in r.findings:
-            key = (r.analyzer, f.name)
-            if key not in columns:
-                columns.append(key)
-            cells[(r.analyzer, f.name, f.motor)] = f.text()
-    frame = diagnosis.flight.frame if diagnosis.flight is not None else None
-    positions = {m.motor: m.position for m in diagnosis.motors}
-    headers = ["motor", "position"] + [FINDING_HEADERS.get(name, name) for _, name in columns] + ["weight"]
-    rows = []
-    for m in dec.motors:
-        pos = positions.get(m.motor) or (frame.position(m.motor) if frame is not None else None) or "-"
-        rows.append([str(m.motor), pos] + [cells.get((a, n, m.motor), "-") for a, n in columns] + [f"{m.weight:.2f}"])
-    return headers, rows
-
-
-#: Short column heads for finding names (an 80-column terminal): share = command share and its
-#: change against the baseline; thrust % = eta-hat with its 90 % interval; effect. = relative
-#: effectiveness with its 90 % interval; weight = the decision's probability that the rotor lost thrust.
-FINDING_HEADERS = {"share": "share", "thrust": "thrust %", "effectiveness": "effect.", "vote": "vote",
-                   "throttle": "thr.", "rpm_per_command": "rpm/cmd", "current_per_rpm2": "A/rpm2",
-                   "esc_damage": "esc"}
-
-
-def short_position(position: str) -> str:
-    """"front-right" -> "FR", "rear" -> "R": an 80-column table's position column."""
-    return "".join(w[0].upper() for w in position.replace(" ", "-").split("-") if w) or position
-
-
-def analyzer_notes(diagnosis: Diagnosis) -> list[str]:
-    """One line per analyzer that abstained (why) and per note an analyzer left."""
-    dec = diagnosis.decision
-    if dec is None:
-        return []
-    out = [f"{r.analyzer}: {r.abstained}" for r in dec.results if r.abstained]
-    out += [f"{r.analyzer}: {n}" for r in dec.results for n in r.notes]
-    if dec.airframe_changed:
-        out.append(f"airframe change since calibration: {dec.airframe_changed}")
-    return out
-
-
-def motor_panel(diagnosis: Diagnosis) -> Table:
-    """Per-motor findings table: what the verdict rests on, in numbers a pilot can check."""
-    ev = diagnosis.evidence
-    against = {"profile": "calibration", "before onset": "the flight before the onset",
-               "neighbours": "an even split"}.get(getattr(ev, "baseline", ""), "")
-    t = Table(title=f"per-motor findings (commands against {against})", title_justify="left", box=None,
+def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table:
+    """Per-motor findings table: what the verdict rests on, in numbers a pilot can check. A dash's
+    reason is among the notes under it."""
+    view = view or MotorView.of(diagnosis)
+    t = Table(title=f"per-motor findings (commands against {view.against})", title_justify="left", box=None,
               padding=(0, 0, 0, 1), pad_edge=False, title_style="dim")
-    headers, rows = motor_table(diagnosis)
-    headers = ["pos" if h == "position" else h for h in headers]
-    for h in headers:
+    header, rows = view.table(narrow=True)
+    for h in header:
         t.add_column(h, justify="left" if h in ("pos", "share", "thrust %", "effect.") else "right", no_wrap=True)
     for row in rows:
-        t.add_row(*[short_position(c) if i == 1 and c != "-" else c for i, c in enumerate(row)])
+        t.add_row(*[c.text for c in row])
     return t
 
 
@@ -206,8 +169,9 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
         n = len(diagnosis.windows[0].probabilities) - 1
         parts.append(Text(f"  . healthy   1-{LABEL_CHARS[n]} propeller damaged   ? uncertain", style="dim"))
     if diagnosis.decision is not None:
-        parts.append(motor_panel(diagnosis))
-        for note in analyzer_notes(diagnosis):
+        view = MotorView.of(diagnosis)
+        parts.append(motor_panel(diagnosis, view))
+        for note in view.notes:
             parts.append(Text(f"  * {note}", style="dim"))
     if show_windows and diagnosis.windows:
         parts.append(window_table(diagnosis))

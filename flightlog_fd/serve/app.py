@@ -1,7 +1,7 @@
 """The `fdlog serve` web application (FastAPI + Jinja2 templates, run by uvicorn).
 
 What: :func:`create_app` builds the ASGI app from a :class:`ServeConfig`: the store
-(:class:`~flightlog_fd.serve.store.ServeStore`, SQLite or PostgreSQL), the data folder, the job
+(:class:`~flightlog_fd.store.Store`, SQLite or PostgreSQL), the data folder, the job
 runner, the tokens. Pages: fleet (``/``), airframe (``/airframe?key=K``), flight
 (``/flights/ID``) with its JSON / CSV / HTML reports; API: ``POST /api/logs`` (multipart field
 ``log``), ``GET /api/logs/ID``, ``GET /api/logs``, ``GET /api/jobs/ID``.
@@ -38,8 +38,9 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from .. import __version__
 from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS
 from ..errors import FlightLogError
+from ..report.motor_view import MotorView, summary_cell, summary_header
+from ..store import TREND_FIGURES, Store
 from .security import SESSION_COOKIE, Sessions, TokenSet, bearer
-from .store import ServeStore
 from .worker import DataDir, JobRunner, diagnose_task
 
 HERE = Path(__file__).resolve().parent
@@ -71,9 +72,6 @@ SECURITY_HEADERS = {
     "X-Frame-Options": "DENY",
     "Referrer-Policy": "same-origin",
 }
-#: Per-motor trends on the airframe page: (JSON motor field, title). Missing fields are skipped.
-TRENDS = (("command_change", "command-share change"), ("severity", "severity: estimated remaining thrust η̂ (1 = healthy)"),
-          ("model_vote", "model vote"), ("effectiveness", "effectiveness"))
 
 
 @dataclass
@@ -118,7 +116,7 @@ def fmt_number(x: Any, decimals: int = 3) -> str:
     return f"{x:.{decimals}f}"
 
 
-def ingest_file(store: ServeStore, data: DataDir, path) -> tuple[int, bool]:
+def ingest_file(store: Store, data: DataDir, path) -> tuple[int, bool]:
     """Queue a local log file as if uploaded (`fdlog serve LOGS`): copied by content hash.
     Raises FlightLogError for a file that is not a log."""
     import shutil
@@ -141,13 +139,14 @@ def ingest_file(store: ServeStore, data: DataDir, path) -> tuple[int, bool]:
 def create_app(cfg: ServeConfig):
     """The ASGI app; the job runner starts and stops with the app's lifespan."""
     data = DataDir(cfg.data_dir)
-    store = ServeStore(cfg.db or str(data.root / "fdlog.sqlite"))
+    store = Store(cfg.db or str(data.root / "fdlog.sqlite"))
     kw = {"job_timeout_s": cfg.job_timeout_s} if cfg.job_timeout_s else {}
     runner = JobRunner(store, data, workers=cfg.workers, scheduler=cfg.scheduler, diagnose_fn=cfg.diagnose_fn, **kw)
     sessions = Sessions()
     env = Environment(loader=FileSystemLoader(str(HERE / "templates")), autoescape=True)
     env.filters["fmt"] = fmt_number
     env.filters["q"] = lambda s: quote(str(s), safe="")
+    env.globals.update(summary_header=summary_header, summary_cell=summary_cell)  # the per-motor summary names
 
     @asynccontextmanager
     async def lifespan(app):
@@ -357,8 +356,7 @@ def create_app(cfg: ServeConfig):
     @app.get("/api/logs")
     def api_logs(request: Request):
         require_view(request)
-        rows = store.db.query("SELECT id, name, sha256, state, status, motor, airframe, uploaded_at FROM flight ORDER BY id")
-        return JSONResponse({"logs": rows, "jobs": store.job_counts()})
+        return JSONResponse({"logs": store.logs(), "jobs": store.job_counts()})
 
     @app.get("/api/jobs/{jid}")
     def api_job(jid: int, request: Request):
@@ -372,7 +370,7 @@ def create_app(cfg: ServeConfig):
     @app.get("/api/health")
     def api_health():
         return JSONResponse({"ok": True, "version": __version__, "jobs": store.job_counts(),
-                             "database": store.db.dialect})
+                             "database": store.dialect})
 
     # ------------------------------------------------------------------ sign-in
 
@@ -440,7 +438,7 @@ def create_app(cfg: ServeConfig):
         for i, f in enumerate(a["flights"], 1):
             trend["flights"].append({"n": i, "id": int(f["id"]), "name": f["name"], "status": f["status"] or f["state"]})
         n_motors = max([4] + [int(k) for f in a["flights"] for k in f["motors"]])  # hexa, octo: more
-        for fig, title in TRENDS:
+        for fig, title in TREND_FIGURES:
             lines = []
             for k in range(1, n_motors + 1):
                 ys = [(f["motors"].get(k) or {}).get(fig) for f in a["flights"]]
@@ -454,8 +452,7 @@ def create_app(cfg: ServeConfig):
             except (OSError, ValueError):
                 profile = {"error": "the profile file cannot be read"}
         others = [o for o in store.fleet() if o["key"] != key]
-        cal_jobs = [j for j in store.db.query("SELECT * FROM job WHERE kind = 'calibrate' AND airframe = ? ORDER BY id DESC",
-                                              (key,))]
+        cal_jobs = store.calibration_jobs(key)
         rule = {"min_flights": MIN_FLIGHTS, "slope": DRIFT_SLOPE_MIN, "z": DRIFT_Z_MIN, "floors": FIGURE_FLOORS}
         return page(request, "airframe.html", a=a, trend=trend, n_motors=n_motors, profile=profile, others=others, rule=rule,
                     cal_jobs=cal_jobs, adapt=cfg.calibrate_adapt)
@@ -466,16 +463,13 @@ def create_app(cfg: ServeConfig):
         f = get_flight(fid)
         doc = json.loads(f["diagnosis_json"]) if f["diagnosis_json"] else None
         plot = json.loads(f["plot_json"]) if f["plot_json"] else None
-        motor_cols: list[str] = []
-        for m in (doc or {}).get("motors") or []:
-            for k in m:
-                if k not in motor_cols:
-                    motor_cols.append(k)
+        mview = MotorView.from_doc(doc or {})
+        mheader, mrows = mview.table()
         windows = [{"t0": w.get("t_start"), "t1": w.get("t_end"), "p": w.get("probabilities") or [],
                     "label": w.get("smoothed_class")} for w in (doc or {}).get("windows") or []
                    if isinstance(w, dict) and w.get("t_start") is not None]
         airframe = store.resolve(f["airframe"]) if f["airframe"] else None
-        return page(request, "flight.html", f=f, doc=doc, motor_cols=motor_cols,
+        return page(request, "flight.html", f=f, doc=doc, mview=mview, mheader=mheader, mrows=mrows,
                     plotdata={"plot": plot, "windows": windows}, airframe=airframe,
                     has_html=data.report_path(f["sha256"], "html").exists(),
                     has_csv=data.report_path(f["sha256"], "csv").exists())

@@ -1,7 +1,7 @@
 """Background jobs of `fdlog serve`: diagnose uploaded logs and calibrate airframes, from the store's queue.
 
 What: :class:`JobRunner` runs ``workers`` slots (threads of the server). Each slot claims one job
-at a time from the store (:meth:`ServeStore.claim_job`, atomic) and runs it in a worker process
+at a time from the store (:meth:`~flightlog_fd.store.Store.claim_job`, atomic) and runs it in a worker process
 of its own (a one-process ``ProcessPoolExecutor``, started with ``spawn``: never a fork of the
 threaded web server), or on a Dask cluster with ``scheduler`` (``"local"`` or ``tcp://HOST:8786``,
 as ``fdlog diagnose --scheduler``; its workers must see the data folder). The worker process
@@ -14,7 +14,7 @@ worker process that dies on a log (segfault, ``os._exit``, out of memory) is kno
 the slot's process ran only that log: the job becomes an error row with that reason, and the slot
 starts a fresh process. A job running longer than ``JOB_TIMEOUT_S`` (pyulog can spin on some
 corrupt files) has its process killed and becomes an error row. Leases are renewed every
-``LEASE_S / 3`` and expired ones recovered (:meth:`ServeStore.recover`), so a server that stops
+``LEASE_S / 3`` and expired ones recovered (:meth:`~flightlog_fd.store.Store.recover`), so a server that stops
 leaves no stuck job for the next one; a server on this machine whose process is gone has its jobs
 requeued at once (:func:`holder_is_dead`), without waiting for the lease.
 """
@@ -32,7 +32,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .store import LEASE_S, ServeStore
+from ..store import LEASE_S, Store
 
 #: Seconds between queue polls of an idle slot (a new upload also wakes the slots at once).
 POLL_S = 1.0
@@ -102,9 +102,9 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
     from ..report.html_report import render_html
     from ..report.json_report import to_dict
     from ..report.terminal import verdict_sentence
-    from ..store import _utc_iso
+    from ..store import utc_iso
     from ..util import file_sha256
-    from ..verdict import not_diagnosable
+    from ..decision import not_diagnosable
 
     flight = None
     prof_sha = ""
@@ -122,14 +122,20 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
         d.facts.path = name
     rd = Path(reports_dir)
     rd.mkdir(parents=True, exist_ok=True)
-    for ext, text in (("html", render_html(d)), ("csv", render_csv(d))):
+    for ext, render in (("html", render_html), ("csv", render_csv)):
+        try:
+            text = render(d)
+        except Exception as e:  # a report's bug costs that file, said on the flight's page, not the diagnosis
+            first = (str(e).strip().splitlines() or [""])[0][:200]
+            d.warnings.append(f"the {ext.upper()} report could not be drawn ({type(e).__name__}: {first})")
+            continue
         tmp = rd / f"{sha256}.{ext}.{os.getpid()}.part"
         tmp.write_text(text, encoding="utf-8")
         os.replace(tmp, rd / f"{sha256}.{ext}")
     return {"sha256": sha256, "diagnosis": to_dict(d), "sentence": verdict_sentence(d),
             "vehicle": flight.vehicle_id if flight is not None else None,
             "vehicle_source": (flight.vehicle_id_source or "log") if flight is not None else None,
-            "flight_start_utc": _utc_iso(flight.utc_start) if flight is not None else None,
+            "flight_start_utc": utc_iso(flight.utc_start) if flight is not None else None,
             "log_t_start_s": flight.t_start if flight is not None else None,
             "profile_sha256": prof_sha, "plot": plot_series(flight)}
 
@@ -137,16 +143,10 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
 def calibrate_task(log_paths: list[str], out_path: str, adapt: bool) -> str:
     """Calibrate a profile from healthy logs (in a worker process); returns its sha256.
     ``adapt`` also adapts the model (needs torch, minutes); else only measures (``--no-adapt``)."""
+    from ..calibration import calibrate
     from ..util import file_sha256
 
-    if adapt:
-        from flightlog_fd.training.adapt import calibrate
-
-        calibrate([Path(p) for p in log_paths], Path(out_path), overwrite=True)
-    else:
-        from ..profile import calibrate_profile
-
-        calibrate_profile([Path(p) for p in log_paths]).save(out_path, overwrite=True)
+    calibrate([Path(p) for p in log_paths], adapt=adapt, output=Path(out_path), overwrite=True)
     return file_sha256(out_path)
 
 
@@ -197,7 +197,7 @@ def _error_doc(name: str, reason: str) -> str:
 class JobRunner:
     """Runs the store's queued jobs in ``workers`` slots until :meth:`stop` (module docstring)."""
 
-    def __init__(self, store: ServeStore, data: DataDir, *, workers: int = 1, scheduler: Optional[str] = None,
+    def __init__(self, store: Store, data: DataDir, *, workers: int = 1, scheduler: Optional[str] = None,
                  diagnose_fn: Callable = diagnose_task, calibrate_fn: Callable = calibrate_task,
                  poll_s: float = POLL_S, job_timeout_s: float = JOB_TIMEOUT_S, name: Optional[str] = None):
         self.store, self.data = store, data
@@ -392,7 +392,7 @@ def _kill(pool: ProcessPoolExecutor) -> None:
         pass
 
 
-def wait_idle(store: ServeStore, timeout: float = 120.0, poll: float = 0.2) -> bool:
+def wait_idle(store: Store, timeout: float = 120.0, poll: float = 0.2) -> bool:
     """True once no job is queued or running (tests, the benchmark, `fdlog serve --exit-when-done`)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:

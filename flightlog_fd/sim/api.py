@@ -14,7 +14,7 @@ Arguments (all keyword except ``n``):
   :class:`Damage` for every vehicle, or a list of ``n`` (None entries = healthy);
 - ``mission``: "waypoints" | "manual" | "hover"; ``duration_s``: planned arming-to-disarm time;
 - ``profile``: logging profile (logger.PROFILES); ``rho``: None | "random" | (4,) | (n, 4) unbalance
-  ratios, ``rho_mode`` "physical" | "paper" (unbalance.py);
+  ratios, ``rho_mode`` "physical" | "paper" (rho.py);
 - ``seed``: everything (airframes, missions, damages, noise, log timing) is drawn from one
   ``numpy.random.default_rng(seed)``, so the same arguments give the same flights;
 - ``imbalance``: None (balanced, as designed), ``"random"`` (realistic per-vehicle CoG offset,
@@ -63,7 +63,7 @@ from flightlog_fd.sim.logger import LogProfile, build_flights, get_profile
 from flightlog_fd.sim.missions import MissionPlan, plan_missions
 from flightlog_fd.sim.prop_vibration import PropSpec, add_vibration, resolve as resolve_props
 from flightlog_fd.sim.sensors import SensorParams
-from flightlog_fd.sim.unbalance import RhoSpec, check_mode, resolve_rho
+from flightlog_fd.sim.rho import RhoSpec, check_mode, resolve_rho
 
 #: Extra simulated time allowed beyond the longest planned flight before the batch is stopped.
 OVERTIME_FACTOR = 1.5

@@ -14,7 +14,7 @@ Model per vehicle (parameters from :class:`~flightlog_fd.sim.airframe.Airframe`)
 - rotor i thrust ``f_i = s_i · k_f,i · w_i²`` along −z_body and drag torque
   ``spin_i · s_i · d_i · k_tau,i · w_i²`` about z_body, where ``s_i`` is the per-rotor thrust
   effectiveness (propeller damage η_thrust and the unbalance of the adjusted model, see
-  damage.py / unbalance.py) and ``d_i = η_torque/η_thrust`` the damaged propeller's extra drag
+  damage.py / rho.py) and ``d_i = η_torque/η_thrust`` the damaged propeller's extra drag
   change; ``k_f,i``, ``k_tau,i`` and the motor lag are the nominal ones × the airframe's per-rotor
   spread (imbalance.py), rotor positions are taken about the (possibly offset) CoG, and a tilted
   rotor adds a yaw torque ``|r_i| sin δ_i · f_i``; ``spin_i`` = +1 for a counter-clockwise rotor seen from above (positive yaw
@@ -174,12 +174,6 @@ def quat_yaw(q: np.ndarray) -> np.ndarray:
     return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def body_z_axis(q: np.ndarray) -> np.ndarray:
-    """(4, N) quaternions → (3, N) body z axis (down) expressed in NED."""
-    w, x, y, z = q
-    return np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
-
-
 def cross(a: np.ndarray, b: np.ndarray, out: Optional[np.ndarray] = None) -> np.ndarray:
     """Cross product of (3, N) arrays (``np.cross`` costs several times more on this layout)."""
     out = np.empty_like(a) if out is None else out
@@ -187,11 +181,6 @@ def cross(a: np.ndarray, b: np.ndarray, out: Optional[np.ndarray] = None) -> np.
     out[1] = a[2] * b[0] - a[0] * b[2]
     out[2] = a[0] * b[1] - a[1] * b[0]
     return out
-
-
-def rotor_thrusts(params: VehicleParams, w: np.ndarray, effectiveness: np.ndarray) -> np.ndarray:
-    """(4, N) rotor thrusts N for rotor speeds ``w`` (4, N) and effectiveness (4, N)."""
-    return params.k_f * effectiveness * w * w
 
 
 class QuadDynamics:

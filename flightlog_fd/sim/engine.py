@@ -41,7 +41,7 @@ from flightlog_fd.sim.imbalance import ImbalanceArrays
 from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams, quat_yaw
 from flightlog_fd.sim.missions import MissionPlan, MissionRunner
 from flightlog_fd.sim.sensors import SensorParams, Sensors
-from flightlog_fd.sim.unbalance import check_mode, paper_speed_gain, physical_effectiveness
+from flightlog_fd.sim.rho import check_mode, paper_speed_gain, physical_effectiveness
 
 STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "accel": 3, "w_com": 4, "w": 4,
                  "pos": 3, "thrust": 4, "omega": 3, "eta": 4, "torque": 4,

@@ -2,8 +2,8 @@
 // (<script type="application/json">). plotly.min.js is served by the app from the plotly package.
 // No inline script anywhere: the pages' Content-Security-Policy allows scripts from the app only.
 var MOTOR_COLOURS = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"];
-var SHADE = {0: "rgba(46,125,50,0.10)", 1: "rgba(198,40,40,0.13)", 2: "rgba(198,40,40,0.13)",
-             3: "rgba(198,40,40,0.13)", 4: "rgba(198,40,40,0.13)", "-1": "rgba(239,108,0,0.15)"};
+// background per window label: healthy, any motor damaged (1..n, any rotor count), uncertain
+var SHADE_HEALTHY = "rgba(46,125,50,0.10)", SHADE_DAMAGED = "rgba(198,40,40,0.13)", SHADE_UNCERTAIN = "rgba(239,108,0,0.15)";
 
 function readJSON(id) { var el = document.getElementById(id); return el ? JSON.parse(el.textContent) : null; }
 
@@ -49,7 +49,8 @@ function fdlogFlight() {
   // translucent rectangles never stack into mixed colours.
   var sorted = w.slice().sort(function (a, b) { return a.t0 - b.t0; });
   var shapes = sorted.map(function (x, i) {
-    var c = SHADE[String(x.label)]; if (!c) return null;
+    var c = x.label === 0 ? SHADE_HEALTHY : x.label === -1 ? SHADE_UNCERTAIN : x.label > 0 ? SHADE_DAMAGED : null;
+    if (!c) return null;
     var end = i + 1 < sorted.length ? Math.min(x.t1, sorted[i + 1].t0) : x.t1;
     return {type: "rect", xref: "x", yref: "paper", x0: x.t0, x1: end, y0: 0, y1: 1, fillcolor: c, line: {width: 0}, layer: "below"};
   }).filter(function (s) { return s; });

@@ -1,4 +1,5 @@
-"""The paper's "adjusted simulation model": per-motor unbalance ratios ρ (4,).
+"""The paper's "adjusted simulation model": per-motor unbalance ratios ρ (sim/rho.py; the realistic
+airframe imbalance of healthy training airframes is sim/imbalance.py).
 
 A real quadrotor is never balanced: centre of mass off-centre, motors and propellers that differ.
 In a steady hover its healthy motors run at different speeds; the paper measures
@@ -21,7 +22,7 @@ clipped to ±0.08 per vehicle.
 """
 from __future__ import annotations
 
-from typing import Optional, Union
+from typing import Union
 
 import numpy as np
 
@@ -68,9 +69,3 @@ def check_mode(rho_mode: str) -> str:
     if rho_mode not in RHO_MODES:
         raise ValueError(f"rho_mode must be one of {RHO_MODES}, got {rho_mode!r}")
     return rho_mode
-
-
-def measured_rho(w_com_hover: np.ndarray) -> Optional[np.ndarray]:
-    """ρ as the paper measures it from hover samples of commanded speeds (n, 4): mean(w_i)/mean(w_1)."""
-    m = np.asarray(w_com_hover, dtype=np.float64).mean(axis=0)
-    return m / m[0] if m[0] > 0 else None

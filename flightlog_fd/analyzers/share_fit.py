@@ -1,7 +1,8 @@
-"""Per-motor evidence a pilot can check, and whether it supports the model's verdict.
+"""The command-share analyzer's estimation: each motor's share of the thrust commands against the
+healthy baseline, and that baseline fitted from calibration flights.
 
-Inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
-:attr:`flightlog_fd.features.Windows.segments`), the model's window probabilities, the rotor
+Per flight (:func:`build_evidence`), inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
+:attr:`flightlog_fd.windows.Windows.segments`), the model's window probabilities, the rotor
 layout, and optionally the calibration profile's healthy baseline.
 
 Per motor it gives:
@@ -13,31 +14,33 @@ Per motor it gives:
 - **command change**: with a profile, the share minus the profile's healthy baseline at this
   flight's throttle (:meth:`Baseline.share_at`); without one, the share minus the mean of the
   other three ("against its neighbours").
-- **effectiveness**: :mod:`flightlog_fd.effectiveness` (relative angular acceleration per unit
+- **effectiveness**: :mod:`flightlog_fd.analyzers.effectiveness_fit` (relative angular acceleration per unit
   command, with its bootstrap interval; ``informative`` says whether the flight manoeuvred enough).
 - **model vote**: the mean probability the model gave to "this motor's propeller is damaged".
 
 What the figures mean, and what decides
 ---------------------------------------
-These are the figures a pilot checks; they decide nothing here. :mod:`flightlog_fd.decision`
-weighs them (with the model's windows) into the verdict, prices the airframe's trim drift and
-gives each motor's severity. ``top_motor`` / ``single_motor_gap`` describe the pattern: without a
-baseline, the motor with the largest change and its excess over the next; against a baseline
-(profile, before onset), the best one-motor-plus-yaw fit (:func:`single_motor_fit`).
+These are the figures a pilot checks; they decide nothing here. The analyzers
+(:mod:`flightlog_fd.analyzers`) weigh them, and :mod:`flightlog_fd.decision` makes the verdict.
 
 With a mid-flight onset and no profile, the flight before the onset (at least
 ``MIN_BEFORE_ONSET_S``) is the baseline: the same airframe, healthy, minutes earlier.
+
+From calibration flights (:func:`estimate_baseline`, the profile's ``baseline_``): the healthy
+airframe's airborne-mean command shares, the same quantity the diagnosis measures (so their
+biases cancel), as a line in throttle fitted over ``BASELINE_CHUNK_S`` chunks when the chunks span
+at least ``BASELINE_MIN_THROTTLE_RANGE`` of throttle (else flat).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
-from .effectiveness import EffectivenessEstimate
-from .features import DEFAULT_RATE_HZ
-from .flight import Frame
+from ..flight import Flight, Frame
+from ..streams import DEFAULT_RATE_HZ
+from .effectiveness_fit import EffectivenessEstimate
 
 #: Flight before a mid-flight onset (s) that serves as the baseline when there is no profile.
 MIN_BEFORE_ONSET_S = 10.0
@@ -46,6 +49,9 @@ MIN_BEFORE_ONSET_S = 10.0
 #: "healthy" Erle flight 11-2-2015_112: motor 2 climbs from 0.58 to 0.88 PWM over 40 s before a
 #: hard landing; SITL steps: the share is flat after the onset).
 ONSET_DRIFT_SHARE = 0.5
+#: Chunk length (s) for the baseline's share-vs-throttle fit, and the throttle span it needs to fit a slope.
+BASELINE_CHUNK_S = 10.0
+BASELINE_MIN_THROTTLE_RANGE = 0.05
 
 
 @dataclass
@@ -103,13 +109,7 @@ class FlightEvidence:
     motors: list[MotorEvidence]
     baseline: str  # "profile" | "before onset" | "neighbours"
     throttle: float
-    top_motor: int  # 1-based motor the command change singles out (largest change / best one-motor fit)
-    #: Against neighbours: its change minus the second-largest change. Against a baseline
-    #: (profile, before onset): its own rise in the one-motor-plus-yaw fit (single_motor_fit).
-    single_motor_gap: float
     effectiveness: Optional[EffectivenessEstimate] = None
-    airframe_changed: Optional[str] = None  # why, when the decision model found it
-    notes: list[str] = field(default_factory=list)
     #: The baseline the changes are taken against (profile or before onset), None for neighbours.
     baseline_: Optional[Baseline] = None
     #: (4,) after a mid-flight onset: each share's change from the first to the last third of it.
@@ -143,34 +143,7 @@ class FlightEvidence:
         return f"runs {100 * m.command_change:+.0f} % command share against its neighbours"
 
 
-def _spins(frame: Optional[Frame], n: int = 4) -> np.ndarray:
-    """(n,) rotor spins of ``frame`` (quad X's when the frame does not have n rotors)."""
-    frame = frame if frame is not None and frame.rotor_count == n else Frame.quad_x()
-    return np.array([float(r.spin) for r in frame.rotors])
-
-
-def single_motor_fit(change: np.ndarray, spins: np.ndarray) -> tuple[int, float, float]:
-    """Explain a share change (n,) as one motor k rising by ``a`` (the others falling by a/n each,
-    after normalisation) plus a yaw re-trim ``b`` along the rotor spins; returns the best k
-    (1-based, smallest residual among rising fits), its ``a`` and the residual's L2 norm."""
-    c = np.nan_to_num(np.asarray(change, dtype=np.float64))
-    n = len(c)
-    y = spins - spins.mean()
-    best = (1, 0.0, float("inf"))
-    for k in range(n):
-        v = -np.ones(n) / n
-        v[k] += 1.0
-        A = np.stack([v, y], axis=1)
-        coef, *_ = np.linalg.lstsq(A, c, rcond=None)
-        resid = float(np.linalg.norm(c - A @ coef))
-        if coef[0] > 0 and resid < best[2]:
-            best = (k + 1, float(coef[0]), resid)
-    if not np.isfinite(best[2]):
-        best = (int(np.argmax(c)) + 1, 0.0, float(np.linalg.norm(c - c.mean())))
-    return best
-
-
-def command_shares(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
+def shares_of(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
     """(n,) mean thrust-command shares (mean 1) over the (samples, n) blocks of the thrust proxy
     (e.g. each segment's ``w_sq``), and the mean thrust command (throttle)."""
     blocks = [np.asarray(b, dtype=np.float64) for b in thrust_blocks if len(b)]
@@ -198,27 +171,22 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         after = [s.w_sq[s.t >= since] for s in segments]
         drift = _drift(after)
         if baseline is None and sum(len(b) for b in before) / DEFAULT_RATE_HZ >= MIN_BEFORE_ONSET_S:
-            pre, pre_thr = command_shares(before)
+            pre, pre_thr = shares_of(before)
             baseline = Baseline(share=pre, slope=np.zeros(len(pre)), throttle_ref=pre_thr, source="before onset")
-        share, throttle = command_shares(after)
+        share, throttle = shares_of(after)
     else:
-        share, throttle = command_shares([s.w_sq for s in segments])
+        share, throttle = shares_of([s.w_sq for s in segments])
     probs = np.asarray(probs, dtype=np.float64)
     n = len(share)
     votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(n)
-    notes: list[str] = []
     if baseline is not None:
         base = baseline.share_at(throttle)
         change = share - base
         kind = "before onset" if baseline.source == "before onset" else "profile"
-        top, gap, _ = single_motor_fit(change, _spins(frame, len(change)))
     else:
         base = None
         change = np.array([share[i] - np.delete(share, i).mean() for i in range(n)])
         kind = "neighbours"
-        order = np.argsort(-np.nan_to_num(change, nan=-np.inf))
-        top = int(order[0]) + 1
-        gap = float(change[order[0]] - change[order[1]]) if np.all(np.isfinite(change)) else 0.0
 
     motors = []
     for i in range(n):
@@ -231,8 +199,8 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
             command_share=float(share[i]), command_share_baseline=None if base is None else float(base[i]),
             command_change=float(change[i]), effectiveness=eff, effectiveness_ci=ci, model_vote=float(votes[i])))
     # why the effectiveness fit says nothing is the effectiveness analyzer's to report
-    return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, top_motor=top, single_motor_gap=gap,
-                          effectiveness=effectiveness, notes=notes, baseline_=baseline, onset_drift=drift)
+    return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, effectiveness=effectiveness,
+                          baseline_=baseline, onset_drift=drift)
 
 
 def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
@@ -248,3 +216,51 @@ def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
     return last / last.mean() - first / first.mean()
 
 
+# ----------------------------------------------------------------------------- the baseline from calibration flights
+
+def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
+    """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
+    airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
+    from ..hover import motor_count
+    from ..prepared import resample
+
+    return [seg.w_sq for fl in flights for seg in resample(fl, rate_hz=DEFAULT_RATE_HZ, n_motors=motor_count(fl))]
+
+
+def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None,
+                      per_flight: Optional[list[list[np.ndarray]]] = None) -> dict:
+    """The healthy airframe's command shares against throttle (module docstring), as the
+    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds,
+    and with two or more flights ``spread`` (4,): each motor's flight-to-flight standard deviation
+    of its share, and ``throttle_spread``: the relative one of the throttle (the decision model's
+    drift noise; ``per_flight`` = each flight's thrust blocks)."""
+    rate = DEFAULT_RATE_HZ
+    flights = list(flights)
+    if per_flight is None and thrust_blocks is None:
+        per_flight = [airborne_thrust([fl]) for fl in flights]
+    blocks = thrust_blocks if thrust_blocks is not None else [b for pf in per_flight for b in pf]
+    spread = throttle_spread = None
+    if per_flight is not None and sum(1 for pf in per_flight if pf) >= 2:
+        each = [shares_of(pf) for pf in per_flight if pf]
+        spread = [float(x) for x in np.std([sh for sh, _ in each], axis=0, ddof=1)]
+        thr = np.array([th for _, th in each])
+        throttle_spread = float(np.std(thr, ddof=1) / np.mean(thr))
+    share, throttle = shares_of(blocks)
+    shares, throttles = [], []
+    n = int(BASELINE_CHUNK_S * rate)
+    for w_sq in blocks:
+        for a in range(0, len(w_sq) - n + 1, n):
+            sh, th = shares_of([w_sq[a:a + n]])
+            shares.append(sh)
+            throttles.append(th)
+    slope = np.zeros(len(share))
+    rng = (float(min(throttles)), float(max(throttles))) if throttles else (throttle, throttle)
+    if len(throttles) >= 3 and rng[1] - rng[0] >= BASELINE_MIN_THROTTLE_RANGE:
+        th = np.asarray(throttles) - throttle
+        slope = (np.asarray(shares) - share).T @ th / float(th @ th)
+    seconds = sum(len(b) for b in blocks) / rate
+    return {"share": [float(x) for x in share], "slope": [float(x) for x in slope], "throttle_ref": float(throttle),
+            "throttle_range": [rng[0], rng[1]], "seconds": round(float(seconds), 1),
+            "source": "airborne mean of the thrust-command shares",
+            "n_flights": len(per_flight) if per_flight is not None else len(flights),
+            "spread": spread, "throttle_spread": throttle_spread}

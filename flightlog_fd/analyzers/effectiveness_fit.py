@@ -4,7 +4,7 @@ What it estimates
 -----------------
 The rigid body obeys ``J·ω̇ = Σ_i r_i × F_i + τ_drag + τ_ext``: each rotor's thrust ``F_i`` acts on
 its lever arm (roll: ``−y_i``, pitch: ``x_i``) and its drag torque on yaw (``spin_i``). With the
-thrust proxy ``u_i`` (the NIF ``ω_i²`` channel, ``features.thrust_proxy``) standing for thrust,
+thrust proxy ``u_i`` (the NIF ``ω_i²`` channel, ``streams.thrust_proxy``) standing for thrust,
 
     ṗ(t) = g_p · Σ_i (−y_i) · e_i · u_i(t) + c_p(t),     q̇ = g_q · Σ_i x_i · e_i · u_i + c_q,
     ṙ(t) = g_r · Σ_i spin_i · d_i · u_i(t) + c_r(t)
@@ -23,34 +23,30 @@ as effective as its neighbours; a rotor with ``η = 0.7`` reads ≈ 0.70 when th
 healthy). Yaw (drag torque) is reported apart, because a cut tip loses drag torque in another
 proportion than thrust and yaw is excited far less in ordinary flight.
 
-Streams and lag: the same :func:`flightlog_fd.features.resample` as the NIF windows (50 Hz grid,
+Streams and lag: the same :func:`flightlog_fd.prepared.resample` as the NIF windows (50 Hz grid,
 airborne time only, gaps split segments, Savitzky-Golay ``ṗ q̇ ṙ``), without the first and last
 seconds of each airborne interval (``EDGE_TRIM_S``: the land detector's "airborne" includes
-ground contact); the commands go through the gyro's low-pass (``GYRO_CUTOFF_PARAMS``), a
+ground contact); the commands go through the gyro's low-pass (:func:`flightlog_fd.streams.gyro_cutoff_hz`), a
 first-order motor lag whose time constant is searched per flight (``MOTOR_LAG_GRID_S``, refined
 to ``MOTOR_LAG_REFINE_S``) and the same Savitzky-Golay smoothing as the gyro, all on the gyro
 derivative's fine grid when the motors are logged faster than the grid. The candidate lags are
-fitted all at once (:class:`_SegmentLags`, ``BATCHED_LAG_SEARCH``): the same lag and values within
-1e-8 of one lag at a time on 60 real and simulated logs, 5-10x faster. The search runs on at most
+fitted all at once (:class:`_SegmentLags`): the same numbers within float noise as one lag at a time
+(:func:`_detrended_commands`, the definition), 5-10x faster. The search runs on at most
 ``LAG_SEARCH_MAX_S`` of the flight, spread over it; the fit at the lag found uses every sample.
 
 Body-rate terms: the rates and their products (damping, gyroscopic ``ω × Iω``) are fitted beside
-the commands (``BODY_RATE_TERMS``).
+the commands (:func:`_body_rate_terms`). Without them a yawing vehicle's gyroscopic torque lands on
+the diagonal motor pairs: noiseless simulated x500 flights (η 0.6 and 0.8, each motor) read a
+damaged rotor +0.077 high on average (2 of 8 within ±0.03); with them +0.012 (6 of 8).
 
-Vertical equation (opt-in, ``use_accelerometer=True``; the diagnosis does not use it): with an
-accelerometer logged at ≥ ``MIN_ACCEL_RATE_FACTOR`` x the grid rate, the body-z specific force
-``a_z = −g_z · Σ_i e_i u_i + c_z(t)`` joins roll and pitch in one joint fit of each motor's thrust
-effectiveness (:func:`_joint_thrust`), to pin the motor patterns that roll and pitch alone leave
-to the weakly excited collective and yaw commands. Measured with
-``benchmarks/bench_effectiveness.py`` (random airframes, px4_high), it does not earn its place:
-60 s flights, 25 % of damaged flights (η ≤ 0.9) within ±0.03 with it against 31 % without, and
-the healthy flights' largest deviation 0.090 against 0.054; 240 s flights (before the body-rate
-terms), 42 % both, 0.011 against 0.017.
+The accelerometer's vertical equation is not used: joined to roll and pitch (measured with
+``benchmarks/bench_effectiveness.py``, random airframes, px4_high, 60 s flights) it put 25 % of
+damaged flights (η ≤ 0.9) within ±0.03 against 31 % without, and the healthy flights' largest
+deviation at 0.090 against 0.054.
 
 On real healthy flights (the 18 Erle ArduCopter logs of ../shared, 10 Hz RCOU): the largest
 deviation of any motor from 1 has median 0.18 and 75th percentile 0.36, against 0.22 and 0.65
-with the estimator before the ground trim, the fine lag search and the body-rate terms; 5 of 18
-are informative (6 before). Their lags come out at 0.04-0.16 s (10 Hz logging adds to the motor's).
+without the ground trim, the fine lag search and the body-rate terms; 5 of 18 are informative. Their lags come out at 0.04-0.16 s (10 Hz logging adds to the motor's).
 
 Known bias (``benchmarks/bench_effectiveness.py``): in closed loop the commands answer what the
 gyro measures, so they correlate with the unmeasured turbulence (which pulls a damaged rotor's
@@ -81,12 +77,12 @@ from typing import Optional
 
 import numpy as np
 
-from .errors import FlightLogError
-from .features import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
-                       Segment, _odd_window, resample)
-from .filters import LAG_TRUNCATION, lag, lag_coefficient, savgol_at, savgol_coeffs, savgol_edge_matrix, scan_inplace
-from .flight import Flight, Frame
-from .prepared import PreparedFlight
+from ..errors import FlightLogError
+from ..filters import LAG_TRUNCATION, lag, lag_coefficient, savgol_at, savgol_coeffs, savgol_edge_matrix, scan_inplace
+from ..flight import Frame
+from ..prepared import PreparedFlight, resample
+from ..streams import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
+                       Segment, odd_window)
 
 #: Centred moving-average length (s) removed from both sides before the fit (0.3-0.5 s gave the
 #: smallest error on simulated flights with known η: rmse 0.05 against 0.08 at 1 s and 0.10 at 2 s,
@@ -97,16 +93,10 @@ DETREND_S = 0.4
 #: then the search is refined around it in ``MOTOR_LAG_REFINE_S`` steps. The lag must be close:
 #: on noiseless simulated flights (realism off) the fit at the true motor time constant recovers
 #: η within 0.01 (R² 0.999), at 0.5x or 1.5x of it the damaged motor's value is off by 0.03-0.10
-#: (R² 0.95-0.98); the former 6-point grid (0, 0.02 ... 0.13 s) read η 0.6/0.7/0.8/0.9 as
+#: (R² 0.95-0.98); a 6-point grid (0, 0.02 ... 0.13 s) read η 0.6/0.7/0.8/0.9 as
 #: 0.52/0.65/0.72/0.83 on such flights.
 MOTOR_LAG_GRID_S = tuple(round(0.01 * k, 3) for k in range(16))  # 0 ... 0.15 s
 MOTOR_LAG_REFINE_S = 0.002
-#: Lag and smooth the commands on the gyro derivative's fine grid (see _fine_commands); False only
-#: for the benchmark's "before" row.
-FINE_COMMANDS = True
-#: Search the candidate lags all at once (_SegmentLags: the same numbers within float noise,
-#: 1.3 s -> 0.05 s on a 600 s 400 Hz DataFlash log); False searches them one at a time.
-BATCHED_LAG_SEARCH = True
 #: Condition number of a lag's normal equations below which they are solved directly; above it
 #: (collinear commands) that lag gets a least-squares solve, as every lag did before. At 1e8 the
 #: normal equations lose at most ~8 of float64's 16 digits, far below the residual differences
@@ -117,16 +107,6 @@ MAX_NORMAL_COND = 1e8
 #: comparison logs (sample_logs, ../shared) are far below it; 1e6 leaves a factor 100 to the
 #: ~1e8 where CholeskyQR2 loses orthogonality.
 MAX_CHOLQR_COND = 1e6
-#: Fit the body-rate torques (damping, gyroscopic ω × Iω) beside the commands (_body_rate_terms).
-#: Without them a yawing vehicle's gyroscopic torque lands on the diagonal motor pairs: noiseless
-#: simulated x500 flights (η 0.6 and 0.8, each motor) read a damaged rotor +0.077 high on average
-#: (2 of 8 within ±0.03); with them +0.012 (6 of 8). Regressing on the true rotor thrusts, the
-#: fit is exact (±0.01) only with them.
-BODY_RATE_TERMS = True
-#: Parameters naming the autopilot's gyro low-pass cutoff (Hz): the logged rates passed through it,
-#: the commands did not, so the commands get the same first-order low-pass before the fit (a
-#: 2nd-order filter's low-frequency delay is close enough; the lag search absorbs the rest).
-GYRO_CUTOFF_PARAMS = ("IMU_GYRO_CUTOFF", "INS_GYRO_FILTER")
 #: Bootstrap block length (s) and number of resamples; blocks keep the residuals' correlation.
 BLOCK_S = 2.0
 N_BOOTSTRAP = 200
@@ -145,16 +125,6 @@ MAX_CI_WIDTH = 0.25
 EDGE_TRIM_S = (2.0, 4.0)
 #: Seed of the bootstrap: the same log always gives the same interval.
 BOOTSTRAP_SEED = 20261123
-#: The accelerometer's vertical equation joins the fit only when the accelerometer is logged at
-#: least this many times the grid rate, so that each grid sample averages several readings (an
-#: IMU logged at the grid rate or slower aliases propeller vibration into the band: the old
-#: ArduCopter IMU logs at 24-50 Hz of ../shared gave R² 0.00-0.16 against the collective command,
-#: the 250 Hz PX4 sensor_combined of real_logs/px4/sample_px4_events 0.81), and its fit explains
-#: at least ``MIN_VERTICAL_R2`` of the detrended specific force.
-MIN_ACCEL_RATE_FACTOR = 2.0
-MIN_VERTICAL_R2 = 0.05
-#: Alternating least-squares iterations of the joint (roll, pitch, vertical) fit.
-JOINT_ITERATIONS = 30
 
 
 @dataclass
@@ -180,8 +150,6 @@ class EffectivenessEstimate:
     seconds: float = 0.0
     motor_lag_s: float = 0.0
     r2: tuple[float, float, float] = (0.0, 0.0, 0.0)  # fit quality per axis (roll, pitch, yaw)
-    vertical_r2: Optional[float] = None  # fit quality of the accelerometer's vertical equation
-    used_vertical: bool = False  # whether it joined the thrust estimate (MIN_VERTICAL_R2)
 
     @property
     def values(self) -> np.ndarray:
@@ -279,22 +247,13 @@ def _detrended_acc(segments: list[Segment], detrend_n: int) -> tuple[np.ndarray,
 
 @dataclass
 class _FineCommands:
-    """One segment's thrust proxy on the fine grid the gyro derivative was taken on (features.resample):
+    """One segment's thrust proxy on the fine grid the gyro derivative was taken on (streams.resample_streams):
     ``u`` (m, 4) at ``fine_hz``, already through the gyro's low-pass, and the fine-grid indices of
     the segment's grid samples."""
 
     u: np.ndarray
     fine_hz: float
     on_grid: np.ndarray
-
-
-def gyro_cutoff_hz(flight: Flight) -> Optional[float]:
-    """The autopilot's gyro low-pass cutoff from the log's parameters, or None."""
-    for name in GYRO_CUTOFF_PARAMS:
-        v = flight.params.get(name)
-        if v is not None and np.isfinite(v) and v > 0:
-            return float(v)
-    return None
 
 
 def _fine_commands(flight, segments: list[Segment], rate_hz: float) -> Optional[list[_FineCommands]]:
@@ -343,7 +302,7 @@ def _detrended_commands(segments: list[Segment], tau_s: float, rate_hz: float, s
     for i, seg in enumerate(segments):
         if fine is not None:
             fc = fine[i]
-            n_fine = _odd_window(savgol_window_s, fc.fine_hz)
+            n_fine = odd_window(savgol_window_s, fc.fine_hz)
             u = _lag(fc.u, tau_s, fc.fine_hz)
             u = savgol_at(u, min(n_fine, u.shape[0] - (1 - u.shape[0] % 2)), SAVGOL_POLYORDER, fc.on_grid)
         else:
@@ -447,7 +406,7 @@ def _lag_search_inputs(segments: list[Segment], rate_hz: float, savgol_n: int,
         if fine is not None:
             fc = fine[i]
             u, hz = fc.u, fc.fine_hz
-            n = min(_odd_window(savgol_window_s, hz), u.shape[0] - (1 - u.shape[0] % 2))
+            n = min(odd_window(savgol_window_s, hz), u.shape[0] - (1 - u.shape[0] % 2))
             kept = fc.on_grid
         else:
             u, hz, n = np.asarray(seg.w_sq, dtype=np.float64), rate_hz, savgol_n
@@ -520,15 +479,14 @@ class _LagFit:
         self.segments, self.rate_hz, self.savgol_n, self.detrend_n = segments, rate_hz, savgol_n, detrend_n
         self.savgol_window_s = savgol_window_s
         Y, self.t = _detrended_acc(segments, detrend_n)  # the lag only changes the commands
-        self.fine = _fine_commands(prep, segments, rate_hz) if FINE_COMMANDS else None
+        self.fine = _fine_commands(prep, segments, rate_hz)
         # Body-rate terms (gyroscopic ω × Iω, aerodynamic damping) are fitted beside the commands
         # and partialled out of both sides (Frisch-Waugh), so the commands' coefficients are those
         # of the full regression. One orthonormal basis of them serves every candidate lag.
-        nuisance = _body_rate_terms(segments, detrend_n) if BODY_RATE_TERMS else None
+        nuisance = _body_rate_terms(segments, detrend_n)
         self.basis = _orthonormal_basis(nuisance) if nuisance is not None else None
         self.Y = self.partial_out(Y)
-        self.lags = (_lag_search_inputs(segments, rate_hz, savgol_n, self.fine, savgol_window_s)
-                     if BATCHED_LAG_SEARCH else None)
+        self.lags = _lag_search_inputs(segments, rate_hz, savgol_n, self.fine, savgol_window_s)
         self.n_rows = sum(len(seg) for seg in segments)
 
     def partial_out(self, M: np.ndarray) -> np.ndarray:
@@ -536,9 +494,6 @@ class _LagFit:
 
     def commands(self, taus: list[float]) -> np.ndarray:
         """(T, n, 4) detrended commands, one block per candidate lag (body-rate terms not yet out)."""
-        if self.lags is None:
-            return np.stack([_detrended_commands(self.segments, tau, self.rate_hz, self.savgol_n, self.detrend_n,
-                                                 self.fine, self.savgol_window_s) for tau in taus], axis=0)
         return _detrended_commands_many(self.lags, np.asarray(taus, dtype=np.float64), self.detrend_n)
 
     def roll_pitch_sse(self, taus: list[float]) -> list[float]:
@@ -620,74 +575,6 @@ def _orthonormal_basis(M: np.ndarray) -> np.ndarray:
     return np.linalg.qr(M)[0]
 
 
-def _detrended_vertical(flight: Flight, segments: list[Segment], rate_hz: float, savgol_n: int,
-                        detrend_n: int) -> Optional[np.ndarray]:
-    """Detrended body-z specific force (n,) on the segments' grid, rows as in _detrended_acc, or
-    None when the log has no accelerometer fast enough (``MIN_ACCEL_RATE_FACTOR``).
-
-    Each grid sample is the mean of the accelerometer samples within half a grid step of it (an
-    anti-alias box filter), then smoothed like the commands so both sides carry the same filter."""
-    acc = flight.accel
-    if acc is None or len(acc) < 10 or not segments or acc.rate_hz < MIN_ACCEL_RATE_FACTOR * rate_hz:
-        return None
-    t_acc = acc.t
-    az = np.asarray(acc.values[:, 2], dtype=np.float64)
-    ok = np.isfinite(az) & np.isfinite(t_acc)
-    t_acc, az = t_acc[ok], az[ok]
-    if t_acc.shape[0] < 10:
-        return None
-    csum = np.concatenate([[0.0], np.cumsum(az)])
-    half = 0.5 / rate_hz
-    out = []
-    for seg in segments:
-        lo = np.searchsorted(t_acc, seg.t - half, side="left")
-        hi = np.searchsorted(t_acc, seg.t + half, side="left")
-        n = hi - lo
-        with np.errstate(invalid="ignore", divide="ignore"):
-            z = np.where(n > 0, (csum[hi] - csum[lo]) / np.maximum(n, 1), np.interp(seg.t, t_acc, az))
-        z = savgol_at(z, savgol_n, SAVGOL_POLYORDER, np.arange(z.shape[0]))
-        out.append(z - _moving_average(z[:, None], detrend_n)[:, 0])
-    return np.concatenate(out)
-
-
-def _joint_thrust(XtX: np.ndarray, XtY: np.ndarray, signs: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Thrust effectiveness shared by several axes, fitted jointly.
-
-    Model per axis a: ``y_a = g_a · Σ_i s_{a,i} e_i u_i``: one effectiveness ``e_i`` per motor,
-    one gain ``g_a`` per axis, both unknown (bilinear), fitted by alternating weighted least
-    squares on the normal equations. ``XtX`` (..., 4, 4) shared by the axes (same commands),
-    ``XtY`` (..., 4, A), ``signs`` (A, 4), ``weights`` (A,) = 1 / residual variance.
-    Returns e (..., 4) scaled to mean 1.
-
-    Why: a single axis pins each motor's effectiveness only along the command directions that
-    axis responds to; roll and pitch together leave the "front-right + rear-left vs the others"
-    patterns to the collective and yaw commands, which ordinary flight barely moves. The vertical
-    specific force responds to every motor with the same sign, so its roll and pitch couplings
-    (well excited) pin exactly those patterns.
-    """
-    shape = XtX.shape[:-2]
-    e = np.ones(shape + (4,))
-    n_ax = signs.shape[0]
-    for _ in range(JOINT_ITERATIONS):
-        # g-step: each axis's gain given e.
-        g = np.empty(shape + (n_ax,))
-        for a in range(n_ax):
-            de = e * signs[a]
-            num = np.einsum("...i,...i->...", de, XtY[..., a])
-            den = np.einsum("...i,...ij,...j->...", de, XtX, de)
-            g[..., a] = num / np.where(np.abs(den) > 0, den, 1.0)
-        # e-step: the effectiveness given the gains.
-        M = np.zeros(shape + (4, 4))
-        v = np.zeros(shape + (4,))
-        for a in range(n_ax):
-            D = signs[a]
-            M += weights[a] * (g[..., a] ** 2)[..., None, None] * (D[:, None] * XtX * D[None, :])
-            v += weights[a] * g[..., a][..., None] * (D * XtY[..., a])
-        e = np.linalg.solve(M + 1e-12 * np.eye(4), v[..., None])[..., 0]
-        e /= np.mean(e, axis=-1, keepdims=True)
-    return e
-
-
 _OTHERS = np.array([[j for j in range(4) if j != i] for i in range(4)])
 
 
@@ -719,14 +606,11 @@ def _combine(rel: np.ndarray, var: np.ndarray) -> np.ndarray:
 def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
                            savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S,
                            segments: Optional[list[Segment]] = None,
-                           n_bootstrap: int = N_BOOTSTRAP, seed: int = BOOTSTRAP_SEED,
-                           use_accelerometer: bool = False) -> EffectivenessEstimate:
+                           n_bootstrap: int = N_BOOTSTRAP, seed: int = BOOTSTRAP_SEED) -> EffectivenessEstimate:
     """Relative per-motor effectiveness of ``flight`` (a Flight or a
     :class:`~flightlog_fd.prepared.PreparedFlight`, see the module docstring).
 
     ``segments`` may be given when the caller already resampled the flight at ``rate_hz``.
-    ``use_accelerometer`` adds the vertical equation (off by default: see the module docstring
-    for why it is not used by the diagnosis).
     Never raises for a flight that simply has too little data: returns ``informative=False``
     with the reason.
     """
@@ -743,7 +627,7 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
         return EffectivenessEstimate(reason=f"only {seconds:.0f} s of usable airborne data "
                                             f"(the estimate needs {MIN_SECONDS:.0f} s)", seconds=seconds)
     signs = axis_signs(flight.frame)
-    savgol_n = _odd_window(savgol_window_s, rate_hz)
+    savgol_n = odd_window(savgol_window_s, rate_hz)
     detrend_n = max(3, int(round(DETREND_S * rate_hz)) | 1)
 
     usable = _usable(segments, savgol_n, detrend_n)
@@ -757,17 +641,12 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     if search is not usable:  # the lag came from a subset; the coefficients use every sample
         fit = _LagFit(prep, usable, rate_hz, savgol_n, detrend_n, savgol_window_s)
     Y, t = fit.Y, fit.t
-    vertical = _detrended_vertical(flight, usable, rate_hz, savgol_n, detrend_n) if use_accelerometer else None
-    if vertical is not None:
-        Y = np.column_stack([Y, fit.partial_out(vertical[:, None])])  # axes: roll, pitch, yaw, vertical
-    n_axes = Y.shape[1]
+    n_axes = Y.shape[1]  # roll, pitch, yaw
     X = np.ascontiguousarray(fit.partial_out(fit.commands([tau])[0]))
     coef, *_ = np.linalg.lstsq(X, Y, rcond=None)  # (4, axes)
     tss = np.sum(Y ** 2, axis=0)
     resid = Y - X @ coef
-    r2_all = [float(1.0 - np.sum(resid[:, a] ** 2) / tss[a]) if tss[a] > 0 else 0.0 for a in range(n_axes)]
-    r2 = tuple(r2_all[:3])
-    use_vertical = n_axes == 4 and r2_all[3] >= MIN_VERTICAL_R2
+    r2 = tuple(float(1.0 - np.sum(resid[:, a] ** 2) / tss[a]) if tss[a] > 0 else 0.0 for a in range(n_axes))
 
     # Moving-block bootstrap over the flight: per-block normal equations, summed with
     # multinomial block counts, so each resample is a 4x4 solve.
@@ -799,17 +678,7 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     with warnings.catch_warnings():  # a motor without a lever on an axis (quad-+) is all-NaN there
         warnings.simplefilter("ignore", RuntimeWarning)
         var = np.nanvar(rel[1:], axis=0)  # (3, 4)
-    if use_vertical:
-        # Roll, pitch and the vertical specific force share each motor's thrust effectiveness.
-        axes = [0, 1, 3]
-        joint_signs = np.vstack([signs[:2], np.ones((1, 4))])
-        weights = 1.0 / np.maximum(np.mean(resid[:, axes] ** 2, axis=0), 1e-12)
-        XtX_all = np.concatenate([(XtX.sum(axis=0))[None], A], axis=0)  # (1+B, 4, 4)
-        XtY_all = np.concatenate([(XtY.sum(axis=0))[None], B], axis=0)[..., axes]  # (1+B, 4, 3)
-        e = _joint_thrust(XtX_all, XtY_all, joint_signs, weights)
-        thrust = _relative(e[:, None, :], np.ones((1, 4)))[:, 0]  # (1+B, 4)
-    else:
-        thrust = _combine(rel[:, :2], var[None, :2].repeat(rel.shape[0], axis=0))  # (1+B, 4)
+    thrust = _combine(rel[:, :2], var[None, :2].repeat(rel.shape[0], axis=0))  # (1+B, 4)
     lo_q, hi_q = (1.0 - CI_LEVEL) / 2.0, 1.0 - (1.0 - CI_LEVEL) / 2.0
     point = thrust[0]
     with warnings.catch_warnings():
@@ -835,8 +704,6 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
         reason = (f"too little manoeuvring to estimate it: the widest interval is ±{np.nanmax(widths) / 2:.2f} "
                   f"(needs ±{MAX_CI_WIDTH / 2:.2f}); a flight with more roll/pitch changes would do")
     else:
-        reason = f"from {seconds:.0f} s of airborne data" + (
-            f", with the accelerometer (vertical fit R² {r2_all[3]:.2f})" if use_vertical else "")
+        reason = f"from {seconds:.0f} s of airborne data"
     return EffectivenessEstimate(motors=motors, informative=informative, reason=reason, seconds=seconds,
-                                 motor_lag_s=float(tau), r2=r2,
-                                 vertical_r2=r2_all[3] if n_axes == 4 else None, used_vertical=use_vertical)
+                                 motor_lag_s=float(tau), r2=r2)

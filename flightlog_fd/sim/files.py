@@ -1,0 +1,133 @@
+"""Simulated flights written as real log files (`fdlog simulate`)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+from ..errors import FlightLogError
+
+FORMATS = {"ulog": ".ulg", "dataflash": ".bin"}
+#: eta_torque = eta ** this for simulated flights with ESC telemetry (see simulate_to_files).
+ESC_SAMPLE_TORQUE_EXPONENT = 1.3
+
+
+def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe: str = "x500",
+                      frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
+                      duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
+                      rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
+                      esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
+                      imbalance: Optional[list[str]] = None, imu_rate: Optional[float] = None,
+                      ) -> list[tuple[Path, dict]]:
+    """Simulate flights and write them as real log files; returns [(path, truth)].
+
+    ``imbalance``: ["MOTOR:G_MM"] propeller mass imbalance m·r in g·mm on that motor, or
+    ["MOTOR:aero=FRACTION"] a blade thrust difference (sim/prop_vibration.py); with it (or with
+    ``imu_rate``) every propeller also keeps its healthy residual imbalance, and the logs carry
+    VIBE / vehicle_imu_status; ``imu_rate`` (Hz) adds raw IMU samples (ACC/GYR, sensor_accel/gyro).
+
+    ``esc_rate`` (Hz): add ESC telemetry (rpm, current, voltage, temperature per motor) at that
+    rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
+    loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py).
+
+    ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
+    Existing files are never overwritten unless ``force``.
+    """
+    from ..logs.dataflash_writer import write_dataflash
+    from ..logs.ulog_writer import write_ulog
+    from .airframe import N_ROTOR_FRAMES, SIM_FRAMES, preset
+    from .api import simulate_flights
+    from .damage import Damage
+
+    if fmt not in FORMATS:
+        raise FlightLogError(out, f"unknown format {fmt!r}: use ulog or dataflash")
+    if frame is not None and frame not in SIM_FRAMES:
+        raise FlightLogError(out, f"--frame must be one of {', '.join(SIM_FRAMES)}, got {frame!r}")
+    rotors = 4 if frame is None or frame not in N_ROTOR_FRAMES else preset("x500", frame).rotor_count
+    if not 0 <= motor <= rotors:
+        raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..{rotors}, got {motor}")
+    if rho is not None and len(rho) != rotors:
+        raise FlightLogError(out, f"--rho needs {rotors} values (one per rotor), got {len(rho)}")
+    if motor and not 0.0 < eta < 1.0:
+        raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {eta}")
+    profile_name = log_profile or ("px4_high" if fmt == "ulog" else "ardupilot_fast")
+    want_autopilot = "px4" if fmt == "ulog" else "ardupilot"
+    if not profile_name.startswith(want_autopilot) and profile_name != "training":
+        raise FlightLogError(out, f"logging profile {profile_name!r} does not match format {fmt!r}")
+    if count == 1:
+        paths = [out]
+    else:
+        paths = [out / f"sim_{i:03d}{FORMATS[fmt]}" for i in range(count)]
+    for p in paths + ([out / "truth.csv"] if count > 1 else []):
+        if p.exists() and not force:
+            raise FlightLogError(p, "already exists (use --force to overwrite)")
+    try:
+        if airframe != "random":
+            af = [preset(airframe, frame)] * count
+        elif frame is not None:  # random airframes flown as this frame (without --frame: random quads as before)
+            import numpy as np
+
+            from .airframe import random_airframes
+
+            af = random_airframes(count, np.random.default_rng([seed, 3]), frames=(frame,))
+        else:
+            af = None
+    except ValueError as e:
+        raise FlightLogError(None, str(e)) from None
+    if esc_rate is not None and not 10.0 <= esc_rate <= 100.0:
+        raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
+    # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
+    # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
+    eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
+    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
+    props = parse_imbalance(out, imbalance, rotors, imu_rate) if (imbalance or imu_rate) else None
+    flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
+                               duration_s=duration, profile=profile_name, rho=rho, seed=seed,
+                               esc=esc_rate, imbalance="random" if esc_rate else None,
+                               prop_imbalance=props, imu_rate_hz=imu_rate)
+    if count > 1:
+        out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for i, (p, fl) in enumerate(zip(paths, flights)):
+        p.parent.mkdir(parents=True, exist_ok=True)
+        fl.path = str(p)
+        if vehicle_id:  # one simulated vehicle flown several times (a calibration flight and others)
+            fl.vehicle_id = vehicle_id if count == 1 else f"{vehicle_id}-{i}"
+        (write_ulog if fmt == "ulog" else write_dataflash)(fl, p)
+        written.append((p, fl.truth or {}))
+    if count > 1:
+        import csv
+
+        with open(out / "truth.csv", "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["file", "label", "motor", "eta", "onset_s", "airframe", "mission", "seed"])
+            for p, t in written:
+                w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("onset_s"),
+                            (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed")])
+    return written
+
+
+def parse_imbalance(out: Path, items: Optional[list[str]], rotors: int, imu_rate: Optional[float]):
+    """``--imbalance`` values ("MOTOR:G_MM" or "MOTOR:aero=FRACTION", repeatable) as a PropImbalance."""
+    from .prop_vibration import IMU_RATES_HZ, PropImbalance
+
+    if imu_rate is not None and imu_rate not in IMU_RATES_HZ:
+        raise FlightLogError(out, f"--imu-rate must be one of {', '.join(f'{r:g}' for r in IMU_RATES_HZ)} Hz, "
+                                  f"got {imu_rate:g}")
+    mass, aero = [0.0] * rotors, [0.0] * rotors
+    for item in items or []:
+        try:
+            k_text, size = item.split(":", 1)
+            k = int(k_text)
+            is_aero = size.startswith("aero=")
+            value = float(size[5:] if is_aero else size)
+        except ValueError:
+            raise FlightLogError(out, f"--imbalance must be MOTOR:G_MM or MOTOR:aero=FRACTION, got {item!r}") from None
+        if not 1 <= k <= rotors:
+            raise FlightLogError(out, f"--imbalance motor must be 1..{rotors}, got {k}")
+        if is_aero and not 0.0 <= value < 1.0 or not is_aero and not 0.0 <= value <= 10000.0:
+            raise FlightLogError(out, f"--imbalance {item!r}: mass 0..10000 g·mm, aero 0..1")
+        if is_aero:
+            aero[k - 1] += value
+        else:
+            mass[k - 1] += value * 1e-6  # g·mm -> kg·m
+    return PropImbalance(tuple(mass), tuple(aero))
