@@ -23,8 +23,7 @@ Printed per (logging, size), ``n`` airframes:
 - with a profile (the vibration baseline fitted on the healthy calibration flight): the same
   flight-level counts;
 - the final verdict of ``diagnose_flight`` (shipped model, every analyzer) without and with a
-  profile (``calibrate_profile`` + ``fit_analyzers`` on the calibration flight, as ``fdlog calibrate
-  --no-adapt``): damaged with the right motor (R) / another motor (W) / no motor named, "inspect
+  profile (``calibration.calibrate`` on the calibration flight, as ``fdlog calibrate --no-adapt``): damaged with the right motor (R) / another motor (W) / no motor named, "inspect
   all" (A) / uncertain (U) / healthy (H).
 
 Size 0 rows are the healthy flights: every count there is a false alarm (0 expected).
@@ -89,7 +88,7 @@ def verdict_class(v, motor: int) -> str:
 
 def run(n: int, seed: int, sizes: tuple[float, ...], verdicts: bool = True) -> None:
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
-    from flightlog_fd.profile import calibrate_profile
+    from flightlog_fd.calibration import calibrate
 
     t0 = time.time()
     model = resolve_model() if verdicts else None
@@ -117,10 +116,7 @@ def run(n: int, seed: int, sizes: tuple[float, ...], verdicts: bool = True) -> N
         bases = [fit_vibration_baseline([c]) for c in calib]
         profs = []
         if verdicts:
-            for c in calib:
-                p = calibrate_profile([c])
-                p.fit_analyzers([c], model)
-                profs.append(p)
+            profs = [calibrate([c]) for c in calib]
         for size in (0.0,) + tuple(sizes):
             flights = flights_from_batch(replace(test_b, prop_imbalance=specs_for(afs, size, motors), imu_rate_hz=raw))
             c = Counter()

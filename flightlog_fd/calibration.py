@@ -12,6 +12,10 @@ imbalance rho, the command-share baseline, the healthy windows' statistics), the
   needs torch, quadrotors only), stores it beside the profile and fits the analyzers' baselines
   with it.
 
+Logs without per-motor outputs (e.g. ArduPilot logs without RCOU) give a profile of what they
+support: the vibration baseline, with ``lacks_`` naming the rest (no imbalance, command shares,
+throttle, model statistics or adapted model), with and without ``adapt``.
+
 Limits: adapting needs the training extra (``pip install 'flightlog-fd[train]'``); one airframe
 per profile (:func:`~flightlog_fd.profile.calibrate_profile` refuses mixed logs).
 """
@@ -23,7 +27,7 @@ from typing import Callable, Iterable, Optional, Union
 
 from .errors import ProfileError, UnsupportedVehicleError
 from .flight import Flight
-from .profile import Profile, calibrate_profile
+from .profile import Profile, calibrate_profile, motorless_profile
 from .windows import FeatureSpec
 
 PathLike = Union[str, os.PathLike]
@@ -52,7 +56,9 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
             if p.exists() and not overwrite:
                 raise ProfileError(p, "already exists (use --force to overwrite)")
     flights = [x if isinstance(x, Flight) else load_flight(x) for x in flights_or_paths]
-    if not adapt:
+    if flights and all(fl.motors is None for fl in flights):
+        profile = _motorless(flights, adapt)
+    elif not adapt:
         profile = calibrate_profile(flights)
         if flights:
             profile.fit_analyzers(flights, model_for_flight(FaultModel(default_model_path()), flights[0]))
@@ -77,4 +83,16 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
         profile.fit_analyzers(flights, FaultModel(out_onnx))
     if out is not None:
         profile.save(out, overwrite=overwrite)
+    return profile
+
+
+def _motorless(flights: list[Flight], adapt: bool) -> Profile:
+    """The profile of logs without per-motor outputs: only the baselines of the analyzers that need
+    none (vibration), ``lacks_`` saying what is missing (with ``adapt``: that no model was adapted)."""
+    from .analyzers import REGISTRY, fit_baselines
+
+    profile = motorless_profile(flights, fit_baselines(flights, None, [a for a in REGISTRY
+                                                                       if not a.needs_motor_outputs]))
+    if adapt:
+        profile.lacks_.append("the model was not adapted: adapting needs motor outputs")
     return profile

@@ -302,10 +302,17 @@ def calibrate(
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
-    rho = ", ".join(f"{x:.3f}" for x in profile.rho_)
-    console.print(f"wrote {output}: {profile.autopilot} {profile.frame}, rho = [{rho}], "
-                  f"throttle {profile.hover_throttle_:.3f} from {profile.hover_s_:.0f} s of {profile.rho_source_} "
-                  f"({profile.n_hover_segments_} segment(s))", markup=False)
+    if profile.measures_motors:
+        rho = ", ".join(f"{x:.3f}" for x in profile.rho_)
+        console.print(f"wrote {output}: {profile.autopilot} {profile.frame}, rho = [{rho}], "
+                      f"throttle {profile.hover_throttle_:.3f} from {profile.hover_s_:.0f} s of {profile.rho_source_} "
+                      f"({profile.n_hover_segments_} segment(s))", markup=False)
+    else:
+        vib = profile.analyzers.get("vibration") or {}
+        level = f", vibration {vib['level']:.2f} ({vib.get('source', '')})" if "level" in vib else ""
+        console.print(f"wrote {output}: {profile.autopilot} {profile.frame}{level}", markup=False)
+    for lack in profile.lacks_:
+        console.print(f"note: {lack}", markup=False)
     if profile.model:
         ad = (profile.extra or {}).get("adaptation", {})
         console.print(f"adapted model: {output.with_suffix('.onnx')} ({ad.get('epochs', '?')} epochs, "

@@ -31,15 +31,15 @@ is not healthy + the flight's motors is refused (:class:`~flightlog_fd.errors.Mo
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional
 
 import numpy as np
 
-from .analyzers import Context, run_analyzers
+from .analyzers import REGISTRY, Context, run_analyzers
 from .checks import diagnosability
-from .analyzers.vibration import Vibration, vibration_can_judge
+from .analyzers.vibration import vibration_can_judge
 from .decision import Decision, Verdict, decide, log_verdict, not_diagnosable, worst_flight
 from .errors import FlightLogError, ModelError
 from .flight import Flight
@@ -252,6 +252,48 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
 
 
 def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
+    """A log holding several take-offs to landings (:func:`flightlog_fd.flights.split_flights`):
+    each flight is diagnosed on its own and the log's verdict is its worst flight's, unless a
+    flight is too short for the model's windows while the whole log is not: then the log is judged
+    as one (as CrazyPAD's logs, two hops of about 9 s each), and a warning says so."""
+    from .model import model_for_flight
+
+    parts = split_flights(flight) if split_mode() != "whole" else [flight]
+    if len(parts) == 1:
+        return _diagnose_one(flight, model, profile, keep_flight=keep_flight)
+    spec = model_for_flight(model, flight).feature_spec
+    checks = [diagnosability(p, spec) for p in parts]
+    if not all(c.ok for c in checks) and diagnosability(flight, spec).ok:
+        d = _diagnose_one(flight, model, profile, keep_flight=keep_flight)
+        short = [f"{p.part.split(',')[0]} ({p.airborne_s:.1f} s airborne)" for p, c in zip(parts, checks) if not c.ok]
+        d.warnings.append(f"this log holds {len(parts)} flights; {', '.join(short)} too short to judge alone "
+                          f"(need {checks[0].facts.get('needed_airborne_s', '?')} s airborne): judged as one")
+        return d
+    subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight) for p in parts]
+    if split_mode() == "merge-short" and any(d.verdict.status == "not_diagnosable" for d in subs) \
+            and diagnosability(flight, spec).ok:
+        d = _diagnose_one(flight, model, profile, keep_flight=keep_flight)
+        short = [p.part.split(',')[0] for p, x in zip(parts, subs) if x.verdict.status == "not_diagnosable"]
+        d.warnings.append(f"this log holds {len(parts)} flights; {', '.join(short)} too short to judge alone "
+                          f"({subs[[x.verdict.status for x in subs].index('not_diagnosable')].verdict.reason}): "
+                          f"judged as one")
+        return d
+    for p, d in zip(parts, subs):
+        d.part = p.part
+    i = worst_flight([d.verdict for d in subs])
+    w = subs[i]
+    verdict = log_verdict([(d.part, d.verdict) for d in subs])
+    return replace(w, verdict=verdict, facts=FlightFacts.from_flight(flight), part="", flights=subs,
+                   flight=flight if keep_flight else None, warnings=list(flight.warnings) + [
+                       x for d in subs for x in d.warnings if x not in flight.warnings])
+
+
+def split_mode() -> str:
+    import os
+    return os.environ.get("FDLOG_SPLIT", "merge-short")
+
+
+def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
     from .windows import FeatureSpec, make_windows
 
     from .model import model_for_flight
@@ -334,26 +376,20 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
 
 def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, log: str, facts_kw: dict,
                     keep_flight: bool) -> Diagnosis:
-    """A log the full diagnosis cannot take, judged from vibration by :func:`decide`: each take-off
-    to landing on its own (:func:`flightlog_fd.flights.split_flights`), the log's verdict its worst
-    flight's (:func:`flightlog_fd.decision.log_verdict`)."""
-    parts = split_flights(flight)
-    subs = []
-    for part in parts:
-        ctx = Context(flight=part, frame=part.frame, n_motors=n_motors, probs=np.zeros((0, n_motors + 1)),
-                      covered_s=0.0, profile=profile)
-        results = run_analyzers(ctx, [Vibration()])
-        stops = [s for s in facts_kw["stopped"] if part.t_start <= s.t_start <= part.t_end]
-        verdict, decision = decide(n_motors, part.frame, results=results, stopped=stops,
-                                   not_diagnosable_reason=reason)
-        kw = {**facts_kw, "stopped": stops, "facts": FlightFacts.from_flight(part),
-              "flight": part if keep_flight else None}
-        subs.append(Diagnosis(log=log, verdict=verdict, decision=decision, part=part.part, **kw))
-    if len(subs) == 1:
-        return subs[0]
-    verdict = log_verdict([(d.part, d.verdict) for d in subs])
-    worst = subs[worst_flight([d.verdict for d in subs])]
-    return Diagnosis(log=log, verdict=verdict, decision=worst.decision, flights=subs, **facts_kw)
+    """A flight the full diagnosis cannot take (no motor outputs, no damage model), judged by
+    :func:`decide` from the analyzers that need no motor outputs (vibration)."""
+    if profile is not None:
+        try:  # another airframe's baseline would judge nothing; softer mismatches are warnings
+            facts_kw["warnings"].extend(profile.check_compatible(flight) or [])
+        except FlightLogError as e:
+            verdict, _ = decide(n_motors, flight.frame, stopped=facts_kw["stopped"], not_diagnosable_reason=e.message)
+            return Diagnosis(log=log, verdict=verdict, **facts_kw)
+    ctx = Context(flight=flight, frame=flight.frame, n_motors=n_motors, probs=np.zeros((0, n_motors + 1)),
+                  covered_s=0.0, profile=profile)
+    results = run_analyzers(ctx, [a for a in REGISTRY if not a.needs_motor_outputs])
+    verdict, decision = decide(n_motors, flight.frame, results=results, stopped=facts_kw["stopped"],
+                               not_diagnosable_reason=reason)
+    return Diagnosis(log=log, verdict=verdict, decision=decision, part=flight.part, **facts_kw)
 
 
 def _analyzer_context(flight: Flight, t_start: np.ndarray, t_end: np.ndarray, probs: np.ndarray, onset: Any,

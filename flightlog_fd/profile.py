@@ -56,9 +56,12 @@ from .hover import HOVER_MAX_RATE_RMS, HOVER_MAX_SPEED_M_S, HOVER_MIN_DURATION_S
 
 #: Profile file format version; :meth:`Profile.load` reads this one and the older ones in
 #: ``READABLE_SCHEMAS`` (schema 1 has no ``baseline_``: it is derived from rho_; schema 2 has no
-#: flight-to-flight ``baseline_.spread``: the decision model's default drift is used).
-PROFILE_SCHEMA = 3
-READABLE_SCHEMAS = (1, 2, 3)
+#: flight-to-flight ``baseline_.spread``: the decision model's default drift is used; schema 4 adds
+#: ``lacks_`` and lets a profile from logs without motor outputs leave ``rho_``, ``rho_spread_``,
+#: ``hover_throttle_`` and ``feature_spec`` null: it holds only the analyzers' baselines the logs
+#: support, e.g. vibration).
+PROFILE_SCHEMA = 4
+READABLE_SCHEMAS = (1, 2, 3, 4)
 #: Steady flight of any kind (for rho when there is too little hover): rates, tilt and duration
 #: relaxed, speed free. A cruise at constant speed and a gentle climb are balanced flight too.
 STEADY_MAX_RATE_RMS = 0.5  # rad/s
@@ -81,7 +84,7 @@ _REQUIRED_KEYS = ("schema", "autopilot", "frame", "rotor_count", "rho_", "rho_sp
                   "feature_spec")
 _OPTIONAL_KEYS = ("firmware", "vehicle_id", "hover_s_", "n_hover_segments_", "n_windows_", "stream_rates",
                   "source_logs", "created", "tool_version", "model", "extra", "rho_source_", "baseline_",
-                  "analyzers")
+                  "analyzers", "lacks_")
 
 PathLike = Union[str, os.PathLike]
 
@@ -161,10 +164,10 @@ class Profile:
     autopilot: str
     frame: str
     rotor_count: int
-    rho_: np.ndarray
-    rho_spread_: np.ndarray
-    hover_throttle_: float
-    feature_spec: dict
+    rho_: Optional[np.ndarray]  # None: the calibration logs had no motor outputs (``lacks_`` says so)
+    rho_spread_: Optional[np.ndarray]
+    hover_throttle_: Optional[float]
+    feature_spec: Optional[dict]
     firmware: str = ""
     vehicle_id: Optional[str] = None
     hover_s_: float = 0.0
@@ -180,13 +183,22 @@ class Profile:
     baseline_: Optional[dict] = None
     #: Each analyzer's healthy baseline from the calibration flights ({analyzer id: dict}).
     analyzers: dict = field(default_factory=dict)
+    #: What the calibration logs could not give, in plain words ([] for a full profile).
+    lacks_: list = field(default_factory=list)
     schema: int = PROFILE_SCHEMA
     path: Optional[str] = field(default=None, repr=False, compare=False)  # where it was loaded/saved
 
     def __post_init__(self) -> None:
-        self.rho_ = np.asarray(self.rho_, dtype=np.float64).reshape(-1)
-        self.rho_spread_ = np.asarray(self.rho_spread_, dtype=np.float64).reshape(-1)
+        if self.rho_ is not None:
+            self.rho_ = np.asarray(self.rho_, dtype=np.float64).reshape(-1)
+        if self.rho_spread_ is not None:
+            self.rho_spread_ = np.asarray(self.rho_spread_, dtype=np.float64).reshape(-1)
 
+    @property
+    def measures_motors(self) -> bool:
+        """False for a profile from logs without motor outputs (only analyzers' baselines such as
+        vibration; no imbalance, command-share baseline, throttle or model statistics)."""
+        return self.rho_ is not None
     # ------------------------------------------------------------------ conversion
     @property
     def spec(self) -> FeatureSpec:
@@ -201,9 +213,9 @@ class Profile:
             "rotor_count": int(self.rotor_count),
             "firmware": self.firmware,
             "vehicle_id": self.vehicle_id,
-            "rho_": [float(x) for x in self.rho_],
-            "rho_spread_": [float(x) for x in self.rho_spread_],
-            "hover_throttle_": float(self.hover_throttle_),
+            "rho_": None if self.rho_ is None else [float(x) for x in self.rho_],
+            "rho_spread_": None if self.rho_spread_ is None else [float(x) for x in self.rho_spread_],
+            "hover_throttle_": None if self.hover_throttle_ is None else float(self.hover_throttle_),
             "hover_s_": float(self.hover_s_),
             "n_hover_segments_": int(self.n_hover_segments_),
             "n_windows_": int(self.n_windows_),
@@ -217,6 +229,7 @@ class Profile:
             "rho_source_": self.rho_source_,
             "baseline_": self.baseline_,
             "analyzers": self.analyzers,
+            "lacks_": list(self.lacks_),
         }
 
     def fit_analyzers(self, flights, model) -> None:
@@ -228,10 +241,13 @@ class Profile:
 
     def baseline(self):
         """The healthy command-share baseline (:class:`~flightlog_fd.analyzers.share_fit.Baseline`); a
-        schema-1 profile has none recorded, so it is derived from rho_ at the hover throttle."""
+        schema-1 profile has none recorded, so it is derived from rho_ at the hover throttle; None
+        for a profile without motor figures."""
         from .analyzers.share_fit import Baseline
 
         b = self.baseline_
+        if not b and self.rho_ is None:
+            return None
         if b:
             spread = b.get("spread")
             return Baseline(share=np.asarray(b["share"], float), slope=np.asarray(b["slope"], float),
@@ -268,6 +284,15 @@ class Profile:
         n = d["rotor_count"]
         if not isinstance(n, int) or isinstance(n, bool) or n not in PROFILE_ROTOR_COUNTS:
             raise bad(f"rotor_count must be one of {', '.join(map(str, PROFILE_ROTOR_COUNTS))}, not {n!r}")
+        lacks = d.get("lacks_", [])
+        if not isinstance(lacks, list) or not all(isinstance(x, str) for x in lacks):
+            raise bad("lacks_ must be a list of strings")
+        motorless = [k for k in ("rho_", "rho_spread_", "hover_throttle_", "feature_spec") if d[k] is None]
+        if motorless:
+            if len(motorless) != 4 or not lacks or d.get("baseline_") is not None or d.get("model") is not None:
+                raise bad("a profile without motor figures (rho_, rho_spread_, hover_throttle_, feature_spec "
+                          "all null) must say what its logs lack (lacks_) and have no baseline_ or model")
+            return cls._motorless(d, path, bad)
         rho = _number_list(d["rho_"], n, "rho_", bad)
         if not all(RHO_MIN <= x <= RHO_MAX for x in rho):
             raise bad(f"rho_ values must be within {RHO_MIN}..{RHO_MAX}, got {rho}")
@@ -336,6 +361,19 @@ class Profile:
             kw["stream_rates"] = {}
         if kw.get("source_logs") is None:
             kw["source_logs"] = []
+        return cls(**kw, path=str(path) if path is not None else None)
+
+    @classmethod
+    def _motorless(cls, d: dict, path, bad) -> "Profile":
+        """A validated profile from logs without motor outputs (only analyzers' baselines)."""
+        an = d.get("analyzers", {})
+        if not isinstance(an, dict) or not an or not all(isinstance(v, dict) for v in an.values()):
+            raise bad("a profile without motor figures needs at least one analyzer baseline")
+        kw = {k: d[k] for k in _REQUIRED_KEYS + _OPTIONAL_KEYS if k in d}
+        kw["schema"] = PROFILE_SCHEMA
+        for k, empty in (("extra", {}), ("stream_rates", {}), ("source_logs", [])):
+            if kw.get(k) is None:
+                kw[k] = empty
         return cls(**kw, path=str(path) if path is not None else None)
 
     # ------------------------------------------------------------------ files
@@ -486,3 +524,43 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
         stream_rates={k: float(np.median(v)) for k, v in rates.items()},
         feature_spec=fitted.to_dict(), source_logs=[_source_entry(fl) for fl in flights],
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"), tool_version=__version__)
+
+
+#: What a profile from logs without motor outputs cannot hold (its ``lacks_``).
+MOTORLESS_LACKS = ("no per-motor outputs in the calibration log(s): no motor imbalance (rho), command-share "
+                   "baseline, hover throttle, model statistics or adapted model; only the baselines of "
+                   "analyzers that need no motor outputs (vibration)")
+
+
+def motorless_profile(flights: list[Flight], analyzers: dict) -> Profile:
+    """A profile from HEALTHY flights without motor outputs: their identity and the analyzers'
+    ``analyzers`` baselines (e.g. vibration), ``lacks_`` saying what is missing. ProfileError
+    when the logs mix airframes or no analyzer could fit a baseline."""
+    from . import __version__
+
+    first = flights[0]
+    name = lambda fl: fl.frame.name if fl.frame is not None else "unknown"  # noqa: E731
+    for fl in flights:
+        if (fl.autopilot, name(fl)) != (first.autopilot, name(first)):
+            raise ProfileError(fl.path, f"all calibration logs must come from one airframe: this log is "
+                                        f"{fl.autopilot} {name(fl)}, the first is {first.autopilot} {name(first)}")
+        if fl.truth and int(fl.truth.get("label", 0) or 0) != 0:
+            raise ProfileError(fl.path, "calibration logs must be healthy flights; this one is labelled damaged")
+    if first.frame is None or first.frame.rotor_count not in PROFILE_ROTOR_COUNTS:
+        raise UnsupportedVehicleError(first.path, f"calibration needs a quadrotor, hexa or octo log; this one is "
+                                                  f"{name(first)}")
+    if not analyzers:
+        raise NotDiagnosableError(first.path if len(flights) == 1 else None,
+                                  "no motor outputs and no vibration data in the calibration log(s): nothing to "
+                                  "calibrate")
+    rates: dict[str, list[float]] = {}
+    for fl in flights:
+        for s in fl.streams():
+            rates.setdefault(s.name, []).append(s.rate_hz)
+    return Profile(autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
+                   firmware=first.firmware, vehicle_id=first.vehicle_id, rho_=None, rho_spread_=None,
+                   hover_throttle_=None, feature_spec=None, rho_source_="",
+                   stream_rates={k: float(np.median(v)) for k, v in rates.items()},
+                   source_logs=[_source_entry(fl) for fl in flights], analyzers=dict(analyzers),
+                   lacks_=[MOTORLESS_LACKS], created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                   tool_version=__version__)

@@ -132,6 +132,8 @@ class Analyzer(ABC):
     #: between motors survive); False: each motor is clipped alone (motors above the cap tie).
     #: For a source whose motor-to-motor differences are physics, not a classifier's leaning.
     cap_keeps_order: bool = False
+    #: False when it can judge (and fit its baseline on) a log without per-motor outputs.
+    needs_motor_outputs: bool = True
 
     def missing(self, flight: Any) -> Optional[str]:
         """The reason to abstain when a required stream is absent, else None."""

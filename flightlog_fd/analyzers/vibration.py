@@ -197,8 +197,16 @@ def measure_level(flight: Flight) -> Optional[Level]:
             src = "VIBE" if kind == "vibe" else "vehicle_imu_status.accel_vibration_metric"
             return Level(float(np.median(list(per.values()))), src, kind, per,
                          float(np.median(zs)) if zs else None, secs)
-    s = v.fastest("accel", batch=False)
-    if s is None:
+    return raw_level(flight)
+
+
+def raw_level(flight: Flight) -> Optional[Level]:
+    """The horizontal level above ``FLOOR_HZ`` from the fastest continuous raw accelerometer: a
+    LOWER bound of VIBE's (the logged stream is filtered or decimated), or None."""
+    v = flight.vibration
+    iv = _intervals(flight)
+    s = v.fastest("accel", batch=False) if v is not None else None
+    if s is None or not iv:
         return None
     rms, secs = _raw_level(s.accel, iv)
     if secs < MIN_AIRBORNE_S or not np.isfinite(rms).all():
@@ -396,6 +404,10 @@ def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = No
         return VibrationAnalysis(None, None, None, None, "", abstain="no vibration data in the airborne time"
                                  + (f" ({why_no_line})" if why_no_line else ""))
     flight_llr, ratio, against = None, None, ""
+    if level is not None and level.kind == "px4_metric" and not (baseline is not None and baseline.kind == level.kind):
+        # PX4's metric has no healthy reference across airframes: without a profile of the same
+        # metric, the raw accelerometer's lower bound is weighed against the healthy airframes
+        level = raw_level(flight) or level
     if level is not None:
         if baseline is not None and baseline.kind == level.kind:
             ratio = level.value / baseline.level
@@ -470,9 +482,12 @@ class Vibration(Analyzer):
     id = ANALYZER_ID
     description = "vibration: level against the airframe's healthy level, rotor lines in the gyro spectrum"
     requires = ("vibration",)
+    needs_motor_outputs = False
 
     def fit_baseline(self, flights, model=None):
-        b = fit_vibration_baseline(flights)
+        from ..flights import split_flights
+
+        b = fit_vibration_baseline([part for f in flights for part in split_flights(f)])
         return None if b is None else b.to_dict()
 
     def analyze(self, ctx: Context) -> AnalyzerResult:

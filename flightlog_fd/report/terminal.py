@@ -14,7 +14,7 @@ only words and draws what the verdict says.
 - :func:`window_table` (``--windows``): every window with its times, class, the probabilities of
   healthy and of each motor, phase.
 - :func:`summary_table`: one row per log when several logs are diagnosed (file names; the full
-  path where two logs share a name).
+  path where two logs share a name), and one indented row per flight of a log holding several.
 - :func:`render`: all of the above for one log onto a rich Console.
 """
 from __future__ import annotations
@@ -49,12 +49,15 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
     v = diagnosis.verdict
     if v.status == "damaged":
         first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
+        if v.motor is None:
+            return f"A propeller is damaged (no rotor named: inspect all), confidence {v.confidence:.2f}{first}"
         return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
     if v.status == "healthy":
         tl = diagnosis.timeline
         n = tl.n_windows if tl else len(diagnosis.windows)
         covered = f", {tl.covered_s:.0f} s of flight" if tl else ""
-        return f"No propeller damage found, confidence {v.confidence:.2f} ({n} windows{covered})"
+        basis = f"{n} windows{covered}" if n else "vibration only"
+        return f"No propeller damage found, confidence {v.confidence:.2f} ({basis})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
     if v.status == "stopped":
@@ -122,6 +125,12 @@ def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
         first = f"t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         table.add_row(Text(shown), Text(v.status, style=STATUS_STYLES.get(v.status, "")), Text(prop),
                       conf, first, str(d.exit_code))
+        for sub in d.flights:  # each take-off to landing of a log holding several
+            sv = sub.verdict
+            table.add_row(Text(f"  {sub.part.split(',')[0]}"), Text(sv.status, style=STATUS_STYLES.get(sv.status, "")),
+                          Text(_motor_words(sv.motor, sv.position) if sv.motor else ""),
+                          f"{sv.confidence:.2f}" if sv.status != "not_diagnosable" else "",
+                          f"t={sv.first_seen:.1f} s" if sv.first_seen is not None else "", str(sub.exit_code))
     return table
 
 
@@ -168,9 +177,16 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
         parts.append(timeline_strip(diagnosis))
         n = len(diagnosis.windows[0].probabilities) - 1
         parts.append(Text(f"  . healthy   1-{LABEL_CHARS[n]} propeller damaged   ? uncertain", style="dim"))
+    if diagnosis.flights:
+        parts.append(Text(f"  {len(diagnosis.flights)} flights in this log, each judged on its own "
+                          f"(the log's verdict is the worst):", style="bold"))
+        for sub in diagnosis.flights:
+            parts.append(Text(f"  {sub.part}: {verdict_sentence(sub)}", style=STATUS_STYLES.get(sub.verdict.status, "")))
+        parts.append(Text(f"  details of {diagnosis.verdict.reason.split(':')[0]}:", style="dim"))
     if diagnosis.decision is not None:
         view = MotorView.of(diagnosis)
-        parts.append(motor_panel(diagnosis, view))
+        if view.rows:
+            parts.append(motor_panel(diagnosis, view))
         for note in view.notes:
             parts.append(Text(f"  * {note}", style="dim"))
     if show_windows and diagnosis.windows:
