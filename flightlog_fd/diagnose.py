@@ -251,46 +251,39 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
         return _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
 
 
+#: Why a log with motor outputs holding several flights is judged as one (measured, ../shared):
+#: judged alone, a flight's own first minutes become the reference of its mid-flight onset search,
+#: and real healthy Erle 09-10-2014_31 (5 flights) gave flight 2 "damaged, motor 2" (model +5.0,
+#: commands +2.3 nats against its first 30 s) while the whole log is healthy; CrazyPAD's two hops
+#: (8.6 s and 9.2 s airborne) leave the first with 7 windows, too few to judge alone.
+SEVERAL_FLIGHTS_NOTE = ("judged as one: each flight alone would be its own healthy reference, which "
+                        "gave a false alarm on a real healthy log")
+
+
 def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
     """A log holding several take-offs to landings (:func:`flightlog_fd.flights.split_flights`):
-    each flight is diagnosed on its own and the log's verdict is its worst flight's, unless a
-    flight is too short for the model's windows while the whole log is not: then the log is judged
-    as one (as CrazyPAD's logs, two hops of about 9 s each), and a warning says so."""
+    when the log has what the full diagnosis needs it is judged as one (``SEVERAL_FLIGHTS_NOTE``;
+    a warning lists the flights); a log judged from vibration alone (no motor outputs) has each
+    flight judged on its own, the log's verdict being its worst flight's."""
     from .model import model_for_flight
 
-    parts = split_flights(flight) if split_mode() != "whole" else [flight]
+    parts = split_flights(flight)
     if len(parts) == 1:
         return _diagnose_one(flight, model, profile, keep_flight=keep_flight)
     spec = model_for_flight(model, flight).feature_spec
-    checks = [diagnosability(p, spec) for p in parts]
-    if not all(c.ok for c in checks) and diagnosability(flight, spec).ok:
+    if diagnosability(flight, spec).ok:
         d = _diagnose_one(flight, model, profile, keep_flight=keep_flight)
-        short = [f"{p.part.split(',')[0]} ({p.airborne_s:.1f} s airborne)" for p, c in zip(parts, checks) if not c.ok]
-        d.warnings.append(f"this log holds {len(parts)} flights; {', '.join(short)} too short to judge alone "
-                          f"(need {checks[0].facts.get('needed_airborne_s', '?')} s airborne): judged as one")
+        d.warnings.append(f"this log holds {len(parts)} flights ("
+                          + ", ".join(p.part.split(", ", 1)[1] for p in parts) + f"), {SEVERAL_FLIGHTS_NOTE}")
         return d
     subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight) for p in parts]
-    if split_mode() == "merge-short" and any(d.verdict.status == "not_diagnosable" for d in subs) \
-            and diagnosability(flight, spec).ok:
-        d = _diagnose_one(flight, model, profile, keep_flight=keep_flight)
-        short = [p.part.split(',')[0] for p, x in zip(parts, subs) if x.verdict.status == "not_diagnosable"]
-        d.warnings.append(f"this log holds {len(parts)} flights; {', '.join(short)} too short to judge alone "
-                          f"({subs[[x.verdict.status for x in subs].index('not_diagnosable')].verdict.reason}): "
-                          f"judged as one")
-        return d
     for p, d in zip(parts, subs):
         d.part = p.part
-    i = worst_flight([d.verdict for d in subs])
-    w = subs[i]
+    w = subs[worst_flight([d.verdict for d in subs])]
     verdict = log_verdict([(d.part, d.verdict) for d in subs])
     return replace(w, verdict=verdict, facts=FlightFacts.from_flight(flight), part="", flights=subs,
                    flight=flight if keep_flight else None, warnings=list(flight.warnings) + [
                        x for d in subs for x in d.warnings if x not in flight.warnings])
-
-
-def split_mode() -> str:
-    import os
-    return os.environ.get("FDLOG_SPLIT", "merge-short")
 
 
 def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:

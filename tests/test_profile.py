@@ -119,7 +119,7 @@ def test_model_entry(tmp_path):
 
 @pytest.mark.parametrize("mutate, message", [
     (lambda d: d.pop("schema"), 'no "schema" key'),
-    (lambda d: d.update(schema=4), "schema 4 is not supported"),
+    (lambda d: d.update(schema=5), "schema 5 is not supported"),
     (lambda d: d.pop("rho_"), "missing key"),
     (lambda d: d.update(rho_=[1.0, 1.1, 1.0]), "rho_ must be a list of 4"),
     (lambda d: d.update(rho_=[1.0, "x", 1.0, 1.0]), "rho_ must be a list of 4"),

@@ -446,7 +446,7 @@ def level_words(a: VibrationAnalysis) -> str:
     ref = "this airframe's healthy level" if a.against == "profile" else "the healthy airframes' typical level"
     base = a.level.value / a.ratio
     bound = "at least " if a.level.kind == "raw" else ""
-    return (f"vibration {bound}{a.ratio:.1f}x {ref} ({a.level.value:.1f} against {base:.1f} "
+    return (f"vibration {bound}{a.ratio:.2g}x {ref} ({a.level.value:.2g} against {base:.2g} "
             f"{'m/s/s' if a.level.kind != 'px4_metric' else 'PX4 metric'}, {a.level.source})")
 
 
