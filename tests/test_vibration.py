@@ -159,3 +159,34 @@ def test_no_false_alarm_on_real_healthy_flights():
             assert a.flight_llr is None or a.flight_llr < DAMAGED_LLR, (p.name, f.part, a.flight_llr)
             if a.line is not None and a.line.motor is not None:
                 pytest.fail(f"{p.name}: a rotor line on a healthy flight ({a.notes})")
+
+
+@needs_shared
+def test_calibrate_and_diagnose_through_the_cli_without_motor_outputs(tmp_path):
+    """Done-when of issue 23 through the CLI: a profile from air_octo_14 (no motor outputs; with and
+    without --no-adapt), then air_octo_03 (flight 1 healthy, flight 2 damaged) and air_octo_10
+    damaged, no rotor named."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from flightlog_fd.cli import app
+    from flightlog_fd.report.json_report import validate
+
+    runner = CliRunner()
+    for extra in ([], ["--no-adapt"]):
+        prof = tmp_path / f"p{len(extra)}.json"
+        res = runner.invoke(app, ["calibrate", str(OCTO / "air_octo_14.BIN"), "-o", str(prof), *extra])
+        assert res.exit_code == 0, res.output
+        p = json.loads(prof.read_text())
+        assert p["rho_"] is None and p["lacks_"] and p["analyzers"]["vibration"]["kind"] == "vibe"
+        res = runner.invoke(app, ["diagnose", "--json", "--profile", str(prof), str(OCTO / "air_octo_03.BIN"),
+                                  str(OCTO / "air_octo_10.BIN"), str(OCTO / "air_octo_14.BIN")])
+        assert res.exit_code == 1, res.output
+        d03, d10, d14 = json.loads(res.output)
+        assert all(validate(d) == [] for d in (d03, d10, d14)) and d03["schema"] == 5
+        assert [f["part"].split(",")[0] for f in d03["flights"]] == ["flight 1 of 2", "flight 2 of 2"]
+        assert [f["verdict"]["status"] for f in d03["flights"]] == ["healthy", "damaged"]
+        assert d03["verdict"]["status"] == d10["verdict"]["status"] == "damaged"
+        assert d03["verdict"]["motor"] is None and d10["verdict"]["motor"] is None
+        assert d14["verdict"]["status"] == "healthy"
