@@ -256,8 +256,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
 #: and real healthy Erle 09-10-2014_31 (5 flights) gave flight 2 "damaged, motor 2" (model +5.0,
 #: commands +2.3 nats against its first 30 s) while the whole log is healthy; CrazyPAD's two hops
 #: (8.6 s and 9.2 s airborne) leave the first with 7 windows, too few to judge alone.
-SEVERAL_FLIGHTS_NOTE = ("judged as one: each flight alone would be its own healthy reference, which "
-                        "gave a false alarm on a real healthy log")
+SEVERAL_FLIGHTS_NOTE = "judged together as one log"
 
 
 def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
@@ -274,7 +273,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     if diagnosability(flight, spec).ok:
         d = _diagnose_one(flight, model, profile, keep_flight=keep_flight)
         d.warnings.append(f"this log holds {len(parts)} flights ("
-                          + ", ".join(p.part.split(", ", 1)[1] for p in parts) + f"), {SEVERAL_FLIGHTS_NOTE}")
+                          + ", ".join(p.part.split(", ", 1)[1] for p in parts) + f"): {SEVERAL_FLIGHTS_NOTE}")
         return d
     subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight) for p in parts]
     for p, d in zip(parts, subs):
