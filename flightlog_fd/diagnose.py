@@ -40,7 +40,7 @@ import numpy as np
 from .analyzers import REGISTRY, Context, run_analyzers
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
-from .decision import Decision, Verdict, decide, log_verdict, not_diagnosable, worst_flight
+from .decision import STATUS_RANK, Decision, Verdict, decide, log_verdict, not_diagnosable, worst_flight
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .flights import split_flights
@@ -251,19 +251,26 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
         return _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
 
 
-#: Why a log with motor outputs holding several flights is judged as one (measured, ../shared):
-#: judged alone, a flight's own first minutes become the reference of its mid-flight onset search,
-#: and real healthy Erle 09-10-2014_31 (5 flights) gave flight 2 "damaged, motor 2" (model +5.0,
-#: commands +2.3 nats against its first 30 s) while the whole log is healthy; CrazyPAD's two hops
-#: (8.6 s and 9.2 s airborne) leave the first with 7 windows, too few to judge alone.
-SEVERAL_FLIGHTS_NOTE = "judged together as one log"
+#: A log with motor outputs holding several flights is judged once as a whole (its verdict is the
+#: log's), and each flight gets its own verdict from the same windows with the whole log as its
+#: context: no mid-flight onset is searched inside a flight (its own first minutes are no healthy
+#: reference: judged alone, real healthy Erle 09-10-2014_31 flight 2 of 5 became "damaged, motor 2",
+#: model +5.0, commands +2.3 nats against its first 30 s); only the whole log's onset, when it lies
+#: in that flight, splits its shares. A flight too short to judge alone (CrazyPAD's 8.6 s first hop:
+#: 7 windows) is reported as such and judged with the log. A flight is never worse than the whole
+#: log (:func:`capped_by_log`): uncapped, Erle 09-10-2014_31 flight 2 stays "damaged, motor 2" (model
+#: +5.0, commands +1.0 nats on its 77 windows) and Erle 6-3-2014_6 flight 2 "uncertain" (commands
+#: +8.0) on real healthy logs whose whole verdicts are healthy (benchmarks/bench_several_flights.py).
+SEVERAL_FLIGHTS_NOTE = "each flight judged with the whole log as its context"
 
 
 def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
     """A log holding several take-offs to landings (:func:`flightlog_fd.flights.split_flights`):
-    when the log has what the full diagnosis needs it is judged as one (``SEVERAL_FLIGHTS_NOTE``;
-    a warning lists the flights); a log judged from vibration alone (no motor outputs) has each
-    flight judged on its own, the log's verdict being its worst flight's."""
+    each flight gets its own Diagnosis (``Diagnosis.flights``). A log with what the full diagnosis
+    needs is judged as one and each flight from the same windows (``SEVERAL_FLIGHTS_NOTE``; the
+    log's verdict is the worst judged flight's, see :func:`_per_flight`); a log judged from
+    vibration alone (no motor outputs) has each flight judged on its own, the log's verdict being
+    its worst flight's."""
     from .model import model_for_flight
 
     parts = split_flights(flight)
@@ -271,10 +278,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
         return _diagnose_one(flight, model, profile, keep_flight=keep_flight)
     spec = model_for_flight(model, flight).feature_spec
     if diagnosability(flight, spec).ok:
-        d = _diagnose_one(flight, model, profile, keep_flight=keep_flight)
-        d.warnings.append(f"this log holds {len(parts)} flights ("
-                          + ", ".join(p.part.split(", ", 1)[1] for p in parts) + f"): {SEVERAL_FLIGHTS_NOTE}")
-        return d
+        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts)
     subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight) for p in parts]
     for p, d in zip(parts, subs):
         d.part = p.part
@@ -285,7 +289,8 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
                        x for d in subs for x in d.warnings if x not in flight.warnings])
 
 
-def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
+def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool,
+                  parts: Optional[list] = None) -> Diagnosis:
     from .windows import FeatureSpec, make_windows
 
     from .model import model_for_flight
@@ -362,8 +367,92 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
-    return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence, decision=decision,
-                     timeline=timeline, **facts_kw)
+    whole = Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence, decision=decision,
+                      timeline=timeline, **facts_kw)
+    if parts:
+        whole = _per_flight(whole, parts, prepared, win, probs, timeline, profile, model, keep_flight)
+    return whole
+
+
+def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: Any, probs: np.ndarray,
+                timeline: Timeline, profile: Any, model: Any, keep_flight: bool) -> Diagnosis:
+    """Each flight of a log with motor outputs judged from the whole log's windows
+    (``SEVERAL_FLIGHTS_NOTE``): its windows, its segments' command shares (split only at the whole
+    log's onset when it lies in this flight), the analyzers on this flight; each flight's verdict no
+    worse than the whole log's (:func:`capped_by_log`). The log keeps the whole log's verdict, its
+    reason listing the flights'."""
+    t_start = np.asarray(win.t_start, dtype=np.float64)
+    t_end = np.asarray(win.t_end, dtype=np.float64)
+    onset = timeline.onset
+    sha = str(getattr(model, "sha256", "") or "")
+    subs = []
+    for part in parts:
+        a, b = part.t_start, part.t_end
+        m = (t_start >= a - 1e-6) & (t_end <= b + 1e-6)
+        segs = [s for s in win.segments if len(s.t) and s.t[0] >= a - 1e-6 and s.t[-1] <= b + 1e-6]
+        stops = [s for s in whole.stopped if a <= s.t_start <= b]
+        facts_kw = dict(facts=FlightFacts.from_flight(part), model=whole.model, profile=whole.profile,
+                        warnings=[], flight=part if keep_flight else None, stopped=stops,
+                        diagnosability_facts=dict(whole.diagnosability_facts))
+        tl = build_timeline(t_start[m], t_end[m], probs[m])
+        if tl.shortfall is not None:
+            reason = f"too short to judge alone ({tl.shortfall}): judged with the whole log"
+            v, _ = decide(probs.shape[1] - 1, part.frame, stopped=stops, not_diagnosable_reason=reason)
+            subs.append(Diagnosis(log=whole.log, verdict=v, timeline=tl, part=part.part, **facts_kw))
+            continue
+        here = onset if (onset is not None and a <= onset.t_start <= b) else None
+        if here is None and tl.onset is not None:  # no onset searched inside one flight
+            tl.run = replace(tl.run, confirmed=False)
+        sub_win = replace(win, segments=segs)
+        eff = window_effectiveness(prepared, sub_win)
+        ev = flight_evidence(prepared, sub_win, probs[m], profile, since=here.t_start if here else None,
+                             effectiveness=eff)
+        ts, te, pm = t_start[m], t_end[m], probs[m]
+        idx = np.argsort(ts, kind="stable")
+        if here is not None and ev.drifting() is None:
+            idx = idx[int(np.searchsorted(np.sort(ts), here.t_start)):]
+        ctx = Context(flight=part, frame=part.frame, n_motors=pm.shape[1] - 1, probs=pm[idx],
+                      covered_s=covered_seconds(ts[idx], te[idx]), segments=segs, evidence=ev,
+                      profile=profile, model_sha256=sha)
+        v, dec = decide(pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops)
+        sub_windows = [w for w in whole.windows if a - 1e-6 <= w.t_start and w.t_end <= b + 1e-6]
+        subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, evidence=ev, decision=dec,
+                              timeline=tl, part=part.part, **facts_kw))
+    for d in subs:
+        d.verdict = capped_by_log(d.verdict, whole.verdict, whole.decision)
+    listing = ", ".join(p.part.split(", ", 1)[1] for p in parts)
+    whole.warnings.append(f"this log holds {len(parts)} flights ({listing}): {SEVERAL_FLIGHTS_NOTE}")
+    whole.flights = subs
+    whole.verdict = replace(whole.verdict, reason=whole.verdict.reason + "; " + "; ".join(
+        f"{d.part.split(',')[0]}: {d.verdict.status}" + (f" (motor {d.verdict.motor})" if d.verdict.motor else "")
+        for d in subs))
+    return whole
+
+
+def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> Verdict:
+    """A flight's own verdict, no worse than its whole log's: the decision's thresholds were set on
+    whole logs, and a log of n flights gives n tries at a false alarm. A flight worse than the log
+    takes the log's status (a damaged flight naming another motor than the log's damaged one is
+    uncertain); its reason keeps what it said alone and the log's figure for that motor."""
+    rank = STATUS_RANK
+    if own.status in ("not_diagnosable", "stopped") or rank.get(own.status, 0) < rank.get(log.status, 0):
+        return own
+    if rank.get(own.status, 0) == rank.get(log.status, 0) and (own.motor is None or own.motor == log.motor
+                                                              or own.status != "damaged"):
+        return own
+    if own.status == "damaged" and log.status == "damaged" and own.motor == log.motor:
+        return own
+    status = log.status if rank.get(log.status, 0) < rank.get(own.status, 0) else "uncertain"
+    if status == "not_diagnosable":
+        status = "healthy"
+    said = own.status + (f" (motor {own.motor})" if own.motor else "")
+    whole = ""
+    if own.motor and decision is not None and len(decision.motors) >= own.motor:
+        whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"
+    return Verdict(status=status, motor=None, position=None, confidence=log.confidence if status == log.status
+                   else own.confidence, first_seen=None,
+                   reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
+                          f"confirm it ({log.status}{whole}), so this flight is {status}")
 
 
 def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, log: str, facts_kw: dict,
