@@ -46,6 +46,8 @@ class FlightRecord:
     diagnosed_at: str
     vehicle_source: str
     motors: dict[int, dict] = field(default_factory=dict)
+    #: Each take-off to landing of a log holding several (``store.PART_COLUMNS`` and ``part``).
+    parts: list[dict] = field(default_factory=list)
 
     def figure(self, name: str) -> Optional[list[float]]:
         """Every motor's value of ``name`` (motor order), or None unless all are known."""

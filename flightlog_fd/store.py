@@ -5,7 +5,7 @@ one migration list, :data:`MIGRATIONS`). ``fdlog diagnose --db`` writes it
 (:meth:`Store.add_result`), ``fdlog history`` reads it (:meth:`Store.history`, :func:`load_history`),
 ``fdlog serve`` keeps its uploads, jobs and airframes in it; the same file serves all three.
 
-Tables (migration 3 gives them their present columns):
+Tables (migrations 3 and 4 give them their present columns):
 
 - ``airframe``: key (the log's own id: PX4 ``sys_uuid``, ArduPilot board UID...), its source, the
   operator's name, ``merged_into``, the calibration profile.
@@ -15,6 +15,9 @@ Tables (migration 3 gives them their present columns):
 - ``motor_figure`` (flight, motor): :data:`MOTOR_COLUMNS`, the JSON report's per-motor fields
   under the same names (intervals as ``_lo``/``_hi``), made by :func:`motor_rows` for every writer.
 - ``finding`` (flight): every analyzer's findings, :data:`FINDING_COLUMNS` (:func:`finding_rows`).
+- ``flight_part`` (flight, part): each take-off to landing of a log holding several, with its own
+  verdict (:data:`PART_COLUMNS`, :func:`part_rows`: the JSON report's ``flights``); none for a log
+  with one flight. Migration 4 fills it from the stored diagnoses, so an older store upgrades in place.
 - ``job``: the server's diagnose / calibrate queue.
 
 Airframe of a log without an id: ``fdlog diagnose --db`` files it under the profile's name
@@ -41,6 +44,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -66,6 +70,8 @@ MOTOR_COLUMNS = ("position", "command_share", "command_share_baseline", "command
 #: A finding: the JSON report's ``analyzers[].findings[]`` fields (``interval`` split in lo/hi).
 FINDING_COLUMNS = ("analyzer", "motor", "name", "value", "unit", "interval_lo", "interval_hi", "baseline",
                    "direction", "llr", "text")
+#: Each flight of a log holding several: the JSON report's ``flights[]`` (``part`` 1..n in time order).
+PART_COLUMNS = ("label", "t_start_s", "t_end_s", "airborne_s", "status", "motor", "confidence", "reason")
 #: Per-motor figures drawn across an airframe's flights (history page, airframe page): (column, title).
 TREND_FIGURES = (("command_change", "command-share change"),
                  ("eta_hat", "eta-hat: estimated remaining thrust (1 = healthy)"),
@@ -96,6 +102,31 @@ def _v3(db: Database) -> None:
             _write_figures(db, int(row["id"]), doc)
             db.run("UPDATE flight SET model_sha256 = ?, model_version = ?, profile_path = ?, tool_version = ?, "
                    "exit_code = ? WHERE id = ?", (*_run_columns(doc), row["id"]))
+
+
+def _v4(db: Database) -> None:
+    """Migration 4: ``flight_part``, one row per take-off to landing of a log holding several,
+    filled from each stored diagnosis's ``flights``."""
+    db.run("""CREATE TABLE flight_part (
+    flight_id   BIGINT NOT NULL REFERENCES flight(id) ON DELETE CASCADE,
+    part        INTEGER NOT NULL,  -- 1..n in time order
+    label       TEXT NOT NULL,     -- "flight 2 of 5, 234.8-327.8 s"
+    t_start_s   {real},            -- its bounds on the log's own clock
+    t_end_s     {real},
+    airborne_s  {real},
+    status      TEXT,              -- its own verdict (never worse than the log's, see diagnose.py)
+    motor       INTEGER,
+    confidence  {real},
+    reason      TEXT,
+    PRIMARY KEY (flight_id, part)
+)""")
+    for row in db.query("SELECT id, diagnosis_json FROM flight WHERE diagnosis_json IS NOT NULL"):
+        try:
+            doc = json.loads(row["diagnosis_json"])
+        except ValueError:
+            continue
+        if isinstance(doc, dict):
+            _write_parts(db, int(row["id"]), doc)
 
 
 MIGRATIONS: list[tuple[int, str, Any]] = [
@@ -187,6 +218,7 @@ CREATE INDEX finding_flight ON finding (flight_id)
     # motor_figure: eta_hat (was severity), eta_ci_lo/hi, weight, llr; finding: direction (up |
     # down | ''); flight: model_sha256, model_version, profile_path, tool_version, exit_code.
     (3, "one store: the JSON report's per-motor names, the model and profile of each diagnosis", _v3),
+    (4, "each flight of a log holding several, with its verdict", _v4),
 ]
 #: The schema version this fdlog writes (its newest migration).
 SCHEMA_VERSION = max(v for v, _, _ in MIGRATIONS)
@@ -280,6 +312,30 @@ def _write_figures(db: Database, fid: int, doc: dict, command_share: Optional[li
     fcols = ("flight_id",) + FINDING_COLUMNS
     db.run_many(f"INSERT INTO finding ({', '.join(fcols)}) VALUES ({', '.join('?' * len(fcols))})",
                 [(fid, *f) for f in finding_rows(doc)])
+
+
+def part_rows(doc: dict) -> list[tuple]:
+    """(part, *PART_COLUMNS) per flight of the report's ``flights`` (empty for one flight)."""
+    out = []
+    for i, f in enumerate(doc.get("flights") or [], 1):
+        if not isinstance(f, dict):
+            continue
+        v = f.get("verdict") or {}
+        motor = v.get("motor")
+        label = str(f.get("part") or f"flight {i}")
+        bounds = re.search(r"(-?[0-9.]+)-(-?[0-9.]+) s$", label)  # "flight 2 of 5, 234.8-327.8 s"
+        out.append((i, label, _num(bounds.group(1)) if bounds else None, _num(bounds.group(2)) if bounds else None,
+                    _num(f.get("airborne_s")), v.get("status"), int(motor) if isinstance(motor, int) else None,
+                    _num(v.get("confidence")), v.get("reason") or ""))
+    return out
+
+
+def _write_parts(db: Database, fid: int, doc: dict) -> None:
+    """Replace the flight's ``flight_part`` rows with those of ``doc`` (inside a transaction)."""
+    db.run("DELETE FROM flight_part WHERE flight_id = ?", (fid,))
+    cols = ("flight_id", "part") + PART_COLUMNS
+    db.run_many(f"INSERT INTO flight_part ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
+                [(fid, *r) for r in part_rows(doc)])
 
 
 def _run_columns(doc: dict) -> tuple:
@@ -403,6 +459,7 @@ class Store:
              sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
              json.dumps(doc), None if plot is None else json.dumps(plot), diagnosed_at or utc_now(), fid))
         _write_figures(self.db, fid, doc, command_share)
+        _write_parts(self.db, fid, doc)
 
     def _airframe(self, key: str, source: str) -> None:
         self.db.run("INSERT INTO airframe (key, source, created_at) VALUES (?, ?, ?) ON CONFLICT (key) DO NOTHING",
@@ -467,6 +524,11 @@ class Store:
 
     def flight(self, fid: int) -> Optional[dict]:
         return self.db.one("SELECT * FROM flight WHERE id = ?", (fid,))
+
+    def flight_parts(self, fid: int) -> list[dict]:
+        """Each flight of this log (``flight_part`` rows in time order; [] for a log with one)."""
+        return self.db.query(f"SELECT part, {', '.join(PART_COLUMNS)} FROM flight_part WHERE flight_id = ? "
+                             f"ORDER BY part", (fid,))
 
     def flight_motors(self, fid: int) -> list[dict]:
         return self.db.query("SELECT * FROM motor_figure WHERE flight_id = ? ORDER BY motor", (fid,))
@@ -676,9 +738,14 @@ class Store:
         figs: dict[int, dict[int, dict]] = {}
         for m in self.db.query(f"SELECT flight_id, motor, {', '.join(MOTOR_COLUMNS)} FROM motor_figure"):
             figs.setdefault(int(m["flight_id"]), {})[int(m["motor"])] = {c: m[c] for c in MOTOR_COLUMNS}
+        parts: dict[int, list[dict]] = {}
+        for p in self.db.query(f"SELECT flight_id, part, {', '.join(PART_COLUMNS)} FROM flight_part "
+                               f"ORDER BY flight_id, part"):
+            parts.setdefault(int(p["flight_id"]), []).append({k: p[k] for k in ("part",) + PART_COLUMNS})
         groups: dict[str, list[dict]] = {}
         for f in flights:
             f["motors"] = figs.get(int(f["id"]), {})
+            f["parts"] = parts.get(int(f["id"]), [])
             groups.setdefault(self.resolve(f["airframe"], table), []).append(f)
         for fl in groups.values():
             fl.sort(key=lambda f: (f["flight_start_utc"] is None, f["flight_start_utc"] or "", f["name"],
@@ -729,7 +796,7 @@ def _record_of(f: dict, source: str) -> FlightRecord:
                         flight_start_utc=f["flight_start_utc"], airborne_s=f["airborne_s"], status=f["status"] or "",
                         motor=f["motor"], confidence=f["confidence"], reason=f["reason"] or "",
                         diagnosed_at=f["diagnosed_at"] or "", vehicle_source=source,
-                        motors={k: dict(v) for k, v in f["motors"].items()})
+                        motors={k: dict(v) for k, v in f["motors"].items()}, parts=list(f.get("parts") or []))
 
 
 def drift_of(key: str, flights: list[dict]) -> list:
@@ -825,5 +892,5 @@ def _adopt_results_store(db: Database, tables: set) -> Optional[Callable[[], Non
 
 
 __all__ = ["Store", "StoreError", "RunInfo", "FlightRecord", "MIGRATIONS", "SCHEMA_VERSION", "LEASE_S",
-           "MAX_ATTEMPTS", "MOTOR_COLUMNS", "FINDING_COLUMNS", "TREND_FIGURES", "UNKNOWN_VEHICLE",
+           "MAX_ATTEMPTS", "MOTOR_COLUMNS", "FINDING_COLUMNS", "PART_COLUMNS", "part_rows", "TREND_FIGURES", "UNKNOWN_VEHICLE",
            "load_history", "motor_rows", "finding_rows", "own_airframe_key", "vehicle_identity", "utc_iso", "drift_of"]

@@ -70,7 +70,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "exit_code": 0 | 1 | 2,
       "part": "flight 2 of 2, 376.8-464.9 s" | null,   # which flight of the log this object is
       "flights": [object, ...]   # a log holding several flights: one object of this schema per
-    }                            # take-off to landing ("part" set); the log's verdict is the worst
+    }                            # take-off to landing ("part" set); no flight is worse than its log
 
 ``motors`` is the one per-motor shape (:mod:`flightlog_fd.report.motor_view`, which every report
 draws); ``analyzers`` is each analyzer's own record (what the results store keeps per finding).
@@ -84,7 +84,9 @@ one) makes ``motors`` the per-motor view (``class``, ``throttle``, ``cells``, ``
 count), drops ``motor_evidence``'s ``top_motor``, ``single_motor_gap`` and ``notes`` (the
 analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the probability of
 what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
-own verdict) and flight-level findings (``motor`` 0: the vibration level).
+own verdict: judged from vibration alone, the log's verdict is its worst flight's; with motor outputs,
+the whole log's, each flight judged from the log's windows and never worse than it) and
+flight-level findings (``motor`` 0: the vibration level).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations

@@ -134,6 +134,14 @@ def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
     return table
 
 
+def several_flights_words(diagnosis: Diagnosis) -> str:
+    """How a log holding several flights was judged: from its windows as a whole (each flight no
+    worse than the log), or each flight on its own from vibration (the log's verdict the worst)."""
+    if diagnosis.windows:
+        return "each judged from the whole log's windows (no flight is worse than the log's verdict)"
+    return "each judged on its own from vibration (the log's verdict is the worst)"
+
+
 def facts_line(diagnosis: Diagnosis) -> str:
     """Log facts in one line: autopilot, firmware, frame, duration, airborne time, model."""
     f = diagnosis.facts
@@ -178,11 +186,12 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
         n = len(diagnosis.windows[0].probabilities) - 1
         parts.append(Text(f"  . healthy   1-{LABEL_CHARS[n]} propeller damaged   ? uncertain", style="dim"))
     if diagnosis.flights:
-        parts.append(Text(f"  {len(diagnosis.flights)} flights in this log, each judged on its own "
-                          f"(the log's verdict is the worst):", style="bold"))
+        parts.append(Text(f"  {len(diagnosis.flights)} flights in this log, {several_flights_words(diagnosis)}:",
+                          style="bold"))
         for sub in diagnosis.flights:
             parts.append(Text(f"  {sub.part}: {verdict_sentence(sub)}", style=STATUS_STYLES.get(sub.verdict.status, "")))
-        parts.append(Text(f"  details of {diagnosis.verdict.reason.split(':')[0]}:", style="dim"))
+        parts.append(Text("  details of the whole log:" if diagnosis.windows else
+                          f"  details of {diagnosis.verdict.reason.split(':')[0]}:", style="dim"))
     if diagnosis.decision is not None:
         view = MotorView.of(diagnosis)
         if view.rows:
