@@ -36,14 +36,16 @@ PathLike = Union[str, os.PathLike]
 def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: bool = False,
               output: Optional[PathLike] = None, overwrite: bool = False, settings=None,
               base_model: Optional[PathLike] = None,
-              progress: Optional[Callable[[str, float], None]] = None) -> Profile:
+              progress: Optional[Callable[[str, float], None]] = None, flight: Optional[int] = None) -> Profile:
     """The calibration profile of one airframe from HEALTHY flights (paths or Flights).
 
     ``output``: the profile file to write (needed with ``adapt``: the adapted model goes beside it,
     ``<stem>.onnx``); refuses to replace an existing file unless ``overwrite``. ``settings``
     (:class:`flightlog_fd.training.adapt.AdaptSettings`), ``base_model`` and ``progress``
-    (``progress(stage, fraction)``) are for ``adapt``. Raises FlightLogError subclasses for bad
-    input (one line each); ImportError when ``adapt`` is asked without torch.
+    (``progress(stage, fraction)``) are for ``adapt``. ``flight``: calibrate on that take-off to
+    landing (1-based, :func:`flightlog_fd.flights.split_flights`) of the one log given (the profile's
+    ``extra["flight"]`` names it). Raises FlightLogError subclasses for bad input (one line each);
+    ImportError when ``adapt`` is asked without torch.
     """
     from . import load_flight
     from .model import FaultModel, default_model_path, model_for_flight
@@ -56,6 +58,9 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
             if p.exists() and not overwrite:
                 raise ProfileError(p, "already exists (use --force to overwrite)")
     flights = [x if isinstance(x, Flight) else load_flight(x) for x in flights_or_paths]
+    part = None
+    if flight is not None:
+        flights, part = _one_flight(flights, flight)
     if flights and all(fl.motors is None for fl in flights):
         profile = _motorless(flights, adapt)
     elif not adapt:
@@ -81,9 +86,26 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
         profile.extra = {**(profile.extra or {}), "adaptation": res.summary}
         profile.set_model(out_onnx, profile_path=out)
         profile.fit_analyzers(flights, FaultModel(out_onnx))
+    if part is not None:
+        profile.extra = {**(profile.extra or {}), "flight": part}
     if out is not None:
         profile.save(out, overwrite=overwrite)
     return profile
+
+
+def _one_flight(flights: list[Flight], n: int) -> tuple[list[Flight], str]:
+    """[flight n of the only log] and its label; ProfileError for several logs or no such flight."""
+    from .flights import split_flights
+
+    if len(flights) != 1:
+        raise ProfileError(None, f"choosing a flight needs exactly one log ({len(flights)} given)")
+    parts = split_flights(flights[0])
+    if not 1 <= n <= len(parts):
+        raise ProfileError(flights[0].path, f"has {len(parts)} flight{'s' if len(parts) != 1 else ''}: "
+                                            f"there is no flight {n}")
+    if len(parts) == 1:
+        return parts, f"flight 1 of 1, {parts[0].t_start:.1f}-{parts[0].t_end:.1f} s"
+    return [parts[n - 1]], parts[n - 1].part
 
 
 def _motorless(flights: list[Flight], adapt: bool) -> Profile:

@@ -255,6 +255,7 @@ def calibrate(
     flights: int = typer.Option(192, help="Simulated flights of this airframe to adapt on."),
     epochs: int = typer.Option(12, help="At most this many training epochs."),
     seed: int = typer.Option(0, help="Random seed (simulation and training)."),
+    flight: Optional[int] = typer.Option(None, "--flight", help="Calibrate on this take-off to landing (1, 2, ...) of the one log given (a log holding several flights; `fdlog diagnose` lists them)."),
 ) -> None:
     """Calibrate one airframe from healthy flights: motor imbalance from hover, then adapt the model to it.
 
@@ -283,7 +284,7 @@ def calibrate(
     err_console = _console(stderr=True)
     try:
         if no_adapt:
-            profile = run_calibration(files, output=output, overwrite=force)
+            profile = run_calibration(files, output=output, overwrite=force, flight=flight)
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -298,7 +299,7 @@ def calibrate(
 
                 settings = AdaptSettings(n_flights=flights, max_epochs=epochs, seed=seed)
                 profile = run_calibration(files, adapt=True, output=output, overwrite=force, settings=settings,
-                                          progress=progress)
+                                          progress=progress, flight=flight)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -311,6 +312,8 @@ def calibrate(
         vib = profile.analyzers.get("vibration") or {}
         level = f", vibration {vib['level']:.2f} ({vib.get('source', '')})" if "level" in vib else ""
         console.print(f"wrote {output}: {profile.autopilot} {profile.frame}{level}", markup=False)
+    if (profile.extra or {}).get("flight"):
+        console.print(f"calibrated on {profile.extra['flight']} of {files[0]}", markup=False)
     for lack in profile.lacks_:
         console.print(f"note: {lack}", markup=False)
     if profile.model:

@@ -1,4 +1,6 @@
 """Per-airframe history for `fdlog history`: flights in time order, drift flags, HTML and text.
+A log holding several take-offs to landings shows each under its row with its own verdict
+(``parts``, the store's ``flight_part``).
 
 Reads what :meth:`flightlog_fd.store.Store.history` returns; the drift rule is
 :mod:`flightlog_fd.drift`. The per-motor cell and the trend plots are those of the web airframe
@@ -33,7 +35,8 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
             "flights": [{"log": f.log_path, "log_sha256": f.log_sha256, "flight_start_utc": f.flight_start_utc,
                          "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor,
                          "confidence": f.confidence, "reason": f.reason, "diagnosed_at": f.diagnosed_at,
-                         "motors": [{"motor": k, **f.motors[k]} for k in sorted(f.motors)]} for f in flights],
+                         "motors": [{"motor": k, **f.motors[k]} for k in sorted(f.motors)],
+                         "parts": [dict(p) for p in f.parts]} for f in flights],
             "drift": [{"motor": d.motor, "figure": d.figure, "slope_z_per_flight": d.slope,
                        "latest_z": d.latest_z, "n_flights": d.n_flights, "text": d.describe()} for d in drifts],
             "latest_damaged": bool(latest and latest.status == "damaged"),
@@ -128,6 +131,11 @@ def render_html(summary: dict) -> str:
                 cells.append(f"<td>{_cell(m, ' / ')}</td>")
             out.append(f"<tr><td>{i}</td><td>{e(f['flight_start_utc'] or '-')}</td><td>{e(Path(f['log']).name)}</td>"
                        f"<td>{e(verdict)}</td><td>{_fmt(f['confidence'])}</td>{''.join(cells)}</tr>")
+            for p in f.get("parts") or []:
+                out.append(f"<tr class='part'><td></td><td></td><td>&nbsp;&nbsp;{e(p['label'])}</td>"
+                           f"<td title='{e(p.get('reason') or '')}'>{e(_part_verdict(p))}</td>"
+                           f"<td>{_fmt(p.get('confidence'))}</td>"
+                           f"<td colspan='{len(_motor_numbers(v['flights']))}'></td></tr>")
         out.append("</table>")
         for figure, title in TREND_FIGURES:
             svg = _svg_trend(v["flights"], figure)
@@ -135,6 +143,11 @@ def render_html(summary: dict) -> str:
                 out.append(f"<h3>{e(title)}</h3>{svg}")
     out.append("</body></html>")
     return "\n".join(out)
+
+
+def _part_verdict(p: dict) -> str:
+    """One flight of a log holding several: its status (and motor), short."""
+    return (p.get("status") or "-") + (f" m{p['motor']}" if p.get("motor") else "")
 
 
 def _fmt(x: Optional[float], decimals: int = 3) -> str:
@@ -158,6 +171,8 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
             figs = "  ".join(_cell(by_motor.get(k, {}), "/") for k in _motor_numbers(v["flights"]))
             yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "
                    f"{figs}  {Path(f['log']).name}")
+            for p in f.get("parts") or []:
+                yield f"  {'':>3} {'  ' + p['label']:<24} {_part_verdict(p):<18} {_fmt(p.get('confidence')):>5}"
         for d in v["drift"]:
             yield f"  FLAG: {d['text']}"
         if v["latest_damaged"]:

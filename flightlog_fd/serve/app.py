@@ -470,7 +470,7 @@ def create_app(cfg: ServeConfig):
                    if isinstance(w, dict) and w.get("t_start") is not None]
         airframe = store.resolve(f["airframe"]) if f["airframe"] else None
         return page(request, "flight.html", f=f, doc=doc, mview=mview, mheader=mheader, mrows=mrows,
-                    plotdata={"plot": plot, "windows": windows}, airframe=airframe,
+                    plotdata={"plot": plot, "windows": windows}, airframe=airframe, parts=store.flight_parts(fid),
                     has_html=data.report_path(f["sha256"], "html").exists(),
                     has_csv=data.report_path(f["sha256"], "csv").exists())
 
