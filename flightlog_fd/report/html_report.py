@@ -7,6 +7,9 @@ firmware, frame, durations, model, profile, warnings) and three inline SVG plots
 - angular rates p, q, r in deg/s,
 - motor commands 1-n (0..1, autopilot numbering, labelled with their positions),
 - class probabilities per window (healthy and each motor, plotted at the window's centre),
+- where the log has vibration data: the level over time per IMU with its healthy reference
+  dashed, and the airborne gyro spectrum with the rotor rates marked
+  (:mod:`flightlog_fd.report.vibration_view`),
 
 all over the same time axis (seconds on the log's clock), with the background shaded by the
 verdict's smoothed window labels (green healthy, red damaged, amber uncertain, white no window).
@@ -128,9 +131,11 @@ def _shading_rects(d: Diagnosis, t0: float, t1: float, x_of, y_top: float, heigh
 
 def svg_plot(title: str, y_label: str, lines: Sequence[tuple[str, np.ndarray, np.ndarray]],
              t0: float, t1: float, diagnosis: Optional[Diagnosis] = None,
-             y_range: Optional[tuple[float, float]] = None, colours: Optional[Sequence[str]] = None) -> str:
-    """One time plot as an ``<svg>`` element: ``lines`` are (name, t seconds, values), drawn in
-    ``colours`` (default :data:`LINE_COLOURS`, cycled)."""
+             y_range: Optional[tuple[float, float]] = None, colours: Optional[Sequence[str]] = None,
+             x_label: str = "s (log clock)", dashed: Sequence[str] = ()) -> str:
+    """One plot as an ``<svg>`` element: ``lines`` are (name, x, values) with x in seconds on the
+    log's clock unless ``x_label`` says otherwise, drawn in ``colours`` (default
+    :data:`LINE_COLOURS`, cycled); lines named in ``dashed`` are dashed (references, marks)."""
     w, h = PLOT_WIDTH, PLOT_HEIGHT
     left, right = MARGIN_LEFT, w - MARGIN_RIGHT
     top, bottom = MARGIN_TOP, h - MARGIN_BOTTOM
@@ -170,7 +175,7 @@ def svg_plot(title: str, y_label: str, lines: Sequence[tuple[str, np.ndarray, np
     parts.append(f'<text x="12" y="{(top + bottom) / 2:.0f}" text-anchor="middle" '
                  f'transform="rotate(-90 12 {(top + bottom) / 2:.0f})">{esc(y_label)}</text>')
     parts.append(f'<text x="{left}" y="{top - 8}" font-weight="bold">{esc(title)}</text>')
-    parts.append(f'<text x="{right + 18}" y="{bottom + 16}">s (log clock)</text>')
+    parts.append(f'<text x="{right + 18}" y="{bottom + 16}">{esc(x_label)}</text>')
     for i, (name, t, v) in enumerate(lines):
         palette = colours or LINE_COLOURS
         colour = palette[i % len(palette)]
@@ -178,7 +183,8 @@ def svg_plot(title: str, y_label: str, lines: Sequence[tuple[str, np.ndarray, np
         td, vd = decimate(t[m], v[m])
         if td.size:
             pts = " ".join(f"{x_of(a):.1f},{y_of(b):.1f}" for a, b in zip(td, vd))
-            parts.append(f'<polyline fill="none" stroke="{colour}" stroke-width="1.2" points="{pts}">'
+            dash = ' stroke-dasharray="5,3"' if name in dashed else ""
+            parts.append(f'<polyline fill="none" stroke="{colour}" stroke-width="1.2"{dash} points="{pts}">'
                          f"<title>{esc(name)}</title></polyline>")
         parts.append(f'<line x1="{right + 10}" y1="{top + 10 + 16 * i}" x2="{right + 28}" '
                      f'y2="{top + 10 + 16 * i}" stroke="{colour}" stroke-width="3"/>')
@@ -295,6 +301,8 @@ def log_section(d: Diagnosis) -> str:
                      else f"motor {k + 1}" for k in range(fl.motors.values.shape[1])]
             out.append(svg_plot(f"Motor commands ({fl.motor_kind})", "command 0..1",
                                 _series_lines(fl.motors, names), t0, t1, d, y_range=(0.0, 1.0)))
+    if fl is not None:
+        out.append(vibration_svgs(d))
     if d.windows:
         centres = np.array([(w.t_start + w.t_end) / 2 for w in d.windows])
         probs = np.array([w.probabilities for w in d.windows])
@@ -306,6 +314,45 @@ def log_section(d: Diagnosis) -> str:
                    "(the verdict's smoothed window labels); white: no window (on the ground or not used).</p>")
         out.append(_window_table(d))
     out.append("</section>")
+    return "".join(out)
+
+
+def vibration_svgs(d: Diagnosis) -> str:
+    """Vibration over time per IMU with its healthy reference (dashed), and the gyro spectrum with
+    the rotor rates marked (:mod:`flightlog_fd.report.vibration_view`); "" without vibration data."""
+    from .vibration_view import vibration_plot
+
+    vp = vibration_plot(d.flight, d)
+    if vp is None:
+        return ""
+    out = ['<h3>Vibration</h3>']
+    t0, t1 = _time_span(d)
+    if vp.series:
+        lines = list(vp.series)
+        dashed = []
+        if vp.reference is not None:
+            name = "healthy reference"
+            lines.append((name, np.array([t0, t1]), np.array([vp.reference, vp.reference])))
+            dashed.append(name)
+        top = max(float(np.nanmax(y)) for _, _, y in lines if np.isfinite(y).any())
+        out.append(svg_plot(f"Vibration level per IMU ({vp.unit})", vp.unit, lines, t0, t1, d,
+                            y_range=(0.0, max(top * 1.05, 1e-6)), dashed=dashed))
+        ref = (f"; dashed: {vp.reference_label} ({vp.reference:.3g} {vp.unit})" if vp.reference is not None
+               else "; no healthy reference in this unit")
+        out.append(f'<p class="muted">{esc(vp.source)}{esc(ref)}.</p>')
+    if vp.freq_hz is not None:
+        f, db = vp.freq_hz, vp.power_db
+        lo, hi = float(np.min(db)), float(np.max(db))
+        lines = [("gyro", f, db)]
+        names = []
+        for i, (hz, label) in enumerate(vp.marks):
+            short = label.split(":")[0].split(" (")[0] if label.startswith("line") else label.split(" rotor")[0]
+            lines.append((short, np.array([hz, hz]), np.array([lo, hi])))
+            names.append(short)
+        out.append(svg_plot("Gyro spectrum (airborne)", "dB above band median", lines, float(f[0]), float(f[-1]),
+                            y_range=(lo, hi), x_label="Hz", dashed=names))
+        marks = "; ".join(f"{hz:.1f} Hz: {label}" for hz, label in vp.marks) or "no rotor rate known"
+        out.append(f'<p class="muted">{esc(vp.spectrum_source)}. Dashed: {esc(marks)}.</p>')
     return "".join(out)
 
 

@@ -73,11 +73,19 @@ def _line(name: str, t, y) -> dict:
     return {"name": name, "t": [round(float(x), 3) for x in tt], "y": [round(float(v), PLOT_DECIMALS) for v in yy]}
 
 
-def plot_series(flight) -> dict:
-    """Decimated angular rates (deg/s) and motor commands (0..1) of a flight, for the flight page."""
-    out: dict[str, Any] = {"rates": [], "motors": [], "motor_kind": getattr(flight, "motor_kind", "")}
+def plot_series(flight, diagnosis: Any = None) -> dict:
+    """Decimated angular rates (deg/s) and motor commands (0..1) of a flight, and its vibration
+    (:func:`flightlog_fd.report.vibration_view.vibration_plot`, with the diagnosis's reference),
+    for the flight page."""
+    from ..report.vibration_view import vibration_plot
+
+    out: dict[str, Any] = {"rates": [], "motors": [], "motor_kind": getattr(flight, "motor_kind", ""),
+                           "vibration": None}
     if flight is None:
         return out
+    vp = vibration_plot(flight, diagnosis)
+    if vp is not None:
+        out["vibration"] = vp.to_json(_line)
     if flight.rates is not None and len(flight.rates):
         for k, n in enumerate(("p (roll)", "q (pitch)", "r (yaw)")[: flight.rates.values.shape[1]]):
             out["rates"].append(_line(n, flight.rates.t, flight.rates.values[:, k] * RAD_TO_DEG))
@@ -137,7 +145,7 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
             "vehicle_source": (flight.vehicle_id_source or "log") if flight is not None else None,
             "flight_start_utc": utc_iso(flight.utc_start) if flight is not None else None,
             "log_t_start_s": flight.t_start if flight is not None else None,
-            "profile_sha256": prof_sha, "plot": plot_series(flight)}
+            "profile_sha256": prof_sha, "plot": plot_series(flight, d)}
 
 
 def calibrate_task(log_paths: list[str], out_path: str, adapt: bool) -> str:

@@ -63,9 +63,40 @@ function fdlogFlight() {
   Plotly.newPlot("flightplot", traces, layout, {responsive: true, displaylogo: false});
 }
 
+// Vibration level per IMU over time with the healthy reference (dashed), and the airborne gyro
+// spectrum with the rotor rates marked (dashed verticals), from plot.vibration.
+function fdlogVibration() {
+  var d = readJSON("plot-data"); var v = d && d.plot && d.plot.vibration;
+  if (!v || !window.Plotly) return;
+  if (document.getElementById("vibplot") && v.series.length) {
+    var traces = v.series.map(function (ln, i) {
+      return {x: ln.t, y: ln.y, name: ln.name, mode: "lines", line: {width: 1, color: MOTOR_COLOURS[(i + 1) % MOTOR_COLOURS.length]}};
+    });
+    var shapes = [];
+    if (v.reference !== null && v.reference !== undefined) {
+      shapes.push({type: "line", xref: "paper", x0: 0, x1: 1, yref: "y", y0: v.reference, y1: v.reference, line: {dash: "dash", color: "#2e7d32", width: 2}});
+      traces.push({x: [null], y: [null], name: v.reference_label, mode: "lines", line: {dash: "dash", color: "#2e7d32"}});
+    }
+    Plotly.newPlot("vibplot", traces, {height: 280, margin: {l: 70, r: 20, t: 20, b: 50}, shapes: shapes,
+      xaxis: {title: {text: "time on the log's clock (s)"}}, yaxis: {title: {text: "vibration (" + v.unit + ")"}, rangemode: "tozero"},
+      legend: {orientation: "h", y: -0.25}}, {responsive: true, displaylogo: false});
+  }
+  var sp = v.spectrum;
+  if (document.getElementById("specplot") && sp) {
+    var marks = sp.marks.map(function (m) {
+      return {type: "line", xref: "x", x0: m.hz, x1: m.hz, yref: "paper", y0: 0, y1: 1, line: {dash: "dash", color: "#c62828", width: 1.5}};
+    });
+    var tr = [{x: sp.f, y: sp.db, name: "gyro", mode: "lines", line: {width: 1, color: "#1f77b4"}}];
+    sp.marks.forEach(function (m) { tr.push({x: [m.hz], y: [Math.max.apply(null, sp.db)], name: m.label, mode: "markers", marker: {color: "#c62828", symbol: "triangle-down"}}); });
+    Plotly.newPlot("specplot", tr, {height: 280, margin: {l: 70, r: 20, t: 20, b: 50}, shapes: marks,
+      xaxis: {title: {text: "frequency (Hz)"}}, yaxis: {title: {text: "power (dB above band median)"}},
+      legend: {orientation: "h", y: -0.25}}, {responsive: true, displaylogo: false});
+  }
+}
+
 document.addEventListener("DOMContentLoaded", function () {
   if (document.getElementById("trend-data")) fdlogTrends();
-  if (document.getElementById("plot-data")) fdlogFlight();
+  if (document.getElementById("plot-data")) { fdlogFlight(); fdlogVibration(); }
   var v = document.getElementById("verdict");  // a flight still queued or running: look again soon
   if (v && (v.dataset.state === "queued" || v.dataset.state === "running")) setTimeout(function () { location.reload(); }, 1500);
 });
