@@ -12,7 +12,7 @@ Steps (pure: nothing is printed, nothing imports torch):
    standardised with the model's statistics, then class probabilities from the ONNX model.
 4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's timeline: smoothed
    labels and a confirmed mid-flight damage onset (:mod:`flightlog_fd.timeline`).
-5. Per-motor evidence (:mod:`flightlog_fd.analyzers.share_fit`: command shares against the
+5. The share fit (:mod:`flightlog_fd.analyzers.share_fit`: command shares against the
    profile's baseline, the flight before an onset or an even split;
    :mod:`flightlog_fd.analyzers.effectiveness_fit`) from
    the same resampled segments as the windows, and every registered analyzer's findings
@@ -142,9 +142,9 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     diagnosability_facts: dict = field(default_factory=dict)
     flight: Optional[Flight] = field(default=None, repr=False)
-    #: Per-motor evidence (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`); None when not diagnosable.
-    evidence: Any = None
-    #: Why the evidence gave its verdict (per-motor severity, LLR by source, weight); None when it
+    #: The per-motor share fit (:class:`flightlog_fd.analyzers.share_fit.ShareFit`); None when not diagnosable.
+    share_fit: Any = None
+    #: Why the analyzers' evidence gave its verdict (per-motor severity, LLR by source, weight); None when it
     #: was not weighed.
     decision: Optional[Decision] = None
     #: The model's windows over time (smoothed labels, onset); None when no window was judged.
@@ -154,8 +154,8 @@ class Diagnosis:
 
     @property
     def motors(self) -> list:
-        """Per-motor figures (:class:`flightlog_fd.analyzers.share_fit.MotorEvidence`), [] without evidence."""
-        return list(self.evidence.motors) if self.evidence is not None else []
+        """Per-motor figures (:class:`flightlog_fd.analyzers.share_fit.MotorShares`), [] without a share fit."""
+        return list(self.share_fit.motors) if self.share_fit is not None else []
 
     @property
     def exit_code(self) -> int:
@@ -281,7 +281,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
             spec = FeatureSpec.from_dict(model.feature_spec)
         except ValueError as e:
             raise ModelError(getattr(model, "path", None), f"bad feature spec in the model: {e}") from None
-        prepared = PreparedFlight(flight)  # built once: the windows, phases and evidence share it
+        prepared = PreparedFlight(flight)  # built once: the windows, phases and share fit use it
         win = make_windows(prepared, spec)
         if len(win.t_start) == 0:
             return cannot_judge(win.reason or "no complete window of airborne data")
@@ -301,11 +301,11 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     phases = window_phases(prepared, t_start, t_end)
     timeline = build_timeline(t_start, t_end, probs)
     onset = timeline.onset
-    evidence = flight_evidence(prepared, win, probs, profile, since=onset.t_start if onset else None,
+    share_fit = flight_share_fit(prepared, win, probs, profile, since=onset.t_start if onset else None,
                                effectiveness=eff)
     results = []
     if timeline.shortfall is None:
-        ctx = _analyzer_context(flight, t_start, t_end, probs, onset, evidence, profile, win.segments,
+        ctx = _analyzer_context(flight, t_start, t_end, probs, onset, share_fit, profile, win.segments,
                                 str(getattr(model, "sha256", "") or ""))
         results = run_analyzers(ctx)
     verdict, decision = decide(probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops)
@@ -319,21 +319,21 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
-    return Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence, decision=decision,
+    return Diagnosis(log=log, verdict=verdict, windows=windows, share_fit=share_fit, decision=decision,
                      timeline=timeline, **facts_kw)
 
 
 def _analyzer_context(flight: Flight, t_start: np.ndarray, t_end: np.ndarray, probs: np.ndarray, onset: Any,
-                      evidence: Any, profile: Any, segments, model_sha256: str) -> Context:
+                      share_fit: Any, profile: Any, segments, model_sha256: str) -> Context:
     """What the analyzers read. After a mid-flight onset the model's votes are weighed from the
     onset on (the windows before it are the healthy airframe, and the shares are taken against
     them), unless the commands show a drift: the onset run is the stretch the model itself picked
     as most damaged, so without a step in the commands its votes alone would count the selection
     as evidence (real healthy Erle 11-2-2015_112 was called damaged that way)."""
     order = np.argsort(t_start, kind="stable")
-    idx = order[onset.start_index:] if (onset is not None and evidence.drifting() is None) else order
+    idx = order[onset.start_index:] if (onset is not None and share_fit.drifting() is None) else order
     return Context(flight=flight, frame=flight.frame, n_motors=probs.shape[1] - 1, probs=probs[idx],
-                   covered_s=covered_seconds(t_start[idx], t_end[idx]), segments=segments, evidence=evidence,
+                   covered_s=covered_seconds(t_start[idx], t_end[idx]), segments=segments, share_fit=share_fit,
                    profile=profile, model_sha256=model_sha256)
 
 
@@ -352,18 +352,18 @@ def window_effectiveness(flight, windows: Any):
                                   savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
 
 
-def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None,
+def flight_share_fit(flight, windows: Any, probs: np.ndarray, profile: Any = None,
                     since: Optional[float] = None, effectiveness: Any = None):
-    """Per-motor evidence of one flight (a Flight or the diagnosis's PreparedFlight) from the
+    """The share fit of one flight (a Flight or the diagnosis's PreparedFlight) from the
     windows' segments, the model's window probabilities and the profile's baseline, if any;
     ``since`` = a mid-flight damage onset; ``effectiveness`` = its estimate when already made
     (:func:`window_effectiveness`)."""
-    from .analyzers.share_fit import build_evidence
+    from .analyzers.share_fit import fit_shares
 
     prepared = PreparedFlight.of(flight)
     eff = effectiveness if effectiveness is not None else window_effectiveness(prepared, windows)
     baseline = profile.baseline() if profile is not None else None
-    return build_evidence(windows.segments, probs, prepared.flight.frame, eff, baseline, since=since)
+    return fit_shares(windows.segments, probs, prepared.flight.frame, eff, baseline, since=since)
 
 
 def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = True) -> Diagnosis:

@@ -1,7 +1,7 @@
 """The command-share analyzer's estimation: each motor's share of the thrust commands against the
 healthy baseline, and that baseline fitted from calibration flights.
 
-Per flight (:func:`build_evidence`), inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
+Per flight (:func:`fit_shares`), inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
 :attr:`flightlog_fd.windows.Windows.segments`), the model's window probabilities, the rotor
 layout, and optionally the calibration profile's healthy baseline.
 
@@ -78,8 +78,8 @@ class Baseline:
 
 
 @dataclass
-class MotorEvidence:
-    """One motor's figures (the report's per-motor panel)."""
+class MotorShares:
+    """One motor's command share against its baseline, with its effectiveness and model vote."""
 
     motor: int
     position: Optional[str]
@@ -103,10 +103,10 @@ class MotorEvidence:
 
 
 @dataclass
-class FlightEvidence:
-    """All per-motor evidence of one flight and what it says."""
+class ShareFit:
+    """The share fit of one flight: every motor's figures and the baseline they are taken against."""
 
-    motors: list[MotorEvidence]
+    motors: list[MotorShares]
     baseline: str  # "profile" | "before onset" | "neighbours"
     throttle: float
     effectiveness: Optional[EffectivenessEstimate] = None
@@ -156,10 +156,10 @@ def shares_of(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
     return (mean / throttle if throttle > 0 else np.full(len(mean), np.nan)), throttle
 
 
-def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
+def fit_shares(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
                    effectiveness: Optional[EffectivenessEstimate] = None,
-                   baseline: Optional[Baseline] = None, since: Optional[float] = None) -> FlightEvidence:
-    """Per-motor evidence (see module docstring). ``probs`` (N, 5) window probabilities.
+                   baseline: Optional[Baseline] = None, since: Optional[float] = None) -> ShareFit:
+    """The share fit of one flight (module docstring). ``probs`` (N, n+1) window probabilities.
 
     ``since``: the model's damage onset (s, log clock) when it lies mid-flight: the shares are then
     taken from the onset on, and without a profile the flight before the onset (at least
@@ -194,12 +194,12 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         if effectiveness is not None and len(effectiveness.motors) == n:
             me = effectiveness.motors[i]
             eff, ci = me.effectiveness, me.ci
-        motors.append(MotorEvidence(
+        motors.append(MotorShares(
             motor=i + 1, position=frame.position(i + 1) if frame is not None else None,
             command_share=float(share[i]), command_share_baseline=None if base is None else float(base[i]),
             command_change=float(change[i]), effectiveness=eff, effectiveness_ci=ci, model_vote=float(votes[i])))
     # why the effectiveness fit says nothing is the effectiveness analyzer's to report
-    return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, effectiveness=effectiveness,
+    return ShareFit(motors=motors, baseline=kind, throttle=throttle, effectiveness=effectiveness,
                           baseline_=baseline, onset_drift=drift)
 
 
