@@ -38,6 +38,8 @@ from typing import Any, Optional
 import numpy as np
 
 from .analyzers import Context, run_analyzers
+from .analyzers.effectiveness_fit import estimate_effectiveness
+from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .decision import Decision, Verdict, decide, not_diagnosable
 from .errors import FlightLogError, ModelError
@@ -290,7 +292,8 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
         with ThreadPoolExecutor(max_workers=1) as pool:
             model_run = pool.submit(lambda: model.predict_proba(model.standardise(win.X)))
             try:
-                eff = window_effectiveness(prepared, win)
+                eff = estimate_effectiveness(prepared, rate_hz=spec.rate_hz, savgol_window_s=spec.savgol_window_s,
+                                             segments=win.segments)
             finally:
                 probs = np.asarray(model_run.result(), dtype=np.float64)
     except FlightLogError as e:
@@ -301,8 +304,8 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     phases = window_phases(prepared, t_start, t_end)
     timeline = build_timeline(t_start, t_end, probs)
     onset = timeline.onset
-    share_fit = flight_share_fit(prepared, win, probs, profile, since=onset.t_start if onset else None,
-                               effectiveness=eff)
+    baseline = profile.baseline() if profile is not None else None
+    share_fit = fit_shares(win.segments, probs, flight.frame, eff, baseline, since=onset.t_start if onset else None)
     results = []
     if timeline.shortfall is None:
         ctx = _analyzer_context(flight, t_start, t_end, probs, onset, share_fit, profile, win.segments,
@@ -335,35 +338,6 @@ def _analyzer_context(flight: Flight, t_start: np.ndarray, t_end: np.ndarray, pr
     return Context(flight=flight, frame=flight.frame, n_motors=probs.shape[1] - 1, probs=probs[idx],
                    covered_s=covered_seconds(t_start[idx], t_end[idx]), segments=segments, share_fit=share_fit,
                    profile=profile, model_sha256=model_sha256)
-
-
-def window_effectiveness(flight, windows: Any):
-    """The effectiveness estimate of one flight (a Flight or PreparedFlight) on the windows' own
-    resampled segments (the flight is resampled once)."""
-    from .analyzers.effectiveness_fit import EffectivenessEstimate, estimate_effectiveness
-
-    if windows.spec.n_motors != 4:
-        # In closed loop an n-rotor's commands follow the allocator's four directions (roll, pitch,
-        # yaw, thrust): on simulated hexa and octo flights singular values 5..n of the command
-        # matrix are 0, so each rotor's effectiveness cannot be told from the others'.
-        return EffectivenessEstimate(reason=f"not identifiable with {windows.spec.n_motors} rotors: the "
-                                            f"controller drives them along four directions only")
-    return estimate_effectiveness(PreparedFlight.of(flight), rate_hz=windows.spec.rate_hz,
-                                  savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
-
-
-def flight_share_fit(flight, windows: Any, probs: np.ndarray, profile: Any = None,
-                    since: Optional[float] = None, effectiveness: Any = None):
-    """The share fit of one flight (a Flight or the diagnosis's PreparedFlight) from the
-    windows' segments, the model's window probabilities and the profile's baseline, if any;
-    ``since`` = a mid-flight damage onset; ``effectiveness`` = its estimate when already made
-    (:func:`window_effectiveness`)."""
-    from .analyzers.share_fit import fit_shares
-
-    prepared = PreparedFlight.of(flight)
-    eff = effectiveness if effectiveness is not None else window_effectiveness(prepared, windows)
-    baseline = profile.baseline() if profile is not None else None
-    return fit_shares(windows.segments, probs, prepared.flight.frame, eff, baseline, since=since)
 
 
 def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = True) -> Diagnosis:
