@@ -66,7 +66,7 @@ class LogResult:
     ``vehicle_id``/``vehicle_id_source`` come from the log (None when it carries none);
     ``utc_start`` is POSIX seconds at the log's ``t_start`` when the log has GPS time;
     ``command_share`` is each motor's mean share of the summed thrust commands while airborne
-    (1.0 each when even: the mean of the four is 1), None when the log has no usable motor outputs."""
+    (1.0 each when even: their mean is 1), None when the log has no usable motor outputs."""
 
     index: int
     path: str

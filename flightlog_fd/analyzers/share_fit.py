@@ -8,12 +8,12 @@ layout, and optionally the calibration profile's healthy baseline.
 Per motor it gives:
 
 - **command share**: the motor's mean thrust command (the NIF ``ω²`` proxy) over the airborne
-  time divided by the mean of all four (1.0 = an even share). Over a whole flight the mean
+  time divided by the mean of all motors' (1.0 = an even share). Over a whole flight the mean
   angular acceleration is ~0, so the mean commands satisfy the same moment balance as a steady
   hover: the airborne mean is the trim pattern even when the flight never hovers.
 - **command change**: with a profile, the share minus the profile's healthy baseline at this
   flight's throttle (:meth:`Baseline.share_at`); without one, the share minus the mean of the
-  other three ("against its neighbours").
+  others ("against its neighbours").
 - **effectiveness**: :mod:`flightlog_fd.analyzers.effectiveness_fit` (relative angular acceleration per unit
   command, with its bootstrap interval; ``informative`` says whether the flight manoeuvred enough).
 - **model vote**: the mean probability the model gave to "this motor's propeller is damaged".
@@ -112,7 +112,7 @@ class ShareFit:
     effectiveness: Optional[EffectivenessEstimate] = None
     #: The baseline the changes are taken against (profile or before onset), None for neighbours.
     baseline_: Optional[Baseline] = None
-    #: (4,) after a mid-flight onset: each share's change from the first to the last third of it.
+    #: (n,) after a mid-flight onset: each share's change from the first to the last third of it.
     onset_drift: Optional[np.ndarray] = None
 
     def drifting(self) -> Optional[int]:
@@ -219,7 +219,7 @@ def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
 # ----------------------------------------------------------------------------- the baseline from calibration flights
 
 def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
-    """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
+    """The thrust proxy (samples, n) of every gap-free airborne segment on the feature grid: what the
     airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
     from ..hover import motor_count
     from ..prepared import resample
@@ -230,8 +230,8 @@ def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
 def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None,
                       per_flight: Optional[list[list[np.ndarray]]] = None) -> dict:
     """The healthy airframe's command shares against throttle (module docstring), as the
-    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds,
-    and with two or more flights ``spread`` (4,): each motor's flight-to-flight standard deviation
+    profile's ``baseline_`` entry: share (n,), slope (n,), throttle_ref, throttle_range, seconds,
+    and with two or more flights ``spread`` (n,): each motor's flight-to-flight standard deviation
     of its share, and ``throttle_spread``: the relative one of the throttle (the decision model's
     drift noise; ``per_flight`` = each flight's thrust blocks)."""
     rate = DEFAULT_RATE_HZ

@@ -12,8 +12,8 @@ Inputs: a :class:`~flightlog_fd.diagnose.Diagnosis` (:meth:`MotorView.of`) or a 
 document of schema 3 or later (:meth:`MotorView.from_doc`, for the web pages, whose stored
 reports may predate this view). Outputs: :meth:`MotorView.table` (header and cells, for the
 terminal, the HTML report and the web page), :meth:`MotorView.to_json` (the JSON report's
-``motors`` and ``motor_columns``). Why: the terminal, HTML, CSV, JSON and web pages used to draw
-their own copies of this table, and the copies broke on hexa and octo frames.
+``motors`` and ``motor_columns``). Why: one table for every output, so they show the same
+figures under the same names for any rotor count.
 """
 from __future__ import annotations
 
