@@ -69,7 +69,7 @@ def main(argv=None) -> None:
 
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
     from flightlog_fd.errors import FlightLogError
-    from flightlog_fd.profile import calibrate_profile
+    from flightlog_fd.calibration import calibrate_profile
     from flightlog_fd.windows import FeatureSpec, make_windows
     from flightlog_fd.model import FaultModel, shipped_model_path
 

@@ -202,7 +202,7 @@ def spread_figures() -> None:
 
 def sim_part(args) -> None:
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
-    from flightlog_fd.profile import calibrate_profile
+    from flightlog_fd.calibration import calibrate_profile
     from flightlog_fd.sim.airframe import random_airframes
     from flightlog_fd.sim.api import simulate_flights
     from flightlog_fd.sim.damage import Damage

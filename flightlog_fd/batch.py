@@ -28,7 +28,7 @@ only the client ever writes the database, never a Dask worker.
 
 Besides the Diagnosis, each worker returns what the results store needs from the Flight, which is
 not sent back unless ``keep_flight``: the log's sha256, the vehicle identity, the UTC start time
-and each motor's share of the summed thrust commands while airborne (:func:`command_shares`).
+and each motor's share of the summed thrust commands while airborne (:func:`airborne_shares`).
 
 Measured (``benchmarks/bench_batch.py``, 94 diagnosable logs: sample_logs + ../shared, 2 shared
 cores, load average ~4 from other users): ``--jobs 2`` 13.0 s = 7.3 logs/s; ``--scheduler local``
@@ -66,7 +66,7 @@ class LogResult:
     ``vehicle_id``/``vehicle_id_source`` come from the log (None when it carries none);
     ``utc_start`` is POSIX seconds at the log's ``t_start`` when the log has GPS time;
     ``command_share`` is each motor's mean share of the summed thrust commands while airborne
-    (1.0 each when even: the mean of the four is 1), None when the log has no usable motor outputs."""
+    (1.0 each when even: their mean is 1), None when the log has no usable motor outputs."""
 
     index: int
     path: str
@@ -88,9 +88,11 @@ def error_result(index: int, path: str, reason: str) -> LogResult:
     return LogResult(index=index, path=path, diagnosis=_error_diagnosis(path, reason))
 
 
-def command_shares(flight) -> Optional[list[float]]:
-    """Each motor's mean thrust command (thrust proxy) while airborne divided by the mean of the
-    four (1 = an even share), the convention of :class:`flightlog_fd.analyzers.share_fit.MotorEvidence`."""
+def airborne_shares(flight) -> Optional[list[float]]:
+    """A quadrotor's airborne command shares for the results store when the diagnosis has none:
+    each motor's mean thrust command (thrust proxy) while airborne over the mean of the four (1 =
+    an even share, as :attr:`flightlog_fd.analyzers.share_fit.MotorShares.command_share`); None
+    for other rotor counts or without usable motor outputs."""
     from .analyzers.share_fit import shares_of
     from .streams import flight_thrust_proxy
 
@@ -146,7 +148,7 @@ def diagnose_one(index: int, path, model: Any, profile: Any = None, keep_flight:
         d = diagnose_flight(flight, model, profile, keep_flight=keep_flight)
         # The per-motor evidence carries the command shares; measure them here only for a flight
         # that got none (not diagnosable), so the store still has a figure for it.
-        share = None if d.motors else command_shares(flight)
+        share = None if d.motors else airborne_shares(flight)
     except Exception as e:
         d = _error_diagnosis(path, f"internal error diagnosing the log: {type(e).__name__}: {str(e)[:200]}")
         share = None

@@ -33,7 +33,7 @@ from .timeline import MIN_WINDOWS  # noqa: E402
 
 #: ArduPilot quad layouts diagnosed as quads: motors 1-4 where quad-X's (X, V, H) or quad-+'s sit. The
 #: other quad tables (BF_X, DJI_X, CW_X, V-/A-tail, Y4...) are placed for `fdlog info` and the
-#: stopped-motor finding only, as before they were placed at all.
+#: stopped-motor finding only.
 ARDUPILOT_QUAD_LAYOUTS = ("ArduPilot QUAD/X", "ArduPilot QUAD/PLUS", "ArduPilot QUAD/V", "ArduPilot QUAD/H")
 #: Vehicle types whose placed n-rotor frame gets the stopped-motor-only message (readers' vehicle_type).
 MULTIROTOR_TYPES = ("quadrotor", "unknown", "multirotor", "hexarotor", "octorotor", "dodecarotor", "decarotor")

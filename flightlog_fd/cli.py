@@ -214,7 +214,7 @@ def history(
     as_json: bool = typer.Option(False, "--json", help="Print JSON for machines instead of text."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing --html file."),
 ) -> None:
-    """Per airframe: its flights in time order with verdicts and each motor's figures; flags a motor drifting away from the other three.
+    """Per airframe: its flights in time order with verdicts and each motor's figures; flags a motor drifting away from the others.
 
     Exit code: 0 nothing flagged, 1 a drifting motor or a damaged verdict in an airframe's latest flight, 2 bad input.
     """

@@ -12,7 +12,7 @@ Steps (pure: nothing is printed, nothing imports torch):
    standardised with the model's statistics, then class probabilities from the ONNX model.
 4. A flight phase per window (:mod:`flightlog_fd.phases`) and the model's timeline: smoothed
    labels and a confirmed mid-flight damage onset (:mod:`flightlog_fd.timeline`).
-5. Per-motor evidence (:mod:`flightlog_fd.analyzers.share_fit`: command shares against the
+5. The share fit (:mod:`flightlog_fd.analyzers.share_fit`: command shares against the
    profile's baseline, the flight before an onset or an even split;
    :mod:`flightlog_fd.analyzers.effectiveness_fit`) from
    the same resampled segments as the windows, and every registered analyzer's findings
@@ -38,6 +38,8 @@ from typing import Any, Optional
 import numpy as np
 
 from .analyzers import REGISTRY, Context, run_analyzers
+from .analyzers.effectiveness_fit import estimate_effectiveness
+from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
 from .decision import STATUS_RANK, Decision, Verdict, decide, log_verdict, not_diagnosable, worst_flight
@@ -49,6 +51,7 @@ from .prepared import PreparedFlight
 from .stopped import diagnose_stopped
 from .timeline import Timeline, build as build_timeline, covered_seconds
 from .util import blas_threads
+from .windows import FeatureSpec, make_windows
 
 EXIT_HEALTHY = 0
 EXIT_DAMAGED_OR_UNCERTAIN = 1
@@ -144,9 +147,9 @@ class Diagnosis:
     warnings: list[str] = field(default_factory=list)
     diagnosability_facts: dict = field(default_factory=dict)
     flight: Optional[Flight] = field(default=None, repr=False)
-    #: Per-motor evidence (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`); None when not diagnosable.
-    evidence: Any = None
-    #: Why the evidence gave its verdict (per-motor severity, LLR by source, weight); None when it
+    #: The per-motor share fit (:class:`flightlog_fd.analyzers.share_fit.ShareFit`); None when not diagnosable.
+    share_fit: Any = None
+    #: Why the analyzers' evidence gave its verdict (per-motor severity, LLR by source, weight); None when it
     #: was not weighed.
     decision: Optional[Decision] = None
     #: The model's windows over time (smoothed labels, onset); None when no window was judged.
@@ -161,8 +164,8 @@ class Diagnosis:
 
     @property
     def motors(self) -> list:
-        """Per-motor figures (:class:`flightlog_fd.analyzers.share_fit.MotorEvidence`), [] without evidence."""
-        return list(self.evidence.motors) if self.evidence is not None else []
+        """Per-motor figures (:class:`flightlog_fd.analyzers.share_fit.MotorShares`), [] without a share fit."""
+        return list(self.share_fit.motors) if self.share_fit is not None else []
 
     @property
     def exit_code(self) -> int:
@@ -291,8 +294,6 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
 
 def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool,
                   parts: Optional[list] = None) -> Diagnosis:
-    from .windows import FeatureSpec, make_windows
-
     from .model import model_for_flight
 
     model = model_for_flight(model, flight)  # the shipped quad model -> the one for the flight's rotor count
@@ -329,7 +330,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
             spec = FeatureSpec.from_dict(model.feature_spec)
         except ValueError as e:
             raise ModelError(getattr(model, "path", None), f"bad feature spec in the model: {e}") from None
-        prepared = PreparedFlight(flight)  # built once: the windows, phases and evidence share it
+        prepared = PreparedFlight(flight)  # built once: the windows, phases and share fit use it
         win = make_windows(prepared, spec)
         if len(win.t_start) == 0:
             return cannot_judge(win.reason or "no complete window of airborne data")
@@ -338,7 +339,8 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
         with ThreadPoolExecutor(max_workers=1) as pool:
             model_run = pool.submit(lambda: model.predict_proba(model.standardise(win.X)))
             try:
-                eff = window_effectiveness(prepared, win)
+                eff = estimate_effectiveness(prepared, rate_hz=spec.rate_hz, savgol_window_s=spec.savgol_window_s,
+                                             segments=win.segments)
             finally:
                 probs = np.asarray(model_run.result(), dtype=np.float64)
     except FlightLogError as e:
@@ -349,11 +351,11 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     phases = window_phases(prepared, t_start, t_end)
     timeline = build_timeline(t_start, t_end, probs)
     onset = timeline.onset
-    evidence = flight_evidence(prepared, win, probs, profile, since=onset.t_start if onset else None,
-                               effectiveness=eff)
+    baseline = profile.baseline() if profile is not None else None
+    share_fit = fit_shares(win.segments, probs, flight.frame, eff, baseline, since=onset.t_start if onset else None)
     results = []
     if timeline.shortfall is None:
-        ctx = _analyzer_context(flight, t_start, t_end, probs, onset, evidence, profile, win.segments,
+        ctx = _analyzer_context(flight, t_start, t_end, probs, onset, share_fit, profile, win.segments,
                                 str(getattr(model, "sha256", "") or ""))
         results = run_analyzers(ctx)
     verdict, decision = decide(probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops)
@@ -367,7 +369,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     if manoeuvre_share > MANOEUVRE_WARNING_SHARE:
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
-    whole = Diagnosis(log=log, verdict=verdict, windows=windows, evidence=evidence, decision=decision,
+    whole = Diagnosis(log=log, verdict=verdict, windows=windows, share_fit=share_fit, decision=decision,
                       timeline=timeline, **facts_kw)
     if parts:
         whole = _per_flight(whole, parts, prepared, win, probs, timeline, profile, model, keep_flight)
@@ -403,20 +405,21 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
         here = onset if (onset is not None and a <= onset.t_start <= b) else None
         if here is None and tl.onset is not None:  # no onset searched inside one flight
             tl.run = replace(tl.run, confirmed=False)
-        sub_win = replace(win, segments=segs)
-        eff = window_effectiveness(prepared, sub_win)
-        ev = flight_evidence(prepared, sub_win, probs[m], profile, since=here.t_start if here else None,
-                             effectiveness=eff)
+        spec = FeatureSpec.from_dict(model.feature_spec)
+        eff = estimate_effectiveness(prepared, rate_hz=spec.rate_hz, savgol_window_s=spec.savgol_window_s,
+                                     segments=segs)
+        ev = fit_shares(segs, probs[m], part.frame, eff, profile.baseline() if profile is not None else None,
+                        since=here.t_start if here else None)
         ts, te, pm = t_start[m], t_end[m], probs[m]
         idx = np.argsort(ts, kind="stable")
         if here is not None and ev.drifting() is None:
             idx = idx[int(np.searchsorted(np.sort(ts), here.t_start)):]
         ctx = Context(flight=part, frame=part.frame, n_motors=pm.shape[1] - 1, probs=pm[idx],
-                      covered_s=covered_seconds(ts[idx], te[idx]), segments=segs, evidence=ev,
+                      covered_s=covered_seconds(ts[idx], te[idx]), segments=segs, share_fit=ev,
                       profile=profile, model_sha256=sha)
         v, dec = decide(pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops)
         sub_windows = [w for w in whole.windows if a - 1e-6 <= w.t_start and w.t_end <= b + 1e-6]
-        subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, evidence=ev, decision=dec,
+        subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, share_fit=ev, decision=dec,
                               timeline=tl, part=part.part, **facts_kw))
     for d in subs:
         d.verdict = capped_by_log(d.verdict, whole.verdict, whole.decision)
@@ -474,46 +477,17 @@ def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, lo
 
 
 def _analyzer_context(flight: Flight, t_start: np.ndarray, t_end: np.ndarray, probs: np.ndarray, onset: Any,
-                      evidence: Any, profile: Any, segments, model_sha256: str) -> Context:
+                      share_fit: Any, profile: Any, segments, model_sha256: str) -> Context:
     """What the analyzers read. After a mid-flight onset the model's votes are weighed from the
     onset on (the windows before it are the healthy airframe, and the shares are taken against
     them), unless the commands show a drift: the onset run is the stretch the model itself picked
     as most damaged, so without a step in the commands its votes alone would count the selection
     as evidence (real healthy Erle 11-2-2015_112 was called damaged that way)."""
     order = np.argsort(t_start, kind="stable")
-    idx = order[onset.start_index:] if (onset is not None and evidence.drifting() is None) else order
+    idx = order[onset.start_index:] if (onset is not None and share_fit.drifting() is None) else order
     return Context(flight=flight, frame=flight.frame, n_motors=probs.shape[1] - 1, probs=probs[idx],
-                   covered_s=covered_seconds(t_start[idx], t_end[idx]), segments=segments, evidence=evidence,
+                   covered_s=covered_seconds(t_start[idx], t_end[idx]), segments=segments, share_fit=share_fit,
                    profile=profile, model_sha256=model_sha256)
-
-
-def window_effectiveness(flight, windows: Any):
-    """The effectiveness estimate of one flight (a Flight or PreparedFlight) on the windows' own
-    resampled segments (the flight is resampled once)."""
-    from .analyzers.effectiveness_fit import EffectivenessEstimate, estimate_effectiveness
-
-    if windows.spec.n_motors != 4:
-        # In closed loop an n-rotor's commands follow the allocator's four directions (roll, pitch,
-        # yaw, thrust): on simulated hexa and octo flights singular values 5..n of the command
-        # matrix are 0, so each rotor's effectiveness cannot be told from the others'.
-        return EffectivenessEstimate(reason=f"not identifiable with {windows.spec.n_motors} rotors: the "
-                                            f"controller drives them along four directions only")
-    return estimate_effectiveness(PreparedFlight.of(flight), rate_hz=windows.spec.rate_hz,
-                                  savgol_window_s=windows.spec.savgol_window_s, segments=windows.segments)
-
-
-def flight_evidence(flight, windows: Any, probs: np.ndarray, profile: Any = None,
-                    since: Optional[float] = None, effectiveness: Any = None):
-    """Per-motor evidence of one flight (a Flight or the diagnosis's PreparedFlight) from the
-    windows' segments, the model's window probabilities and the profile's baseline, if any;
-    ``since`` = a mid-flight damage onset; ``effectiveness`` = its estimate when already made
-    (:func:`window_effectiveness`)."""
-    from .analyzers.share_fit import build_evidence
-
-    prepared = PreparedFlight.of(flight)
-    eff = effectiveness if effectiveness is not None else window_effectiveness(prepared, windows)
-    baseline = profile.baseline() if profile is not None else None
-    return build_evidence(windows.segments, probs, prepared.flight.frame, eff, baseline, since=since)
 
 
 def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = True) -> Diagnosis:

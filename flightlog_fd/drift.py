@@ -1,15 +1,15 @@
-"""The drift rule: a motor whose figure moves away from the other three across an airframe's flights.
+"""The drift rule: a motor whose figure moves away from the other motors across an airframe's flights.
 
 **Drift rule** (:func:`find_drift`), per airframe and figure, over its flights in time order (UTC
 start; flights without GPS time follow, ordered by file name; one row per log, the latest
-diagnosis): for each flight where all four motors have the figure, motor k's robust z-score
-against the other three is ``z = (x_k - median(others)) / max(1.4826 * MAD(others), FLOOR)``.
+diagnosis): for each flight where every motor has the figure, motor k's robust z-score
+against the others is ``z = (x_k - median(others)) / max(1.4826 * MAD(others), FLOOR)``.
 A least-squares line of z over the flight index (0, 1, 2...) flags motor k when, with at least
 ``MIN_FLIGHTS`` flights, its slope in the figure's damage direction (model vote up, command share
 up: a worn propeller needs more command, effectiveness down) is at least ``DRIFT_SLOPE_MIN`` z
 per flight **and** the latest flight's z in that direction is at least ``DRIFT_Z_MIN``. A steady
 offset (a motor that always needs 2 % more) has no slope and is not flagged. The ``unknown``
-group (logs without identity) is not one airframe: no drift rule there. The floors keep three
+group (logs without identity) is not one airframe: no drift rule there. The floors keep
 nearly equal neighbours from turning noise into large z: ``FIGURE_FLOORS`` (command share 0.005,
 i.e. half a percent of the total; model vote 0.05; effectiveness 0.02).
 Not yet measured on a real fleet (no multi-flight airframe history in ../shared): the constants
@@ -56,7 +56,7 @@ class FlightRecord:
 
 
 def robust_z(values: list[float], k: int, floor: float) -> float:
-    """Motor k's (0-based) z-score against the median and MAD of the other three."""
+    """Motor k's (0-based) z-score against the median and MAD of the others."""
     others = sorted(v for i, v in enumerate(values) if i != k)
     med = others[len(others) // 2] if len(others) % 2 else 0.5 * (others[len(others) // 2 - 1] + others[len(others) // 2])
     dev = sorted(abs(v - med) for v in others)
@@ -74,7 +74,7 @@ def _slope(y: list[float]) -> float:
 
 @dataclass
 class Drift:
-    """A motor whose figure moves away from the other three across an airframe's flights."""
+    """A motor whose figure moves away from the others across an airframe's flights."""
 
     vehicle: str
     motor: int
@@ -84,7 +84,7 @@ class Drift:
     n_flights: int
 
     def describe(self) -> str:
-        return (f"motor {self.motor} {self.figure.replace('_', ' ')} drifts from the other three: "
+        return (f"motor {self.motor} {self.figure.replace('_', ' ')} drifts from the others: "
                 f"z {self.slope:+.2f} per flight over {self.n_flights} flights, latest z {self.latest_z:+.1f}")
 
 

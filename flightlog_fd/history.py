@@ -110,7 +110,7 @@ def render_html(summary: dict) -> str:
            "<style>body{font-family:sans-serif;margin:2em;max-width:1000px}table{border-collapse:collapse}"
            "td,th{border:1px solid #ccc;padding:2px 6px;font-size:13px}.flag{color:#b00;font-weight:bold}</style>",
            "</head><body><h1>fdlog fleet history</h1>",
-           f"<p>Drift rule: at least {MIN_FLIGHTS} flights; robust z of a motor's figure against the other three, "
+           f"<p>Drift rule: at least {MIN_FLIGHTS} flights; robust z of a motor's figure against the others, "
            f"least-squares slope &ge; {DRIFT_SLOPE_MIN} z per flight in the damage direction and latest z "
            f"&ge; {DRIFT_Z_MIN}.</p>"]
     for v in summary["vehicles"]:

@@ -67,15 +67,15 @@ MIN_RAW_MOTOR_SAMPLES = 5
 class HoverSegment:
     """One steady hover: [t0, t1] on the log clock, mean motor commands (as logged, 0..1), the
     mean thrust proxy and speed proxy (sqrt of thrust) per motor, and ``throttle`` = mean thrust
-    proxy over the four motors (thrust units, comparable with PX4 MPC_THR_HOVER / ArduPilot
+    proxy over the motors (thrust units, comparable with PX4 MPC_THR_HOVER / ArduPilot
     MOT_THST_HOVER)."""
 
     t0: float
     t1: float
-    mean_motors: np.ndarray  # (4,)
+    mean_motors: np.ndarray  # (n,)
     throttle: float
-    mean_thrust: np.ndarray  # (4,)
-    mean_speed: np.ndarray  # (4,)
+    mean_thrust: np.ndarray  # (n,)
+    mean_speed: np.ndarray  # (n,)
 
     @property
     def duration_s(self) -> float:
@@ -115,7 +115,7 @@ def _steady_mask(flight, t: np.ndarray, rates: np.ndarray, ang_acc: np.ndarray, 
 
 def motor_count(flight: Flight) -> int:
     """Motors the hover and calibration code read: the placed frame's rotor count when it is more
-    than 4 (hexa, octo), else 4 as before."""
+    than 4 (hexa, octo), else 4."""
     f = flight.frame
     return f.rotor_count if f is not None and not f.unplaced and f.rotor_count > 4 else 4
 

@@ -3,7 +3,7 @@
 The file (written by ``training/export.py``) holds one graph:
 
     input  "windows"        (N, C, T) float32, ALREADY standardised per channel
-    output "probabilities"  (N, 5)    float32, softmax over CLASSES, rows sum to 1
+    output "probabilities"  (N, n+1)  float32, softmax over the classes (healthy, motor 1..n), rows sum to 1
 
 and one ONNX metadata_props entry, key METADATA_KEY ("flightlog_fd"), whose value is a JSON
 object:

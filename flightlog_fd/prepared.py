@@ -2,7 +2,7 @@
 effectiveness fit share, derived once.
 
 What: :class:`PreparedFlight` wraps a :class:`~flightlog_fd.flight.Flight` and memoises the
-work every consumer used to redo on its own: the cleaned streams (rates, motors, attitude
+work its consumers share: the cleaned streams (rates, motors, attitude
 unwrapped, velocity), the thrust-proxy stream (:func:`flightlog_fd.streams.flight_thrust_proxy`),
 the airborne :class:`~flightlog_fd.streams.Segment` s on a model grid (one list per resampling
 setting), the gyro low-pass cutoff and the effectiveness fit's fine-grid commands (keyed by the

@@ -51,7 +51,7 @@ Pipeline (every step documented where it is implemented):
    back through the curve (sources in :func:`thrust_proxy`). ``FeatureSpec.speed_source``
    chooses ``"command"`` (default: every log has it, and the simulator makes the same thing, so
    training and diagnosis agree), ``"esc_rpm"`` or ``"auto"`` (ESC rpm^2 / max rpm^2 where the log
-   has rpm at >= rate_hz / 2 for all four motors). :attr:`flightlog_fd.windows.Windows.speed_source` says which was used.
+   has rpm at >= rate_hz / 2 for every motor). :attr:`flightlog_fd.windows.Windows.speed_source` says which was used.
 
 Also here: the autopilot's gyro low-pass cutoff from the log's parameters (:func:`gyro_cutoff_hz`),
 which the effectiveness fit applies to the commands.
@@ -152,10 +152,10 @@ def thrust_proxy(motors: np.ndarray, motor_kind: str, thrust_curve: Optional[flo
       ``u = spin_min + (spin_max - spin_min) * x`` where x solves ``e x^2 + (1-e) x = thrust``
       (e = MOT_THST_EXPO), so ``x = (u - spin_min) / (spin_max - spin_min)`` clipped to 0..1 and
       ``thrust = e x^2 + (1 - e) x``. ArduPilot's battery-voltage scaling (lift_max) is not undone:
-      it scales all four motors alike, which the scale-free transform cancels.
+      it scales all motors alike, which the scale-free transform cancels.
     ``thrust_curve`` None means 0 for PX4 (its default) and 0.65 for ArduPilot (its default);
     ArduCopter <= 3.3 logs (older ``MOT_TCRV_*`` curve, no MOT_THST_EXPO) get these defaults too,
-    an approximation of their curve that is the same for all four motors.
+    an approximation of their curve that is the same for all motors.
     """
     u = np.asarray(motors, dtype=np.float64)
     if motor_kind == "thrust":

@@ -43,7 +43,7 @@ HEALTHY = 0
 UNCERTAIN_LABEL = -1
 
 #: Mixed into every window's probabilities so that no single window can dominate the onset
-#: likelihood: with 0.1 (5 classes) a window's log-ratio is bounded by log(0.92 / 0.02) ~ 3.8.
+#: likelihood: with 0.1 (a quad's 5 classes) a window's log-ratio is bounded by log(0.92 / 0.02) ~ 3.8.
 PROB_FLOOR_MIX = 0.10
 #: Centred smoothing span in seconds: long enough to outvote a manoeuvre's few wrong windows,
 #: short enough (below MIN_RUN_S) that real onsets still show within a few seconds.

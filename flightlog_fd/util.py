@@ -34,7 +34,9 @@ _BLAS_CONTROLLER = None
 def blas_threads(n: int):
     """A context that runs NumPy/SciPy's BLAS with at most ``n`` threads (threadpoolctl), or does
     nothing when threadpoolctl is not installed. The controller is made once per process, on
-    first use (when numpy and scipy's BLAS libraries are loaded)."""
+    first use, after loading scipy.linalg: it limits only the BLAS libraries loaded when it is
+    made, and a first diagnosis that ends before scipy's BLAS loads (a log that cannot be judged)
+    would otherwise leave that BLAS unlimited for the rest of the process."""
     global _BLAS_CONTROLLER
     import contextlib
 
@@ -43,5 +45,7 @@ def blas_threads(n: int):
     except ImportError:  # pragma: no cover - threadpoolctl is a dependency
         return contextlib.nullcontext()
     if _BLAS_CONTROLLER is None:
+        import scipy.linalg  # noqa: F401  (loads scipy's BLAS before the controller looks)
+
         _BLAS_CONTROLLER = ThreadpoolController()
     return _BLAS_CONTROLLER.limit(limits=n, user_api="blas")

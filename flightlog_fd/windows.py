@@ -6,7 +6,7 @@ are documented in :mod:`flightlog_fd.streams`). Then:
 
 1. **Scale-free transform** (``FeatureSpec.transform == "scale_free"``, the default) so that a
    30 g and a 5 kg quadrotor look alike: the motor channels are divided by the window's mean
-   over all four motors and all samples (each becomes a thrust share ~1; the damaged motor's
+   over all motors and all samples (each becomes a thrust share ~1; the damaged motor's
    share is > 1), and the angular accelerations (CF: the angular rates) by a per-flight robust
    scale, 1.4826 x MAD over all the flight's airborne grid samples of that axis, floored at
    ``ANG_ACC_SCALE_FLOOR`` (``RATE_SCALE_FLOOR``) so that a near-noiseless simulated hover does

@@ -21,3 +21,18 @@ def shared_path(*parts: str) -> Path:
 def shared():
     """Callable fixture: ``shared('real_logs', 'px4', 'sample.ulg')``."""
     return shared_path
+
+
+@pytest.fixture(scope="module")
+def postgres():
+    """A throw-away PostgreSQL server for one test module (serve_helpers.Postgres); skips without
+    psycopg or a server binary."""
+    pytest.importorskip("psycopg")
+    from serve_helpers import Postgres
+
+    try:
+        pg = Postgres()
+    except (FileNotFoundError, RuntimeError) as e:
+        pytest.skip(f"no PostgreSQL server: {e}")
+    yield pg
+    pg.stop()

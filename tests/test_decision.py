@@ -12,7 +12,7 @@ from flightlog_fd.analyzers import AnalyzerResult, Context, Finding, run_analyze
 from flightlog_fd.analyzers import command_shares as CS
 from flightlog_fd.analyzers.effectiveness import effectiveness_llr
 from flightlog_fd.analyzers.model_votes import model_llr
-from flightlog_fd.analyzers.share_fit import Baseline, FlightEvidence, MotorEvidence
+from flightlog_fd.analyzers.share_fit import Baseline, ShareFit, MotorShares
 from flightlog_fd.flight import Frame
 from flightlog_fd.timeline import DamageRun, Timeline
 
@@ -98,12 +98,12 @@ def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None)
     analyzers (the flight's throttle is ``ratio`` times the profile's)."""
     shares = np.asarray(shares, float)
     b = None if base is None else base / base.mean()
-    motors = [MotorEvidence(k + 1, Frame.quad_x().position(k + 1), float(shares[k]),
+    motors = [MotorShares(k + 1, Frame.quad_x().position(k + 1), float(shares[k]),
                             None if b is None else float(b[k]), 0.0, None, None, 0.0) for k in range(4)]
     baseline = None if b is None else Baseline(share=b, slope=np.zeros(4), throttle_ref=0.5)
-    ev = FlightEvidence(motors=motors, baseline=kind, throttle=0.5 * ratio, baseline_=baseline)
+    ev = ShareFit(motors=motors, baseline=kind, throttle=0.5 * ratio, baseline_=baseline)
     ctx = Context(flight=SimpleNamespace(motors=[1]), frame=Frame.quad_x(), n_motors=4, probs=probs,
-                  covered_s=60.0, evidence=ev)
+                  covered_s=60.0, share_fit=ev)
     tl = Timeline(n_windows=len(probs), covered_s=60.0, t_first=0.0)
     if first_seen is not None:  # a confirmed run after healthy flight: a mid-flight onset
         tl.run = DamageRun(motor=1, start_index=10, n_windows=len(probs) - 10, t_start=first_seen - 1.0,

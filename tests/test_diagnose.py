@@ -283,7 +283,7 @@ def test_evidence_decides_between_model_and_airframe_trim():
     strong = diagnose_flight(synthetic_flight(damaged_motor=2, onset_s=0.0, harder=1.45), ShareModel())
     assert strong.verdict.status == "damaged" and strong.verdict.motor == 2
     assert "against its neighbours" in strong.verdict.reason
-    assert strong.motors[1].command_change > 0.3 and strong.evidence.baseline == "neighbours"
+    assert strong.motors[1].command_change > 0.3 and strong.share_fit.baseline == "neighbours"
     assert strong.decision.motors[1].eta_hat < d.decision.motors[1].eta_hat < 1.0
 
 

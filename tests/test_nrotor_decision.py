@@ -11,7 +11,7 @@ from flightlog_fd import decision as D
 from flightlog_fd.analyzers import REGISTRY, AnalyzerResult, Context, Finding, run_analyzers
 from flightlog_fd.analyzers import command_shares as CS
 from flightlog_fd.analyzers import model_votes as MV
-from flightlog_fd.analyzers.share_fit import Baseline, FlightEvidence, MotorEvidence
+from flightlog_fd.analyzers.share_fit import Baseline, ShareFit, MotorShares
 from flightlog_fd.frames import ardupilot_frame
 from flightlog_fd.timeline import Timeline
 
@@ -41,12 +41,12 @@ def _octaquad_decision(motor: int, eta: float, probs: np.ndarray):
     rows = CS._mixer_rows(OCTAQUAD, 8)
     u = CS.predicted_commands(base, rows, motor, eta, 1.0)
     shares = u / u.mean()
-    motors = [MotorEvidence(k + 1, OCTAQUAD.position(k + 1), float(shares[k]), float(base[k]), 0.0, None, None, 0.0)
+    motors = [MotorShares(k + 1, OCTAQUAD.position(k + 1), float(shares[k]), float(base[k]), 0.0, None, None, 0.0)
               for k in range(8)]
-    ev = FlightEvidence(motors=motors, baseline="profile", throttle=0.5 * u.mean() / base.mean(),
+    ev = ShareFit(motors=motors, baseline="profile", throttle=0.5 * u.mean() / base.mean(),
                         baseline_=Baseline(share=base, slope=np.zeros(8), throttle_ref=0.5))
     ctx = Context(flight=SimpleNamespace(motors=[1]), frame=OCTAQUAD, n_motors=8, probs=probs, covered_s=40.0,
-                  evidence=ev)
+                  share_fit=ev)
     results = run_analyzers(ctx)
     v, d = D.decide(8, OCTAQUAD, timeline=Timeline(n_windows=len(probs), covered_s=40.0, t_first=0.0), results=results)
     return SimpleNamespace(**vars(v), motors=d.motors), results

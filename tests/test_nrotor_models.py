@@ -88,7 +88,8 @@ def test_n_rotor_sample_diagnosis():
 
 def test_n_rotor_profile(tmp_path):
     from flightlog_fd.logs.ulog_writer import write_ulog
-    from flightlog_fd.profile import Profile, calibrate_profile
+    from flightlog_fd.calibration import calibrate_profile
+    from flightlog_fd.profile import Profile
     from flightlog_fd.sim.airframe import preset
     from flightlog_fd.sim.api import simulate_flights
 

@@ -1,4 +1,4 @@
-"""profile.py: rho estimation, Profile JSON round trip and validation, calibrate_profile."""
+"""profile.py: Profile JSON round trip and validation; calibration.py: rho estimation, calibrate_profile."""
 from __future__ import annotations
 
 import json
@@ -9,8 +9,9 @@ import pytest
 from flightlog_fd.errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
 from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.flight import Frame, Rotor
-from flightlog_fd.profile import (MIN_HOVER_S, PROFILE_SCHEMA, Profile, calibrate_profile, estimate_imbalance,
-                                  file_sha256)
+from flightlog_fd.calibration import calibrate_profile, estimate_imbalance
+from flightlog_fd.profile import PROFILE_SCHEMA, Profile
+from flightlog_fd.util import file_sha256
 from test_hover import mission_flight
 
 RHO = (1.0, 1.06, 0.96, 1.02)

@@ -257,7 +257,7 @@ def test_airframe_page_explains_a_drift_where_it_fires(tmp_path):
             assert store.complete_diagnosis(job, "test", {"sha256": f"{i:064x}", "diagnosis": doc,
                                                           "vehicle": "quad-7", "vehicle_source": "sys_uuid"})
         page = c.get("/airframe", params={"key": "quad-7"}).text
-        assert "Drift flagged" in page and "motor 2 command share drifts from the other three" in page
+        assert "Drift flagged" in page and "motor 2 command share drifts from the others" in page
         assert "least-squares line of z" in page  # the rule, explained
         fleet = c.get("/", params={"status": "drift"}).text
         assert "quad-7" in fleet

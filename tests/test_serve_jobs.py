@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("fastapi")
 
-from serve_helpers import (AUTH, RUNLOG_ENV, SAMPLES, Postgres, counting_diagnose, dying_diagnose,  # noqa: E402
+from serve_helpers import (AUTH, RUNLOG_ENV, SAMPLES, counting_diagnose, dying_diagnose,  # noqa: E402
                            serve_client, upload, wait_done)
 
 from flightlog_fd.database import DatabaseError  # noqa: E402
@@ -20,17 +20,6 @@ from flightlog_fd.report.json_report import validate  # noqa: E402
 from flightlog_fd.store import LEASE_S, MAX_ATTEMPTS, MIGRATIONS, SCHEMA_VERSION  # noqa: E402
 from flightlog_fd.store import Store as ServeStore  # noqa: E402
 from flightlog_fd.serve.worker import wait_idle  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def postgres():
-    pytest.importorskip("psycopg")
-    try:
-        pg = Postgres()
-    except (FileNotFoundError, RuntimeError) as e:
-        pytest.skip(f"no PostgreSQL server: {e}")
-    yield pg
-    pg.stop()
 
 
 @pytest.fixture(params=["sqlite", "postgres"])

@@ -147,19 +147,6 @@ def test_a_store_that_is_not_ours_or_is_newer_is_refused_in_one_line(tmp_path):
     assert not (tmp_path / "missing.sqlite").exists()
 
 
-@pytest.fixture(scope="module")
-def postgres():
-    pytest.importorskip("psycopg")
-    from serve_helpers import Postgres
-
-    try:
-        pg = Postgres()
-    except (FileNotFoundError, RuntimeError) as e:
-        pytest.skip(f"no PostgreSQL server: {e}")
-    yield pg
-    pg.stop()
-
-
 def test_diagnose_db_and_history_on_postgresql(postgres):
     url = postgres.url()
     logs = [str(SAMPLES / n) for n in ("px4_healthy.ulg", "px4_motor1_damaged.ulg")]

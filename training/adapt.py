@@ -1,7 +1,7 @@
 """Adapt the model to one airframe: the paper's adjusted simulation model + MMD domain adaptation.
 
 Inputs: a calibration :class:`~flightlog_fd.profile.Profile` (ρ, hover throttle, frame, stream
-rates, from :func:`~flightlog_fd.profile.calibrate_profile`) and the HEALTHY flights it came
+rates, from :func:`~flightlog_fd.calibration.calibrate_profile`) and the HEALTHY flights it came
 from. No damaged real flight is ever needed. :func:`flightlog_fd.calibration.calibrate` with
 ``adapt=True`` (`fdlog calibrate`) runs it.
 

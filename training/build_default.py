@@ -36,7 +36,7 @@ TRAIN_PROFILES = ("training", "px4_default", "ardupilot", "ardupilot_slow", "ard
 #: Every simulated airframe, healthy or damaged, is unbalanced the way real healthy quads are
 #: (sim/imbalance.py: CoG offset, motor tilt, coefficient spread), so "one motor runs a few %
 #: high" is not damage by itself; what marks damage is the lost effectiveness, the torque/thrust
-#: proportion and the vibration. The old weak-motor ρ imbalance is no longer drawn.
+#: proportion and the vibration.
 IMBALANCE = "random"
 ETA_RANGE = (0.55, 0.9)
 #: Share of damaged flights with mild damage (η 0.9-0.97, sim/damage.py MILD_ETA_RANGE).
@@ -227,7 +227,7 @@ def main(argv=None) -> None:
     }
     out.parent.mkdir(parents=True, exist_ok=True)
     meta = {"feature_spec": spec.to_dict(), "training": summary, "version": "default-2", "temperature": temperature}
-    if n_rot != 4:  # the quad's metadata stays as it was; n-rotor models name their rotor count
+    if n_rot != 4:  # the quad model's metadata has no rotor count (4 is the default); n-rotor models name theirs
         meta.update(version=f"default-2-{n_rot}rotor", classes=classes_for(n_rot), rotor_count=n_rot,
                     frames=list(FRAMES_BY_ROTORS[n_rot]))
     export_onnx(res.model, out, metadata=meta)

@@ -12,9 +12,9 @@ learning"):
     flatten                                                                  (N, 64 * T/16)
     dense 128 -> ReLU            <- "features": the MMD is measured here      (N, 128)
     dropout 0.1 -> dense 128 -> ReLU -> dropout 0.1                           (N, 128)
-    dense 5 -> logits (softmax is applied by the loss / the exported graph)   (N, 5)
+    dense n+1 -> logits (softmax is applied by the loss / the exported graph) (N, n+1)
 
-Classes, in order: 0 healthy, 1..4 propeller of motor 1..4 damaged.
+Classes, in order: 0 healthy, k propeller of motor k damaged (k = 1..n; n = 4 for the default quad).
 
 Limits: the window must survive ``n_blocks`` halvings (T >= 2**n_blocks, i.e. T >= 16 for the
 default 4 blocks); pooling floors odd lengths, as MaxPool1d does.
@@ -114,15 +114,15 @@ class DCNN(nn.Module):
         x = self.dropout(feats)  # (N, 128)
         x = self.act(self.dense2(x))  # (N, 128)
         x = self.dropout(x)  # (N, 128)
-        return self.head(x)  # (N, 5)
+        return self.head(x)  # (N, n_classes)
 
     def forward_with_features(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(logits, features) from one pass, so training gets the MMD features for free."""
         feats = self.features(x)  # (N, 128)
-        return self.classify(feats), feats  # (N, 5), (N, 128)
+        return self.classify(feats), feats  # (N, n_classes), (N, 128)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.classify(self.features(x))  # (N, C, T) -> (N, 5)
+        return self.classify(self.features(x))  # (N, C, T) -> (N, n_classes)
 
 
 def count_parameters(model: nn.Module) -> int:

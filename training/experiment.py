@@ -6,7 +6,7 @@ labelled real-format target set T, with the calibration protocol a pilot would f
 
 Protocol (no labelled target data is used for training or model selection):
 1. Calibrate on ONE healthy target flight (``--calib``): ρ from its hover, hover throttle, stream
-   rates (:func:`flightlog_fd.profile.calibrate_profile`).
+   rates (:func:`flightlog_fd.calibration.calibrate_profile`).
 2. S: simulated flights of the adjusted model for that airframe (:mod:`flightlog_fd.training.adapt`: random
    airframes rescaled to its hover throttle, its frame and ρ, its logging), split by flight into
    S-train and S-test; the same flights give NIF and CF windows.
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from flightlog_fd.windows import FeatureSpec
-from flightlog_fd.profile import calibrate_profile
+from flightlog_fd.calibration import calibrate_profile
 from flightlog_fd.timeline import build as build_timeline
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"

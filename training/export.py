@@ -59,7 +59,7 @@ class ProbabilityHead(nn.Module):
         self.model = model
 
     def forward(self, windows: torch.Tensor) -> torch.Tensor:
-        return torch.softmax(self.model(windows), dim=1)  # (N, C, T) -> (N, 5)
+        return torch.softmax(self.model(windows), dim=1)  # (N, C, T) -> (N, n_classes)
 
 
 def build_metadata(metadata: dict, n_classes: int) -> dict:

@@ -94,8 +94,8 @@ class AnalyzerResult:
 class Context:
     """Everything an analyzer may read about one flight, prepared once by the diagnose pipeline.
 
-    ``probs`` (N, n+1) and ``covered_s``: the windows the decision rests on; ``evidence``: the
-    command shares against their baseline (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`);
+    ``probs`` (N, n+1) and ``covered_s``: the windows the decision rests on; ``share_fit``: the
+    command shares against their baseline (:class:`flightlog_fd.analyzers.share_fit.ShareFit`);
     ``profile``: the calibration profile or None (``profile.analyzers.get(id)`` holds each
     analyzer's fitted baseline)."""
 
@@ -105,7 +105,7 @@ class Context:
     probs: np.ndarray
     covered_s: float
     segments: Sequence = ()
-    evidence: Any = None
+    share_fit: Any = None
     profile: Any = None
     model_sha256: str = ""  # the model that judged the windows (a baseline fitted with another is not used)
     #: Results analyzers share within one diagnosis (e.g. the command-share fits the throttle

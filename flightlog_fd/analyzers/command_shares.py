@@ -1,7 +1,7 @@
 """Command shares as evidence, with each rotor's severity from steady flight (mixer physics).
 
 Input: the airborne-mean thrust-command shares (mean 1) against the healthy baseline the diagnose
-pipeline prepared (:class:`flightlog_fd.analyzers.share_fit.FlightEvidence`: the profile's at this
+pipeline prepared (:class:`flightlog_fd.analyzers.share_fit.ShareFit`: the profile's at this
 throttle, the flight before a mid-flight onset, or none). Physics: one rotor at thrust
 efficiency ``eta`` (drag torque ``eta**m``) in closed loop needs commands that hold the same force
 and moments as the healthy ones; the mixer geometry (collective, roll, pitch and yaw rows)
@@ -217,19 +217,19 @@ def fits_for(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[Se
 
 
 def _fits(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[SeverityFit], np.ndarray]]:
-    ev = ctx.evidence
-    if ev is None:
+    share_fit = ctx.share_fit
+    if share_fit is None:
         return None
-    shares = np.array([m.command_share for m in ev.motors], float)
+    shares = np.array([m.command_share for m in share_fit.motors], float)
     if not np.all(np.isfinite(shares)):
         return None
     n = len(shares)
-    base = (np.ones(n) if ev.baseline == "neighbours"
-            else np.array([m.command_share_baseline for m in ev.motors], float))
-    b = ev.baseline_
+    base = (np.ones(n) if share_fit.baseline == "neighbours"
+            else np.array([m.command_share_baseline for m in share_fit.motors], float))
+    b = share_fit.baseline_
     n_flights = 1 if b is None else b.n_flights
-    sig = share_sigma(ev.baseline, None if b is None else b.spread, n, n_flights)
-    ratio = ev.throttle_ratio if with_throttle else None
+    sig = share_sigma(share_fit.baseline, None if b is None else b.spread, n, n_flights)
+    ratio = share_fit.throttle_ratio if with_throttle else None
     thr_sig = pooled_sigma(None if b is None else b.throttle_spread, n_flights, THROTTLE_DRIFT_SIGMA)
     chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig)
     return chi_h, fits, sig
@@ -246,15 +246,15 @@ class CommandShares(Analyzer):
     cap_keeps_order = True
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
-        ev = ctx.evidence
+        share_fit = ctx.share_fit
         why = self.missing(ctx.flight)
-        if why or ev is None:
+        if why or share_fit is None:
             return CommandSharesResult(self.id, abstained=why or "no command shares")
-        if ev.baseline == "neighbours" and len(ev.motors) != 4:
+        if share_fit.baseline == "neighbours" and len(share_fit.motors) != 4:
             return CommandSharesResult(self.id, abstained=(
-                f"without a profile the healthy spread of {len(ev.motors)}-rotor command patterns is not measured "
+                f"without a profile the healthy spread of {len(share_fit.motors)}-rotor command patterns is not measured "
                 f"on real airframes (NEIGHBOUR_SHARE_SIGMA is from real quads); calibrate on a healthy flight"))
-        drifting = ev.drifting() if ev.baseline == "before onset" else None
+        drifting = share_fit.drifting() if share_fit.baseline == "before onset" else None
         if drifting is not None:
             return CommandSharesResult(self.id, abstained=f"motor {drifting}'s command rose steadily after the onset",
                                   notes=[f"motor {drifting} needed steadily more command after the onset (a drift, not "
@@ -264,17 +264,17 @@ class CommandShares(Analyzer):
         if plain is None:
             return CommandSharesResult(self.id, abstained="the command shares are not finite")
         chi_h, fits, sig = plain
-        full = fits_for(ctx, with_throttle=True) if ev.throttle_ratio is not None else plain
+        full = fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None else plain
         chi_full, fits_full, _ = full
         findings = []
-        for k, (m, f, ff) in enumerate(zip(ev.motors, fits, fits_full)):
+        for k, (m, f, ff) in enumerate(zip(share_fit.motors, fits, fits_full)):
             base = 1.0 if m.command_share_baseline is None else m.command_share_baseline  # no profile: even
             findings.append(Finding(self.id, k + 1, "share", m.command_share, "", None, base, "up", f.llr,
                                     f"{m.command_share:.3f} {100 * (m.command_share / base - 1):+.0f}%"))
             lo, hi = ff.eta_ci
             findings.append(Finding(self.id, k + 1, "thrust", ff.eta_hat, "of normal", ff.eta_ci, 1.0, "down", None,
                                     f"{100 * ff.eta_hat:.0f} ({100 * lo:.0f}-{100 * hi:.0f})"))
-        return CommandSharesResult(self.id, findings, baseline=ev.baseline, healthy_chi2=chi_full,
+        return CommandSharesResult(self.id, findings, baseline=share_fit.baseline, healthy_chi2=chi_full,
                                    fit_chi2=[f.chi2 for f in fits_full], share_sigma=float(np.mean(sig)),
-                                   with_throttle=ev.throttle_ratio is not None,
-                                   words=[ev.summary(k + 1) for k in range(len(ev.motors))])
+                                   with_throttle=share_fit.throttle_ratio is not None,
+                                   words=[share_fit.summary(k + 1) for k in range(len(share_fit.motors))])

@@ -1,7 +1,7 @@
 """The effectiveness fit as evidence: angular acceleration per unit command, relative to the others.
 
 Input: :func:`.effectiveness_fit.estimate_effectiveness` (computed once by the diagnose
-pipeline on the windows' segments; ``FlightEvidence.effectiveness``). Finding per motor:
+pipeline on the windows' segments; ``ShareFit.effectiveness``). Finding per motor:
 ``effectiveness`` (1 = as effective as its neighbours) with its 90 % block-bootstrap interval
 and its LLR: likelihood of the value under a damaged rotor (eta uniform on the severity grid)
 against a healthy one (1), with the interval widened by ``EFFECTIVENESS_SIGMA_FLOOR``.
@@ -51,7 +51,7 @@ class Effectiveness(Analyzer):
     requires = ("rates", "motors")
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
-        eff = None if ctx.evidence is None else ctx.evidence.effectiveness
+        eff = None if ctx.share_fit is None else ctx.share_fit.effectiveness
         if eff is None or not eff.motors:
             why = getattr(eff, "reason", "") if eff is not None else ""
             return AnalyzerResult(self.id, abstained=self.missing(ctx.flight) or why or "no effectiveness fit")

@@ -610,12 +610,19 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     """Relative per-motor effectiveness of ``flight`` (a Flight or a
     :class:`~flightlog_fd.prepared.PreparedFlight`, see the module docstring).
 
-    ``segments`` may be given when the caller already resampled the flight at ``rate_hz``.
-    Never raises for a flight that simply has too little data: returns ``informative=False``
-    with the reason.
+    ``segments`` may be given when the caller already resampled the flight at ``rate_hz`` (the
+    diagnosis passes its windows' own). Never raises for a flight that simply has too little data
+    or more than four rotors: returns ``informative=False`` with the reason.
     """
     prep = PreparedFlight.of(flight)
     flight = prep.flight
+    n_rotors = flight.frame.rotor_count if flight.frame is not None else 4
+    if n_rotors != 4:
+        # In closed loop an n-rotor's commands follow the allocator's four directions (roll, pitch,
+        # yaw, thrust): on simulated hexa and octo flights singular values 5..n of the command
+        # matrix are 0, so each rotor's effectiveness cannot be told from the others'.
+        return EffectivenessEstimate(reason=f"not identifiable with {n_rotors} rotors: the "
+                                            f"controller drives them along four directions only")
     if segments is None:
         try:
             segments = resample(prep, rate_hz=rate_hz, savgol_window_s=savgol_window_s)

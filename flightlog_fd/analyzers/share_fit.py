@@ -1,19 +1,19 @@
 """The command-share analyzer's estimation: each motor's share of the thrust commands against the
 healthy baseline, and that baseline fitted from calibration flights.
 
-Per flight (:func:`build_evidence`), inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
+Per flight (:func:`fit_shares`), inputs: the flight's resampled airborne segments (the same ones the NIF windows are cut from:
 :attr:`flightlog_fd.windows.Windows.segments`), the model's window probabilities, the rotor
 layout, and optionally the calibration profile's healthy baseline.
 
 Per motor it gives:
 
 - **command share**: the motor's mean thrust command (the NIF ``ω²`` proxy) over the airborne
-  time divided by the mean of all four (1.0 = an even share). Over a whole flight the mean
+  time divided by the mean of all motors' (1.0 = an even share). Over a whole flight the mean
   angular acceleration is ~0, so the mean commands satisfy the same moment balance as a steady
   hover: the airborne mean is the trim pattern even when the flight never hovers.
 - **command change**: with a profile, the share minus the profile's healthy baseline at this
   flight's throttle (:meth:`Baseline.share_at`); without one, the share minus the mean of the
-  other three ("against its neighbours").
+  others ("against its neighbours").
 - **effectiveness**: :mod:`flightlog_fd.analyzers.effectiveness_fit` (relative angular acceleration per unit
   command, with its bootstrap interval; ``informative`` says whether the flight manoeuvred enough).
 - **model vote**: the mean probability the model gave to "this motor's propeller is damaged".
@@ -78,8 +78,8 @@ class Baseline:
 
 
 @dataclass
-class MotorEvidence:
-    """One motor's figures (the report's per-motor panel)."""
+class MotorShares:
+    """One motor's command share against its baseline, with its effectiveness and model vote."""
 
     motor: int
     position: Optional[str]
@@ -103,16 +103,16 @@ class MotorEvidence:
 
 
 @dataclass
-class FlightEvidence:
-    """All per-motor evidence of one flight and what it says."""
+class ShareFit:
+    """The share fit of one flight: every motor's figures and the baseline they are taken against."""
 
-    motors: list[MotorEvidence]
+    motors: list[MotorShares]
     baseline: str  # "profile" | "before onset" | "neighbours"
     throttle: float
     effectiveness: Optional[EffectivenessEstimate] = None
     #: The baseline the changes are taken against (profile or before onset), None for neighbours.
     baseline_: Optional[Baseline] = None
-    #: (4,) after a mid-flight onset: each share's change from the first to the last third of it.
+    #: (n,) after a mid-flight onset: each share's change from the first to the last third of it.
     onset_drift: Optional[np.ndarray] = None
 
     def drifting(self) -> Optional[int]:
@@ -156,10 +156,10 @@ def shares_of(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
     return (mean / throttle if throttle > 0 else np.full(len(mean), np.nan)), throttle
 
 
-def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
+def fit_shares(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
                    effectiveness: Optional[EffectivenessEstimate] = None,
-                   baseline: Optional[Baseline] = None, since: Optional[float] = None) -> FlightEvidence:
-    """Per-motor evidence (see module docstring). ``probs`` (N, 5) window probabilities.
+                   baseline: Optional[Baseline] = None, since: Optional[float] = None) -> ShareFit:
+    """The share fit of one flight (module docstring). ``probs`` (N, n+1) window probabilities.
 
     ``since``: the model's damage onset (s, log clock) when it lies mid-flight: the shares are then
     taken from the onset on, and without a profile the flight before the onset (at least
@@ -194,12 +194,12 @@ def build_evidence(segments: Sequence, probs: np.ndarray, frame: Optional[Frame]
         if effectiveness is not None and len(effectiveness.motors) == n:
             me = effectiveness.motors[i]
             eff, ci = me.effectiveness, me.ci
-        motors.append(MotorEvidence(
+        motors.append(MotorShares(
             motor=i + 1, position=frame.position(i + 1) if frame is not None else None,
             command_share=float(share[i]), command_share_baseline=None if base is None else float(base[i]),
             command_change=float(change[i]), effectiveness=eff, effectiveness_ci=ci, model_vote=float(votes[i])))
     # why the effectiveness fit says nothing is the effectiveness analyzer's to report
-    return FlightEvidence(motors=motors, baseline=kind, throttle=throttle, effectiveness=effectiveness,
+    return ShareFit(motors=motors, baseline=kind, throttle=throttle, effectiveness=effectiveness,
                           baseline_=baseline, onset_drift=drift)
 
 
@@ -219,7 +219,7 @@ def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
 # ----------------------------------------------------------------------------- the baseline from calibration flights
 
 def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
-    """The thrust proxy (n, 4) of every gap-free airborne segment on the feature grid: what the
+    """The thrust proxy (samples, n) of every gap-free airborne segment on the feature grid: what the
     airborne-mean fallback and the command-share baseline are computed from (one resample each)."""
     from ..hover import motor_count
     from ..prepared import resample
@@ -230,8 +230,8 @@ def airborne_thrust(flights: Iterable[Flight]) -> list[np.ndarray]:
 def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np.ndarray]] = None,
                       per_flight: Optional[list[list[np.ndarray]]] = None) -> dict:
     """The healthy airframe's command shares against throttle (module docstring), as the
-    profile's ``baseline_`` entry: share (4,), slope (4,), throttle_ref, throttle_range, seconds,
-    and with two or more flights ``spread`` (4,): each motor's flight-to-flight standard deviation
+    profile's ``baseline_`` entry: share (n,), slope (n,), throttle_ref, throttle_range, seconds,
+    and with two or more flights ``spread`` (n,): each motor's flight-to-flight standard deviation
     of its share, and ``throttle_spread``: the relative one of the throttle (the decision model's
     drift noise; ``per_flight`` = each flight's thrust blocks)."""
     rate = DEFAULT_RATE_HZ

@@ -1,6 +1,6 @@
 """The throttle as evidence: a weak rotor's lost thrust must be made up, so the hover throttle rises.
 
-Input: the flight's mean thrust command over the profile's (``FlightEvidence.throttle_ratio``),
+Input: the flight's mean thrust command over the profile's (``ShareFit.throttle_ratio``),
 and the command shares. Per motor, its LLR is what adding the throttle to the command-share fit
 adds (:func:`flightlog_fd.analyzers.command_shares.fits_for` with and without it), so the
 decision counts the shares once and the throttle once. Noise: the airframe's relative throttle
@@ -32,11 +32,11 @@ class Throttle(Analyzer):
     requires = ("motors",)
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
-        ev = ctx.evidence
-        ratio = None if ev is None else ev.throttle_ratio
+        share_fit = ctx.share_fit
+        ratio = None if share_fit is None else share_fit.throttle_ratio
         if ratio is None:
             return ThrottleResult(self.id, abstained="no calibration profile: the healthy throttle is unknown")
-        if ev.baseline == "before onset" or (ev.baseline == "profile" and ev.drifting() is not None):
+        if share_fit.baseline == "before onset" or (share_fit.baseline == "profile" and share_fit.drifting() is not None):
             return ThrottleResult(self.id, abstained="the commands drift after the onset")
         plain, full = fits_for(ctx, with_throttle=False), fits_for(ctx, with_throttle=True)
         if plain is None or full is None:

@@ -620,7 +620,7 @@ def _motor_function_params(tables: dict[str, MessageTable], params: dict[str, fl
     """``params`` with every SERVOn_FUNCTION at its FIRST logged value: the outputs are wired to
     the motors as configured when the flight started, and a re-assignment during the log (the
     SITL hexa set switches a motor's output to RC pass-through to stop it) is warned about, not
-    followed. Other parameters keep their last value, as before."""
+    followed. Other parameters keep their last value."""
     if "PARM" not in tables or not tables["PARM"].has("Name", "Value"):
         return params
     tab = tables["PARM"]

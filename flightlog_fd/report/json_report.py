@@ -257,11 +257,11 @@ JSON_SCHEMA["properties"]["flights"]["items"] = JSON_SCHEMA
 
 
 def _motor_evidence(d: Diagnosis) -> Optional[dict]:
-    ev = d.evidence
-    if ev is None:
+    fit = d.share_fit
+    if fit is None:
         return None
-    return {"baseline": ev.baseline, "throttle": None if not np.isfinite(ev.throttle) else round(float(ev.throttle), 4),
-            "effectiveness": None if ev.effectiveness is None else ev.effectiveness.as_dict(),
+    return {"baseline": fit.baseline, "throttle": None if not np.isfinite(fit.throttle) else round(float(fit.throttle), 4),
+            "effectiveness": None if fit.effectiveness is None else fit.effectiveness.as_dict(),
             "airframe_changed": None if d.decision is None else d.decision.airframe_changed,
             "decision": None if d.decision is None else {
                 "sources": list(d.decision.sources),

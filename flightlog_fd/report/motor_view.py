@@ -12,8 +12,8 @@ Inputs: a :class:`~flightlog_fd.diagnose.Diagnosis` (:meth:`MotorView.of`) or a 
 document of schema 3 or later (:meth:`MotorView.from_doc`, for the web pages, whose stored
 reports may predate this view). Outputs: :meth:`MotorView.table` (header and cells, for the
 terminal, the HTML report and the web page), :meth:`MotorView.to_json` (the JSON report's
-``motors`` and ``motor_columns``). Why: the terminal, HTML, CSV, JSON and web pages used to draw
-their own copies of this table, and the copies broke on hexa and octo frames.
+``motors`` and ``motor_columns``). Why: one table for every output, so they show the same
+figures under the same names for any rotor count.
 """
 from __future__ import annotations
 
@@ -189,17 +189,17 @@ class MotorView:
         """The view of a :class:`~flightlog_fd.diagnose.Diagnosis` (empty rows without a decision)."""
         dec = getattr(diagnosis, "decision", None)
         results = list(dec.results) if dec is not None else []
-        ev = getattr(diagnosis, "evidence", None)
-        evidence = {m.motor: m for m in (ev.motors if ev is not None else [])}
+        fit = getattr(diagnosis, "share_fit", None)
+        shares = {m.motor: m for m in (fit.motors if fit is not None else [])}
         decided = {m.motor: m for m in (dec.motors if dec is not None else [])}
-        n = max([len(decided), len(evidence), _n_classes(diagnosis) - 1, 0])
+        n = max([len(decided), len(shares), _n_classes(diagnosis) - 1, 0])
         frame = getattr(getattr(diagnosis, "flight", None), "frame", None)
         columns, cells, findings = _columns([(r.analyzer, r.abstained, [
             (f.name, f.motor, f.text(), f) for f in r.findings]) for r in results])
         rows = []
-        if dec is not None or evidence:
+        if dec is not None or shares:
             for k in range(1, n + 1):
-                e, m = evidence.get(k), decided.get(k)
+                e, m = shares.get(k), decided.get(k)
                 pos = getattr(e, "position", None) or (frame.position(k) if frame is not None else None)
                 row = MotorRow(motor=k, position=pos,
                                model_vote=getattr(e, "model_vote", None),
@@ -219,7 +219,7 @@ class MotorView:
         if dec is not None and dec.airframe_changed:
             notes.append(f"airframe change since calibration: {dec.airframe_changed}")
         v = getattr(diagnosis, "verdict", None)
-        return cls(rows=rows, columns=columns, n_motors=n, baseline=getattr(ev, "baseline", "") or "",
+        return cls(rows=rows, columns=columns, n_motors=n, baseline=getattr(fit, "baseline", "") or "",
                    sources=list(dec.sources) if dec is not None else [], notes=notes,
                    verdict_motor=getattr(v, "motor", None))
 

@@ -48,7 +48,7 @@ from flightlog_fd.sim.airframe import GRAVITY, Airframe
 
 ETA_RANGE = (0.6, 0.97)
 MILD_ETA_RANGE = (0.9, 0.97)
-#: Share of the damaged vehicles drawn with mild damage by default (0 keeps the old behaviour).
+#: Share of the damaged vehicles drawn with mild damage by default (0: full-size damage only).
 MILD_FRACTION = 0.0
 #: η_torque = η_thrust ** k, k uniform in this range (see module docstring).
 TORQUE_EXPONENT_RANGE = (1.0, 1.6)

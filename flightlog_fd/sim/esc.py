@@ -1,7 +1,7 @@
 """ESC telemetry in the simulator: the motor's electrical side and what its ESC reports.
 
 Motor model (enabled per batch by ``simulate_flights(esc=...)``; without it the rotor reaches
-its commanded speed whatever the load, as before). A brushless motor on an open-loop ESC is a DC
+its commanded speed whatever the load). A brushless motor on an open-loop ESC is a DC
 motor: ``w = Kv·(d·V − R·I)`` with ``I = I0 + τ·Kv`` (SI, Kt = 1/Kv) and the propeller's drag
 torque ``τ = q·w²``. The autopilot's command ``u`` gives the duty whose *nominal* motor and
 propeller turn at ``w_com = omega_max·sqrt(u)``; the no-load speed of that duty is then

@@ -63,7 +63,7 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     try:
         if airframe != "random":
             af = [preset(airframe, frame)] * count
-        elif frame is not None:  # random airframes flown as this frame (without --frame: random quads as before)
+        elif frame is not None:  # random airframes flown as this frame (without --frame: random quads)
             import numpy as np
 
             from .airframe import random_airframes

@@ -191,8 +191,8 @@ class Sensors:
         self.wind = self.wind_mean + self.gust
         self.vib_gain = sp.vibration_gain
         if sp.realism:
-            # The accelerometer's own generator, seeded from the gyro parameters: adding it consumed
-            # nothing from ``rng``, so every other stream of a seeded batch is as before.
+            # The accelerometer's own generator, seeded from the gyro parameters: it draws nothing
+            # from ``rng``, so the other streams of a seeded batch do not depend on it.
             self.acc_rng = np.random.default_rng(np.frombuffer(np.ascontiguousarray(sp.gyro_bias).tobytes(),
                                                                dtype=np.uint32))
             lo, hi = ACCEL_NOISE_STD

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from flightlog_fd.analyzers.share_fit import Baseline, build_evidence
+from flightlog_fd.analyzers.share_fit import Baseline, fit_shares
 from flightlog_fd.flight import Frame
 
 
@@ -26,16 +26,16 @@ def probs_for(motor, n=50):
 
 
 def test_figures_against_neighbours_and_against_a_profile():
-    ev = build_evidence(segments([1.0, 1.4, 1.0, 1.0]), probs_for(2), Frame.quad_x())
+    ev = fit_shares(segments([1.0, 1.4, 1.0, 1.0]), probs_for(2), Frame.quad_x())
     assert ev.baseline == "neighbours" and int(np.argmax([m.command_change for m in ev.motors])) == 1
     assert ev.motors[1].model_vote > 0.9 and ev.motors[1].position == "rear-left"
     assert ev.throttle_ratio is None
     base = Baseline(share=np.array([0.95, 1.08, 0.92, 1.05]), slope=np.zeros(4), throttle_ref=0.5)
-    same = build_evidence(segments(base.share), probs_for(0), Frame.quad_x(), baseline=base)
+    same = fit_shares(segments(base.share), probs_for(0), Frame.quad_x(), baseline=base)
     assert same.baseline == "profile" and max(abs(m.command_change) for m in same.motors) < 0.01
     assert same.throttle_ratio == pytest.approx(1.0, abs=0.01)
     harder = base.share * np.array([1.0, 1.0, 1.1, 1.0])
-    one = build_evidence(segments(harder), probs_for(3), Frame.quad_x(), baseline=base)
+    one = fit_shares(segments(harder), probs_for(3), Frame.quad_x(), baseline=base)
     assert one.motors[2].command_change > 0.05
 
 
@@ -44,7 +44,7 @@ def test_onset_uses_the_flight_before_it_as_baseline():
     seg = segs[0]
     after = seg.t >= 30.0
     seg.w_sq[after, 2] *= 1.12
-    ev = build_evidence(segs, probs_for(3), Frame.quad_x(), since=30.0)
+    ev = fit_shares(segs, probs_for(3), Frame.quad_x(), since=30.0)
     assert ev.baseline == "before onset"
     assert ev.motors[2].command_change == pytest.approx(0.12 * 0.92 / 1.0, abs=0.03)
 
