@@ -41,9 +41,10 @@ from .windows import FeatureSpec
 #: flight-to-flight ``baseline_.spread``: the decision model's default drift is used; schema 4 adds
 #: ``lacks_`` and lets a profile from logs without motor outputs leave ``rho_``, ``rho_spread_``,
 #: ``hover_throttle_`` and ``feature_spec`` null: it holds only the analyzers' baselines the logs
-#: support, e.g. vibration).
-PROFILE_SCHEMA = 4
-READABLE_SCHEMAS = (1, 2, 3, 4)
+#: support, e.g. vibration; schema 5 adds ``baseline_.pin``: how well the calibration flights pin
+#: each share, without it the diagnosed flight's own figure stands in).
+PROFILE_SCHEMA = 5
+READABLE_SCHEMAS = (1, 2, 3, 4, 5)
 AUTOPILOTS = ("px4", "ardupilot", "sim")
 #: Rotor counts a profile may describe: the quad and the frames with a shipped n-rotor model
 #: (flightlog_fd.models.MODEL_FILES); an n-rotor frame must be laid out like a trained table
@@ -157,7 +158,9 @@ class Profile:
             return Baseline(share=np.asarray(b["share"], float), slope=np.asarray(b["slope"], float),
                             throttle_ref=float(b["throttle_ref"]), source=str(b.get("source", "")),
                             spread=None if spread is None else np.asarray(spread, float),
-                            throttle_spread=b.get("throttle_spread"), n_flights=int(b.get("n_flights", 1)))
+                            throttle_spread=b.get("throttle_spread"), n_flights=int(b.get("n_flights", 1)),
+                            pin=None if b.get("pin") is None else np.asarray(b["pin"], float),
+                            throttle_range=_range(b.get("throttle_range")))
         share = self.rho_ ** 2
         return Baseline(share=share / share.mean(), slope=np.zeros(len(share)), throttle_ref=float(self.hover_throttle_),
                         source="from rho_ (schema 1 profile)")
@@ -245,6 +248,10 @@ class Profile:
                 spread_v = _number_list(base.get("spread"), n, "baseline_.spread", bad)
                 if any(x < 0 for x in spread_v):
                     raise bad("baseline_.spread values must be >= 0")
+            if base.get("pin") is not None:
+                pin_v = _number_list(base.get("pin"), n, "baseline_.pin", bad)
+                if any(x < 0 for x in pin_v):
+                    raise bad("baseline_.pin values must be >= 0")
             ts = base.get("throttle_spread")
             if ts is not None and (not _is_number(ts) or ts < 0):
                 raise bad("baseline_.throttle_spread must be null or a number >= 0")
@@ -354,6 +361,13 @@ class Profile:
         if self.firmware and flight.firmware and flight.firmware != self.firmware:
             warnings.append(f"profile was made with firmware {self.firmware}, this log has {flight.firmware}")
         return warnings
+
+
+def _range(v) -> Optional[tuple[float, float]]:
+    """A (lo, hi) throttle range from a profile entry, or None."""
+    if isinstance(v, (list, tuple)) and len(v) == 2 and all(_is_number(x) for x in v) and v[0] <= v[1]:
+        return float(v[0]), float(v[1])
+    return None
 
 
 def _is_number(x) -> bool:

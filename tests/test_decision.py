@@ -110,12 +110,12 @@ def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None)
                            covered_s=50.0, share=1.0, agreement=1.0, log_likelihood_ratio=10.0,
                            first_seen=first_seen, confirmed=True)
     v, d = D.decide(4, Frame.quad_x(), timeline=tl, results=run_analyzers(ctx))
-    return SimpleNamespace(**vars(v), motors=d.motors, airframe_changed=d.airframe_changed)
+    return SimpleNamespace(**vars(v), motors=d.motors, airframe_changed=d.airframe_changed, results=d.results)
 
 
 def test_branch_damaged_names_the_motor_its_severity_and_inspection():
     s, thr = damaged_shares(BASE, 3, 0.75, m=0.5)
-    d = decide(window_probs(3, 0.6), s, ratio=thr, first_seen=12.0)
+    d = decide(window_probs(3, 0.7), s, ratio=thr, first_seen=12.0)
     assert d.status == "damaged" and d.motor == 3
     assert "motor 3 (front-left) lost thrust from t=12.0 s" in d.reason
     assert "about 75 % of its normal thrust" in d.reason and "inspect propeller 3" in d.reason
@@ -146,7 +146,7 @@ def test_branch_airframe_changed_only_when_no_rotor_explains_it():
     assert "no rotor explains the change" in d.reason
     # a throttle rise alone with one rotor's pattern is what a weak rotor does: not an airframe change
     s, thr = damaged_shares(BASE, 4, 0.7)
-    d = decide(window_probs(4, 0.5), s, ratio=thr)
+    d = decide(window_probs(4, 0.7), s, ratio=thr)
     assert d.airframe_changed is None and d.status == "damaged" and d.motor == 4
     # the model's windows all confidently healthy outweigh the commands (each source is capped)
     assert decide(window_probs(0, 0.95), s, ratio=thr).status != "damaged"
@@ -202,7 +202,11 @@ def test_confidence_is_the_probability_of_the_statement_whatever_the_rotor_count
     assert v.status == "healthy" and v.confidence > 0.7
     v, d = verdict([7.0, -2.0, -2.0, -2.0], 4)
     assert v.status == "damaged" and v.confidence == pytest.approx(d.motors[0].weight)
-    assert v.confidence == pytest.approx(D.posterior(np.array([7.0, -2, -2, -2]))[1])
+    # each motor's LLR is floored where damage too mild for any source to see cannot be ruled out
+    assert v.confidence == pytest.approx(D.posterior(np.maximum([7.0, -2, -2, -2], D.MILD_DAMAGE_LLR_FLOOR))[1])
+    v, d = verdict([-9.0] * 4, 4)  # every source clears every rotor: still not sure of "healthy"
+    cap = (1 - D.PRIOR_DAMAGED) / (1 - D.PRIOR_DAMAGED + D.PRIOR_DAMAGED * np.exp(D.MILD_DAMAGE_LLR_FLOOR))
+    assert v.status == "healthy" and v.confidence == pytest.approx(cap) and cap < 0.9
     v, d = verdict([4.0, 4.5, -2.0, -2.0, -2.0, -2.0], 6)  # two motors it cannot tell apart
     assert v.status == "uncertain" and v.confidence == pytest.approx(d.motors[0].weight + d.motors[1].weight)
 
@@ -228,3 +232,60 @@ def test_batched_prediction_table_equals_one_solve_at_a_time(frame):
         for b in range(len(CS.M_GRID)):
             one = CS.predicted_commands(base, rows, 3, float(CS.ETA_GRID[a]), float(CS.M_GRID[b]))
             assert np.allclose(table[a, b], one, atol=1e-12)
+
+
+def test_commands_alone_against_a_profile_reach_at_most_uncertain_with_advice():
+    """A one-rotor pattern within what a moved load makes (CoM shift + battery), with no source that
+    does not read the trim agreeing: uncertain, naming the propeller and when to re-calibrate."""
+    s, thr = damaged_shares(BASE, 4, 0.75)
+    d = decide(window_probs(4, 0.5), s, ratio=thr)  # the model leans to motor 4, too weakly to agree
+    assert d.status == "uncertain" and d.motor is None, d.reason
+    assert "motor 4 (rear-right) needs" in d.reason and "more command than at calibration" in d.reason
+    assert "inspect propeller 4" in d.reason and "the load moved" in d.reason and "re-calibrate" in d.reason
+    assert "the profile comes from one flight" in d.reason
+    assert d.confidence < 0.9  # the moved-load explanation keeps the stated probability modest
+    # the same pattern with the model's windows agreeing is damage
+    assert decide(window_probs(4, 0.7), s, ratio=thr).status == "damaged"
+    # beyond any moved load (a rise far past BEYOND_DRIFT_SHARE_RISE), the commands may call it alone
+    s2, thr2 = damaged_shares(BASE, 4, 0.40)
+    assert s2[3] - BASE[3] / BASE.mean() > D.BEYOND_DRIFT_SHARE_RISE
+    d2 = decide(window_probs(4, 0.5), s2, ratio=thr2)
+    assert d2.status == "damaged" and d2.motor == 4, d2.reason
+
+
+def test_more_load_on_every_motor_is_not_evidence():
+    for ratio in (1.15, 1.4, 0.8):
+        d = decide(window_probs(0, 0.5), BASE / BASE.mean(), ratio=ratio)
+        assert d.status == "healthy", (ratio, d.reason)
+        thr = next(r for r in d.results if r.analyzer == "throttle")
+        assert all(f.llr <= 1e-9 for f in thr.findings)
+
+
+def test_severity_interval_never_collapses_at_the_grid_edge():
+    base = np.ones(4)
+    s, thr = damaged_shares(base, 2, 0.30)  # below the grid's 0.40
+    _, fits = CS.severity_fit(s, base, np.full(4, 0.01), Frame.quad_x(), thr)
+    lo, hi = fits[1].eta_ci
+    assert lo == 0.0 and hi > CS.ETA_GRID[0]
+    s, thr = damaged_shares(base, 2, 0.70)
+    _, fits = CS.severity_fit(s, base, np.full(4, 0.001), Frame.quad_x(), thr)
+    lo, hi = fits[1].eta_ci
+    assert lo < 0.70 < hi  # a sharp fit still spans a grid step each side
+
+
+def test_share_noise_adds_how_well_the_flights_pin_the_shares():
+    plain = CS.share_sigma("profile", None, 4)
+    pinned = CS.share_sigma("profile", None, 4, pins=([0.04] * 4, None, [0.03] * 4))
+    assert pinned[0] == pytest.approx(np.sqrt(CS.DEFAULT_DRIFT_SIGMA ** 2 + 0.04 ** 2 + 0.03 ** 2))
+    assert plain[0] == CS.DEFAULT_DRIFT_SIGMA
+    assert CS.share_sigma("neighbours", None, 4, pins=([0.5] * 4,))[0] == CS.NEIGHBOUR_SHARE_SIGMA
+
+
+def test_no_damage_against_a_profile_when_the_throttle_fell_below_its_drift():
+    """A weak rotor makes the throttle rise with the same load; well below calibration the load or
+    set-up changed, so the profile does not describe the flight: uncertain, re-calibrate."""
+    s, thr = damaged_shares(BASE, 3, 0.7)
+    assert decide(window_probs(3, 0.8), s, ratio=thr).status == "damaged"
+    d = decide(window_probs(3, 0.8), s, ratio=0.75)
+    assert d.status == "uncertain" and "lower than at calibration" in d.reason, d.reason
+    assert "inspect propeller 3" in d.reason and "re-calibrate" in d.reason

@@ -118,9 +118,14 @@ def test_model_entry(tmp_path):
         q.set_model(outside)
 
 
+_BASE = {"share": [1.0, 1.0, 1.0, 1.0], "slope": [0.0] * 4, "throttle_ref": 0.5, "throttle_range": [0.45, 0.55]}
+
+
 @pytest.mark.parametrize("mutate, message", [
     (lambda d: d.pop("schema"), 'no "schema" key'),
-    (lambda d: d.update(schema=5), "schema 5 is not supported"),
+    (lambda d: d.update(schema=6), "schema 6 is not supported"),
+    (lambda d: d.update(baseline_=_BASE | {"pin": [0.01, -0.01, 0.0, 0.0]}), "baseline_.pin values must be >= 0"),
+    (lambda d: d.update(baseline_=_BASE | {"pin": [0.01, 0.01]}), "baseline_.pin"),
     (lambda d: d.pop("rho_"), "missing key"),
     (lambda d: d.update(rho_=[1.0, 1.1, 1.0]), "rho_ must be a list of 4"),
     (lambda d: d.update(rho_=[1.0, "x", 1.0, 1.0]), "rho_ must be a list of 4"),
@@ -203,3 +208,18 @@ def test_crazypad_motor2_runs_hardest(shared):
     prof = calibrate_profile([shared("crazypad_e9", "ulog", "normal_flight__E9_log01.ulg")])
     assert prof.rho_[1] > 1.03 and prof.source_logs[0]["name"] == "normal_flight__E9_log01.ulg"
     assert len(prof.source_logs[0]["sha256"]) == 64
+
+
+def test_baseline_pin_and_range_read_back_and_older_schemas_load(tmp_path):
+    """Schema 5's ``baseline_.pin`` is read into the Baseline with the calibrated throttle range;
+    a schema-4 profile without it still loads (its pin is None: the flight's own stands in)."""
+    d = _profile(tmp_path).to_dict()
+    d["baseline_"] = _BASE | {"pin": [0.01, 0.02, 0.0, 0.03]}
+    path = tmp_path / "p5.json"
+    path.write_text(json.dumps(d))
+    b = Profile.load(path).baseline()
+    assert np.allclose(b.pin, [0.01, 0.02, 0.0, 0.03]) and b.throttle_range == (0.45, 0.55)
+    d["schema"] = 4
+    d["baseline_"] = dict(_BASE)
+    path.write_text(json.dumps(d))
+    assert Profile.load(path).baseline().pin is None

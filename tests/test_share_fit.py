@@ -185,3 +185,37 @@ def test_lag_search_on_many_short_segments():
     pieces = [E._slice_segment(s, slice(a, a + 10)) for s in resample(prep) for a in range(0, len(s) - 10, 11)]
     est = E.estimate_effectiveness(prep, segments=pieces)
     assert est.seconds > E.LAG_SEARCH_MAX_S and est.motor_lag_s is not None and len(est.motors) == 4
+
+
+def test_pin_spread_sees_a_flight_whose_shares_wander():
+    from flightlog_fd.analyzers.share_fit import pin_spread
+
+    rng = np.random.default_rng(3)
+    steady = 0.5 + 0.01 * rng.standard_normal((3000, 4))
+    assert np.all(pin_spread([steady]) < 0.01)
+    wander = steady.copy()
+    wander[:, 0] *= np.linspace(0.8, 1.2, len(wander))  # motor 1 works ever harder
+    p = pin_spread([wander])
+    assert p[0] > 0.05 and p[0] == max(p)
+    assert pin_spread([steady[:100]]) is None  # 2 s: nothing to compare
+
+
+def test_baseline_slope_is_not_extrapolated_beyond_the_calibrated_throttle():
+    b = Baseline(share=np.ones(4), slope=np.array([1.0, -1.0, 0.0, 0.0]), throttle_ref=0.5,
+                 throttle_range=(0.45, 0.55))
+    assert np.allclose(b.share_at(1.5), b.share_at(0.55))
+    assert not np.allclose(b.share_at(0.5), b.share_at(0.55))
+
+
+def test_profile_records_how_well_its_flights_pin_the_shares(tmp_path):
+    from pathlib import Path
+
+    from flightlog_fd.calibration import calibrate_profile
+    from flightlog_fd.profile import Profile
+
+    sample = Path(__file__).resolve().parents[1] / "sample_logs" / "px4_healthy.ulg"
+    prof = calibrate_profile([sample])
+    pin = prof.baseline_["pin"]
+    assert pin is not None and len(pin) == 4 and all(0 <= x < 0.2 for x in pin)
+    prof.save(tmp_path / "p.json")
+    assert np.allclose(Profile.load(tmp_path / "p.json").baseline().pin, pin)

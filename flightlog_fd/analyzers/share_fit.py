@@ -71,8 +71,15 @@ class Baseline:
     #: relative flight-to-flight throttle spread (>= 2 flights), else None
     throttle_spread: Optional[float] = None
     n_flights: int = 1
+    #: (n,) how well the calibration flights pin each share (:func:`pin_spread`), None when the
+    #: profile predates it
+    pin: Optional[np.ndarray] = None
+    #: (lo, hi) throttle the calibration flights spanned: the slope is not extrapolated beyond it
+    throttle_range: Optional[tuple[float, float]] = None
 
     def share_at(self, throttle: float) -> np.ndarray:
+        if self.throttle_range is not None:
+            throttle = float(np.clip(throttle, *self.throttle_range))
         out = self.share + self.slope * (throttle - self.throttle_ref)
         return out / out.mean()
 
@@ -114,6 +121,8 @@ class ShareFit:
     baseline_: Optional[Baseline] = None
     #: (n,) after a mid-flight onset: each share's change from the first to the last third of it.
     onset_drift: Optional[np.ndarray] = None
+    #: (n,) how well this flight pins its own shares (:func:`pin_spread`)
+    pin: Optional[np.ndarray] = None
 
     def drifting(self) -> Optional[int]:
         """The motor whose command rose steadily after the onset rather than in one step, or None."""
@@ -156,6 +165,31 @@ def shares_of(thrust_blocks: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
     return (mean / throttle if throttle > 0 else np.full(len(mean), np.nan)), throttle
 
 
+#: Pieces a flight is cut into to see how well it pins its mean shares (by time, equal samples).
+PIN_PIECES = 3
+
+
+def pin_spread(thrust_blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
+    """(n,) how well one flight pins its own mean shares, or None under 3 s: the standard
+    deviation of each motor's share between the flight's thirds (by airborne samples, in time
+    order) over sqrt(3), the standard error of the flight mean. Thirds' standard deviations
+    measured (benchmarks/bench_cross_session.py flights): SIH 0.003-0.017, CrazyPAD normals
+    0.007-0.027, rrc goods 0.026-0.104, Erle boards 0.010-0.227 (6-3-2014_6, 37 s at 5 Hz RCOU).
+    Check: two such errors plus nothing else predict the healthy one-flight pairs' RMS share
+    change on the three airframes without a moved load: SIH 0.009 (measured 0.008), CrazyPAD
+    0.014 (0.009), rrc 0.045 (0.041); the thirds' deviation itself would predict 0.07 on rrc."""
+    blocks = [np.asarray(b, float) for b in thrust_blocks if len(b)]
+    if not blocks:
+        return None
+    u = np.vstack(blocks)
+    if len(u) < 3 * DEFAULT_RATE_HZ:
+        return None
+    k = len(u) // PIN_PIECES
+    parts = [shares_of([u[i * k:(i + 1) * k]])[0] for i in range(PIN_PIECES)]
+    out = np.std(parts, axis=0, ddof=1) / np.sqrt(PIN_PIECES)
+    return out if np.all(np.isfinite(out)) else None
+
+
 def fit_shares(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
                    effectiveness: Optional[EffectivenessEstimate] = None,
                    baseline: Optional[Baseline] = None, since: Optional[float] = None) -> ShareFit:
@@ -174,8 +208,10 @@ def fit_shares(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
             pre, pre_thr = shares_of(before)
             baseline = Baseline(share=pre, slope=np.zeros(len(pre)), throttle_ref=pre_thr, source="before onset")
         share, throttle = shares_of(after)
+        pin = pin_spread(after)
     else:
         share, throttle = shares_of([s.w_sq for s in segments])
+        pin = pin_spread([s.w_sq for s in segments])
     probs = np.asarray(probs, dtype=np.float64)
     n = len(share)
     votes = probs[:, 1:].mean(axis=0) if probs.size else np.zeros(n)
@@ -200,7 +236,7 @@ def fit_shares(segments: Sequence, probs: np.ndarray, frame: Optional[Frame],
             command_change=float(change[i]), effectiveness=eff, effectiveness_ci=ci, model_vote=float(votes[i])))
     # why the effectiveness fit says nothing is the effectiveness analyzer's to report
     return ShareFit(motors=motors, baseline=kind, throttle=throttle, effectiveness=effectiveness,
-                          baseline_=baseline, onset_drift=drift)
+                          baseline_=baseline, onset_drift=drift, pin=pin)
 
 
 def _drift(blocks: Sequence[np.ndarray]) -> Optional[np.ndarray]:
@@ -246,6 +282,11 @@ def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np
         thr = np.array([th for _, th in each])
         throttle_spread = float(np.std(thr, ddof=1) / np.mean(thr))
     share, throttle = shares_of(blocks)
+    # how well the calibration pins the shares: each flight's own between-thirds spread, pooled
+    # (RMS) and divided by sqrt(flights) since independent flights average it down
+    pins = [pin_spread(pf) for pf in (per_flight if per_flight is not None else [blocks])]
+    pins = [p for p in pins if p is not None]
+    pin = (np.sqrt(np.mean(np.square(pins), axis=0)) / np.sqrt(len(pins))) if pins else None
     shares, throttles = [], []
     n = int(BASELINE_CHUNK_S * rate)
     for w_sq in blocks:
@@ -263,4 +304,5 @@ def estimate_baseline(flights: Iterable[Flight], thrust_blocks: Optional[list[np
             "throttle_range": [rng[0], rng[1]], "seconds": round(float(seconds), 1),
             "source": "airborne mean of the thrust-command shares",
             "n_flights": len(per_flight) if per_flight is not None else len(flights),
-            "spread": spread, "throttle_spread": throttle_spread}
+            "spread": spread, "throttle_spread": throttle_spread,
+            "pin": None if pin is None else [float(x) for x in pin]}

@@ -41,6 +41,9 @@ class Throttle(Analyzer):
         plain, full = fits_for(ctx, with_throttle=False), fits_for(ctx, with_throttle=True)
         if plain is None or full is None:
             return ThrottleResult(self.id, abstained="the command shares are not finite")
+        # more load on every motor is not evidence by itself: the throttle weighs for motor k only
+        # as far as the command pattern already points at k (never more than the shares do)
         return ThrottleResult(self.id, [
-            Finding(self.id, k + 1, "throttle", ratio, "x calibration", None, 1.0, "up", f.llr - p.llr, f"{ratio:.2f}x")
+            Finding(self.id, k + 1, "throttle", ratio, "x calibration", None, 1.0, "up",
+                    min(f.llr - p.llr, max(p.llr, 0.0)), f"{ratio:.2f}x")
             for k, (p, f) in enumerate(zip(plain[1], full[1]))], ratio=ratio)
