@@ -18,7 +18,8 @@ install: $(STAMP)
 # Exit code 1 means "damage found": expected here, since most sample logs have a damaged propeller.
 demo: $(STAMP)
 	$(BIN)/fdlog diagnose sample_logs/ || [ $$? -eq 1 ]
-	@echo "--- an octocopter calibrated on a healthy flight of the same airframe, then its damaged flight:"
+	@echo "--- an octocopter calibrated on ONE healthy flight of the same airframe, then its damaged flight"
+	@echo "--- (expected: uncertain naming propeller 2: only the commands point at it, which a moved load can also do):"
 	@mkdir -p build/demo
 	$(BIN)/fdlog calibrate --no-adapt --force sample_logs/px4_octo_healthy.ulg -o build/demo/octo_profile.json
 	$(BIN)/fdlog diagnose --profile build/demo/octo_profile.json sample_logs/px4_octo_motor2_damaged.ulg || [ $$? -eq 1 ]
