@@ -190,3 +190,32 @@ def test_calibrate_and_diagnose_through_the_cli_without_motor_outputs(tmp_path):
         assert d03["verdict"]["status"] == d10["verdict"]["status"] == "damaged"
         assert d03["verdict"]["motor"] is None and d10["verdict"]["motor"] is None
         assert d14["verdict"]["status"] == "healthy"
+
+
+def test_raw_level_against_a_profile_only_from_a_fast_stream_at_its_rate():
+    from flightlog_fd.analyzers.vibration import RAW_PROFILE_MIN_HZ, Level, VibrationBaseline
+
+    base = VibrationBaseline(0.6, "raw", "IMU[0].AccX/Y/Z", rate_hz=400.0)
+    same = Level(2.6, "IMU[0].AccX/Y/Z", "raw", rate_hz=410.0)
+    assert base.measures(same)
+    assert not base.measures(Level(2.6, "IMU[0].AccX/Y/Z", "raw", rate_hz=250.0))   # another band
+    assert not base.measures(Level(2.6, "IMU[1].AccX/Y/Z", "raw", rate_hz=400.0))   # another stream
+    slow = VibrationBaseline(0.6, "raw", "IMU[0].AccX/Y/Z", rate_hz=50.0)
+    assert RAW_PROFILE_MIN_HZ > 50.0
+    assert not slow.measures(Level(2.6, "IMU[0].AccX/Y/Z", "raw", rate_hz=50.0))    # the filtered stream
+    assert VibrationBaseline(5.0, "vibe", "VIBE").measures(Level(6.0, "VIBE", "vibe"))
+    assert VibrationBaseline.from_dict(base.to_dict()).rate_hz == 400.0
+
+
+def test_healthy_pair_with_slow_raw_accel_is_not_damaged_by_vibration(shared):
+    """A real healthy board calibrated on one flight: its next flight's filtered 50 Hz accelerometer
+    reads 4x the calibration's; that must not make vibration evidence against the profile."""
+    from flightlog_fd import load_flight
+    from flightlog_fd.analyzers.vibration import analyze_vibration, fit_vibration_baseline
+
+    logs = shared("real_healthy", "logs")
+    cal = load_flight(logs / "erle_Erle-Brain2_Debian-first-flight-with-case.BIN")
+    other = load_flight(logs / "erle_pxf_copter_6-3-2014_6.BIN")
+    a = analyze_vibration(other, fit_vibration_baseline([cal]))
+    assert a.against == "healthy airframes"
+    assert a.flight_llr is not None and a.flight_llr < 3.5

@@ -78,6 +78,16 @@ NO_PROFILE_LLR_CAP = 5.0
 #: The level's LLR is floored here (a quiet flight clears only so far: a mild imbalance can hide
 #: under a quiet airframe's spread).
 LLR_FLOOR = -3.0
+#: Against a profile, a raw accelerometer level is weighed only from a stream of at least this rate.
+#: Slower raw streams are the autopilot's filtered accelerometer (ArduPilot INS_ACCEL_FILTER, 20 Hz
+#: by default; PX4 IMU_ACCEL_CUTOFF, 30 Hz), which removes the rotor rates (30-150 Hz): what is
+#: left is manoeuvring and the filter's leak, which move with firmware and filter settings between
+#: sessions (a real healthy Erle board-B pair, IMU logged at 50 Hz, firmware 3.4 vs 3.3: 0.61 vs
+#: 2.6 m/s/s). Such a level is weighed against the healthy airframes (capped) instead.
+RAW_PROFILE_MIN_HZ = 100.0
+#: A raw level sees the band FLOOR_HZ..rate/2, so two raw levels compare only at nearly one
+#: logging rate: within this fraction of the calibration's.
+RAW_RATE_MATCH = 0.15
 #: The gyro stream must run at least this fast for a spectrum (Nyquist 50 Hz: 10-inch rotors
 #: turn at 70-100 Hz at hover, larger ones 40-70 Hz).
 MIN_SPECTRUM_HZ = 100.0
@@ -108,6 +118,7 @@ class Level:
     per_imu: dict = field(default_factory=dict)
     z: Optional[float] = None
     seconds: float = 0.0
+    rate_hz: Optional[float] = None  # the raw stream's rate (kind "raw")
 
 
 @dataclass
@@ -212,7 +223,7 @@ def raw_level(flight: Flight) -> Optional[Level]:
     if secs < MIN_AIRBORNE_S or not np.isfinite(rms).all():
         return None
     return Level(float(np.hypot(rms[0], rms[1])), s.accel.source, "raw", {s.instance: float(np.hypot(rms[0], rms[1]))},
-                 float(rms[2]), secs)
+                 float(rms[2]), secs, float(s.accel.rate_hz))
 
 
 def _psd(x: np.ndarray, nper: int, pad: int) -> np.ndarray:
@@ -369,15 +380,29 @@ class VibrationBaseline:
     source: str
     spread_log: float = PROFILE_SPREAD_LOG
     flights: list = field(default_factory=list)
+    rate_hz: Optional[float] = None  # the raw stream's rate (kind "raw")
 
     def to_dict(self) -> dict:
         return {"analyzer": ANALYZER_ID, "level": self.level, "kind": self.kind, "source": self.source,
-                "spread_log": self.spread_log, "flights": list(self.flights)}
+                "spread_log": self.spread_log, "flights": list(self.flights), "rate_hz": self.rate_hz}
 
     @classmethod
     def from_dict(cls, d: dict) -> "VibrationBaseline":
+        rate = d.get("rate_hz")
         return cls(float(d["level"]), str(d["kind"]), str(d.get("source", "")),
-                   float(d.get("spread_log", PROFILE_SPREAD_LOG)), list(d.get("flights", [])))
+                   float(d.get("spread_log", PROFILE_SPREAD_LOG)), list(d.get("flights", [])),
+                   None if rate is None else float(rate))
+
+    def measures(self, level: "Level") -> bool:
+        """True when ``level`` is the metric this baseline holds: the same kind, and for a raw
+        level the same source from a fast stream at nearly the same rate (``RAW_PROFILE_MIN_HZ``,
+        ``RAW_RATE_MATCH``)."""
+        if level.kind != self.kind:
+            return False
+        if level.kind != "raw":
+            return True
+        return (level.source == self.source and self.rate_hz is not None and level.rate_hz is not None
+                and level.rate_hz >= RAW_PROFILE_MIN_HZ and abs(level.rate_hz / self.rate_hz - 1.0) <= RAW_RATE_MATCH)
 
 
 def fit_vibration_baseline(flights: Sequence[Flight]) -> Optional[VibrationBaseline]:
@@ -391,8 +416,10 @@ def fit_vibration_baseline(flights: Sequence[Flight]) -> Optional[VibrationBasel
     same = [(lv, f) for lv, f in levels if lv.kind == kind]
     logs = np.log([lv.value for lv, _ in same])
     spread = max(PROFILE_SPREAD_LOG, float(np.std(logs, ddof=1)) if len(logs) > 1 else 0.0)
+    rates = [lv.rate_hz for lv, _ in same if lv.rate_hz is not None]
     return VibrationBaseline(float(np.exp(logs.mean())), kind, same[0][0].source, spread,
-                             [f.path or f"flight {i}" for i, (_, f) in enumerate(same)])
+                             [f.path or f"flight {i}" for i, (_, f) in enumerate(same)],
+                             float(np.median(rates)) if rates else None)
 
 
 def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = None) -> VibrationAnalysis:
@@ -404,12 +431,12 @@ def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = No
         return VibrationAnalysis(None, None, None, None, "", abstain="no vibration data in the airborne time"
                                  + (f" ({why_no_line})" if why_no_line else ""))
     flight_llr, ratio, against = None, None, ""
-    if level is not None and level.kind == "px4_metric" and not (baseline is not None and baseline.kind == level.kind):
+    if level is not None and level.kind == "px4_metric" and not (baseline is not None and baseline.measures(level)):
         # PX4's metric has no healthy reference across airframes: without a profile of the same
         # metric, the raw accelerometer's lower bound is weighed against the healthy airframes
         level = raw_level(flight) or level
     if level is not None:
-        if baseline is not None and baseline.kind == level.kind:
+        if baseline is not None and baseline.measures(level):
             ratio = level.value / baseline.level
             x = float(np.log(ratio))
             flight_llr = _log_bayes_factor(x, baseline.spread_log)
