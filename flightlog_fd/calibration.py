@@ -42,7 +42,7 @@ import os
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Callable, Iterable, Optional, Union
+from typing import Callable, Iterable, Optional, Sequence, Union
 
 import numpy as np
 
@@ -232,6 +232,20 @@ def _source_entry(fl: Flight) -> dict:
     return {"name": Path(fl.path).name if fl.path else "<in-memory flight>", "sha256": None}
 
 
+def _stream_rates(flights: Sequence[Flight]) -> dict[str, float]:
+    """Each stream's median rate (Hz) over the calibration flights."""
+    rates: dict[str, list[float]] = {}
+    for fl in flights:
+        for s in fl.streams():
+            rates.setdefault(s.name, []).append(s.rate_hz)
+    return {k: float(np.median(v)) for k, v in rates.items()}
+
+
+def _check_not_labelled_damaged(fl: Flight) -> None:
+    if fl.truth and int(fl.truth.get("label", 0) or 0) != 0:
+        raise ProfileError(fl.path, "calibration logs must be healthy flights; this one is labelled damaged")
+
+
 def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec: Optional[FeatureSpec] = None,
                       min_hover_s: float = MIN_HOVER_S) -> Profile:
     """A :class:`Profile` from HEALTHY flights of one airframe (paths are read with load_flight).
@@ -257,8 +271,7 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
             raise ProfileError(fl.path, f"all calibration logs must come from one airframe: this log is "
                                         f"{fl.autopilot} {fl.frame.name}, {Path(first.path or '').name or 'the first'} "
                                         f"is {first.autopilot} {first.frame.name}")
-        if fl.truth and int(fl.truth.get("label", 0) or 0) != 0:
-            raise ProfileError(fl.path, "calibration logs must be healthy flights; this one is labelled damaged")
+        _check_not_labelled_damaged(fl)
     per_flight = [airborne_thrust([fl]) for fl in flights]
     thrust_blocks = [b for pf in per_flight for b in pf]
     imbalance = estimate_imbalance(flights, min_hover_s=min_hover_s, thrust_blocks=thrust_blocks)
@@ -274,17 +287,13 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
                                   "the calibration logs yield no input window (too little airborne time without gaps)")
     fitted = unfitted.fit(X)
 
-    rates: dict[str, list[float]] = {}
-    for fl in flights:
-        for s in fl.streams():
-            rates.setdefault(s.name, []).append(s.rate_hz)
     return Profile(
         autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
         firmware=first.firmware, vehicle_id=first.vehicle_id,
         rho_=imbalance.rho, rho_spread_=imbalance.rho_spread, hover_throttle_=imbalance.hover_throttle,
         rho_source_=imbalance.source, baseline_=estimate_baseline(flights, thrust_blocks, per_flight),
         hover_s_=imbalance.hover_s, n_hover_segments_=imbalance.n_segments, n_windows_=int(len(X)),
-        stream_rates={k: float(np.median(v)) for k, v in rates.items()},
+        stream_rates=_stream_rates(flights),
         feature_spec=fitted.to_dict(), source_logs=[_source_entry(fl) for fl in flights],
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"), tool_version=__version__)
 
@@ -307,8 +316,7 @@ def motorless_profile(flights: list[Flight], analyzers: dict) -> Profile:
         if (fl.autopilot, name(fl)) != (first.autopilot, name(first)):
             raise ProfileError(fl.path, f"all calibration logs must come from one airframe: this log is "
                                         f"{fl.autopilot} {name(fl)}, the first is {first.autopilot} {name(first)}")
-        if fl.truth and int(fl.truth.get("label", 0) or 0) != 0:
-            raise ProfileError(fl.path, "calibration logs must be healthy flights; this one is labelled damaged")
+        _check_not_labelled_damaged(fl)
     if first.frame is None or first.frame.rotor_count not in PROFILE_ROTOR_COUNTS:
         raise UnsupportedVehicleError(first.path, f"calibration needs a quadrotor, hexa or octo log; this one is "
                                                   f"{name(first)}")
@@ -316,14 +324,10 @@ def motorless_profile(flights: list[Flight], analyzers: dict) -> Profile:
         raise NotDiagnosableError(first.path if len(flights) == 1 else None,
                                   "no motor outputs and no vibration data in the calibration log(s): nothing to "
                                   "calibrate")
-    rates: dict[str, list[float]] = {}
-    for fl in flights:
-        for s in fl.streams():
-            rates.setdefault(s.name, []).append(s.rate_hz)
     return Profile(autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
                    firmware=first.firmware, vehicle_id=first.vehicle_id, rho_=None, rho_spread_=None,
                    hover_throttle_=None, feature_spec=None, rho_source_="",
-                   stream_rates={k: float(np.median(v)) for k, v in rates.items()},
+                   stream_rates=_stream_rates(flights),
                    source_logs=[_source_entry(fl) for fl in flights], analyzers=dict(analyzers),
                    lacks_=[MOTORLESS_LACKS], created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
                    tool_version=__version__)

@@ -410,13 +410,8 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
                                      segments=segs)
         ev = fit_shares(segs, probs[m], part.frame, eff, profile.baseline() if profile is not None else None,
                         since=here.t_start if here else None)
-        ts, te, pm = t_start[m], t_end[m], probs[m]
-        idx = np.argsort(ts, kind="stable")
-        if here is not None and ev.drifting() is None:
-            idx = idx[int(np.searchsorted(np.sort(ts), here.t_start)):]
-        ctx = Context(flight=part, frame=part.frame, n_motors=pm.shape[1] - 1, probs=pm[idx],
-                      covered_s=covered_seconds(ts[idx], te[idx]), segments=segs, share_fit=ev,
-                      profile=profile, model_sha256=sha)
+        pm = probs[m]
+        ctx = _analyzer_context(part, t_start[m], t_end[m], pm, here, ev, profile, segs, sha)
         v, dec = decide(pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops)
         sub_windows = [w for w in whole.windows if a - 1e-6 <= w.t_start and w.t_end <= b + 1e-6]
         subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, share_fit=ev, decision=dec,
@@ -478,15 +473,17 @@ def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, lo
 
 def _analyzer_context(flight: Flight, t_start: np.ndarray, t_end: np.ndarray, probs: np.ndarray, onset: Any,
                       share_fit: Any, profile: Any, segments, model_sha256: str) -> Context:
-    """What the analyzers read. After a mid-flight onset the model's votes are weighed from the
+    """What the analyzers read (one flight, or one flight of a log with the whole log's onset when it
+    lies in it). After a mid-flight onset the model's votes are weighed from the
     onset on (the windows before it are the healthy airframe, and the shares are taken against
     them), unless the commands show a drift: the onset run is the stretch the model itself picked
     as most damaged, so without a step in the commands its votes alone would count the selection
     as evidence (real healthy Erle 11-2-2015_112 was called damaged that way)."""
     order = np.argsort(t_start, kind="stable")
-    idx = order[onset.start_index:] if (onset is not None and share_fit.drifting() is None) else order
-    return Context(flight=flight, frame=flight.frame, n_motors=probs.shape[1] - 1, probs=probs[idx],
-                   covered_s=covered_seconds(t_start[idx], t_end[idx]), segments=segments, share_fit=share_fit,
+    if onset is not None and share_fit.drifting() is None:
+        order = order[int(np.searchsorted(t_start[order], onset.t_start)):]
+    return Context(flight=flight, frame=flight.frame, n_motors=probs.shape[1] - 1, probs=probs[order],
+                   covered_s=covered_seconds(t_start[order], t_end[order]), segments=segments, share_fit=share_fit,
                    profile=profile, model_sha256=model_sha256)
 
 

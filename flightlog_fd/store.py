@@ -93,15 +93,21 @@ def _v3(db: Database) -> None:
                                                                   "tool_version")),
             "ALTER TABLE flight ADD COLUMN exit_code INTEGER"):
         db.run(stmt)
+    for flight_id, doc in _stored_diagnoses(db):
+        _write_figures(db, flight_id, doc)
+        db.run("UPDATE flight SET model_sha256 = ?, model_version = ?, profile_path = ?, tool_version = ?, "
+               "exit_code = ? WHERE id = ?", (*_run_columns(doc), flight_id))
+
+
+def _stored_diagnoses(db: Database):
+    """(flight id, diagnosis dict) of every flight whose stored JSON report reads as an object."""
     for row in db.query("SELECT id, diagnosis_json FROM flight WHERE diagnosis_json IS NOT NULL"):
         try:
             doc = json.loads(row["diagnosis_json"])
         except ValueError:
             continue
         if isinstance(doc, dict):
-            _write_figures(db, int(row["id"]), doc)
-            db.run("UPDATE flight SET model_sha256 = ?, model_version = ?, profile_path = ?, tool_version = ?, "
-                   "exit_code = ? WHERE id = ?", (*_run_columns(doc), row["id"]))
+            yield int(row["id"]), doc
 
 
 def _v4(db: Database) -> None:
@@ -120,13 +126,8 @@ def _v4(db: Database) -> None:
     reason      TEXT,
     PRIMARY KEY (flight_id, part)
 )""")
-    for row in db.query("SELECT id, diagnosis_json FROM flight WHERE diagnosis_json IS NOT NULL"):
-        try:
-            doc = json.loads(row["diagnosis_json"])
-        except ValueError:
-            continue
-        if isinstance(doc, dict):
-            _write_parts(db, int(row["id"]), doc)
+    for flight_id, doc in _stored_diagnoses(db):
+        _write_parts(db, flight_id, doc)
 
 
 MIGRATIONS: list[tuple[int, str, Any]] = [
