@@ -271,7 +271,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     """A log holding several take-offs to landings (:func:`flightlog_fd.flights.split_flights`):
     each flight gets its own Diagnosis (``Diagnosis.flights``). A log with what the full diagnosis
     needs is judged as one and each flight from the same windows (``SEVERAL_FLIGHTS_NOTE``; the
-    log's verdict is the worst judged flight's, see :func:`_per_flight`); a log judged from
+    log keeps the whole log's verdict and no flight is worse than it, see :func:`_per_flight`); a log judged from
     vibration alone (no motor outputs) has each flight judged on its own, the log's verdict being
     its worst flight's."""
     from .model import model_for_flight
