@@ -400,9 +400,12 @@ def simulate(
     airframe: str = typer.Option("x500", help="Airframe preset (x500, f450, crazyflie, sih, heavy) or 'random'."),
     frame: Optional[str] = typer.Option(None, help="Fly the preset as quad_x, quad_plus, hexa_x, hexa_plus, octo_x, "
                                                    "octo_plus or octaquad_x."),
-    motor: int = typer.Option(0, help="Damaged propeller 1..n (4 on a quad), or 0 for a healthy flight."),
-    eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor)."),
-    onset: Optional[float] = typer.Option(None, help="Damage starts this many seconds after arming (default: from take-off)."),
+    motor: Optional[list[int]] = typer.Option(None, help="Damaged propeller 1..n (4 on a quad), or 0 for a healthy "
+                                              "flight (the default); repeat for two: --motor 1 --motor 4."),
+    eta: Optional[list[float]] = typer.Option(None, help="Efficiency of the damaged propeller (thrust and torque "
+                                              "factor), default 0.8; one value for all, or one per --motor."),
+    onset: Optional[list[float]] = typer.Option(None, help="Damage starts this many seconds after arming (default "
+                                                "or 0: from take-off); one value for all, or one per --motor."),
     duration: float = typer.Option(60.0, help="Planned flight time, seconds."),
     mission: str = typer.Option("waypoints", help="waypoints, manual (pilot sticks) or hover."),
     log_profile: Optional[str] = typer.Option(None, "--log-profile", help="px4_high, px4_default, ardupilot, ardupilot_fast."),
@@ -423,7 +426,7 @@ def simulate(
     imu_rate: Optional[float] = typer.Option(None, "--imu-rate", help="Also log raw IMU samples at this rate (Hz, "
                                              "100-1000: ArduPilot ACC/GYR, PX4 sensor_accel/sensor_gyro)."),
 ) -> None:
-    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
+    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with one or two damaged propellers, and write them as ULog or DataFlash logs."""
     rho_list = None
     if rho:
         try:
@@ -436,8 +439,8 @@ def simulate(
     from .sim.files import simulate_to_files
 
     try:
-        written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
-                                    onset=onset, duration=duration, mission=mission, log_profile=log_profile,
+        written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor or 0,
+                                    eta=eta or 0.8, onset=onset or None, duration=duration, mission=mission, log_profile=log_profile,
                                     rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id,
                                     imbalance=imbalance, imu_rate=imu_rate)
     except FlightLogError as e:
@@ -448,7 +451,14 @@ def simulate(
         raise typer.Exit(EXIT_INVALID)
     console = _console()
     for p, t in written:
-        what = "healthy" if not t.get("motor") else f"propeller {t['motor']} damaged (eta {t['eta']:.2f})"
+        motors, etas = t.get("motors") or ([t["motor"]] if t.get("motor") else []), t.get("etas") or [t.get("eta")]
+        if not motors:
+            what = "healthy"
+        elif len(motors) == 1:
+            what = f"propeller {motors[0]} damaged (eta {etas[0]:.2f})"
+        else:
+            what = (f"propellers {', '.join(map(str, motors[:-1]))} and {motors[-1]} damaged (eta "
+                    f"{', '.join(f'{e:.2f}' for e in etas)})")
         added = (t.get("prop_imbalance") or {})
         unbalanced = [f"{k + 1}: {m * 1e6:g} g·mm" for k, m in enumerate(added.get("added_mass_kgm", [])) if m > 0]
         unbalanced += [f"{k + 1}: aero {a:g}" for k, a in enumerate(added.get("added_aero", [])) if a > 0]

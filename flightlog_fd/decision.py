@@ -45,7 +45,19 @@ ESC rpm; a tie by commanded speed alone is named as a hint only in an uncertain 
 pipeline cannot judge (no motor outputs, no damage model for its frame) is judged from vibration
 alone when its result is given, the reason saying what the log lacks.
 
-Limits: one damaged rotor per flight; the sources are treated as independent (the model sees the
+Two propellers (:func:`_pair_step`, a step of its own after the single rotors are weighed): each
+source also weighs "rotors a and b both lost thrust" for every pair (:meth:`AnalyzerResult.pair_llr`:
+the command shares' two-rotor mixer fit, the throttle's part of it, the effectiveness fit with both
+weak, the model seeing at most one of the two; ESC telemetry and vibration per rotor, summed),
+clipped to the source's cap. The best pair is named when its total reaches ``UNCERTAIN_LLR`` and
+beats the best single rotor by ``PAIR_EXCESS_LLR`` (the pair's prior odds: it has a second free
+efficiency and is rarer), ``damaged`` under the single rotor's bars, else ``uncertain`` naming both
+(a moved load or re-trim makes the same command pattern: against a profile the commands alone
+reach at most ``uncertain``). ``Verdict.motors`` lists both, ``motor`` is the first; the
+confidence is P(that pair) among healthy, every rotor and every pair (:func:`_pair_posterior`).
+Quads only (``analyzers.base.PAIR_ROTOR_COUNTS``).
+
+Limits: at most two damaged rotors; the sources are treated as independent (the model sees the
 same commands the command analyzer weighs, which is why each source is capped).
 """
 from __future__ import annotations
@@ -56,6 +68,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .analyzers import AnalyzerResult
+from .analyzers.base import PAIR_ROTOR_COUNTS
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
@@ -127,6 +140,18 @@ THROTTLE_FELL_SIGMAS = 2.0
 #: many nats for any motor: once a moved load explains the pattern as well as a weak rotor does,
 #: the commands add little to the prior odds (e ~ 2.7 to 1).
 TRIM_ONLY_LLR_CAP = 1.0
+#: Two propellers: a pair of rotors is named only when its total beats the best single rotor's by
+#: this much. Two weak rotors explain every pattern one does and more (a second free efficiency),
+#: and two damaged propellers at once are rarer than one, so the pair must earn its extra
+#: freedom: this is the prior log odds of one pair against one rotor. Measured: the best pair's
+#: excess over the best single rotor on one-propeller flights reaches 3.85 on 72 simulated quads
+#: without a profile (99th percentile 1.7; eta 0.6-0.85, random airframes and presets with
+#: realistic imbalance, three logging rates; benchmarks/bench_two_props.py --measure, seed 21) and
+#: 1.02 with one; 3.1 on the real rrc_straight cuts against one-flight profiles (2.0 CrazyPAD, -0.4
+#: px4_sih_dev; bench_two_props.py --real). On healthy flights: 1.4 on the 18 real ones without a
+#: profile, 2.7 on the real one-flight cross-session pairs (Erle board B), 1.3 on the simulated
+#: ones. Above the largest; two-propeller flights reach a median 2.0 without a profile, 7.6 with.
+PAIR_EXCESS_LLR = 4.0
 
 
 @dataclass
@@ -135,17 +160,55 @@ class Verdict:
     on the log's clock (damaged: the onset's first window, or the first window; stopped: the stop)."""
 
     status: str  # "healthy" | "damaged" | "uncertain" | "stopped" | "not_diagnosable"
-    motor: Optional[int] = None
+    motor: Optional[int] = None  # the damaged (stopped) motor; the first of two; None when uncertain
     position: Optional[str] = None
     confidence: float = 0.0  # the probability of the verdict as stated (module docstring)
     first_seen: Optional[float] = None
     reason: str = ""
+    #: Every propeller the verdict names: the damaged (stopped) ones, or for ``uncertain`` the ones
+    #: to inspect (one, the two it cannot tell apart, or a pair); [] when it names none.
+    motors: list[int] = field(default_factory=list)
+    #: True when the verdict is that two propellers lost thrust together (damaged or uncertain).
+    pair: bool = False
+    #: The frame's words for each of ``motors`` (None where unknown).
+    positions: list = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if self.motor and not self.motors:
+            self.motors = [self.motor]
+        if self.motors and len(self.positions) != len(self.motors):
+            self.positions = [self.position if (k == self.motor and self.position) else None for k in self.motors]
+
+    def status_words(self) -> str:
+        """The status with the motors a damaged or stopped verdict names: "damaged (motor 3)",
+        "damaged (motors 1 and 4)", "healthy"."""
+        named = [k for k in self.motors] if self.status in ("damaged", "stopped") else []
+        if not named and self.motor:
+            named = [self.motor]
+        if not named:
+            return self.status
+        if len(named) == 1:
+            return f"{self.status} (motor {named[0]})"
+        return f"{self.status} (motors {', '.join(map(str, named[:-1]))} and {named[-1]})"
+
+    def propellers(self) -> str:
+        """The named propellers in words: "propeller 3 (front-left)", "propellers 1 (front-right)
+        and 4 (rear-right)"; "" when none is named."""
+        each = [f"{k} ({p})" if p else f"{k}" for k, p in zip(self.motors, self.positions)]
+        if not each:
+            return ""
+        if len(each) == 1:
+            return f"propeller {each[0]}"
+        return "propellers " + ", ".join(each[:-1]) + f" and {each[-1]}"
 
     def as_dict(self) -> dict:
         """The verdict fields of the JSON report."""
         return {
             "status": self.status,
             "motor": self.motor,
+            "motors": [int(k) for k in self.motors],
+            "positions": list(self.positions),
+            "pair": bool(self.pair),
             "position": self.position,
             "confidence": round(float(self.confidence), 4),
             "first_seen": None if self.first_seen is None else round(float(self.first_seen), 3),
@@ -179,10 +242,32 @@ class MotorDecision:
 
 
 @dataclass
+class PairDecision:
+    """One pair of motors in the decision: "rotors a and b both lost thrust" (:func:`_pair_step`)."""
+
+    motors: tuple[int, int]
+    llr: float  # what the decision counts, nats: the sources' sum, the trim part bounded (:func:`_pairs`)
+    llr_by_source: dict  # analyzer id -> nats (each source clipped to its cap)
+    eta_hat: Optional[tuple[float, float]]  # the two-rotor command fit's, None when the shares are not weighed
+    excess: float  # llr minus the best single motor's total
+    #: why the trim sources' part was bounded (no profile, no source that does not read the trim agreeing), or None
+    trim_bounded: Optional[str] = None
+
+    def as_dict(self) -> dict:
+        r = lambda x: None if x is None or not np.isfinite(x) else round(float(x), 4)  # noqa: E731
+        return {"motors": [int(k) for k in self.motors], "llr": r(self.llr),
+                "llr_by_source": {k: r(v) for k, v in self.llr_by_source.items()},
+                "eta_hat": None if self.eta_hat is None else [r(x) for x in self.eta_hat],
+                "excess": r(self.excess)}
+
+
+@dataclass
 class Decision:
     """Why the evidence gave its verdict: per-motor details and the analyzers' results."""
 
     motors: list[MotorDecision] = field(default_factory=list)
+    #: The pair hypotheses, most likely first (:func:`_pair_step`); [] when not weighed
+    pairs: list[PairDecision] = field(default_factory=list)
     airframe_changed: Optional[str] = None  # why, when the shares moved in no one-rotor pattern
     healthy_chi2: Optional[float] = None
     share_sigma: Optional[float] = None
@@ -246,6 +331,142 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
             f"{TRIM_FREE_AGREE_LLR:.0f}; a rise of {rise:+.2f} share is within what a moved load makes")
 
 
+# ----------------------------------------------------------------------------- the pair-hypothesis step
+
+def _pairs(results: Sequence[AnalyzerResult], sources: dict, total: np.ndarray, cmd: Optional[CommandSharesResult],
+           n: int) -> list[PairDecision]:
+    """Every pair of motors as a hypothesis, most likely first: per source its clipped pair LLR
+    (:meth:`AnalyzerResult.pair_llr`; only the sources that weighed the single rotors), summed;
+    each pair's excess over the best single motor's total. Without a profile the trim sources'
+    part counts at most ``TRIM_ONLY_LLR_CAP`` unless the sources that do not read the trim agree
+    (``TRIM_FREE_AGREE_LLR``): against an even split a pair's command pattern is also a healthy
+    airframe's own trim (real healthy Erle 6-3-2014_6, shares 1.04 / 0.67 / 0.86 / 1.43: commands
+    +7.9 nats for propellers 1 and 4, the centre of mass off to their side; the model -0.6); a
+    single rotor's pattern is narrower and keeps its own bars."""
+    if n not in PAIR_ROTOR_COUNTS:
+        return []
+    by_source = {}
+    for r in results:
+        if r.analyzer in sources:
+            v = r.pair_llr(n)
+            if v is not None:
+                by_source[r.analyzer] = v
+    if not by_source:
+        return []
+    fits = {pf.motors: pf for pf in (cmd.pairs if cmd is not None and not cmd.abstained else [])}
+    against_profile = cmd is not None and not cmd.abstained and cmd.baseline == "profile"
+    best_single = float(np.max(total))
+    out = []
+    for a in range(1, n + 1):
+        for b in range(a + 1, n + 1):
+            parts = {src: float(v[(a, b)]) for src, v in by_source.items() if (a, b) in v}
+            trim = sum(v for src, v in parts.items() if src in TRIM_SOURCES)
+            free = sum(v for src, v in parts.items() if src not in TRIM_SOURCES)
+            bounded = None
+            if not against_profile and free < TRIM_FREE_AGREE_LLR and trim > TRIM_ONLY_LLR_CAP:
+                bounded = (f"without a profile a pair's command pattern is also the airframe's own trim (a centre of "
+                           f"mass off the middle, a yaw trim), and the sources that do not read the trim give "
+                           f"{free:+.1f} nats (agreement needs {TRIM_FREE_AGREE_LLR:.0f}), so the commands' "
+                           f"{trim:+.1f} count {TRIM_ONLY_LLR_CAP:.0f}")
+                trim = TRIM_ONLY_LLR_CAP
+            llr = float(free + trim)
+            fit = fits.get((a, b))
+            out.append(PairDecision(motors=(a, b), llr=llr, llr_by_source=parts,
+                                    eta_hat=None if fit is None else tuple(fit.eta_hat), excess=llr - best_single,
+                                    trim_bounded=bounded))
+    out.sort(key=lambda pd: -pd.llr)
+    return out
+
+
+def _pair_posterior(pairs: list[PairDecision], weighed: np.ndarray, held: bool) -> tuple[float, np.ndarray]:
+    """(P(the top pair lost thrust), (n,) P(rotor k lost thrust, alone or in a pair)) among
+    healthy, each single rotor and each pair: the single rotors as in :func:`posterior` (their
+    LLRs floored), each pair with the prior of one rotor times exp(-PAIR_EXCESS_LLR); with the
+    trim sources held their part of a pair's LLR is at most TRIM_ONLY_LLR_CAP, as for one rotor."""
+    n = len(weighed)
+    prior_one = np.log(PRIOR_DAMAGED / max(n, 1))
+
+    def stated(pd: PairDecision) -> float:
+        if not held:
+            return pd.llr
+        trim = sum(v for src, v in pd.llr_by_source.items() if src in TRIM_SOURCES)
+        return pd.llr - trim + min(trim, TRIM_ONLY_LLR_CAP)
+
+    logits = np.concatenate([[np.log1p(-PRIOR_DAMAGED)], prior_one + np.maximum(weighed, MILD_DAMAGE_LLR_FLOOR),
+                             [prior_one - PAIR_EXCESS_LLR + stated(pd) for pd in pairs]])
+    w = np.exp(logits - logits.max())
+    w = w / w.sum()
+    marginal = w[1:n + 1].copy()
+    for pd, wp in zip(pairs, w[n + 1:]):
+        for k in pd.motors:
+            marginal[k - 1] += wp
+    return float(w[n + 1]), marginal
+
+
+def _pair_step(pairs: list[PairDecision], weighed: np.ndarray, motors: list[MotorDecision],
+               cmd: Optional[CommandSharesResult], thr: Optional[ThrottleResult], n: int, frame: Optional[Frame],
+               onset) -> Optional[tuple]:
+    """The verdict's arguments (status, motor, confidence, reason, motors, pair) when two rotors
+    explain the evidence and no single one does, else None (the single-rotor verdict follows).
+
+    The top pair is named when its total reaches ``UNCERTAIN_LLR`` and beats the best single rotor
+    by ``PAIR_EXCESS_LLR``. ``damaged`` needs the single-rotor bars as well (``DAMAGED_LLR``; the
+    next pair ``SEPARATION_LLR`` behind; both command shares risen; against a profile a source
+    that does not read the trim agreeing, ``TRIM_FREE_AGREE_LLR``, and the throttle not well
+    below calibration); otherwise ``uncertain`` naming both, saying which bar it missed. The
+    motors' weights then become P(rotor k lost thrust, alone or in a pair) (:func:`_pair_posterior`)."""
+    if not pairs:
+        return None
+    top = pairs[0]
+    if top.llr < UNCERTAIN_LLR or top.excess < PAIR_EXCESS_LLR:
+        return None
+    a, b = top.motors
+    names = f"propellers {a} and {b}"
+    where = (f" ({frame.position(a)} and {frame.position(b)})" if frame is not None and frame.position(a)
+             and frame.position(b) else "")
+    parts = ", ".join(f"{src} {v:+.1f}" for src, v in top.llr_by_source.items())
+    evidence = (f"together {top.llr:+.1f} nats, {top.excess:+.1f} above the best single rotor "
+                f"(log-likelihood ratio by source: {parts})")
+
+    sev = ""
+    if top.eta_hat is not None and all(x < 1.0 for x in top.eta_hat):
+        sev = (f": they give about {100 * top.eta_hat[0]:.0f} % and {100 * top.eta_hat[1]:.0f} % of their normal "
+               f"thrust")
+    why_not = [top.trim_bounded] if top.trim_bounded else []
+    if top.llr < DAMAGED_LLR:
+        why_not.append(f"the evidence is too weak to call (damage needs {DAMAGED_LLR:.0f} nats)")
+    if len(pairs) > 1 and top.llr - pairs[1].llr < SEPARATION_LLR:
+        c, d = pairs[1].motors
+        why_not.append(f"propellers {c} and {d} fit almost as well ({pairs[1].llr:+.1f})")
+    if cmd is not None and not cmd.abstained:
+        flat = [k for k in (a, b) if (f := cmd.finding("share", k)) is not None and f.baseline is not None
+                and f.value <= f.baseline]
+        if flat:
+            why_not.append(f"the command share of propeller {flat[0]} did not rise as a rotor that lost thrust's must")
+    pair_held = False
+    if cmd is not None and not cmd.abstained and cmd.baseline == "profile":
+        free = sum(v for src, v in top.llr_by_source.items() if src not in TRIM_SOURCES)
+        if free < TRIM_FREE_AGREE_LLR:
+            pair_held = True
+            why_not.append(f"only the commands point at them (the sources that do not read the trim give {free:+.1f} "
+                           f"nats, agreement needs {TRIM_FREE_AGREE_LLR:.0f}), and a moved load or re-trim makes the "
+                           f"same pattern: if both are sound, re-calibrate")
+        thr_sigma = cmd.throttle_sigma or THROTTLE_DRIFT_SIGMA
+        if thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma:
+            why_not.append(f"the throttle is {100 * (1 - thr.ratio):.0f} % lower than at calibration, which rotors that "
+                           f"lost thrust cannot do with the same load: re-calibrate after the inspection")
+    confidence, marginal = _pair_posterior(pairs, weighed, pair_held)
+    for m in motors:  # each rotor's weight: alone or in a pair
+        m.weight = float(marginal[m.motor - 1])
+    if not why_not:
+        since = f" from t={onset.first_seen:.1f} s" if onset is not None else ""
+        return ("damaged", a, confidence, f"{names}{where} lost thrust{since}{sev}; one rotor alone does not explain "
+                                          f"the evidence, two do: {evidence}; inspect both", [a, b], True)
+    return ("uncertain", None, confidence, f"{names}{where} may both have lost thrust{sev}; one rotor alone does not "
+                                           f"explain the evidence: {evidence}; but " + "; ".join(why_not)
+            + "; inspect both", [a, b], True)
+
+
 def _one_flight_note(cmd: Optional[CommandSharesResult]) -> Optional[str]:
     """The note that a one-flight profile cannot show the trim's session-to-session move, or None."""
     if cmd is None or cmd.abstained or cmd.baseline != "profile" or (cmd.n_flights or 1) > 1:
@@ -263,7 +484,9 @@ def _stopped(stops: Sequence, frame: Optional[Frame], underneath: Optional[Verdi
     others = "".join(f"; also {describe(s)}" for s in stops[1:])
     was = (f"; the propeller diagnosis alone said {underneath.status}"
            + (f" (motor {underneath.motor})" if underneath.motor else "") if underneath is not None else "")
-    return Verdict(status="stopped", motor=first.motor,
+    stopped_motors = list(dict.fromkeys(s.motor for s in stops))
+    return Verdict(status="stopped", motor=first.motor, motors=stopped_motors,
+                   positions=[frame.position(k) if frame is not None else None for k in stopped_motors],
                    position=frame.position(first.motor) if frame is not None else None, confidence=1.0,
                    first_seen=first.t_start,
                    reason=f"{describe(first)}{others}: check motor {first.motor}, its ESC, wiring and output "
@@ -345,10 +568,12 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
 
     vib = _vibration(results)
 
-    def done(status: str, motor: Optional[int], confidence: float, reason: str) -> tuple[Verdict, Decision]:
+    def done(status: str, motor: Optional[int], confidence: float, reason: str,
+             motors: Optional[list[int]] = None, pair: bool = False) -> tuple[Verdict, Decision]:
+        motors = list(motors) if motors is not None else ([motor] if motor else [])
         raised = _raised_by_vibration(vib, status)
         if raised is not None:
-            status, motor = raised, None
+            status, motor, motors, pair = raised, None, [], False
             confidence = _p_imbalance(vib)
             reason = (f"a propeller is {'likely damaged' if status == 'damaged' else 'possibly out of balance'}: "
                       f"{vib.level_words}; {_vibration_advice(vib, status, frame)}; "
@@ -360,7 +585,15 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             reason += f"; {one}"
         return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
                        else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
-                       first_seen=first_seen if status == "damaged" else None, reason=reason), decision
+                       first_seen=first_seen if status == "damaged" else None, reason=reason,
+                       motors=motors, pair=pair,
+                       positions=[frame.position(k) if frame is not None else None for k in motors]), decision
+
+    # the pair-hypothesis step: two rotors that explain the evidence where no single one does
+    decision.pairs = _pairs(results, sources, total, cmd, n)
+    call = _pair_step(decision.pairs, weighed, motors, cmd, thr, n, frame, onset)
+    if call is not None:
+        return done(*call)
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -371,7 +604,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but the throttle is "
                     f"{100 * (1 - thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot do "
                     f"with the same load: the load or the set-up changed since calibration; inspect propeller {kb}, "
-                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}")
+                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}", [kb])
     if trim_held is not None and total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
         # commands against another session's calibration alone: at most uncertain
         sev = severity_words(kb)
@@ -382,20 +615,22 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     + (f" (if its propeller were the cause, it {sev})" if sev else "")
                     + f": inspect propeller {kb}; if it is sound, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
-                      f"(log-likelihood ratio, nats): {parts}")
+                      f"(log-likelihood ratio, nats): {parts}", [kb])
     if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
                     f"did not rise as a rotor that lost thrust must ({share.value:.3f} against {share.baseline:.3f}); "
-                    f"{evidence_words(kb)}; inspect propeller {kb} and the others")
+                    f"{evidence_words(kb)}; inspect propeller {kb} and the others", [kb])
     if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
         since = f" from t={onset.first_seen:.1f} s" if onset is not None else ""
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
                     + f"; {evidence_words(kb)}; inspect propeller {kb}")
     if total[best] >= UNCERTAIN_LLR:
+        named = [kb]
         if lead < SEPARATION_LLR and second is not None and total[second] >= UNCERTAIN_LLR:
             k2 = second + 1
+            named = [kb, k2]
             confidence = w[kb] + w[k2]
             reason = (f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats) or "
                       f"{_words(frame, k2)} ({total[second]:+.1f}) and cannot tell them apart; "
@@ -410,7 +645,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                 reason += "; if it is sound, the load moved since calibration (battery, payload): re-calibrate"
         if airframe_changed:
             reason += f"; also {airframe_changed}: after the inspection, re-calibrate"
-        return done("uncertain", None, confidence, reason)
+        return done("uncertain", None, confidence, reason, named)
     if airframe_changed:
         return done("uncertain", None, w[0],
                     f"no rotor explains the change since calibration ({airframe_changed}): the airframe itself "
@@ -495,7 +730,7 @@ def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     """The verdict of a log holding several flights: its worst flight's (:func:`worst_flight`),
     the reason naming that flight and listing every other one."""
     label, worst = parts[worst_flight([v for _, v in parts])]
-    others = "".join(f"; {lab}: {v.status}" + (f" (motor {v.motor})" if v.motor else "")
-                     for lab, v in parts if v is not worst)
+    others = "".join(f"; {lab}: {v.status_words()}" for lab, v in parts if v is not worst)
     return Verdict(status=worst.status, motor=worst.motor, position=worst.position, confidence=worst.confidence,
-                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}")
+                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}",
+                   motors=list(worst.motors), pair=worst.pair, positions=list(worst.positions))

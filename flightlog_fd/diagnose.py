@@ -422,8 +422,7 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
     whole.warnings.append(f"this log holds {len(parts)} flights ({listing}): {SEVERAL_FLIGHTS_NOTE}")
     whole.flights = subs
     whole.verdict = replace(whole.verdict, reason=whole.verdict.reason + "; " + "; ".join(
-        f"{d.part.split(',')[0]}: {d.verdict.status}" + (f" (motor {d.verdict.motor})" if d.verdict.motor else "")
-        for d in subs))
+        f"{d.part.split(',')[0]}: {d.verdict.status_words()}" for d in subs))
     return whole
 
 
@@ -435,15 +434,16 @@ def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> V
     rank = STATUS_RANK
     if own.status in ("not_diagnosable", "stopped") or rank.get(own.status, 0) < rank.get(log.status, 0):
         return own
-    if rank.get(own.status, 0) == rank.get(log.status, 0) and (own.motor is None or own.motor == log.motor
+    same = sorted(own.motors) == sorted(log.motors)
+    if rank.get(own.status, 0) == rank.get(log.status, 0) and (own.motor is None or same
                                                               or own.status != "damaged"):
         return own
-    if own.status == "damaged" and log.status == "damaged" and own.motor == log.motor:
+    if own.status == "damaged" and log.status == "damaged" and same:
         return own
     status = log.status if rank.get(log.status, 0) < rank.get(own.status, 0) else "uncertain"
     if status == "not_diagnosable":
         status = "healthy"
-    said = own.status + (f" (motor {own.motor})" if own.motor else "")
+    said = own.status_words()
     whole = ""
     if own.motor and decision is not None and len(decision.motors) >= own.motor:
         whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"

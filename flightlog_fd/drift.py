@@ -29,6 +29,21 @@ FIGURE_DIRECTION = {"model_vote": +1, "command_share": +1, "effectiveness": -1}
 FIGURES = tuple(FIGURE_FLOORS)
 
 
+def verdict_words(status: Optional[str], motor: Optional[int], motors: list, pair: bool, short: bool = False) -> str:
+    """A stored verdict in words: its status, and the motor it names (damaged, stopped) or both
+    of a pair: "damaged m3", "uncertain m1+m4" (short); "damaged (motor 3)", "uncertain (motors 1
+    and 4)"."""
+    status = status or "-"
+    named = list(motors) if pair and len(motors or []) > 1 else ([motor] if motor else [])
+    if not named:
+        return status
+    if short:
+        return f"{status} " + "+".join(f"m{k}" for k in named)
+    if len(named) == 1:
+        return f"{status} (motor {named[0]})"
+    return f"{status} (motors {', '.join(map(str, named[:-1]))} and {named[-1]})"
+
+
 @dataclass
 class FlightRecord:
     """One flight of an airframe as history and the drift rule see it (its latest diagnosis);
@@ -48,6 +63,14 @@ class FlightRecord:
     motors: dict[int, dict] = field(default_factory=dict)
     #: Each take-off to landing of a log holding several (``store.PART_COLUMNS`` and ``part``).
     parts: list[dict] = field(default_factory=list)
+    #: Every propeller the verdict names (the JSON verdict's ``motors``) and whether it names two together.
+    verdict_motors: list[int] = field(default_factory=list)
+    pair: bool = False
+
+    def verdict_words(self, short: bool = False) -> str:
+        """The status with the motor(s) it names: "damaged m1+m4" (short) or "damaged (motors 1
+        and 4)"; a pair is named for uncertain too."""
+        return verdict_words(self.status, self.motor, self.verdict_motors, self.pair, short)
 
     def figure(self, name: str) -> Optional[list[float]]:
         """Every motor's value of ``name`` (motor order), or None unless all are known."""

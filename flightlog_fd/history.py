@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 from typing import Iterable, Optional
 
-from .drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS, FlightRecord, find_drift
+from .drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS, FlightRecord, find_drift, verdict_words
 from .report.motor_view import summary_cell, summary_header
 from .store import TREND_FIGURES, UNKNOWN_VEHICLE
 
@@ -34,18 +34,33 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
             "vehicle_source": latest.vehicle_source if latest else None,
             "flights": [{"log": f.log_path, "log_sha256": f.log_sha256, "flight_start_utc": f.flight_start_utc,
                          "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor,
+                         "verdict_motors": list(f.verdict_motors), "pair": bool(f.pair),
                          "confidence": f.confidence, "reason": f.reason, "diagnosed_at": f.diagnosed_at,
                          "motors": [{"motor": k, **f.motors[k]} for k in sorted(f.motors)],
                          "parts": [dict(p) for p in f.parts]} for f in flights],
             "drift": [{"motor": d.motor, "figure": d.figure, "slope_z_per_flight": d.slope,
                        "latest_z": d.latest_z, "n_flights": d.n_flights, "text": d.describe()} for d in drifts],
             "latest_damaged": bool(latest and latest.status == "damaged"),
-            "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor},
+            "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor,
+                                                   "motors": _damaged_motors(latest)},
         })
     flagged = any(v["drift"] or v["latest_damaged"] for v in vehicles)
     return {"schema": 1, "rule": {"min_flights": MIN_FLIGHTS, "drift_slope_min": DRIFT_SLOPE_MIN,
                                   "drift_z_min": DRIFT_Z_MIN, "floors": FIGURE_FLOORS},
             "vehicles": vehicles, "flagged": flagged}
+
+
+def _damaged_motors(f: FlightRecord) -> list[int]:
+    """The motors a flight's verdict calls damaged: both of a pair, else its motor."""
+    return list(f.verdict_motors) if f.pair and len(f.verdict_motors) > 1 else ([f.motor] if f.motor else [])
+
+
+def _latest_words(latest: dict) -> str:
+    """"propeller 3 damaged" / "propellers 1 and 4 damaged" for the latest-flight flag."""
+    motors = latest.get("motors") or ([latest["motor"]] if latest.get("motor") else [])
+    if len(motors) > 1:
+        return f"propellers {', '.join(map(str, motors[:-1]))} and {motors[-1]} damaged"
+    return f"propeller {motors[0] if motors else latest.get('motor')} damaged"
 
 
 # ----------------------------------------------------------------------------- html
@@ -119,11 +134,11 @@ def render_html(summary: dict) -> str:
             out.append(f"<p class='flag'>{e(d['text'])}</p>")
         if v["latest_damaged"]:
             f = v["latest"]
-            out.append(f"<p class='flag'>latest flight: propeller {f['motor']} damaged ({e(f['log'])})</p>")
+            out.append(f"<p class='flag'>latest flight: {e(_latest_words(f))} ({e(f['log'])})</p>")
         out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
                    + "".join(f"<th>{html.escape(summary_header(k))}</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
         for i, f in enumerate(v["flights"], 1):
-            verdict = f["status"] + (f" (motor {f['motor']})" if f["motor"] else "")
+            verdict = verdict_words(f["status"], f["motor"], f.get("verdict_motors") or [], f.get("pair", False))
             cells = []
             by_motor = {m["motor"]: m for m in f["motors"]}
             for k in _motor_numbers(v["flights"]):
@@ -147,7 +162,7 @@ def render_html(summary: dict) -> str:
 
 def _part_verdict(p: dict) -> str:
     """One flight of a log holding several: its status (and motor), short."""
-    return (p.get("status") or "-") + (f" m{p['motor']}" if p.get("motor") else "")
+    return verdict_words(p.get("status"), p.get("motor"), p.get("verdict_motors") or [], bool(p.get("pair")), short=True)
 
 
 def _fmt(x: Optional[float], decimals: int = 3) -> str:
@@ -166,7 +181,8 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
         yield f"  {'#':>3} {'start (UTC)':<24} {'verdict':<18} {'conf':>5}  " + "  ".join(
             summary_header(k).replace(" / ", "/") for k in _motor_numbers(v["flights"])) + "  log"
         for i, f in enumerate(v["flights"], 1):
-            verdict = f["status"] + (f" m{f['motor']}" if f["motor"] else "")
+            verdict = verdict_words(f["status"], f["motor"], f.get("verdict_motors") or [], f.get("pair", False),
+                                    short=True)
             by_motor = {m["motor"]: m for m in f["motors"]}
             figs = "  ".join(_cell(by_motor.get(k, {}), "/") for k in _motor_numbers(v["flights"]))
             yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "
@@ -177,7 +193,7 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
             yield f"  FLAG: {d['text']}"
         if v["latest_damaged"]:
             f = v["latest"]
-            yield f"  FLAG: latest flight has propeller {f['motor']} damaged ({Path(f['log']).name})"
+            yield f"  FLAG: latest flight has {_latest_words(f)} ({Path(f['log']).name})"
         yield ""
 
 

@@ -71,7 +71,8 @@ MOTOR_COLUMNS = ("position", "command_share", "command_share_baseline", "command
 FINDING_COLUMNS = ("analyzer", "motor", "name", "value", "unit", "interval_lo", "interval_hi", "baseline",
                    "direction", "llr", "text")
 #: Each flight of a log holding several: the JSON report's ``flights[]`` (``part`` 1..n in time order).
-PART_COLUMNS = ("label", "t_start_s", "t_end_s", "airborne_s", "status", "motor", "confidence", "reason")
+PART_COLUMNS = ("label", "t_start_s", "t_end_s", "airborne_s", "status", "motor", "confidence", "reason",
+                "verdict_motors", "pair")
 #: Per-motor figures drawn across an airframe's flights (history page, airframe page): (column, title).
 TREND_FIGURES = (("command_change", "command-share change"),
                  ("eta_hat", "eta-hat: estimated remaining thrust (1 = healthy)"),
@@ -127,6 +128,34 @@ def _v4(db: Database) -> None:
     PRIMARY KEY (flight_id, part)
 )""")
     for flight_id, doc in _stored_diagnoses(db):
+        _write_parts(db, flight_id, doc)
+
+
+def verdict_motors_text(v: dict) -> str:
+    """The JSON verdict's ``motors`` as the store keeps them ("1;4"; "" for none); a report from
+    before schema 6 names at most its ``motor``."""
+    motors = v.get("motors")
+    if not isinstance(motors, list):
+        motors = [v["motor"]] if isinstance(v.get("motor"), int) else []
+    return ";".join(str(int(k)) for k in motors if isinstance(k, int))
+
+
+def parse_verdict_motors(text: Optional[str]) -> list[int]:
+    """"1;4" -> [1, 4] (the store's ``verdict_motors``)."""
+    return [int(x) for x in (text or "").split(";") if x.strip().isdigit()]
+
+
+def _v5(db: Database) -> None:
+    """Migration 5: every propeller a verdict names (``verdict_motors`` "1;4") and whether it
+    names two together (``pair``), on the flight and on each flight of a log, filled from the
+    stored diagnoses."""
+    for table in ("flight", "flight_part"):
+        db.run(f"ALTER TABLE {table} ADD COLUMN verdict_motors TEXT NOT NULL DEFAULT ''")
+        db.run(f"ALTER TABLE {table} ADD COLUMN pair INTEGER NOT NULL DEFAULT 0")
+    for flight_id, doc in _stored_diagnoses(db):
+        v = doc.get("verdict") or {}
+        db.run("UPDATE flight SET verdict_motors = ?, pair = ? WHERE id = ?",
+               (verdict_motors_text(v), int(bool(v.get("pair"))), flight_id))
         _write_parts(db, flight_id, doc)
 
 
@@ -220,6 +249,7 @@ CREATE INDEX finding_flight ON finding (flight_id)
     # down | ''); flight: model_sha256, model_version, profile_path, tool_version, exit_code.
     (3, "one store: the JSON report's per-motor names, the model and profile of each diagnosis", _v3),
     (4, "each flight of a log holding several, with its verdict", _v4),
+    (5, "every propeller a verdict names, and two named together", _v5),
 ]
 #: The schema version this fdlog writes (its newest migration).
 SCHEMA_VERSION = max(v for v, _, _ in MIGRATIONS)
@@ -327,7 +357,7 @@ def part_rows(doc: dict) -> list[tuple]:
         bounds = re.search(r"(-?[0-9.]+)-(-?[0-9.]+) s$", label)  # "flight 2 of 5, 234.8-327.8 s"
         out.append((i, label, _num(bounds.group(1)) if bounds else None, _num(bounds.group(2)) if bounds else None,
                     _num(f.get("airborne_s")), v.get("status"), int(motor) if isinstance(motor, int) else None,
-                    _num(v.get("confidence")), v.get("reason") or ""))
+                    _num(v.get("confidence")), v.get("reason") or "", verdict_motors_text(v), int(bool(v.get("pair")))))
     return out
 
 
@@ -452,11 +482,13 @@ class Store:
             profile_path, tool_version = run.profile_path, run.tool_version or tool_version
         self.db.run(
             "UPDATE flight SET state = 'done', airframe = ?, autopilot = ?, firmware = ?, flight_start_utc = ?, "
-            "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, confidence = ?, reason = ?, sentence = ?, "
+            "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, verdict_motors = ?, pair = ?, confidence = ?, "
+            "reason = ?, sentence = ?, "
             "profile_sha256 = ?, profile_path = ?, model_sha256 = ?, model_version = ?, tool_version = ?, "
             "exit_code = ?, diagnosis_json = ?, plot_json = ?, error = NULL, diagnosed_at = ? WHERE id = ?",
             (airframe, doc.get("autopilot"), doc.get("firmware"), flight_start_utc, _num(log_t_start_s),
-             _num(doc.get("airborne_s")), v.get("status"), v.get("motor"), _num(v.get("confidence")), v.get("reason"),
+             _num(doc.get("airborne_s")), v.get("status"), v.get("motor"), verdict_motors_text(v),
+             int(bool(v.get("pair"))), _num(v.get("confidence")), v.get("reason"),
              sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
              json.dumps(doc), None if plot is None else json.dumps(plot), diagnosed_at or utc_now(), fid))
         _write_figures(self.db, fid, doc, command_share)
@@ -734,8 +766,8 @@ class Store:
         """Resolved airframe -> its flights in time order (UTC start; flights without it after,
         by name, then upload), each with ``motors``: motor -> figures."""
         flights = self.db.query("SELECT id, sha256, name, state, airframe, healthy_mark, autopilot, firmware, "
-                                "flight_start_utc, airborne_s, status, motor, confidence, reason, uploaded_at, "
-                                "diagnosed_at, error FROM flight WHERE airframe IS NOT NULL")
+                                "flight_start_utc, airborne_s, status, motor, verdict_motors, pair, confidence, "
+                                "reason, uploaded_at, diagnosed_at, error FROM flight WHERE airframe IS NOT NULL")
         figs: dict[int, dict[int, dict]] = {}
         for m in self.db.query(f"SELECT flight_id, motor, {', '.join(MOTOR_COLUMNS)} FROM motor_figure"):
             figs.setdefault(int(m["flight_id"]), {})[int(m["motor"])] = {c: m[c] for c in MOTOR_COLUMNS}
@@ -747,6 +779,11 @@ class Store:
         for f in flights:
             f["motors"] = figs.get(int(f["id"]), {})
             f["parts"] = parts.get(int(f["id"]), [])
+            f["verdict_motors"] = parse_verdict_motors(f.get("verdict_motors"))
+            f["pair"] = bool(f.get("pair"))
+            for p in f["parts"]:
+                p["verdict_motors"] = parse_verdict_motors(p.get("verdict_motors"))
+                p["pair"] = bool(p.get("pair"))
             groups.setdefault(self.resolve(f["airframe"], table), []).append(f)
         for fl in groups.values():
             fl.sort(key=lambda f: (f["flight_start_utc"] is None, f["flight_start_utc"] or "", f["name"],
@@ -796,6 +833,7 @@ def _record_of(f: dict, source: str) -> FlightRecord:
     return FlightRecord(id=int(f["id"]), log_path=f["name"], log_sha256=f["sha256"],
                         flight_start_utc=f["flight_start_utc"], airborne_s=f["airborne_s"], status=f["status"] or "",
                         motor=f["motor"], confidence=f["confidence"], reason=f["reason"] or "",
+                        verdict_motors=list(f.get("verdict_motors") or []), pair=bool(f.get("pair")),
                         diagnosed_at=f["diagnosed_at"] or "", vehicle_source=source,
                         motors={k: dict(v) for k, v in f["motors"].items()}, parts=list(f.get("parts") or []))
 

@@ -110,7 +110,8 @@ def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None)
                            covered_s=50.0, share=1.0, agreement=1.0, log_likelihood_ratio=10.0,
                            first_seen=first_seen, confirmed=True)
     v, d = D.decide(4, Frame.quad_x(), timeline=tl, results=run_analyzers(ctx))
-    return SimpleNamespace(**vars(v), motors=d.motors, airframe_changed=d.airframe_changed, results=d.results)
+    return SimpleNamespace(**{**vars(v), "motors": d.motors, "named": v.motors}, pairs=d.pairs,
+                           airframe_changed=d.airframe_changed, results=d.results)
 
 
 def test_branch_damaged_names_the_motor_its_severity_and_inspection():
@@ -195,7 +196,10 @@ def test_confidence_is_the_probability_of_the_statement_whatever_the_rotor_count
     assert D.posterior(np.zeros(8))[0] == pytest.approx(1 - D.PRIOR_DAMAGED)
 
     def verdict(llrs, n):
-        r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=float(v)) for k, v in enumerate(llrs)])
+        # a source that sees one rotor at a time: a pair is as likely as its likelier member, no more
+        pairs = {(a, b): max(llrs[a - 1], llrs[b - 1]) for a in range(1, n + 1) for b in range(a + 1, n + 1)}
+        r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=float(v)) for k, v in enumerate(llrs)],
+                           pair_llrs=pairs)
         return D.decide(n, None, timeline=Timeline(60, 60.0, 0.0), results=[r])
 
     v, d = verdict([-1.0] * 8, 8)

@@ -49,7 +49,7 @@ def _octaquad_decision(motor: int, eta: float, probs: np.ndarray):
                   share_fit=ev)
     results = run_analyzers(ctx)
     v, d = D.decide(8, OCTAQUAD, timeline=Timeline(n_windows=len(probs), covered_s=40.0, t_first=0.0), results=results)
-    return SimpleNamespace(**vars(v), motors=d.motors), results
+    return SimpleNamespace(**{**vars(v), "motors": d.motors, "named": v.motors}), results
 
 
 @pytest.mark.parametrize("motor", [1, 2, 6, 7])

@@ -79,7 +79,7 @@ def test_an_existing_store_gets_its_flight_rows_when_upgraded(tmp_path):
         c.execute("DELETE FROM schema_migrations WHERE version = 4")
         c.execute("PRAGMA user_version = 3")
     with Store(db) as store:
-        assert store.db.schema_version() == SCHEMA_VERSION == 4
+        assert store.db.schema_version() == SCHEMA_VERSION == 5
         (f,) = store.logs()
         parts = store.flight_parts(f["id"])
     assert [(p["label"].split(",")[0], p["status"]) for p in parts] == [("flight 1 of 2", "healthy"),

@@ -11,6 +11,10 @@ import numpy as np
 #: single source can outvote the others without limit (a model misled by an odd airframe, a
 #: command pattern from a bent arm). 8 nats: e^8 ~ 3000 to 1.
 SOURCE_LLR_CAP = 8.0
+#: Rotor counts on which the sources weigh "two rotors lost thrust" (:meth:`AnalyzerResult.pair_llr`):
+#: quads, where it is measured (benchmarks/bench_two_props.py). A hexa's or octo's allocator has
+#: more freedom than the four force rows, so a pair there is a hypothesis nobody has measured.
+PAIR_ROTOR_COUNTS = (4,)
 
 
 @dataclass
@@ -63,6 +67,10 @@ class AnalyzerResult:
     notes: list[str] = field(default_factory=list)
     llr_cap: float = SOURCE_LLR_CAP  # set from the analyzer by run_analyzers
     cap_keeps_order: bool = False  # likewise
+    #: {(a, b): nats} this source's own evidence for "rotors a and b both lost thrust" (1-based,
+    #: a < b), before the cap, for a source whose per-motor figures are not independent of each
+    #: other; empty: :meth:`pair_llr` sums the two motors' findings
+    pair_llrs: dict = field(default_factory=dict)
 
     def finding(self, name: str, motor: int) -> Optional[Finding]:
         """Its finding ``name`` about ``motor`` (1-based), or None."""
@@ -84,6 +92,33 @@ class AnalyzerResult:
         if self.cap_keeps_order:
             out = out - max(float(out.max()) - self.llr_cap, 0.0)
         return np.clip(out, -self.llr_cap, self.llr_cap)
+
+    def pair_llr(self, n_motors: int) -> Optional[dict]:
+        """{(a, b): nats} for every pair of motors, clipped like :meth:`llr` (with
+        ``cap_keeps_order`` all pairs lowered by the top pair's excess over the cap): ``pair_llrs``
+        when the analyzer gave them, else the sum of the two motors' weighed findings (a source
+        whose finding about one motor does not depend on the others: ESC telemetry, a vibration
+        line tied to a rotor). None when it weighs nothing, or on a rotor count outside
+        ``PAIR_ROTOR_COUNTS``."""
+        if n_motors not in PAIR_ROTOR_COUNTS:
+            return None
+        pairs = [(a, b) for a in range(1, n_motors + 1) for b in range(a + 1, n_motors + 1)]
+        if self.pair_llrs:
+            raw = {pr: float(self.pair_llrs[pr]) for pr in pairs if pr in self.pair_llrs}
+        else:
+            per = np.zeros(n_motors)
+            weighed = False
+            for f in self.findings:
+                if f.llr is not None and np.isfinite(f.llr) and 1 <= f.motor <= n_motors:
+                    per[f.motor - 1] += f.llr
+                    weighed = True
+            if not weighed:
+                return None
+            raw = {(a, b): float(per[a - 1] + per[b - 1]) for a, b in pairs}
+        if not raw:
+            return None
+        shift = max(max(raw.values()) - self.llr_cap, 0.0) if self.cap_keeps_order else 0.0
+        return {pr: float(np.clip(v - shift, -self.llr_cap, self.llr_cap)) for pr, v in raw.items()}
 
     def as_dict(self) -> dict:
         return {"analyzer": self.analyzer, "abstained": self.abstained, "notes": list(self.notes),

@@ -28,7 +28,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..flight import Frame
-from .base import Analyzer, AnalyzerResult, Context, Finding
+from .base import PAIR_ROTOR_COUNTS, Analyzer, AnalyzerResult, Context, Finding
 
 #: Thrust-efficiency grid of the damage hypothesis (uniform prior). 0.4: below it a quad cannot
 #: hold yaw and the flight ends; 0.99: damage too small to matter is still "damage" here but
@@ -80,6 +80,23 @@ class SeverityFit:
     chi2: float  # at the best eta, m
 
 
+#: Thrust-efficiency grid of the two-rotor hypothesis (uniform prior over both rotors): the
+#: single-rotor range on a coarser step, since the joint grid is its square. Its step is below
+#: the eta-hat intervals the single fit gives (+-0.03 at best: bench_real_damage.py, px4_high).
+PAIR_ETA_GRID = np.round(np.arange(0.40, 0.995, 0.02), 3)
+
+
+@dataclass
+class PairFit:
+    """The two-rotor damage fit of one pair: LLR of "rotors a and b lost thrust" vs healthy and
+    both eta-hats (same order as ``motors``)."""
+
+    motors: tuple[int, int]
+    llr: float
+    eta_hat: tuple[float, float]
+    chi2: float
+
+
 @dataclass
 class CommandSharesResult(AnalyzerResult):
     """The command-share analyzer's result: its findings (``share``, ``thrust`` per motor) and the
@@ -97,6 +114,7 @@ class CommandSharesResult(AnalyzerResult):
     pin: Optional[list[float]] = None  # (n,) how well calibration and this flight pin each share (profile only)
     n_flights: Optional[int] = None  # the profile's calibration flights (None without a profile)
     throttle_sigma: Optional[float] = None  # the relative throttle drift against the baseline
+    pairs: list[PairFit] = field(default_factory=list)  # each pair's fit (with the throttle when weighed)
 
 
 def _mixer_rows(frame: Optional[Frame], n: int) -> np.ndarray:
@@ -176,6 +194,31 @@ def _gauss_ll(d, sigma):
     return -0.5 * np.sum((d / sigma) ** 2 + np.log(2 * np.pi * np.square(sigma)), axis=-1)
 
 
+def _share_likelihood(share, base_share, sigma, frame, throttle_ratio, throttle_sigma, move):
+    """(shares, baseline shares (mean 1), sigma, mixer rows, with_throttle, loglik) for the fits:
+    ``loglik(resid (..., n), throttle resid (...) or None) -> (...)`` the log-likelihood of share
+    residuals under the small drift, mixed with a moved load when ``move`` (:func:`severity_fit`)."""
+    s = np.asarray(share, float)
+    b = np.asarray(base_share, float)
+    b = b / b.mean()
+    sig = np.asarray(sigma, float)
+    rows = _mixer_rows(frame, len(s))
+    with_thr = throttle_ratio is not None and np.isfinite(throttle_ratio)
+    sig_big = np.sqrt(sig ** 2 + SESSION_MOVE_SIGMA ** 2)
+    log_u = -np.log(2 * THROTTLE_MOVE_RANGE)  # a moved load's throttle density
+
+    def loglik(resid, thr_resid):
+        small = _gauss_ll(resid, sig)
+        if with_thr:
+            small = small + _gauss_ll(np.asarray(thr_resid)[..., None], np.array([throttle_sigma]))
+        if not move:
+            return small
+        big = _gauss_ll(resid, sig_big) + (log_u if with_thr else 0.0)
+        return np.logaddexp(np.log1p(-SESSION_MOVE_P) + small, np.log(SESSION_MOVE_P) + big)
+
+    return s, b, sig, rows, with_thr, loglik
+
+
 def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
                  throttle_ratio: Optional[float] = None,
                  throttle_sigma: float = THROTTLE_DRIFT_SIGMA, move: bool = False) -> tuple[float, list[SeverityFit]]:
@@ -186,25 +229,9 @@ def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, f
     (SESSION_MOVE_*, THROTTLE_MOVE_RANGE: against a calibration from another session; also
     around the damage hypothesis). Returns the healthy chi-square (small drift) and one
     :class:`SeverityFit` per motor (LLR = log Bayes factor over the eta/m prior grid)."""
-    s = np.asarray(share, float)
-    b = np.asarray(base_share, float)
-    b = b / b.mean()
-    sig = np.asarray(sigma, float)
+    s, b, sig, rows, with_thr, loglik = _share_likelihood(share, base_share, sigma, frame, throttle_ratio,
+                                                          throttle_sigma, move)
     n = len(s)
-    rows = _mixer_rows(frame, n)
-    with_thr = throttle_ratio is not None and np.isfinite(throttle_ratio)
-    sig_big = np.sqrt(sig ** 2 + SESSION_MOVE_SIGMA ** 2)
-    log_u = -np.log(2 * THROTTLE_MOVE_RANGE)  # a moved load's throttle density
-
-    def loglik(resid, thr_resid):  # resid (..., n), thr_resid (...) or None -> (...)
-        small = _gauss_ll(resid, sig)
-        if with_thr:
-            small = small + _gauss_ll(np.asarray(thr_resid)[..., None], np.array([throttle_sigma]))
-        if not move:
-            return small
-        big = _gauss_ll(resid, sig_big) + (log_u if with_thr else 0.0)
-        return np.logaddexp(np.log1p(-SESSION_MOVE_P) + small, np.log(SESSION_MOVE_P) + big)
-
     chi_h = float(np.sum(((s - b) / sig) ** 2))
     if with_thr:
         chi_h += ((throttle_ratio - 1.0) / throttle_sigma) ** 2
@@ -237,6 +264,62 @@ def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, f
         fits.append(SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]),
                                 chi2=float(chi[a, bm])))
     return chi_h, fits
+
+
+def _pair_pred_table(base: np.ndarray, rows: np.ndarray, a: int, b: int) -> np.ndarray:
+    """(E, E, M, n) predicted raw commands with rotors ``a`` and ``b`` (1-based) at every pair of
+    PAIR_ETA_GRID efficiencies and one drag-torque exponent from M_GRID (:func:`predicted_commands`)."""
+    ea, eb, m = np.meshgrid(PAIR_ETA_GRID, PAIR_ETA_GRID, M_GRID, indexing="ij")
+    A = np.broadcast_to(rows, ea.shape + rows.shape).copy()  # (E, E, M, 4, n)
+    for j, eta in ((a - 1, ea), (b - 1, eb)):
+        A[..., :3, j] *= eta[..., None]
+        A[..., 3, j] *= eta ** m
+    if rows.shape[0] == rows.shape[1]:
+        return np.linalg.solve(A, np.broadcast_to(rows @ base, ea.shape + (rows.shape[0],))[..., None])[..., 0]
+    alloc = np.linalg.pinv(rows)
+    dv = np.linalg.solve(A @ alloc, ((rows - A) @ base)[..., None])[..., 0]
+    return base + dv @ alloc.T
+
+
+def all_pairs(n: int) -> list[tuple[int, int]]:
+    """Every pair (a, b) of an n-rotor frame's motors, 1-based, a < b."""
+    return [(a, b) for a in range(1, n + 1) for b in range(a + 1, n + 1)]
+
+
+def pair_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
+             throttle_ratio: Optional[float] = None, throttle_sigma: float = THROTTLE_DRIFT_SIGMA,
+             move: bool = False, pairs: Optional[Sequence[tuple[int, int]]] = None,
+             tables: Optional[dict] = None) -> list[PairFit]:
+    """The two-rotor hypothesis for each pair (default :func:`all_pairs`): the same likelihood as
+    :func:`severity_fit`, the commands predicted with both rotors weak (one drag-torque exponent
+    for both: the same propeller type), the LLR averaged over the uniform prior on
+    PAIR_ETA_GRID x PAIR_ETA_GRID x M_GRID. Its extra free efficiency buys no evidence by itself
+    (the average over a prior twice as wide), but two weak rotors explain any share pattern a
+    single one does, which is why :mod:`flightlog_fd.decision` asks more of a pair. ``tables``: a
+    dict the predicted commands are kept in between calls on the same baseline (with and without
+    the throttle)."""
+    s, b, sig, rows, with_thr, loglik = _share_likelihood(share, base_share, sigma, frame, throttle_ratio,
+                                                          throttle_sigma, move)
+    ll_h = float(loglik(s - b, throttle_ratio - 1.0 if with_thr else None))
+    out = []
+    for a, c in (pairs if pairs is not None else all_pairs(len(s))):
+        key = (a, c, b.tobytes(), rows.tobytes())
+        u = tables.get(key) if tables is not None else None
+        if u is None:
+            u = _pair_pred_table(b, rows, a, c)
+            if tables is not None:
+                tables[key] = u
+        mean_u = u.mean(axis=-1)
+        pred = u / mean_u[..., None]
+        ll = loglik(s - pred, throttle_ratio - mean_u if with_thr else None)
+        top = ll.max()
+        llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+        i, j, k = np.unravel_index(int(np.argmax(ll)), ll.shape)
+        chi = float(np.sum(((s - pred[i, j, k]) / sig) ** 2)
+                    + (((throttle_ratio - mean_u[i, j, k]) / throttle_sigma) ** 2 if with_thr else 0.0))
+        hat = tuple(1.0 if x >= PAIR_ETA_GRID[-1] else float(x) for x in (PAIR_ETA_GRID[i], PAIR_ETA_GRID[j]))
+        out.append(PairFit(motors=(a, c), llr=llr, eta_hat=hat, chi2=chi))
+    return out
 
 
 def pooled_sigma(measured: Optional[float], n_flights: int, prior: float) -> float:
@@ -297,7 +380,24 @@ def _fits(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[Sever
     ratio = share_fit.throttle_ratio if with_throttle else None
     thr_sig = pooled_sigma(None if b is None else b.throttle_spread, n_flights, THROTTLE_DRIFT_SIGMA)
     chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile)
+    ctx.memo[("commands.inputs", with_throttle)] = (shares, base, sig, ratio, thr_sig, profile)
     return chi_h, fits, sig
+
+
+def pair_fits_for(ctx: Context, with_throttle: bool) -> Optional[list[PairFit]]:
+    """Every pair's two-rotor fit (:func:`pair_fit`) of the flight's shares, or None (also on a rotor
+    count outside ``PAIR_ROTOR_COUNTS``); computed once per diagnosis, after :func:`fits_for` (the
+    command-share and throttle analyzers both need them)."""
+    key = ("commands.pairs", with_throttle)
+    if key not in ctx.memo:
+        inputs = ctx.memo.get(("commands.inputs", with_throttle)) if fits_for(ctx, with_throttle) else None
+        if inputs is None or len(inputs[0]) not in PAIR_ROTOR_COUNTS:
+            ctx.memo[key] = None
+        else:
+            shares, base, sig, ratio, thr_sig, profile = inputs
+            tables = ctx.memo.setdefault("commands.pair_tables", {})
+            ctx.memo[key] = pair_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile, tables=tables)
+    return ctx.memo[key]
 
 
 class CommandShares(Analyzer):
@@ -339,7 +439,11 @@ class CommandShares(Analyzer):
             lo, hi = ff.eta_ci
             findings.append(Finding(self.id, k + 1, "thrust", ff.eta_hat, "of normal", ff.eta_ci, 1.0, "down", None,
                                     f"{100 * ff.eta_hat:.0f} ({100 * lo:.0f}-{100 * hi:.0f})"))
-        return CommandSharesResult(self.id, findings, baseline=share_fit.baseline, healthy_chi2=chi_full,
+        pairs_plain = pair_fits_for(ctx, with_throttle=False) or []
+        pairs_full = (pair_fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None
+                      else pairs_plain) or []
+        return CommandSharesResult(self.id, findings, pair_llrs={p.motors: p.llr for p in pairs_plain},
+                                   pairs=list(pairs_full), baseline=share_fit.baseline, healthy_chi2=chi_full,
                                    fit_chi2=[f.chi2 for f in fits_full], share_sigma=float(np.mean(sig)),
                                    with_throttle=share_fit.throttle_ratio is not None,
                                    words=[share_fit.summary(k + 1) for k in range(len(share_fit.motors))],

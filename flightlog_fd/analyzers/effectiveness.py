@@ -4,7 +4,8 @@ Input: :func:`.effectiveness_fit.estimate_effectiveness` (computed once by the d
 pipeline on the windows' segments; ``ShareFit.effectiveness``). Finding per motor:
 ``effectiveness`` (1 = as effective as its neighbours) with its 90 % block-bootstrap interval
 and its LLR: likelihood of the value under a damaged rotor (eta uniform on the severity grid)
-against a healthy one (1), with the interval widened by ``EFFECTIVENESS_SIGMA_FLOOR``.
+against a healthy one (1), with the interval widened by ``EFFECTIVENESS_SIGMA_FLOOR``; per pair
+of motors, the same with both weak (:func:`effectiveness_pair_llrs`).
 Limits: abstains when the fit says the flight did not manoeuvre enough, or when it is physically
 inconsistent (a motor below ``EFFECTIVENESS_SANE_MIN``: wrong motor map, saturation); in closed
 loop it understates damage (about 5 points at eta 0.6-0.7 on simulated flights).
@@ -16,7 +17,8 @@ from typing import Optional
 import numpy as np
 
 from .base import Analyzer, AnalyzerResult, Context, Finding
-from .command_shares import ETA_GRID
+from .command_shares import ETA_GRID, PAIR_ETA_GRID, all_pairs
+from .effectiveness_fit import relative_to_others
 
 #: Floor on the estimate's standard deviation: its closed-loop bias toward 1 (~0.05 on simulated
 #: flights) and the spread of real healthy motors at 10 Hz logging (0.78 seen on Erle flights).
@@ -45,6 +47,34 @@ def effectiveness_llr(eff) -> Optional[np.ndarray]:
     return np.array(out)
 
 
+def effectiveness_pair_llrs(eff, frame=None) -> dict:
+    """{(a, b): nats} from an informative effectiveness fit: "rotors a and b lost thrust" (both
+    efficiencies uniform on PAIR_ETA_GRID) against healthy. The estimate is relative (per axis,
+    each motor against the median of the others with a lever on that axis), so the prediction
+    goes through the same normalisation (:func:`.effectiveness_fit.relative_to_others`): on a quad X
+    each weak rotor reads its own efficiency and the healthy ones 1 / the larger of the two; on a
+    quad + two rotors on one axis read 1 (an axis whose rotors are all weak looks like a weaker
+    axis), so such a pair gets no evidence here, for or against."""
+    if not effectiveness_usable(eff):
+        return {}
+    v = np.asarray(eff.values, float)
+    ci = np.asarray(eff.ci, float)
+    n = len(v)
+    sd = np.sqrt(((ci[:, 1] - ci[:, 0]) / 3.29) ** 2 + EFFECTIVENESS_SIGMA_FLOOR ** 2)
+    ea, eb = np.meshgrid(PAIR_ETA_GRID, PAIR_ETA_GRID, indexing="ij")
+    healthy_chi = float(np.sum(((v - 1.0) / sd) ** 2))
+    out = {}
+    for a, b in all_pairs(n):
+        e = np.ones(ea.shape + (n,))
+        e[..., a - 1] = ea
+        e[..., b - 1] = eb
+        pred = relative_to_others(e, frame)  # (E, E, n)
+        chi = np.sum(((v - pred) / sd) ** 2, axis=-1)
+        top = -0.5 * chi.min()
+        out[(a, b)] = float(top + np.log(np.mean(np.exp(-0.5 * chi - top))) + 0.5 * healthy_chi)
+    return out
+
+
 class Effectiveness(Analyzer):
     id = "effectiveness"
     description = "angular acceleration per unit command, relative to the other motors (when the flight manoeuvred)"
@@ -65,7 +95,7 @@ class Effectiveness(Analyzer):
             Finding(self.id, k + 1, "effectiveness", float(m.effectiveness), "of neighbours",
                     (float(m.ci[0]), float(m.ci[1])), 1.0, "down", float(llr[k]),
                     f"{m.effectiveness:.2f} {_short(m.ci[0])}-{_short(m.ci[1])}")
-            for k, m in enumerate(eff.motors)])
+            for k, m in enumerate(eff.motors)], pair_llrs=effectiveness_pair_llrs(eff, ctx.frame))
 
 
 def _short(x: float) -> str:

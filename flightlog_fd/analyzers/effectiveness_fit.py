@@ -594,6 +594,18 @@ def _relative(b: np.ndarray, signs: np.ndarray) -> np.ndarray:
         return e / ref
 
 
+def relative_to_others(efficiency: np.ndarray, frame: Optional[Frame]) -> np.ndarray:
+    """(..., 4) the relative effectiveness the fit reads for rotors of true thrust efficiency
+    ``efficiency`` (..., 4): roll and pitch each through :func:`_relative`, then their mean where
+    a motor has a lever on both (the fit weighs them by their variances; equal here)."""
+    signs = axis_signs(frame)[:2]
+    e = np.asarray(efficiency, float)
+    rel = _relative(e[..., None, :] * signs, signs)  # (..., 2, 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmean(rel, axis=-2)
+
+
 def _combine(rel: np.ndarray, var: np.ndarray) -> np.ndarray:
     """Inverse-variance mean of roll and pitch estimates per motor: rel/var (..., 2, 4)."""
     w = np.where(np.isfinite(rel) & np.isfinite(var) & (var > 0), 1.0 / np.where(var > 0, var, 1.0), 0.0)

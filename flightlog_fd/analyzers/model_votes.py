@@ -11,6 +11,8 @@ with the profile's model (:meth:`ModelVotes.fit_baseline`), and damage is expect
 ``MODEL_DAMAGE_SHIFT`` above it; without one, the means measured across real healthy airframes
 are used. The levels and spreads are the shipped model's for the flight's rotor count
 (:data:`NROTOR_VOTE_STATS` for the hexa and octo models, measured on simulated flights).
+For two damaged propellers (:func:`model_pair_llrs`) the model, whose classes are single motors,
+sees at most one member: measured levels in :data:`PAIR_VOTE_STATS`.
 Limits: measured with the shipped models (a user's own model is weighed with them too); the
 healthy re-flight spread with a profile is the quads' for every frame.
 """
@@ -85,6 +87,24 @@ NROTOR_VOTE_STATS = {
 }
 
 
+#: Two damaged propellers: the shipped quad model (classes are single motors) sees at most one of
+#: them. Measured with ``benchmarks/bench_two_props.py --measure`` (seed 21, not a scoring seed: 69
+#: simulated quads with two propellers at eta 0.6-0.85, adjacent and opposite, 36 random airframes
+#: 30 g-5 kg and 36 x500/f450/sih presets, all with realistic imbalance, px4_high / ardupilot /
+#: px4_default logging, 60 s; each beside a healthy twin): the more-voted member's flight mean sits
+#: at +0.05, between-flight spread 0.88 (a single damaged motor's at +0.65 +- 1.04 on the same
+#: airframes, the healthy motors' -1.10 +- 0.66), the other member's at -1.33 +- 0.79, the healthy
+#: level; against the twin (the profile's level) +1.02 +- 0.82 and -0.15 +- 1.10 (a single one
+#: +1.77 +- 0.89). So for a pair the model's evidence is that ONE member is seen, at these levels,
+#: and the other is at the healthy level (:func:`model_pair_llrs`).
+QUAD_PAIR_VOTE_STATS = VoteStats(MODEL_HEALTHY_MEAN, MODEL_HEALTHY_SIGMA, damaged_mean=0.05, damaged_sigma=0.88,
+                                 damage_shift=1.02, shift_sigma=0.82)
+#: Pair statistics per rotor count; a count without its own (hexa, octo: not measured) uses the
+#: single-damage statistics, which gives a pair at most the model's support for its better member
+#: alone (the model never makes a pair more likely than a single rotor there).
+PAIR_VOTE_STATS = {4: QUAD_PAIR_VOTE_STATS}
+
+
 def vote_stats(n_motors: int) -> VoteStats:
     """The vote statistics of the shipped model for ``n_motors`` rotors (the quad's otherwise)."""
     return NROTOR_VOTE_STATS.get(int(n_motors), QUAD_VOTE_STATS)
@@ -121,6 +141,34 @@ def model_llr(probs: np.ndarray, covered_s: float, healthy_mean=None, healthy_si
     sd_h = float(np.hypot(healthy_sigma, within))
     sd_d = float(np.hypot(st.damaged_sigma if healthy_mean is None else st.shift_sigma, within))
     return np.array([_gauss_logpdf(x, mu_d[k], sd_d) - _gauss_logpdf(x, mu_h[k], sd_h) for k, x in enumerate(mean)])
+
+
+def model_pair_llrs(probs: np.ndarray, covered_s: float, healthy_mean=None, healthy_sigma=None) -> dict:
+    """{(a, b): nats} for "rotors a and b lost thrust" against healthy: the model sees one of the
+    two (either, even odds) at the pair level of :data:`PAIR_VOTE_STATS` and the other at the
+    healthy level, so the pair's LLR is log(mean(exp(L'_a), exp(L'_b))) of the members' LLRs
+    L'_k: the member at the pair level against the healthy level (the airframe's own with a
+    profile), with one spread for both (the larger of the two levels' spreads, plus the
+    within-flight term) so that a vote below the healthy level never argues for a pair."""
+    p = np.asarray(probs, float)
+    if p.ndim != 2 or p.shape[0] == 0:
+        return {}
+    x = mean_log_ratio(p)
+    n = len(x)
+    single = vote_stats(n)
+    stats = PAIR_VOTE_STATS.get(n, single)
+    sigma_h = single.healthy_sigma if healthy_sigma is None else float(healthy_sigma)
+    if healthy_mean is None:
+        mu_h = np.full(n, single.healthy_mean)
+        mu_p, spread = np.full(n, stats.damaged_mean), stats.damaged_sigma
+    else:
+        mu_h = np.asarray(healthy_mean, float)
+        mu_p, spread = mu_h + stats.damage_shift, stats.shift_sigma
+    within = MODEL_WINDOW_SIGMA / np.sqrt(max(covered_s / MODEL_DECORRELATION_S, 1.0))
+    var = max(spread, sigma_h) ** 2 + within ** 2
+    seen = ((x - mu_h) ** 2 - (x - mu_p) ** 2) / (2.0 * var)
+    return {(a, b): float(np.logaddexp(seen[a - 1], seen[b - 1]) - np.log(2.0))
+            for a in range(1, n + 1) for b in range(a + 1, n + 1)}
 
 
 class ModelVotes(Analyzer):
@@ -166,11 +214,13 @@ class ModelVotes(Analyzer):
             sigma = max(pooled_sigma(base.get("spread"), int(base.get("n_flights", 1)), MODEL_HEALTHY_SIGMA),
                         MODEL_MIN_HEALTHY_SIGMA)
             llr = model_llr(p, ctx.covered_s, base["healthy_mean"], sigma)
+            pairs = model_pair_llrs(p, ctx.covered_s, base["healthy_mean"], sigma)
         else:
             if base:
                 notes.append("the profile's model-vote baseline was measured with another model: not used")
             llr = model_llr(p, ctx.covered_s)
+            pairs = model_pair_llrs(p, ctx.covered_s)
         votes = p[:, 1:].mean(axis=0)
         return AnalyzerResult(self.id, [Finding(self.id, k + 1, "vote", float(votes[k]), "", None, None, "up",
                                                 float(llr[k]), f"{votes[k]:.2f}") for k in range(len(llr))],
-                              notes=notes)
+                              notes=notes, pair_llrs=pairs)

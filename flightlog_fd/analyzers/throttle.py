@@ -3,7 +3,8 @@
 Input: the flight's mean thrust command over the profile's (``ShareFit.throttle_ratio``),
 and the command shares. Per motor, its LLR is what adding the throttle to the command-share fit
 adds (:func:`flightlog_fd.analyzers.command_shares.fits_for` with and without it), so the
-decision counts the shares once and the throttle once. Noise: the airframe's relative throttle
+decision counts the shares once and the throttle once; per pair of motors likewise from the
+two-rotor fits (``pair_fits_for``). Noise: the airframe's relative throttle
 drift (the profile's measured spread pooled with ``THROTTLE_DRIFT_SIGMA``).
 Limits: needs a profile (without one the hover throttle of a healthy airframe is unknown); a new
 payload or battery moves the throttle too, which is why it only weighs together with a one-rotor
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 from .base import Analyzer, AnalyzerResult, Context, Finding
-from .command_shares import fits_for
+from .command_shares import fits_for, pair_fits_for
 
 
 @dataclass
@@ -42,8 +43,12 @@ class Throttle(Analyzer):
         if plain is None or full is None:
             return ThrottleResult(self.id, abstained="the command shares are not finite")
         # more load on every motor is not evidence by itself: the throttle weighs for motor k only
-        # as far as the command pattern already points at k (never more than the shares do)
+        # as far as the command pattern already points at k (never more than the shares do); the
+        # same for a pair of motors
+        pairs_plain, pairs_full = pair_fits_for(ctx, with_throttle=False), pair_fits_for(ctx, with_throttle=True)
+        pair_llrs = {p.motors: min(f.llr - p.llr, max(p.llr, 0.0))
+                     for p, f in zip(pairs_plain or [], pairs_full or [])}
         return ThrottleResult(self.id, [
             Finding(self.id, k + 1, "throttle", ratio, "x calibration", None, 1.0, "up",
                     min(f.llr - p.llr, max(p.llr, 0.0)), f"{ratio:.2f}x")
-            for k, (p, f) in enumerate(zip(plain[1], full[1]))], ratio=ratio)
+            for k, (p, f) in enumerate(zip(plain[1], full[1]))], ratio=ratio, pair_llrs=pair_llrs)

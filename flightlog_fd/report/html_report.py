@@ -259,7 +259,7 @@ def motor_table_html(view: MotorView, table_id: str = "") -> str:
     head = "".join(f"<th>{esc(h)}</th>" for h in header)
     body = []
     for r in rows:
-        top = view.verdict_motor is not None and r[0].text == str(view.verdict_motor)
+        top = view.highlighted(r[0].text)
         tds = "".join(f'<td title="{esc(c.reason)}">{esc(c.text)}</td>' if c.reason else f"<td>{esc(c.text)}</td>"
                       for c in r)
         body.append(("<tr class=\"top\">" if top else "<tr>") + tds + "</tr>")
@@ -361,7 +361,10 @@ def _summary(diagnoses: Sequence[Diagnosis]) -> str:
     rows = []
     for d in diagnoses:
         v = d.verdict
-        prop = f"{v.motor} ({v.position})" if v.motor and v.position else (str(v.motor) if v.motor else "")
+        if v.pair and len(v.motors) > 1:
+            prop = " and ".join(f"{k} ({p})" if p else str(k) for k, p in zip(v.motors, v.positions))
+        else:
+            prop = f"{v.motor} ({v.position})" if v.motor and v.position else (str(v.motor) if v.motor else "")
         cells = [d.log, v.status, prop, f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "",
                  f"t={v.first_seen:.1f} s" if v.first_seen is not None else "", str(d.exit_code)]
         rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")

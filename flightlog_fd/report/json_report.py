@@ -1,4 +1,4 @@
-"""JSON report, schema version 5 (``fdlog diagnose --json``).
+"""JSON report, schema version 6 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals; n is the
@@ -7,7 +7,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
 .. code-block:: text
 
     {
-      "schema": 5,
+      "schema": 6,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -18,7 +18,11 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
       "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
-                  "motor": 1-n | null,
+                  "motor": 1-n | null,               # the damaged (stopped) motor, the first of two
+                  "motors": [1-n],                   # every propeller it names: damaged, stopped, or for
+                                                     #   uncertain the ones to inspect; [] when none
+                  "positions": [str|null],           # the frame's words for each of "motors"
+                  "pair": bool,                      # two propellers lost thrust together
                   "position": "front-right" | ... | null,
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
@@ -50,7 +54,11 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
                          "airframe_changed": str | null,
                          "decision": {"sources": [str], "healthy_chi2": float|null,
-                                      "share_sigma": float|null} | null} | null,
+                                      "share_sigma": float|null,
+                                      "pair": {"motors": [a, b], "llr": float,     # the most likely pair of
+                                               "llr_by_source": {id: nats},       # rotors and its excess over
+                                               "eta_hat": [ea, eb]|null,          # the best single rotor
+                                               "excess": float} | null} | null} | null,
       "windows": [{"t_start": s, "t_end": s,
                    "class": 0-n,                  # the model's most probable class
                    "probabilities": [p0, p1, ..., pn],   # healthy, then motor 1..n
@@ -86,7 +94,9 @@ analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the 
 what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
 own verdict: judged from vibration alone, the log's verdict is its worst flight's; with motor outputs,
 the whole log's, each flight judged from the log's windows and never worse than it) and
-flight-level findings (``motor`` 0: the vibration level).
+flight-level findings (``motor`` 0: the vibration level); schema 6 adds ``verdict.motors``,
+``verdict.positions`` and ``verdict.pair`` (two propellers named together; ``motor`` stays the
+first) and ``motor_evidence.decision.pair`` (the most likely pair hypothesis).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -100,7 +110,7 @@ from .. import __version__
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -138,10 +148,15 @@ JSON_SCHEMA: dict = {
                                    "model_sha256": _STR_OR_NULL}},
         "verdict": {
             "type": "object",
-            "required": ["status", "motor", "position", "confidence", "first_seen", "reason"],
+            "required": ["status", "motor", "motors", "positions", "pair", "position", "confidence", "first_seen",
+                         "reason"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
+                "motors": {"type": "array", "maxItems": MAX_ROTORS,
+                           "items": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS}},
+                "positions": {"type": "array", "maxItems": MAX_ROTORS, "items": _STR_OR_NULL},
+                "pair": {"type": "boolean"},
                 "position": _STR_OR_NULL,
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
@@ -203,7 +218,16 @@ JSON_SCHEMA: dict = {
                 "decision": {"type": ["object", "null"],
                              "required": ["sources", "healthy_chi2", "share_sigma"],
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
-                                            "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL}},
+                                            "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL,
+                                            "pair": {"type": ["object", "null"],
+                                                     "required": ["motors", "llr", "llr_by_source", "eta_hat",
+                                                                  "excess"],
+                                                     "properties": {
+                                                         "motors": {"type": "array", "minItems": 2, "maxItems": 2,
+                                                                    "items": {"type": "integer", "minimum": 1,
+                                                                              "maximum": MAX_ROTORS}},
+                                                         "llr": _NUM_OR_NULL, "llr_by_source": {"type": "object"},
+                                                         "eta_hat": _PAIR_OR_NULL, "excess": _NUM_OR_NULL}}}},
             },
         },
         "windows": {
@@ -266,11 +290,12 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
             "decision": None if d.decision is None else {
                 "sources": list(d.decision.sources),
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
-                "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4)}}
+                "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4),
+                "pair": d.decision.pairs[0].as_dict() if d.decision.pairs else None}}
 
 
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-5 object for one diagnosis (and, in ``flights``, each flight of its log)."""
+    """The schema-6 object for one diagnosis (and, in ``flights``, each flight of its log)."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
     ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {

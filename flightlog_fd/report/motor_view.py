@@ -181,6 +181,19 @@ class MotorView:
     sources: list[str] = field(default_factory=list)  # the analyzers the decision weighed
     notes: list[str] = field(default_factory=list)  # abstentions and analyzers' notes, one line each
     verdict_motor: Optional[int] = None
+    #: The motors the verdict names as damaged: the one, or both of a pair (highlighted rows)
+    verdict_motors: list[int] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if self.verdict_motor is not None and not self.verdict_motors:
+            self.verdict_motors = [self.verdict_motor]
+
+    def highlighted(self, motor: Any) -> bool:
+        """True for a row (its motor number, or the text of its first cell) the verdict names."""
+        try:
+            return int(str(motor)) in self.verdict_motors
+        except ValueError:
+            return False
 
     # ------------------------------------------------------------------ building
 
@@ -221,7 +234,8 @@ class MotorView:
         v = getattr(diagnosis, "verdict", None)
         return cls(rows=rows, columns=columns, n_motors=n, baseline=getattr(fit, "baseline", "") or "",
                    sources=list(dec.sources) if dec is not None else [], notes=notes,
-                   verdict_motor=getattr(v, "motor", None))
+                   verdict_motor=getattr(v, "motor", None),
+                   verdict_motors=list(getattr(v, "motors", None) or []) if getattr(v, "pair", False) else [])
 
     @classmethod
     def from_doc(cls, doc: dict) -> "MotorView":
@@ -255,7 +269,9 @@ class MotorView:
         if me.get("airframe_changed"):
             notes.append(f"airframe change since calibration: {me['airframe_changed']}")
         return cls(rows=rows, columns=columns, n_motors=len(rows), baseline=me.get("baseline") or "",
-                   sources=list(dec.get("sources") or []), notes=notes, verdict_motor=verdict.get("motor"))
+                   sources=list(dec.get("sources") or []), notes=notes, verdict_motor=verdict.get("motor"),
+                   verdict_motors=[int(k) for k in verdict.get("motors") or [] if isinstance(k, int)]
+                   if verdict.get("pair") else [])
 
     # ------------------------------------------------------------------ drawing
 

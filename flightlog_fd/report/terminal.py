@@ -29,7 +29,7 @@ from rich.text import Text
 
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
-from .motor_view import MotorView, class_names
+from .motor_view import MotorView, class_names, short_position
 
 #: Characters in the timeline strip (fits an 80-column terminal with its time labels).
 TIMELINE_WIDTH = 60
@@ -44,6 +44,14 @@ def _motor_words(motor: int, position: Optional[str]) -> str:
     return f"{motor} ({position})" if position else f"{motor}"
 
 
+def _propeller_cell(v) -> str:
+    """The summary table's propeller cell: the damaged (stopped) motor, both of a pair (damaged or
+    uncertain), else empty."""
+    if v.pair and len(v.motors) > 1:
+        return " + ".join(_motor_words(k, short_position(p) if p else None) for k, p in zip(v.motors, v.positions))
+    return _motor_words(v.motor, v.position) if v.motor else ""
+
+
 def verdict_sentence(diagnosis: Diagnosis) -> str:
     """The verdict in one plain sentence (also used as the HTML page's headline)."""
     v = diagnosis.verdict
@@ -51,6 +59,9 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         if v.motor is None:
             return f"A propeller is damaged (no rotor named: inspect all), confidence {v.confidence:.2f}{first}"
+        if v.pair and len(v.motors) > 1:
+            return (f"{v.propellers().capitalize()} damaged: inspect both, confidence {v.confidence:.2f}"
+                    f"{first}")
         return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
     if v.status == "healthy":
         tl = diagnosis.timeline
@@ -120,7 +131,7 @@ def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
         # The file name is enough unless two logs share it (same name in different folders).
         shown = name if names.count(name) == 1 else d.log
         v = d.verdict
-        prop = _motor_words(v.motor, v.position) if v.motor else ""
+        prop = _propeller_cell(v)
         conf = f"{v.confidence:.2f}" if v.status != "not_diagnosable" else ""
         first = f"t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         table.add_row(Text(shown), Text(v.status, style=STATUS_STYLES.get(v.status, "")), Text(prop),
@@ -128,7 +139,7 @@ def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
         for sub in d.flights:  # each take-off to landing of a log holding several
             sv = sub.verdict
             table.add_row(Text(f"  {sub.part.split(',')[0]}"), Text(sv.status, style=STATUS_STYLES.get(sv.status, "")),
-                          Text(_motor_words(sv.motor, sv.position) if sv.motor else ""),
+                          Text(_propeller_cell(sv)),
                           f"{sv.confidence:.2f}" if sv.status != "not_diagnosable" else "",
                           f"t={sv.first_seen:.1f} s" if sv.first_seen is not None else "", str(sub.exit_code))
     return table

@@ -36,10 +36,10 @@ from jinja2 import Environment, FileSystemLoader
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from .. import __version__
-from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS
+from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS, verdict_words
 from ..errors import FlightLogError
 from ..report.motor_view import MotorView, summary_cell, summary_header
-from ..store import TREND_FIGURES, Store
+from ..store import TREND_FIGURES, Store, parse_verdict_motors
 from .security import SESSION_COOKIE, Sessions, TokenSet, bearer
 from .worker import DataDir, JobRunner, diagnose_task
 
@@ -58,6 +58,16 @@ MAX_LISTED = 50
 MAX_JOBS_LISTED = 10
 #: Fields a form may carry (ours carry at most five; more is not a browser of ours).
 MAX_FORM_FIELDS = 20
+def named_motors(row: dict) -> str:
+    """What a stored verdict (a flight or flight_part row) names after its status: " · motor 3",
+    " · motors 1 and 4" (a pair, damaged or uncertain); "" for none."""
+    motors = row.get("verdict_motors")
+    if isinstance(motors, str):
+        motors = parse_verdict_motors(motors)
+    words = verdict_words("x", row.get("motor"), list(motors or []), bool(row.get("pair")))
+    return f" \u00b7 {words[3:-1]}" if words != "x" else ""
+
+
 #: "attention" sort order of a latest verdict: what needs a look first.
 STATUS_ORDER = {"damaged": 0, "stopped": 0, "uncertain": 1, "not_diagnosable": 2, "healthy": 3, None: 4}
 SORTS = ("attention", "name", "flights", "latest")
@@ -147,6 +157,7 @@ def create_app(cfg: ServeConfig):
     env.filters["fmt"] = fmt_number
     env.filters["q"] = lambda s: quote(str(s), safe="")
     env.globals.update(summary_header=summary_header, summary_cell=summary_cell)  # the per-motor summary names
+    env.globals["named_motors"] = named_motors
 
     @asynccontextmanager
     async def lifespan(app):

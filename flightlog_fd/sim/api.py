@@ -2,7 +2,8 @@
 
 Flies ``n`` quadrotors together (one vectorised batch) and returns one :class:`~flightlog_fd.flight.Flight`
 per vehicle exactly as a log parser would return it, plus ``Flight.truth``:
-``{"label": 0..4, "motor": 0..4, "eta": float, "onset_s": log-clock s or None, "airframe": {...},
+``{"label": 0..4, "motor": 0..4, "eta": float, "onset_s": log-clock s or None, "motors": [...],
+"etas": [...], "onsets_s": [...], "etas_torque": [...], "airframe": {...},
 "eta_torque": float, "rho": [4], "rho_mode": str, "imbalance": {...}, "mission": str, "seed": int, "index": i, "profile": str,
 "takeoff_s": log-clock s, "log_start_boot_s": s, "sensors": {...}}``.
 
@@ -11,7 +12,10 @@ Arguments (all keyword except ``n``):
 - ``airframes``: None (random, :func:`~flightlog_fd.sim.airframe.random_airframes`), a preset name
   or :class:`Airframe` for every vehicle, or a list of ``n`` of those;
 - ``damages``: None (random, :func:`~flightlog_fd.sim.damage.random_damages`), one
-  :class:`Damage` for every vehicle, or a list of ``n`` (None entries = healthy);
+  :class:`Damage` for every vehicle, or a list of ``n`` (None entries = healthy); a Damage with
+  ``also`` (:meth:`Damage.several`) damages several propellers, each with its own eta and onset
+  (the truth's ``motors``, ``etas``, ``onsets_s`` list them; ``label``/``motor``/``eta``/``onset_s``
+  are the first's);
 - ``mission``: "waypoints" | "manual" | "hover"; ``duration_s``: planned arming-to-disarm time;
 - ``profile``: logging profile (logger.PROFILES); ``rho``: None | "random" | (4,) | (n, 4) unbalance
   ratios, ``rho_mode`` "physical" | "paper" (rho.py);
@@ -182,6 +186,7 @@ def flights_from_batch(batch: SimBatch) -> list[Flight]:
     rng = np.random.default_rng([batch.seed, 1])
     imbs = batch.imbalances or [None] * len(batch.airframes)
     extra = [{"sensors": batch.sensors.to_dict(i), "eta_torque": float(batch.damages[i].torque_eta),
+              "etas_torque": [float(x.torque_eta) for x in batch.damages[i].parts],
               "imbalance": imbs[i].to_dict() if imbs[i] is not None else None}
              for i in range(len(batch.airframes))]
     flights = build_flights(batch.result, batch.profile, batch.airframes, batch.damages, batch.rho, batch.rho_mode,

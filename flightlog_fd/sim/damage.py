@@ -18,6 +18,12 @@ Onset: ``onset_s`` is seconds after arming (= after the log's first sample) or `
 propeller damaged from take-off; :class:`Damage` with ``motor = 0`` is a healthy vehicle.
 ``Flight.truth["onset_s"]`` reports the onset on the log's own clock.
 
+Several damaged propellers: ``Damage(1, 0.7, also=(Damage(4, 0.8, onset_s=30.0),))`` (or
+:meth:`Damage.several`) damages propeller 1 from take-off and propeller 4 from 30 s, each with its
+own ``eta``, ``eta_torque`` and onset. The truth keeps the first one's ``label``/``motor``/``eta``/
+``onset_s`` (the model's classes are single motors, so its windows are labelled with the first)
+and lists every damaged one in ``motors``, ``etas``, ``etas_torque`` and ``onsets_s``.
+
 Vibration: an unbalanced propeller shakes the frame at its rotation frequency ``w_k / 2π``
 (100-400 Hz). The gyro sees an oscillation of amplitude
 ``VIBRATION_GAIN_RADS · imbalance_k · (w_k/omega_max)²`` rad/s before the autopilot's gyro
@@ -68,15 +74,48 @@ BASE_IMBALANCE_RANGE = (0.01, 0.04)
 @dataclass(frozen=True)
 class Damage:
     """One vehicle's propeller condition. ``motor`` 0 = healthy, 1..``rotors`` = damaged motor
-    (``rotors`` 4 on a quad, 6 on a hexa...)."""
+    (``rotors`` 4 on a quad, 6 on a hexa...); ``also``: further damaged propellers of the same
+    vehicle, each a single-propeller :class:`Damage` of its own (module docstring)."""
 
     motor: int = 0
     eta: float = 1.0
     onset_s: Optional[float] = None  # s after arming; None = damaged from take-off
     eta_torque: Optional[float] = None  # drag-torque efficiency; None = same as eta
     rotors: int = 4
+    also: tuple["Damage", ...] = ()
+
+    @classmethod
+    def several(cls, *damages: "Damage") -> "Damage":
+        """One vehicle with every propeller in ``damages`` damaged (the first leads the truth)."""
+        if not damages:
+            return HEALTHY
+        first, rest = damages[0], tuple(damages[1:])
+        return cls(first.motor, first.eta, first.onset_s, first.eta_torque, first.rotors, also=rest)
+
+    @property
+    def parts(self) -> list["Damage"]:
+        """Every damaged propeller as a single-propeller Damage, the first first ([] when healthy)."""
+        if not self.motor:
+            return []
+        return [Damage(self.motor, self.eta, self.onset_s, self.eta_torque, self.rotors)] + list(self.also)
+
+    @property
+    def motors(self) -> list[int]:
+        """The damaged motors (1-based), in the order given."""
+        return [d.motor for d in self.parts]
 
     def __post_init__(self) -> None:
+        if self.also:
+            if self.motor == 0:
+                raise ValueError("a healthy vehicle (motor 0) has no further damaged propellers")
+            for d in self.also:
+                if not isinstance(d, Damage) or d.also or d.motor == 0:
+                    raise ValueError("each further damaged propeller is a single damaged-propeller Damage")
+                if d.rotors != self.rotors:
+                    raise ValueError(f"every damaged propeller must be on the same {self.rotors}-rotor vehicle")
+            motors = [self.motor] + [d.motor for d in self.also]
+            if len(set(motors)) != len(motors):
+                raise ValueError(f"each damaged propeller must be another motor, got {motors}")
         if self.eta_torque is not None and not 0.0 < self.eta_torque <= 1.0:
             raise ValueError(f"eta_torque must be in (0, 1], got {self.eta_torque}")
         if self.motor == 0 and self.eta_torque not in (None, 1.0):
@@ -146,32 +185,136 @@ def random_damages(airframes: Sequence[Airframe], planned_s: np.ndarray, rng: np
     return out
 
 
+#: Thrust efficiencies of the two-propeller damages :func:`random_pair_damages` draws: from a
+#: clear loss (the single-propeller range's low end) to 0.85, beyond which one propeller alone is
+#: near the edge of what the tool sees without a profile (README: "from about eta 0.83 down").
+PAIR_ETA_RANGE = (0.6, 0.85)
+#: Pair kinds: rotors next to each other on the frame, or across its centre.
+PAIR_KINDS = ("adjacent", "opposite")
+
+
+def hover_commands(af: Airframe, damage: Damage) -> np.ndarray:
+    """(n,) static hover commands (0..1) of ``af`` with every propeller of ``damage`` at its
+    thrust and drag-torque efficiency: the commands that hold the weight with no net moment, moved
+    from the balanced hover within the mixer's range (the exact solve on a quad; with more rotors
+    the allocator's pseudo-inverse, as an autopilot's mixer moves them)."""
+    geo = af.geometry()
+    n = af.rotor_count
+    rows = np.stack([np.ones(n), np.array([r.y for r in geo.rotors]), np.array([r.x for r in geo.rotors]),
+                     np.array([float(r.spin) for r in geo.rotors])])
+    base = np.full(n, af.hover_command)
+    a = rows.copy()
+    for p in damage.parts:
+        a[:3, p.motor - 1] *= p.eta
+        a[3, p.motor - 1] *= p.torque_eta
+    if n == 4:
+        return np.linalg.solve(a, rows @ base)
+    alloc = np.linalg.pinv(rows)
+    return base + alloc @ np.linalg.solve(a @ alloc, (rows - a) @ base)
+
+
+def feasible(af: Airframe, damage: Damage) -> bool:
+    """True when ``af`` flies on with ``damage`` (one or several propellers), by the two criteria
+    of :func:`min_feasible_eta`: no hover command above ``MAX_DAMAGED_COMMAND``, and the damaged
+    rotors' summed roll and pitch moment at lift-off tilting it at most ``MAX_STATIC_TILT_DEG``."""
+    if not damage.motor:
+        return True
+    if float(np.max(hover_commands(af, damage))) > MAX_DAMAGED_COMMAND:
+        return False
+    geo = af.geometry()
+    weight_share = af.mass * GRAVITY / float(af.rotor_count)
+    roll = sum((1.0 - p.eta) * weight_share * geo.rotors[p.motor - 1].y for p in damage.parts)
+    pitch = sum((1.0 - p.eta) * weight_share * geo.rotors[p.motor - 1].x for p in damage.parts)
+    alpha = max(abs(roll) / af.inertia[0], abs(pitch) / af.inertia[1])
+    g = af.gains
+    return bool(alpha <= np.radians(MAX_STATIC_TILT_DEG) * g.rate_kp[0] * g.att_p[0])
+
+
+def rotor_pairs(af: Airframe, kind: str) -> list[tuple[int, int]]:
+    """The motor pairs (1-based) of ``af``'s frame of one kind: "adjacent" (each rotor with its
+    nearest neighbours round the frame) or "opposite" (each rotor with the one across the centre)."""
+    if kind not in PAIR_KINDS:
+        raise ValueError(f"pair kind must be one of {PAIR_KINDS}, got {kind!r}")
+    geo = af.geometry()
+    ang = np.array([np.arctan2(r.y, r.x) for r in geo.rotors])
+    n = len(ang)
+    out = set()
+    for i in range(n):
+        d = np.abs((ang - ang[i] + np.pi) % (2 * np.pi) - np.pi)  # angular distance round the frame
+        d[i] = np.inf
+        if kind == "opposite":
+            j = int(np.argmax(np.where(np.isfinite(d), d, -1.0)))
+            if abs(d[j] - np.pi) < 1e-6:
+                out.add(tuple(sorted((i + 1, j + 1))))
+        else:
+            near = np.min(d[d > 1e-6]) if np.any(d > 1e-6) else np.inf
+            out.update(tuple(sorted((i + 1, int(j) + 1))) for j in np.flatnonzero(np.abs(d - near) < 1e-6))
+    return sorted(out)
+
+
+def random_pair_damages(airframes: Sequence[Airframe], rng: np.random.Generator, *,
+                        eta_range: tuple[float, float] = PAIR_ETA_RANGE, kinds: Sequence[str] = PAIR_KINDS,
+                        onset_fraction: float = 0.0, planned_s: Optional[np.ndarray] = None,
+                        torque_exponent_range: Optional[tuple[float, float]] = None,
+                        tries: int = 50) -> list[Damage]:
+    """One two-propeller :class:`Damage` per airframe: a pair of a kind drawn from ``kinds``
+    (:func:`rotor_pairs`), each propeller with its own eta uniform in ``eta_range`` (redrawn until
+    the airframe flies on with both, :func:`feasible`; an airframe that never does gets HEALTHY),
+    and with probability ``onset_fraction`` the second one breaks mid-flight, 30-70 % into
+    ``planned_s`` (the first from take-off)."""
+    out = []
+    for i, af in enumerate(airframes):
+        kind = str(kinds[int(rng.integers(len(kinds)))])
+        pairs = rotor_pairs(af, kind)
+        a, b = pairs[int(rng.integers(len(pairs)))]
+        if rng.uniform() < 0.5:
+            a, b = b, a
+        onset = None
+        if onset_fraction > 0 and rng.uniform() < onset_fraction:
+            if planned_s is None:
+                raise ValueError("mid-flight onsets need planned_s")
+            onset = float(rng.uniform(*MIDFLIGHT_WINDOW) * planned_s[i])
+        chosen = HEALTHY
+        for _ in range(tries):
+            e = rng.uniform(*eta_range, size=2)
+            tq = [None, None]
+            if torque_exponent_range is not None:
+                tq = [float(x ** rng.uniform(*torque_exponent_range)) for x in e]
+            d = Damage.several(Damage(a, float(e[0]), None, tq[0], af.rotor_count),
+                               Damage(b, float(e[1]), onset, tq[1], af.rotor_count))
+            if feasible(af, d):
+                chosen = d
+                break
+        out.append(chosen)
+    return out
+
+
 @dataclass
 class DamageArrays:
     """Damage of N vehicles as arrays for the time loop."""
 
     eta: np.ndarray  # (N, R) thrust efficiency of each rotor once damaged (1 for healthy rotors)
-    onset: np.ndarray  # (N,) s after arming (0 = from the start)
+    onset: np.ndarray  # (N, R) s after arming each rotor's damage starts (0 = from the start)
     imbalance_base: np.ndarray  # (N, R) residual imbalance of each propeller
     eta_torque: Optional[np.ndarray] = None  # (N, R) drag-torque efficiency once damaged (None: = eta)
 
     @classmethod
     def build(cls, damages: Sequence[Damage], rng: np.random.Generator, n_rotors: int = 4) -> "DamageArrays":
         n = len(damages)
-        bad = [d.motor for d in damages if d.motor > n_rotors]
+        bad = [m for d in damages for m in d.motors if m > n_rotors]
         if bad:
             raise ValueError(f"damaged motor {bad[0]} on a {n_rotors}-rotor vehicle")
         eta = np.ones((n, n_rotors))
         eta_torque = np.ones((n, n_rotors))
-        onset = np.zeros(n)
+        onset = np.zeros((n, n_rotors))
         for i, d in enumerate(damages):
-            if d.motor:
-                eta[i, d.motor - 1] = d.eta
-                eta_torque[i, d.motor - 1] = d.torque_eta
-                onset[i] = d.onset_s if d.onset_s is not None else 0.0
+            for p in d.parts:
+                eta[i, p.motor - 1] = p.eta
+                eta_torque[i, p.motor - 1] = p.torque_eta
+                onset[i, p.motor - 1] = p.onset_s if p.onset_s is not None else 0.0
         return cls(eta=eta, onset=onset, imbalance_base=rng.uniform(*BASE_IMBALANCE_RANGE, size=(n, n_rotors)),
                    eta_torque=None if np.array_equal(eta_torque, eta) else eta_torque)
 
     def eta_at(self, t: float) -> np.ndarray:
-        """(N, 4) rotor efficiencies at time ``t`` (s after arming)."""
-        return np.where((t >= self.onset)[:, None], self.eta, 1.0)
+        """(N, R) rotor efficiencies at time ``t`` (s after arming)."""
+        return np.where(t >= self.onset, self.eta, 1.0)

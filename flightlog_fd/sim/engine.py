@@ -94,6 +94,7 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     drag_full = None if damage.eta_torque is None else (damage.eta_torque / damage.eta).T.copy()
     drag_ratio = None
     imbalance_base = damage.imbalance_base.T.copy()
+    onset = damage.onset.T.copy()  # (R, N): each rotor's own onset
     omega_max = vp.omega_max
 
     n_max = int(np.ceil(t_max / dt))
@@ -113,10 +114,10 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
         t = i * dt
         if i % ctrl.outer_every == 0:
             # Damage onset, estimator errors, gusts, mission and position/velocity loops.
-            eta = np.where(t >= damage.onset, eta_full, 1.0)
+            eta = np.where(t >= onset, eta_full, 1.0)
             eff = eta * unbalance
             if drag_full is not None:
-                drag_ratio = np.where(t >= damage.onset, drag_full, 1.0)
+                drag_ratio = np.where(t >= onset, drag_full, 1.0)
             pos_est, vel_est, wind = sens.nav(state.pos, state.vel, state.w, imbalance_base + (1.0 - eta))
             sp = runner.update(t, ctrl.dt_outer, pos_est.T, quat_yaw(state.quat), state.landed)
             mode = sp.mode

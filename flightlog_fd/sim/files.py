@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Sequence, Union
 
 from ..errors import FlightLogError
 
@@ -12,7 +12,9 @@ ESC_SAMPLE_TORQUE_EXPONENT = 1.3
 
 
 def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe: str = "x500",
-                      frame: Optional[str] = None, motor: int = 0, eta: float = 0.8, onset: Optional[float] = None,
+                      frame: Optional[str] = None, motor: Union[int, Sequence[int]] = 0,
+                      eta: Union[float, Sequence[float]] = 0.8,
+                      onset: Union[None, float, Sequence[Optional[float]]] = None,
                       duration: float = 60.0, mission: str = "waypoints", log_profile: Optional[str] = None,
                       rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
                       esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
@@ -29,6 +31,10 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
     loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py).
 
+    ``motor``: one damaged propeller (0: healthy) or several (e.g. [1, 4]), each with its own
+    ``eta`` (one value for all, or one per motor) and ``onset`` (seconds after arming; None or 0:
+    from take-off; one value for all, or one per motor).
+
     ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
     Existing files are never overwritten unless ``force``.
     """
@@ -43,12 +49,9 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     if frame is not None and frame not in SIM_FRAMES:
         raise FlightLogError(out, f"--frame must be one of {', '.join(SIM_FRAMES)}, got {frame!r}")
     rotors = 4 if frame is None or frame not in N_ROTOR_FRAMES else preset("x500", frame).rotor_count
-    if not 0 <= motor <= rotors:
-        raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..{rotors}, got {motor}")
+    motors, etas, onsets = _damaged(out, motor, eta, onset, rotors)
     if rho is not None and len(rho) != rotors:
         raise FlightLogError(out, f"--rho needs {rotors} values (one per rotor), got {len(rho)}")
-    if motor and not 0.0 < eta < 1.0:
-        raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {eta}")
     profile_name = log_profile or ("px4_high" if fmt == "ulog" else "ardupilot_fast")
     want_autopilot = "px4" if fmt == "ulog" else "ardupilot"
     if not profile_name.startswith(want_autopilot) and profile_name != "training":
@@ -77,8 +80,8 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
     # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
     # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
-    eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
-    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
+    damage = Damage.several(*(Damage(k, e, o, e ** ESC_SAMPLE_TORQUE_EXPONENT if esc_rate else None, rotors=rotors)
+                              for k, e, o in zip(motors, etas, onsets))) if motors else Damage()
     props = parse_imbalance(out, imbalance, rotors, imu_rate) if (imbalance or imu_rate) else None
     flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
                                duration_s=duration, profile=profile_name, rho=rho, seed=seed,
@@ -99,11 +102,43 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
 
         with open(out / "truth.csv", "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["file", "label", "motor", "eta", "onset_s", "airframe", "mission", "seed"])
+            w.writerow(["file", "label", "motor", "eta", "onset_s", "airframe", "mission", "seed", "motors", "etas"])
             for p, t in written:
                 w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("onset_s"),
-                            (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed")])
+                            (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed"),
+                            ";".join(str(k) for k in t.get("motors") or []),
+                            ";".join(f"{e:g}" for e in t.get("etas") or [])])
     return written
+
+
+def _damaged(out: Path, motor, eta, onset, rotors: int) -> tuple[list[int], list[float], list[Optional[float]]]:
+    """(motors, etas, onsets) of the damaged propellers asked for, one each; FlightLogError for
+    bad values (a motor out of range or twice, an eta outside (0, 1), lists of other lengths)."""
+    motors = [int(m) for m in (motor if isinstance(motor, (list, tuple)) else [motor])]
+    motors = [] if motors in ([], [0]) else motors
+    for m in motors:
+        if not 1 <= m <= rotors:
+            raise FlightLogError(out, f"--motor must be 0 (healthy) or 1..{rotors}, got {m}")
+    if len(set(motors)) != len(motors):
+        raise FlightLogError(out, f"--motor names each damaged propeller once, got {motors}")
+
+    def per_motor(values, name):
+        vals = list(values) if isinstance(values, (list, tuple)) else [values]
+        if len(vals) == 1:
+            return vals * len(motors)
+        if len(vals) != len(motors):
+            raise FlightLogError(out, f"--{name} needs one value, or one per --motor ({len(motors)}), got {len(vals)}")
+        return vals
+
+    etas = [float(e) for e in per_motor(eta, "eta")] if motors else []
+    for e in etas:
+        if not 0.0 < e < 1.0:
+            raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {e}")
+    raw = per_motor(onset if onset is not None else [None], "onset") if motors else []
+    onsets = [None if o is None or float(o) == 0.0 else float(o) for o in raw]
+    if any(o is not None and o < 0 for o in onsets):
+        raise FlightLogError(out, f"--onset must be >= 0 seconds after arming, got {onset}")
+    return motors, etas, onsets
 
 
 def parse_imbalance(out: Path, items: Optional[list[str]], rotors: int, imu_rate: Optional[float]):

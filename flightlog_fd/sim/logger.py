@@ -274,6 +274,9 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             "takeoff_s": _us(res.t_takeoff[i] + offset) if np.isfinite(res.t_takeoff[i]) else None,
             "touchdown_s": _us(res.t_touchdown[i] + offset) if np.isfinite(res.t_touchdown[i]) else None,
             "log_start_boot_s": offset,
+            # every damaged propeller (a two-propeller flight lists both; the fields above are the first's)
+            "motors": [int(x.motor) for x in d.parts], "etas": [float(x.eta) for x in d.parts],
+            "onsets_s": [None if x.onset_s is None else float(x.onset_s + offset) for x in d.parts],
         }
         if nr != 4:
             truth["rotor_count"] = nr  # labels 0..n (features.labels_for_spans); quads keep their truth
