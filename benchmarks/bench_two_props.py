@@ -153,8 +153,10 @@ def _one_of(r) -> bool:
 
 def summary(rows: list[dict]) -> None:
     print("\n== two damaged propellers: both named (damaged / uncertain naming both) ==")
+    print("  both: the verdict names both (dmg: damaged, unc: uncertain); one: it names one of them alone;\n"
+          "  >=1: both or one; the model alone (its windows' majority) can name one at most")
     print(f"  {'condition':44s} {'n':>4s} {'both':>6s} {'dmg':>4s} {'unc':>4s} {'one':>4s} {'other':>5s} "
-          f"{'model alone: one':>16s}")
+          f"{'>=1':>5s} {'model alone':>11s}")
 
     def line(label, rs):
         if not rs:
@@ -164,12 +166,13 @@ def summary(rows: list[dict]) -> None:
         one = sum(_one_of(r) for r in rs)
         alone = sum(bool(set(r["model_alone"]) & set(r["truth"])) for r in rs)
         print(f"  {label:44s} {len(rs):4d} {100 * len(both) / len(rs):5.0f}% {dmg:4d} {len(both) - dmg:4d} {one:4d} "
-              f"{len(rs) - len(both) - one:5d} {alone:16d}")
+              f"{len(rs) - len(both) - one:5d} {len(both) + one:5d} {alone:11d}")
 
     pairs = [r for r in rows if r["flight"] == "pair"]
     for pname in ("no profile", "profile"):
         sel = [r for r in pairs if r["profile"] == pname]
         line(f"{pname}: all", sel)
+        line(f"{pname}: both from take-off", [r for r in sel if not r["onset"]])
         for key, vals in (("log_profile", PROFILES), ("airframes", AIRFRAME_SETS), ("pair_kind", ("adjacent", "opposite"))):
             for v in vals:
                 line(f"{pname}: {key} {v}", [r for r in sel if r[key] == v])

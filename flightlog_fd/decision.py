@@ -30,7 +30,8 @@ trim agrees (``TRIM_FREE_AGREE_LLR``) or the rise is beyond any moved load
 
 Confidence: the probability of the verdict as stated, from the per-motor LLRs under
 ``PRIOR_DAMAGED`` (:func:`posterior`): healthy, P(no rotor lost thrust); damaged motor k, P(motor
-k); uncertain naming motor k, P(motor k); naming two, P(either); "the airframe changed, no rotor
+k); uncertain naming motor k, P(motor k); naming two it cannot tell apart, P(either); naming a pair
+(two lost thrust together), P(that pair) (:func:`_pair_posterior`); "the airframe changed, no rotor
 explains it", P(no rotor lost thrust). Stopped: 1; not diagnosable: 0. The LLRs it reads are
 each motor's total with two bounds: when the trim sources are held (above) their part is at most
 ``TRIM_ONLY_LLR_CAP``, and no motor falls below ``MILD_DAMAGE_LLR_FLOOR`` (damage too mild for any
@@ -144,14 +145,15 @@ TRIM_ONLY_LLR_CAP = 1.0
 #: this much. Two weak rotors explain every pattern one does and more (a second free efficiency),
 #: and two damaged propellers at once are rarer than one, so the pair must earn its extra
 #: freedom: this is the prior log odds of one pair against one rotor. Measured: the best pair's
-#: excess over the best single rotor on one-propeller flights reaches 3.85 on 72 simulated quads
+#: excess over the best single rotor on one-propeller flights reaches 4.09 on 72 simulated quads
 #: without a profile (99th percentile 1.7; eta 0.6-0.85, random airframes and presets with
 #: realistic imbalance, three logging rates; benchmarks/bench_two_props.py --measure, seed 21) and
-#: 1.02 with one; 3.1 on the real rrc_straight cuts against one-flight profiles (2.0 CrazyPAD, -0.4
-#: px4_sih_dev; bench_two_props.py --real). On healthy flights: 1.4 on the 18 real ones without a
-#: profile, 2.7 on the real one-flight cross-session pairs (Erle board B), 1.3 on the simulated
-#: ones. Above the largest; two-propeller flights reach a median 2.0 without a profile, 7.6 with.
-PAIR_EXCESS_LLR = 4.0
+#: 0.67 with one; on healthy flights 0.50 and -0.76. Above the largest; two-propeller flights of
+#: that set reach a median 2.3 without a profile, 8.6 with one. The real flights of ../shared
+#: (bench_two_props.py --real): at most 0.1 on the 18 healthy ones without a profile, 2.7 on the
+#: healthy cross-session pairs with one-flight profiles (Erle board B), 2.6 on the rrc_straight
+#: cuts against them, 1.3 on CrazyPAD's.
+PAIR_EXCESS_LLR = 4.5
 
 
 @dataclass

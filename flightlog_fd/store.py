@@ -73,6 +73,8 @@ FINDING_COLUMNS = ("analyzer", "motor", "name", "value", "unit", "interval_lo", 
 #: Each flight of a log holding several: the JSON report's ``flights[]`` (``part`` 1..n in time order).
 PART_COLUMNS = ("label", "t_start_s", "t_end_s", "airborne_s", "status", "motor", "confidence", "reason",
                 "verdict_motors", "pair")
+#: The columns flight_part had at migration 4 (what that migration fills; migration 5 adds the rest).
+_PART_COLUMNS_V4 = PART_COLUMNS[:8]
 #: Per-motor figures drawn across an airframe's flights (history page, airframe page): (column, title).
 TREND_FIGURES = (("command_change", "command-share change"),
                  ("eta_hat", "eta-hat: estimated remaining thrust (1 = healthy)"),
@@ -128,7 +130,7 @@ def _v4(db: Database) -> None:
     PRIMARY KEY (flight_id, part)
 )""")
     for flight_id, doc in _stored_diagnoses(db):
-        _write_parts(db, flight_id, doc)
+        _write_parts(db, flight_id, doc, _PART_COLUMNS_V4)
 
 
 def verdict_motors_text(v: dict) -> str:
@@ -361,12 +363,13 @@ def part_rows(doc: dict) -> list[tuple]:
     return out
 
 
-def _write_parts(db: Database, fid: int, doc: dict) -> None:
-    """Replace the flight's ``flight_part`` rows with those of ``doc`` (inside a transaction)."""
+def _write_parts(db: Database, fid: int, doc: dict, columns: tuple = PART_COLUMNS) -> None:
+    """Replace the flight's ``flight_part`` rows with those of ``doc`` (inside a transaction);
+    ``columns``: the ones the table has (a migration writes those of its own version)."""
     db.run("DELETE FROM flight_part WHERE flight_id = ?", (fid,))
-    cols = ("flight_id", "part") + PART_COLUMNS
+    cols = ("flight_id", "part") + tuple(columns)
     db.run_many(f"INSERT INTO flight_part ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
-                [(fid, *r) for r in part_rows(doc)])
+                [(fid, r[0], *r[1:len(columns) + 1]) for r in part_rows(doc)])
 
 
 def _run_columns(doc: dict) -> tuple:

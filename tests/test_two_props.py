@@ -234,9 +234,9 @@ def test_two_weak_rotors_named_together_when_a_trim_free_source_agrees():
 
 def test_commands_alone_name_a_pair_uncertain_against_a_profile():
     """A centre of mass moved to the right side makes the pattern of propellers 1 and 4 weak: with
-    nothing else agreeing the verdict says so and what to do."""
+    the model leaning to propeller 1 but short of agreement, the verdict says so and what to do."""
     s, thr = pair_shares(BASE, 1, 4, 0.72, 0.78, m=0.75)
-    v, d = decide(s, thr, window_probs(0, 0.5))
+    v, d = decide(s, thr, window_probs(1, 0.3))
     assert (v.status, v.motor, v.motors, v.pair) == ("uncertain", None, [1, 4], True)
     assert "only the commands point at them" in v.reason and "re-calibrate" in v.reason and "inspect both" in v.reason
 

@@ -81,8 +81,9 @@ class SeverityFit:
 
 
 #: Thrust-efficiency grid of the two-rotor hypothesis (uniform prior over both rotors): the
-#: single-rotor range on a coarser step, since the joint grid is its square. Its step is below
-#: the eta-hat intervals the single fit gives (+-0.03 at best: bench_real_damage.py, px4_high).
+#: single-rotor range on a coarser step, since the joint grid is its square (900 points per
+#: pair and drag-torque exponent). Checked against the 0.01 step on 12 noisy simulated pair
+#: patterns (eta 0.6-0.85, drift sigma 0.03, with the throttle): the pair LLRs agree within 0.001.
 PAIR_ETA_GRID = np.round(np.arange(0.40, 0.995, 0.02), 3)
 
 

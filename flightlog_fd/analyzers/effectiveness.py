@@ -33,17 +33,30 @@ def effectiveness_usable(eff) -> bool:
                 and np.all(np.isfinite(eff.values)) and np.all(eff.values > EFFECTIVENESS_SANE_MIN))
 
 
-def effectiveness_llr(eff) -> Optional[np.ndarray]:
-    """(n,) LLR per motor from an informative effectiveness fit, or None when it says nothing."""
+def _log_mean_exp_half_neg(chi: np.ndarray) -> float:
+    """log(mean(exp(-chi / 2))) without underflow."""
+    top = -0.5 * float(np.min(chi))
+    return top + float(np.log(np.mean(np.exp(-0.5 * chi - top))))
+
+
+def effectiveness_llr(eff, frame=None) -> Optional[np.ndarray]:
+    """(n,) LLR per motor from an informative effectiveness fit, or None when it says nothing:
+    "rotor k at eta" (uniform on ETA_GRID) against healthy, every motor's value predicted through
+    the estimator's own normalisation (:func:`.effectiveness_fit.relative_to_others`): on a quad X
+    the others read 1 either way; on a quad + the weak rotor's partner on its axis reads 1/eta."""
     if not effectiveness_usable(eff):
         return None
-    v = eff.values
-    ci = eff.ci
+    v = np.asarray(eff.values, float)
+    ci = np.asarray(eff.ci, float)
+    n = len(v)
     sd = np.sqrt(((ci[:, 1] - ci[:, 0]) / 3.29) ** 2 + EFFECTIVENESS_SIGMA_FLOOR ** 2)
+    healthy_chi = float(np.sum(((v - 1.0) / sd) ** 2))
     out = []
-    for x, s in zip(v, sd):
-        dens = np.exp(-0.5 * ((x - ETA_GRID) / s) ** 2).mean()
-        out.append(float(np.log(max(dens, 1e-300)) + 0.5 * ((x - 1.0) / s) ** 2))
+    for k in range(n):
+        e = np.ones((len(ETA_GRID), n))
+        e[:, k] = ETA_GRID
+        chi = np.sum(((v - relative_to_others(e, frame)) / sd) ** 2, axis=-1)
+        out.append(_log_mean_exp_half_neg(chi) + 0.5 * healthy_chi)
     return np.array(out)
 
 
@@ -70,8 +83,7 @@ def effectiveness_pair_llrs(eff, frame=None) -> dict:
         e[..., b - 1] = eb
         pred = relative_to_others(e, frame)  # (E, E, n)
         chi = np.sum(((v - pred) / sd) ** 2, axis=-1)
-        top = -0.5 * chi.min()
-        out[(a, b)] = float(top + np.log(np.mean(np.exp(-0.5 * chi - top))) + 0.5 * healthy_chi)
+        out[(a, b)] = _log_mean_exp_half_neg(chi) + 0.5 * healthy_chi
     return out
 
 
@@ -87,7 +99,7 @@ class Effectiveness(Analyzer):
             return AnalyzerResult(self.id, abstained=self.missing(ctx.flight) or why or "no effectiveness fit")
         if not eff.informative:
             return AnalyzerResult(self.id, abstained=eff.reason)
-        llr = effectiveness_llr(eff)
+        llr = effectiveness_llr(eff, ctx.frame)
         if llr is None:
             return AnalyzerResult(self.id, abstained=f"the fit is physically inconsistent (a motor below "
                                                      f"{EFFECTIVENESS_SANE_MIN})")

@@ -87,21 +87,31 @@ NROTOR_VOTE_STATS = {
 }
 
 
+@dataclass(frozen=True)
+class PairVoteStats:
+    """The model's flight-mean window log ratio on two-propeller flights against one-propeller
+    flights of the same airframes: the more-voted member of a pair (level, between-flight spread)
+    and a single damaged motor, without a profile and against the airframe's own healthy level."""
+
+    pair: tuple[float, float]
+    single: tuple[float, float]
+    pair_shift: tuple[float, float]
+    single_shift: tuple[float, float]
+
+
 #: Two damaged propellers: the shipped quad model (classes are single motors) sees at most one of
 #: them. Measured with ``benchmarks/bench_two_props.py --measure`` (seed 21, not a scoring seed: 69
-#: simulated quads with two propellers at eta 0.6-0.85, adjacent and opposite, 36 random airframes
-#: 30 g-5 kg and 36 x500/f450/sih presets, all with realistic imbalance, px4_high / ardupilot /
-#: px4_default logging, 60 s; each beside a healthy twin): the more-voted member's flight mean sits
-#: at +0.05, between-flight spread 0.88 (a single damaged motor's at +0.65 +- 1.04 on the same
-#: airframes, the healthy motors' -1.10 +- 0.66), the other member's at -1.33 +- 0.79, the healthy
-#: level; against the twin (the profile's level) +1.02 +- 0.82 and -0.15 +- 1.10 (a single one
-#: +1.77 +- 0.89). So for a pair the model's evidence is that ONE member is seen, at these levels,
-#: and the other is at the healthy level (:func:`model_pair_llrs`).
-QUAD_PAIR_VOTE_STATS = VoteStats(MODEL_HEALTHY_MEAN, MODEL_HEALTHY_SIGMA, damaged_mean=0.05, damaged_sigma=0.88,
-                                 damage_shift=1.02, shift_sigma=0.82)
-#: Pair statistics per rotor count; a count without its own (hexa, octo: not measured) uses the
-#: single-damage statistics, which gives a pair at most the model's support for its better member
-#: alone (the model never makes a pair more likely than a single rotor there).
+#: simulated quads with two propellers at eta 0.6-0.85, adjacent and opposite, and 72 with one;
+#: 36 random airframes 30 g-5 kg and 36 x500/f450/sih presets, all with realistic imbalance,
+#: px4_high / ardupilot / px4_default logging, 60 s; each beside a healthy twin): the more-voted
+#: member's flight mean sits at +0.05, between-flight spread 0.88, a single damaged motor's at
+#: +0.65 +- 1.04 on the same airframes; against the twin (the profile's level) +1.02 +- 0.82 and
+#: +1.77 +- 0.89. The other member sits at the healthy level (-1.33 +- 0.79 against the healthy
+#: motors' -1.10 +- 0.66; -0.15 +- 1.10 against the twin).
+QUAD_PAIR_VOTE_STATS = PairVoteStats(pair=(0.05, 0.88), single=(0.65, 1.04), pair_shift=(1.02, 0.82),
+                                     single_shift=(1.77, 0.89))
+#: Pair statistics per rotor count; without them (hexa, octo: not measured) a pair member is
+#: weighed as a single damaged motor.
 PAIR_VOTE_STATS = {4: QUAD_PAIR_VOTE_STATS}
 
 
@@ -144,29 +154,30 @@ def model_llr(probs: np.ndarray, covered_s: float, healthy_mean=None, healthy_si
 
 
 def model_pair_llrs(probs: np.ndarray, covered_s: float, healthy_mean=None, healthy_sigma=None) -> dict:
-    """{(a, b): nats} for "rotors a and b lost thrust" against healthy: the model sees one of the
-    two (either, even odds) at the pair level of :data:`PAIR_VOTE_STATS` and the other at the
-    healthy level, so the pair's LLR is log(mean(exp(L'_a), exp(L'_b))) of the members' LLRs
-    L'_k: the member at the pair level against the healthy level (the airframe's own with a
-    profile), with one spread for both (the larger of the two levels' spreads, plus the
-    within-flight term) so that a vote below the healthy level never argues for a pair."""
+    """{(a, b): nats} for "rotors a and b lost thrust" against healthy. The model sees one of the
+    two (either, even odds) and the other at the healthy level, so the pair's LLR is
+    log(mean(exp(L'_a), exp(L'_b))), where L'_k is motor k's single-rotor LLR (:func:`model_llr`,
+    the same levels and profile) plus the log ratio of the pair member's to the single damaged
+    motor's vote density measured on the same airframes (:data:`PAIR_VOTE_STATS`): the pair and
+    the single rotor are weighed on one footing, and a vote that looks like one damaged rotor
+    favours one damaged rotor by what the measurement says, no more."""
     p = np.asarray(probs, float)
     if p.ndim != 2 or p.shape[0] == 0:
         return {}
-    x = mean_log_ratio(p)
-    n = len(x)
-    single = vote_stats(n)
-    stats = PAIR_VOTE_STATS.get(n, single)
-    sigma_h = single.healthy_sigma if healthy_sigma is None else float(healthy_sigma)
-    if healthy_mean is None:
-        mu_h = np.full(n, single.healthy_mean)
-        mu_p, spread = np.full(n, stats.damaged_mean), stats.damaged_sigma
-    else:
-        mu_h = np.asarray(healthy_mean, float)
-        mu_p, spread = mu_h + stats.damage_shift, stats.shift_sigma
-    within = MODEL_WINDOW_SIGMA / np.sqrt(max(covered_s / MODEL_DECORRELATION_S, 1.0))
-    var = max(spread, sigma_h) ** 2 + within ** 2
-    seen = ((x - mu_h) ** 2 - (x - mu_p) ** 2) / (2.0 * var)
+    single = model_llr(p, covered_s, healthy_mean, healthy_sigma)
+    n = len(single)
+    stats = PAIR_VOTE_STATS.get(n)
+    ratio = np.zeros(n)
+    if stats is not None:
+        x = mean_log_ratio(p)
+        within = MODEL_WINDOW_SIGMA / np.sqrt(max(covered_s / MODEL_DECORRELATION_S, 1.0))
+        if healthy_mean is None:
+            (mp, sp), (ms, ss), ref = stats.pair, stats.single, np.zeros(n)
+        else:
+            (mp, sp), (ms, ss), ref = stats.pair_shift, stats.single_shift, np.asarray(healthy_mean, float)
+        ratio = np.array([_gauss_logpdf(v - r, mp, float(np.hypot(sp, within)))
+                          - _gauss_logpdf(v - r, ms, float(np.hypot(ss, within))) for v, r in zip(x, ref)])
+    seen = single + ratio
     return {(a, b): float(np.logaddexp(seen[a - 1], seen[b - 1]) - np.log(2.0))
             for a in range(1, n + 1) for b in range(a + 1, n + 1)}
 
