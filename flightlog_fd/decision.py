@@ -339,7 +339,9 @@ def _pairs(results: Sequence[AnalyzerResult], sources: dict, total: np.ndarray, 
            n: int) -> list[PairDecision]:
     """Every pair of motors as a hypothesis, most likely first: per source its clipped pair LLR
     (:meth:`AnalyzerResult.pair_llr`; only the sources that weighed the single rotors), summed;
-    each pair's excess over the best single motor's total. Without a profile the trim sources'
+    each pair's excess over the best single motor's total (a source whose cap keeps its order,
+    the command shares, lowered with the pairs, so the cap keeps what it says between one rotor and
+    two). Without a profile the trim sources'
     part counts at most ``TRIM_ONLY_LLR_CAP`` unless the sources that do not read the trim agree
     (``TRIM_FREE_AGREE_LLR``): against an even split a pair's command pattern is also a healthy
     airframe's own trim (real healthy Erle 6-3-2014_6, shares 1.04 / 0.67 / 0.86 / 1.43: commands
@@ -347,17 +349,20 @@ def _pairs(results: Sequence[AnalyzerResult], sources: dict, total: np.ndarray, 
     single rotor's pattern is narrower and keeps its own bars."""
     if n not in PAIR_ROTOR_COUNTS:
         return []
-    by_source = {}
+    by_source, singles = {}, np.zeros(n)
     for r in results:
         if r.analyzer in sources:
             v = r.pair_llr(n)
             if v is not None:
                 by_source[r.analyzer] = v
+            # each rotor as the pair step compares it: a source whose cap keeps its order lowers
+            # every rotor and pair together (AnalyzerResult.llr with_pairs)
+            singles = singles + (r.llr(n, with_pairs=True) if r.cap_keeps_order else sources[r.analyzer])
     if not by_source:
         return []
     fits = {pf.motors: pf for pf in (cmd.pairs if cmd is not None and not cmd.abstained else [])}
     against_profile = cmd is not None and not cmd.abstained and cmd.baseline == "profile"
-    best_single = float(np.max(total))
+    best_single = float(np.max(singles))
     out = []
     for a in range(1, n + 1):
         for b in range(a + 1, n + 1):

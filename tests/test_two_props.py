@@ -27,6 +27,8 @@ from flightlog_fd.sim.damage import (Damage, DamageArrays, feasible, hover_comma
                                      rotor_pairs)
 from flightlog_fd.timeline import Timeline
 
+from conftest import shared_path
+
 runner = CliRunner()
 X500 = preset("x500")
 
@@ -186,11 +188,19 @@ def test_model_sees_at_most_one_member_of_a_pair():
 
 
 def test_pair_llr_sums_independent_sources_and_keeps_the_cap():
-    r = AnalyzerResult("esc", [Finding("esc", k + 1, "rpm", 0.0, llr=v) for k, v in enumerate([3.0, -1.0, 0.5, 6.0])])
+    r = AnalyzerResult("vibration", [Finding("vibration", k + 1, "line", 0.0, llr=v)
+                                     for k, v in enumerate([3.0, -1.0, 0.5, 6.0])])
     pairs = r.pair_llr(4)
     assert pairs[(1, 4)] == pytest.approx(8.0) and pairs[(1, 2)] == pytest.approx(2.0)  # 9 clipped to the cap 8
     ordered = AnalyzerResult("c", pair_llrs={(1, 2): 20.0, (1, 3): 10.0}, llr_cap=8.0, cap_keeps_order=True)
     assert ordered.pair_llr(4) == {(1, 2): 8.0, (1, 3): -2.0}
+    # the command shares' cap keeps its order between one rotor and two: every rotor and pair
+    # lowered together by the top one's excess (the pair step's comparison), not each set alone
+    both = AnalyzerResult("c", [Finding("c", k + 1, "share", 0.0, llr=v) for k, v in enumerate([12.0, 0, 0, 0])],
+                          pair_llrs={(1, 2): 20.0, (1, 3): 9.0}, llr_cap=8.0, cap_keeps_order=True)
+    assert both.llr(4).tolist() == [8.0, -4.0, -4.0, -4.0]  # the single-rotor verdict's view: unchanged
+    assert both.llr(4, with_pairs=True).tolist() == [0.0, -8.0, -8.0, -8.0]
+    assert both.pair_llr(4) == {(1, 2): 8.0, (1, 3): -3.0}
     assert r.pair_llr(6) is None  # pairs are weighed on quads only (PAIR_ROTOR_COUNTS)
     assert AnalyzerResult("none").pair_llr(4) is None
 
@@ -368,3 +378,17 @@ def test_an_existing_store_gets_the_named_propellers_when_upgraded(pair_run, tmp
         (f,) = store.logs()
         row = store.flight(f["id"])
     assert (row["verdict_motors"], row["pair"]) == ("1;4", 1)
+
+
+def test_a_weak_motor_or_esc_is_not_made_a_pair_by_its_neighbours_esc_offsets():
+    """ArduCopter SITL, motor 1 weakened as a motor or ESC fault (slower per command): each ESC is
+    measured against the others, so its neighbours look fast; a pair must not borrow that."""
+    from flightlog_fd import load_flight
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+
+    log = shared_path("ardupilot_sitl_quad", "motor1_weak_esc.BIN")
+    d = diagnose_flight(load_flight(log), resolve_model(), None, keep_flight=False)
+    assert not d.verdict.pair and d.verdict.motors == [1]
+    esc = next(r for r in d.decision.results if r.analyzer == "esc")
+    per = esc.llr(4)
+    assert per[0] < 0 < per[1] and esc.pair_llr(4)[(1, 2)] == pytest.approx(per[0])

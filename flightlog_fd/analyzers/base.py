@@ -76,48 +76,60 @@ class AnalyzerResult:
         """Its finding ``name`` about ``motor`` (1-based), or None."""
         return next((f for f in self.findings if f.name == name and f.motor == motor), None)
 
-    def llr(self, n_motors: int) -> Optional[np.ndarray]:
-        """(n,) summed LLR of this analyzer's weighed findings, clipped to +-``llr_cap``; None if it
-        weighs nothing. With ``cap_keeps_order`` (the analyzer's :attr:`Analyzer.cap_keeps_order`)
-        all motors are first lowered by the top one's excess over the cap, so the cap bounds the
-        evidence against healthy but keeps what the source says between motors."""
+    def _per_motor(self, n_motors: int) -> Optional[np.ndarray]:
+        """(n,) summed LLR of the weighed findings per motor, before the cap; None if none."""
         out = np.zeros(n_motors)
         weighed = False
         for f in self.findings:
             if f.llr is not None and np.isfinite(f.llr) and 1 <= f.motor <= n_motors:
                 out[f.motor - 1] += f.llr
                 weighed = True
-        if not weighed:
+        return out if weighed else None
+
+    def _raw_pairs(self, n_motors: int) -> dict:
+        """{(a, b): nats} before the cap: ``pair_llrs``, else the two motors' findings summed."""
+        pairs = [(a, b) for a in range(1, n_motors + 1) for b in range(a + 1, n_motors + 1)]
+        if self.pair_llrs:
+            return {pr: float(self.pair_llrs[pr]) for pr in pairs if pr in self.pair_llrs}
+        per = self._per_motor(n_motors)
+        return {} if per is None else {(a, b): float(per[a - 1] + per[b - 1]) for a, b in pairs}
+
+    def _joint_shift(self, per: Optional[np.ndarray], pairs: dict) -> float:
+        """With ``cap_keeps_order``: how far every hypothesis (each motor and each pair) is lowered
+        so the top one sits at the cap (:meth:`llr` ``with_pairs``, :meth:`pair_llr`)."""
+        tops = ([float(per.max())] if per is not None else []) + list(pairs.values())
+        return max((max(tops) if tops else 0.0) - self.llr_cap, 0.0)
+
+    def llr(self, n_motors: int, with_pairs: bool = False) -> Optional[np.ndarray]:
+        """(n,) summed LLR of this analyzer's weighed findings, clipped to +-``llr_cap``; None if it
+        weighs nothing. With ``cap_keeps_order`` (the analyzer's :attr:`Analyzer.cap_keeps_order`)
+        all motors are first lowered by the top one's excess over the cap, so the cap bounds the
+        evidence against healthy but keeps what the source says between motors; ``with_pairs``:
+        lowered with the pairs of :meth:`pair_llr` (by the top of motors and pairs together), so
+        the cap keeps what the source says between one rotor and two (the decision's pair step)."""
+        out = self._per_motor(n_motors)
+        if out is None:
             return None
         if self.cap_keeps_order:
-            out = out - max(float(out.max()) - self.llr_cap, 0.0)
+            if with_pairs and n_motors in PAIR_ROTOR_COUNTS:
+                out = out - self._joint_shift(out, self._raw_pairs(n_motors))
+            else:
+                out = out - max(float(out.max()) - self.llr_cap, 0.0)
         return np.clip(out, -self.llr_cap, self.llr_cap)
 
     def pair_llr(self, n_motors: int) -> Optional[dict]:
         """{(a, b): nats} for every pair of motors, clipped like :meth:`llr` (with
-        ``cap_keeps_order`` all pairs lowered by the top pair's excess over the cap): ``pair_llrs``
-        when the analyzer gave them, else the sum of the two motors' weighed findings (a source
-        whose finding about one motor does not depend on the others: ESC telemetry, a vibration
-        line tied to a rotor). None when it weighs nothing, or on a rotor count outside
+        ``cap_keeps_order`` every motor and pair lowered together by the top one's excess over the
+        cap): ``pair_llrs`` when the analyzer gave them, else the sum of the two motors' weighed
+        findings (a source whose finding about one motor does not depend on the others: a
+        vibration line tied to a rotor). None when it weighs nothing, or on a rotor count outside
         ``PAIR_ROTOR_COUNTS``."""
         if n_motors not in PAIR_ROTOR_COUNTS:
             return None
-        pairs = [(a, b) for a in range(1, n_motors + 1) for b in range(a + 1, n_motors + 1)]
-        if self.pair_llrs:
-            raw = {pr: float(self.pair_llrs[pr]) for pr in pairs if pr in self.pair_llrs}
-        else:
-            per = np.zeros(n_motors)
-            weighed = False
-            for f in self.findings:
-                if f.llr is not None and np.isfinite(f.llr) and 1 <= f.motor <= n_motors:
-                    per[f.motor - 1] += f.llr
-                    weighed = True
-            if not weighed:
-                return None
-            raw = {(a, b): float(per[a - 1] + per[b - 1]) for a, b in pairs}
+        raw = self._raw_pairs(n_motors)
         if not raw:
             return None
-        shift = max(max(raw.values()) - self.llr_cap, 0.0) if self.cap_keeps_order else 0.0
+        shift = self._joint_shift(self._per_motor(n_motors), raw) if self.cap_keeps_order else 0.0
         return {pr: float(np.clip(v - shift, -self.llr_cap, self.llr_cap)) for pr, v in raw.items()}
 
     def as_dict(self) -> dict:

@@ -476,7 +476,13 @@ class Esc(Analyzer):
             out.append(Finding(self.id, f.motor, f.name, f.value, f.unit, interval, f.baseline, f.direction,
                                a.decision_llr[f.motor] if weighed else None,
                                text if f.name != "esc_damage" else f"{f.value:.0f}%"))
-        return AnalyzerResult(self.id, out)
+        # a pair is as likely as its less likely member: each motor is measured against the mean
+        # of the others, so one motor that turns slowly (a motor or ESC fault) makes the others
+        # look fast; the sum would let that artefact cancel the slow motor's evidence (ArduCopter
+        # SITL motor1_weak_esc: motor 1 -6.1 nats, its neighbour +6.5)
+        per = {f.motor: f.llr for f in out if f.llr is not None}
+        pairs = {(a, b): min(per[a], per[b]) for a in per for b in per if a < b}
+        return AnalyzerResult(self.id, out, pair_llrs=pairs)
 
 
 __all__ = ["ANALYZER_ID", "EscFigure", "Esc", "EscAnalysis", "EscBaseline", "analyze_esc", "measure_esc",
