@@ -49,8 +49,8 @@ alone when its result is given, the reason saying what the log lacks.
 Two propellers (:func:`_pair_step`, a step of its own after the single rotors are weighed): each
 source also weighs "rotors a and b both lost thrust" for every pair (:meth:`AnalyzerResult.pair_llr`:
 the command shares' two-rotor mixer fit, the throttle's part of it, the effectiveness fit with both
-weak, the model seeing at most one of the two; ESC telemetry and vibration per rotor, summed),
-clipped to the source's cap. The best pair is named when its total reaches ``UNCERTAIN_LLR`` and
+weak, the model seeing at most one of the two, ESC telemetry's less likely member, a vibration line
+tied to a rotor), clipped to the source's cap. The best pair is named when its total reaches ``UNCERTAIN_LLR`` and
 beats the best single rotor by ``PAIR_EXCESS_LLR`` (the pair's prior odds: it has a second free
 efficiency and is rarer), ``damaged`` under the single rotor's bars, else ``uncertain`` naming both
 (a moved load or re-trim makes the same command pattern: against a profile the commands alone
@@ -251,7 +251,7 @@ class PairDecision:
     llr: float  # what the decision counts, nats: the sources' sum, the trim part bounded (:func:`_pairs`)
     llr_by_source: dict  # analyzer id -> nats (each source clipped to its cap)
     eta_hat: Optional[tuple[float, float]]  # the two-rotor command fit's, None when the shares are not weighed
-    excess: float  # llr minus the best single motor's total
+    excess: float  # llr minus the best single rotor's, as the pair step compares them (:func:`_pairs`)
     #: why the trim sources' part was bounded (no profile, no source that does not read the trim agreeing), or None
     trim_bounded: Optional[str] = None
 
@@ -335,34 +335,33 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
 
 # ----------------------------------------------------------------------------- the pair-hypothesis step
 
-def _pairs(results: Sequence[AnalyzerResult], sources: dict, total: np.ndarray, cmd: Optional[CommandSharesResult],
-           n: int) -> list[PairDecision]:
-    """Every pair of motors as a hypothesis, most likely first: per source its clipped pair LLR
+def _pairs(results: Sequence[AnalyzerResult], sources: dict, cmd: Optional[CommandSharesResult],
+           n: int) -> tuple[list[PairDecision], dict]:
+    """Every pair of motors as a hypothesis, most likely first, and each single rotor as the pair
+    step compares it ({analyzer: (n,) nats}). Per source its clipped pair LLR
     (:meth:`AnalyzerResult.pair_llr`; only the sources that weighed the single rotors), summed;
-    each pair's excess over the best single motor's total (a source whose cap keeps its order,
-    the command shares, lowered with the pairs, so the cap keeps what it says between one rotor and
-    two). Without a profile the trim sources'
-    part counts at most ``TRIM_ONLY_LLR_CAP`` unless the sources that do not read the trim agree
+    each pair's excess over the best single rotor, a source whose cap keeps its order (the
+    command shares) lowering every rotor and pair together so the cap keeps what it says between
+    one rotor and two. Without a profile the trim sources' part of a pair counts at most
+    ``TRIM_ONLY_LLR_CAP`` unless the sources that do not read the trim agree
     (``TRIM_FREE_AGREE_LLR``): against an even split a pair's command pattern is also a healthy
     airframe's own trim (real healthy Erle 6-3-2014_6, shares 1.04 / 0.67 / 0.86 / 1.43: commands
     +7.9 nats for propellers 1 and 4, the centre of mass off to their side; the model -0.6); a
     single rotor's pattern is narrower and keeps its own bars."""
     if n not in PAIR_ROTOR_COUNTS:
-        return []
-    by_source, singles = {}, np.zeros(n)
+        return [], {}
+    by_source, singles_by_source = {}, {}
     for r in results:
         if r.analyzer in sources:
             v = r.pair_llr(n)
             if v is not None:
                 by_source[r.analyzer] = v
-            # each rotor as the pair step compares it: a source whose cap keeps its order lowers
-            # every rotor and pair together (AnalyzerResult.llr with_pairs)
-            singles = singles + (r.llr(n, with_pairs=True) if r.cap_keeps_order else sources[r.analyzer])
+            singles_by_source[r.analyzer] = r.llr(n, with_pairs=True) if r.cap_keeps_order else sources[r.analyzer]
     if not by_source:
-        return []
+        return [], {}
     fits = {pf.motors: pf for pf in (cmd.pairs if cmd is not None and not cmd.abstained else [])}
     against_profile = cmd is not None and not cmd.abstained and cmd.baseline == "profile"
-    best_single = float(np.max(singles))
+    best_single = float(np.max(np.sum(list(singles_by_source.values()), axis=0)))
     out = []
     for a in range(1, n + 1):
         for b in range(a + 1, n + 1):
@@ -382,15 +381,20 @@ def _pairs(results: Sequence[AnalyzerResult], sources: dict, total: np.ndarray, 
                                     eta_hat=None if fit is None else tuple(fit.eta_hat), excess=llr - best_single,
                                     trim_bounded=bounded))
     out.sort(key=lambda pd: -pd.llr)
-    return out
+    return out, singles_by_source
 
 
-def _pair_posterior(pairs: list[PairDecision], weighed: np.ndarray, held: bool) -> tuple[float, np.ndarray]:
+def _pair_posterior(pairs: list[PairDecision], singles_by_source: dict, held: bool) -> tuple[float, np.ndarray]:
     """(P(the top pair lost thrust), (n,) P(rotor k lost thrust, alone or in a pair)) among
-    healthy, each single rotor and each pair: the single rotors as in :func:`posterior` (their
-    LLRs floored), each pair with the prior of one rotor times exp(-PAIR_EXCESS_LLR); with the
-    trim sources held their part of a pair's LLR is at most TRIM_ONLY_LLR_CAP, as for one rotor."""
-    n = len(weighed)
+    healthy, each single rotor and each pair, on the footing of the pair step's comparison
+    (:func:`_pairs`): the single rotors as in :func:`posterior` (their LLRs floored), each pair
+    with the prior of one rotor times exp(-PAIR_EXCESS_LLR); with the trim sources held their part
+    of every hypothesis is at most TRIM_ONLY_LLR_CAP, as for one rotor."""
+    trim_single = sum((v for src, v in singles_by_source.items() if src in TRIM_SOURCES), np.zeros(1))
+    singles = np.sum(list(singles_by_source.values()), axis=0)
+    if held:
+        singles = singles - trim_single + np.minimum(trim_single, TRIM_ONLY_LLR_CAP)
+    n = len(singles)
     prior_one = np.log(PRIOR_DAMAGED / max(n, 1))
 
     def stated(pd: PairDecision) -> float:
@@ -399,7 +403,7 @@ def _pair_posterior(pairs: list[PairDecision], weighed: np.ndarray, held: bool) 
         trim = sum(v for src, v in pd.llr_by_source.items() if src in TRIM_SOURCES)
         return pd.llr - trim + min(trim, TRIM_ONLY_LLR_CAP)
 
-    logits = np.concatenate([[np.log1p(-PRIOR_DAMAGED)], prior_one + np.maximum(weighed, MILD_DAMAGE_LLR_FLOOR),
+    logits = np.concatenate([[np.log1p(-PRIOR_DAMAGED)], prior_one + np.maximum(singles, MILD_DAMAGE_LLR_FLOOR),
                              [prior_one - PAIR_EXCESS_LLR + stated(pd) for pd in pairs]])
     w = np.exp(logits - logits.max())
     w = w / w.sum()
@@ -410,7 +414,7 @@ def _pair_posterior(pairs: list[PairDecision], weighed: np.ndarray, held: bool) 
     return float(w[n + 1]), marginal
 
 
-def _pair_step(pairs: list[PairDecision], weighed: np.ndarray, motors: list[MotorDecision],
+def _pair_step(pairs: list[PairDecision], singles_by_source: dict, motors: list[MotorDecision],
                cmd: Optional[CommandSharesResult], thr: Optional[ThrottleResult], n: int, frame: Optional[Frame],
                onset) -> Optional[tuple]:
     """The verdict's arguments (status, motor, confidence, reason, motors, pair) when two rotors
@@ -462,7 +466,7 @@ def _pair_step(pairs: list[PairDecision], weighed: np.ndarray, motors: list[Moto
         if thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma:
             why_not.append(f"the throttle is {100 * (1 - thr.ratio):.0f} % lower than at calibration, which rotors that "
                            f"lost thrust cannot do with the same load: re-calibrate after the inspection")
-    confidence, marginal = _pair_posterior(pairs, weighed, pair_held)
+    confidence, marginal = _pair_posterior(pairs, singles_by_source, pair_held)
     for m in motors:  # each rotor's weight: alone or in a pair
         m.weight = float(marginal[m.motor - 1])
     if not why_not:
@@ -597,8 +601,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                        positions=[frame.position(k) if frame is not None else None for k in motors]), decision
 
     # the pair-hypothesis step: two rotors that explain the evidence where no single one does
-    decision.pairs = _pairs(results, sources, total, cmd, n)
-    call = _pair_step(decision.pairs, weighed, motors, cmd, thr, n, frame, onset)
+    decision.pairs, singles_for_pairs = _pairs(results, sources, cmd, n)
+    call = _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
     if call is not None:
         return done(*call)
 
