@@ -392,3 +392,22 @@ def test_a_weak_motor_or_esc_is_not_made_a_pair_by_its_neighbours_esc_offsets():
     esc = next(r for r in d.decision.results if r.analyzer == "esc")
     per = esc.llr(4)
     assert per[0] < 0 < per[1] and esc.pair_llr(4)[(1, 2)] == pytest.approx(per[0])
+
+
+def test_several_flights_and_stopped_motors_keep_every_named_motor():
+    from flightlog_fd.diagnose import capped_by_log
+
+    pair = D.Verdict("damaged", motor=1, motors=[1, 4], pair=True, positions=["front-right", "rear-right"],
+                     confidence=0.9, reason="two")
+    one = D.Verdict("damaged", motor=1, confidence=0.9, reason="one")
+    assert one.motors == [1] and one.status_words() == "damaged (motor 1)"
+    # a flight naming a pair where its log names one rotor: not confirmed, so uncertain
+    capped = capped_by_log(pair, one, None)
+    assert capped.status == "uncertain" and "damaged (motors 1 and 4)" in capped.reason and not capped.pair
+    assert capped_by_log(pair, pair, None) is pair
+    log = D.log_verdict([("flight 1 of 2", D.Verdict("healthy", confidence=0.8)), ("flight 2 of 2", pair)])
+    assert (log.motor, log.motors, log.pair, log.positions) == (1, [1, 4], True, ["front-right", "rear-right"])
+    stops = [SimpleNamespace(motor=3, t_start=10.0, duration_s=5.0, evidence="output at its minimum"),
+             SimpleNamespace(motor=2, t_start=12.0, duration_s=5.0, evidence="output at its minimum")]
+    v, _ = D.decide(4, Frame.quad_x(), stopped=stops, not_diagnosable_reason="too slow")
+    assert (v.status, v.motor, v.motors, v.positions) == ("stopped", 3, [3, 2], ["front-left", "rear-left"])
