@@ -56,6 +56,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .analyzers import AnalyzerResult
+from .analyzers.base import SOURCE_LLR_CAP
+from .analyzers.reliability import RELIABILITY, LogKind, cell_of
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
@@ -123,6 +125,13 @@ MILD_DAMAGE_LLR_FLOOR = float(np.log(np.mean(ETA_GRID >= UNSEEN_ETA - 1e-9)))
 #: Measured: healthy re-flights 0.97-1.03 (rrc, SIH, CrazyPAD), damaged ones 1.00-1.18 (rrc cuts,
 #: SIH); Erle board A across sessions 0.62-1.61.
 THROTTLE_FELL_SIGMAS = 2.0
+#: The most nats a source may give at each trust level of the reliability table
+#: (:data:`~flightlog_fd.analyzers.reliability.RELIABILITY`, measured by
+#: benchmarks/bench_reliability.py): "trusted" up to its own cap (at least SOURCE_LLR_CAP, 8), so
+#: it may make a damaged verdict alone; "corroborating" one nat below DAMAGED_LLR, so another
+#: source must add at least a nat; "discounted" one nat below UNCERTAIN_LLR, so alone it cannot even
+#: make the flight uncertain.
+TRUST_CAPS = {"trusted": SOURCE_LLR_CAP, "corroborating": DAMAGED_LLR - 1.0, "discounted": UNCERTAIN_LLR - 1.0}
 #: When the trim sources are held, their joint part of the stated probabilities is at most this
 #: many nats for any motor: once a moved load explains the pattern as well as a weak rotor does,
 #: the commands add little to the prior odds (e ~ 2.7 to 1).
@@ -188,6 +197,21 @@ class Decision:
     share_sigma: Optional[float] = None
     sources: list[str] = field(default_factory=list)  # the analyzers that weighed in
     results: list[AnalyzerResult] = field(default_factory=list)
+    weights: dict = field(default_factory=dict)  # analyzer id -> SourceWeight (how much it could give)
+    kind: Optional[LogKind] = None  # the kind of log the sources were weighed for
+
+
+@dataclass(frozen=True)
+class SourceWeight:
+    """How much one source could give on this log: its reliability-table cell, the trust level
+    measured there (None: no cell, the analyzer's own cap) and the cap in nats."""
+
+    cell: str
+    trust: Optional[str]
+    cap: float
+
+    def as_dict(self) -> dict:
+        return {"cell": self.cell, "trust": self.trust, "cap": round(float(self.cap), 3)}
 
 
 def posterior(total_llr: np.ndarray) -> np.ndarray:
@@ -272,7 +296,8 @@ def _stopped(stops: Sequence, frame: Optional[Frame], underneath: Optional[Verdi
 
 def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[Timeline] = None,
            results: Sequence[AnalyzerResult] = (), stopped: Sequence = (),
-           not_diagnosable_reason: Optional[str] = None) -> tuple[Verdict, Optional[Decision]]:
+           not_diagnosable_reason: Optional[str] = None, kind: Optional[LogKind] = None
+           ) -> tuple[Verdict, Optional[Decision]]:
     """The flight's verdict and, when the evidence was weighed, its :class:`Decision` (module
     docstring). ``timeline``: the model's windows (None when none were judged); ``results``: the
     analyzers'; ``stopped``: :class:`~flightlog_fd.stopped.StoppedMotor` s, earliest first;
@@ -286,17 +311,34 @@ def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[T
     elif reason is not None:
         verdict, decision = not_diagnosable(reason), None
     else:
-        verdict, decision = _weigh(results, n_motors, frame, timeline)
+        verdict, decision = _weigh(results, n_motors, frame, timeline, kind)
     if stopped:  # a motor that stopped in the air outranks any propeller verdict
         verdict = _stopped(stopped, frame, verdict if timeline is not None else None)
     return verdict, decision
 
 
+def source_weight(r: AnalyzerResult, kind: Optional[LogKind]) -> SourceWeight:
+    """How much source ``r`` may give on this kind of log: the trust level of its cell in the
+    measured reliability table (:data:`~flightlog_fd.analyzers.reliability.RELIABILITY`) and the cap
+    that level sets (``TRUST_CAPS``); the analyzer's own ``llr_cap`` where the table has no cell
+    for it (or the kind of log is not known)."""
+    if kind is None or not r.reliability_keys:
+        return SourceWeight("", None, r.llr_cap)
+    cell = cell_of(r.reliability_keys, kind)
+    trust = RELIABILITY.get(r.analyzer, {}).get(cell)
+    if trust is None:
+        return SourceWeight(cell, None, r.llr_cap)
+    cap = TRUST_CAPS[trust]
+    return SourceWeight(cell, trust, max(cap, r.llr_cap) if trust == "trusted" else min(cap, r.llr_cap))
+
+
 def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
-           timeline: Timeline) -> tuple[Verdict, Decision]:
+           timeline: Timeline, kind: Optional[LogKind] = None) -> tuple[Verdict, Decision]:
     """The verdict from the analyzers' evidence (module docstring)."""
-    sources = {r.analyzer: r.llr(n) for r in results}
+    weights = {r.analyzer: source_weight(r, kind) for r in results}
+    sources = {r.analyzer: r.llr(n, weights[r.analyzer].cap) for r in results}
     sources = {k: v for k, v in sources.items() if v is not None}
+    weights = {k: w for k, w in weights.items() if k in sources}
     total = np.sum(list(sources.values()), axis=0) if sources else np.zeros(n)
     cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
     thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
@@ -325,7 +367,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     decision = Decision(motors=motors, airframe_changed=airframe_changed,
                         healthy_chi2=None if cmd is None else cmd.healthy_chi2,
                         share_sigma=None if cmd is None else cmd.share_sigma,
-                        sources=list(sources), results=list(results))
+                        sources=list(sources), results=list(results), weights=weights, kind=kind)
     onset = timeline.onset
     first_seen = onset.first_seen if onset is not None else timeline.t_first
 

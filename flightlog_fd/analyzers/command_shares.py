@@ -309,6 +309,9 @@ class CommandShares(Analyzer):
     #: coaxial partner, same roll/pitch levers and the opposite spin, 1-24; both at 8, the decision
     #: could not choose in 13 of 46 damaged flights; benchmarks/bench_nrotor.py).
     cap_keeps_order = True
+    #: Means only (any rate serves); the healthy spread it is weighed against depends on the profile
+    #: and, without one, on the rotor count.
+    reliability_keys = ("profile", "rotors")
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
         share_fit = ctx.share_fit

@@ -1,0 +1,81 @@
+"""What kind of log this is, for weighing each source by its measured reliability on such logs.
+
+:class:`LogKind`: the properties of a log that decide how much evidence a source can carry:
+the motor-output and rate-stream rates, the airborne time the windows cover, the share of
+manoeuvring windows, and whether a profile (and its adapted model) describes the airframe.
+Built once per diagnosis (:func:`log_kind`).
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any, Sequence
+
+#: Profile kinds: no profile; a profile whose model is the shipped one (``--no-adapt``); a profile
+#: whose model was adapted to the airframe (the default ``fdlog calibrate``).
+PROFILE_KINDS = ("none", "profile", "adapted")
+
+
+@dataclass(frozen=True)
+class LogKind:
+    """The log properties the reliability table is indexed by (rates in Hz, times in s)."""
+
+    motors_hz: float
+    rates_hz: float
+    covered_s: float
+    manoeuvre_share: float
+    profile: str  # one of PROFILE_KINDS
+    n_motors: int = 4
+
+    @property
+    def stream_hz(self) -> float:
+        """The slower of the motor-output and rate streams: what the model's windows resolve."""
+        return min(self.motors_hz, self.rates_hz)
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    @staticmethod
+    def from_dict(d: dict) -> "LogKind":
+        return LogKind(**{k: d[k] for k in LogKind.__dataclass_fields__ if k in d})
+
+
+def log_kind(flight: Any, phases: Sequence[str], covered_s: float, profile: Any, adapted: bool,
+             n_motors: int) -> LogKind:
+    """The :class:`LogKind` of a diagnosed flight: its streams' rates, the windows' covered time and
+    phases, and the profile (``adapted``: the model judging is the profile's own)."""
+    motors = getattr(flight, "motors", None)
+    rates = getattr(flight, "rates", None)
+    man = sum(p == "manoeuvre" for p in phases) / len(phases) if len(phases) else 0.0
+    kind = "none" if profile is None else ("adapted" if adapted else "profile")
+    return LogKind(motors_hz=float(motors.rate_hz) if motors is not None else 0.0,
+                   rates_hz=float(rates.rate_hz) if rates is not None else 0.0,
+                   covered_s=float(covered_s), manoeuvre_share=float(man), profile=kind, n_motors=int(n_motors))
+
+
+#: Below this the slower of the motor-output and rate streams is "low": PX4's default
+#: ``actuator_motors`` and ArduCopter's ``RCOU`` at 10 Hz, the old ArduCopter logs at 3-11 Hz.
+#: The model's windows are resampled at 50 Hz over 1.6 s: a 10 Hz stream puts 16 samples in one.
+LOW_RATE_HZ = 15.0
+#: From here the streams fill the model's 50 Hz windows ("full": PX4's high-rate profile 250 Hz,
+#: ArduPilot's RATE at the loop rate, CrazyPAD's 100 Hz); between the two "mid" (ArduCopter 3.x
+#: RATE and IMU at 20-25 Hz).
+FULL_RATE_HZ = 45.0
+
+#: What each cell property reads from a :class:`LogKind`.
+PROPERTIES = {
+    "rate": lambda k: "low rate" if k.stream_hz < LOW_RATE_HZ else ("mid rate" if k.stream_hz < FULL_RATE_HZ
+                                                                     else "full rate"),
+    "profile": lambda k: {"none": "no profile", "profile": "profile", "adapted": "adapted profile"}[k.profile],
+    "rotors": lambda k: "quad" if k.n_motors == 4 else "n-rotor",
+}
+
+#: How far a source is trusted (decision.py turns a level into the most nats the source may give):
+#: "trusted" may make a damaged verdict alone; "corroborating" needs another source to agree;
+#: "discounted" cannot make even an uncertain verdict alone.
+TRUST_LEVELS = ("trusted", "corroborating", "discounted")
+
+
+def cell_of(keys: Sequence[str], kind: LogKind) -> str:
+    """The reliability-table cell of a source whose evidence depends on ``keys`` (PROPERTIES)."""
+    return ", ".join(PROPERTIES[k](kind) for k in keys)
+RELIABILITY: dict = {}
