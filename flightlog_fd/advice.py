@@ -26,10 +26,10 @@ from pathlib import Path
 from typing import Any, Optional, Sequence
 
 from .analyzers.reliability import FULL_RATE_HZ, LogKind
+from .decision import THIN_TIMELINE_SHARE
 
-#: A healthy verdict whose timeline is at least this uncertain (share of '?' windows) rests on
-#: the other sources alone: the report says so and what would make the model's windows count.
-THIN_TIMELINE_SHARE = 0.5
+#: Every kind of advice, in the order a pilot acts on them.
+ADVICE_KINDS = ("inspect", "add_session", "calibrate", "logging", "esc_telemetry", "manoeuvre")
 
 LOGGING = {
     "px4": ("SDLOG_PROFILE", "set SDLOG_PROFILE to include its high-rate bit (16; e.g. 17 = the default set "
@@ -80,6 +80,13 @@ class Situation:
     positions: dict = field(default_factory=dict)  # motor -> position words
 
 
+def advice_line(a: Advice) -> str:
+    """One advice item as a report prints it: its words, then the command to run or the setting."""
+    if a.command:
+        return f"{a.text}: {a.command}"
+    return a.text
+
+
 def _quote(p: Optional[str], fallback: str) -> str:
     return shlex.quote(str(p)) if p else fallback
 
@@ -90,6 +97,13 @@ def _profile_for(log: Optional[str]) -> str:
         return "airframe.json"
     p = Path(log)
     return str(p.with_name(p.stem + ".profile.json"))
+
+
+def _calibrate(s: Situation, text: str) -> Advice:
+    """The first calibration on this flight (``--no-adapt`` for a frame the adaptation is not for)."""
+    no_adapt = " --no-adapt" if s.kind is not None and s.kind.n_motors != 4 else ""
+    return Advice("calibrate", text, command=f"fdlog calibrate{no_adapt} {_quote(s.log, 'LOG')} -o "
+                                             f"{shlex.quote(_profile_for(s.log))}")
 
 
 def advise(s: Situation) -> list[Advice]:
@@ -113,10 +127,11 @@ def advise(s: Situation) -> list[Advice]:
                                              "profile as a session, so its normal spread is known next time",
                               command=cmd))
         else:
-            cmd = f"fdlog calibrate {log} -o {shlex.quote(_profile_for(s.log))}"
-            out.append(Advice("calibrate", "if the propellers are sound, calibrate this airframe on this flight "
-                                           "and diagnose the next flights with the profile (--profile)",
-                              command=cmd))
+            out.append(_calibrate(s, "if the propellers are sound, calibrate this airframe on this flight and "
+                                     "diagnose the next flights with the profile (--profile)"))
+    elif not s.profile:
+        out.append(_calibrate(s, "the model could not tell this flight's propellers apart: a profile from a "
+                                 "healthy flight of this airframe lets its command pattern weigh in"))
     kind = s.kind
     autopilot = s.autopilot if s.autopilot in LOGGING else ""
     slow = kind is not None and kind.stream_hz < FULL_RATE_HZ
@@ -134,20 +149,20 @@ def advise(s: Situation) -> list[Advice]:
     return out
 
 
-def situation(diagnosis: Any, inspect: Sequence[int] = ()) -> Situation:
-    """The :class:`Situation` of a :class:`~flightlog_fd.diagnose.Diagnosis`."""
+def situation(diagnosis: Any, flight: Any) -> Situation:
+    """The :class:`Situation` of a :class:`~flightlog_fd.diagnose.Diagnosis` of ``flight``."""
     from .analyzers.effectiveness_fit import LITTLE_MANOEUVRING
 
     f = diagnosis.facts
-    fl = diagnosis.flight
     eff = getattr(diagnosis.share_fit, "effectiveness", None) if diagnosis.share_fit is not None else None
-    frame = getattr(fl, "frame", None)
+    frame = getattr(flight, "frame", None)
     tl = diagnosis.timeline
+    v = diagnosis.verdict
     return Situation(
-        status=diagnosis.verdict.status, inspect=tuple(inspect), kind=diagnosis.log_kind,
+        status=v.status, inspect=tuple(v.inspect), kind=diagnosis.log_kind,
         autopilot=f.autopilot if f else "", log=diagnosis.log,
         profile=diagnosis.profile.path if diagnosis.profile is not None else None,
-        has_esc=getattr(fl, "esc", None) is not None,
+        has_esc=getattr(flight, "esc", None) is not None,
         little_manoeuvring=bool(eff is not None and (eff.reason or "").startswith(LITTLE_MANOEUVRING)),
         timeline_uncertain=float(tl.abstained_share) if tl is not None and tl.n_windows else 0.0,
         positions={k: frame.position(k) for k in range(1, frame.rotor_count + 1)} if frame is not None else {})

@@ -132,6 +132,10 @@ THROTTLE_FELL_SIGMAS = 2.0
 #: source must add at least a nat; "discounted" one nat below UNCERTAIN_LLR, so alone it cannot even
 #: make the flight uncertain.
 TRUST_CAPS = {"trusted": SOURCE_LLR_CAP, "corroborating": DAMAGED_LLR - 1.0, "discounted": UNCERTAIN_LLR - 1.0}
+#: A verdict over a timeline with at least this share of uncertain ('?') windows says what it rests
+#: on instead (the model could not tell the propellers apart: the shipped octo model on its own
+#: damaged sample, 92 %).
+THIN_TIMELINE_SHARE = 0.5
 #: When the trim sources are held, their joint part of the stated probabilities is at most this
 #: many nats for any motor: once a moved load explains the pattern as well as a weak rotor does,
 #: the commands add little to the prior odds (e ~ 2.7 to 1).
@@ -149,6 +153,10 @@ class Verdict:
     confidence: float = 0.0  # the probability of the verdict as stated (module docstring)
     first_seen: Optional[float] = None
     reason: str = ""
+    #: The propellers the verdict sends the pilot to first (() = all of them, or nothing to inspect).
+    inspect: tuple = ()
+    #: What would resolve it (:class:`flightlog_fd.advice.Advice`), set by the diagnose pipeline.
+    advice: list = field(default_factory=list)
 
     def as_dict(self) -> dict:
         """The verdict fields of the JSON report."""
@@ -159,6 +167,7 @@ class Verdict:
             "confidence": round(float(self.confidence), 4),
             "first_seen": None if self.first_seen is None else round(float(self.first_seen), 3),
             "reason": self.reason,
+            "advice": [a.as_dict() for a in self.advice],
         }
 
 
@@ -387,10 +396,12 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
 
     vib = _vibration(results)
 
-    def done(status: str, motor: Optional[int], confidence: float, reason: str) -> tuple[Verdict, Decision]:
+    def done(status: str, motor: Optional[int], confidence: float, reason: str,
+             inspect: Sequence[int] = ()) -> tuple[Verdict, Decision]:
         raised = _raised_by_vibration(vib, status)
         if raised is not None:
             status, motor = raised, None
+            inspect = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted else ()
             confidence = _p_imbalance(vib)
             reason = (f"a propeller is {'likely damaged' if status == 'damaged' else 'possibly out of balance'}: "
                       f"{vib.level_words}; {_vibration_advice(vib, status, frame)}; "
@@ -402,7 +413,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             reason += f"; {one}"
         return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
                        else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
-                       first_seen=first_seen if status == "damaged" else None, reason=reason), decision
+                       first_seen=first_seen if status == "damaged" else None, reason=reason,
+                       inspect=tuple(inspect) if status != "healthy" else ()), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -413,7 +425,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but the throttle is "
                     f"{100 * (1 - thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot do "
                     f"with the same load: the load or the set-up changed since calibration; inspect propeller {kb}, "
-                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}")
+                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}", (kb,))
     if trim_held is not None and total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
         # commands against another session's calibration alone: at most uncertain
         sev = severity_words(kb)
@@ -424,20 +436,22 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     + (f" (if its propeller were the cause, it {sev})" if sev else "")
                     + f": inspect propeller {kb}; if it is sound, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
-                      f"(log-likelihood ratio, nats): {parts}")
+                      f"(log-likelihood ratio, nats): {parts}", (kb,))
     if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
                     f"did not rise as a rotor that lost thrust must ({share.value:.3f} against {share.baseline:.3f}); "
-                    f"{evidence_words(kb)}; inspect propeller {kb} and the others")
+                    f"{evidence_words(kb)}; inspect propeller {kb} and the others", (kb,))
     if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
         since = f" from t={onset.first_seen:.1f} s" if onset is not None else ""
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
-                    + f"; {evidence_words(kb)}; inspect propeller {kb}")
+                    + f"; {evidence_words(kb)}; inspect propeller {kb}", (kb,))
     if total[best] >= UNCERTAIN_LLR:
+        named: tuple[int, ...] = (kb,)
         if lead < SEPARATION_LLR and second is not None and total[second] >= UNCERTAIN_LLR:
             k2 = second + 1
+            named = (kb, k2)
             confidence = w[kb] + w[k2]
             reason = (f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats) or "
                       f"{_words(frame, k2)} ({total[second]:+.1f}) and cannot tell them apart; "
@@ -452,14 +466,30 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                 reason += "; if it is sound, the load moved since calibration (battery, payload): re-calibrate"
         if airframe_changed:
             reason += f"; also {airframe_changed}: after the inspection, re-calibrate"
-        return done("uncertain", None, confidence, reason)
+        return done("uncertain", None, confidence, reason, named)
     if airframe_changed:
         return done("uncertain", None, w[0],
                     f"no rotor explains the change since calibration ({airframe_changed}): the airframe itself "
                     f"changed (payload, battery, a re-trim); check the propellers, then re-calibrate on a "
                     f"healthy flight")
     return done("healthy", None, w[0], f"no rotor lost thrust: the strongest case is {_words(frame, kb)} at "
-                                       f"{total[best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})")
+                                       f"{total[best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})"
+                + _thin_timeline_words(timeline, sources, cmd))
+
+
+def _thin_timeline_words(timeline: Timeline, sources: dict, cmd: Optional[CommandSharesResult]) -> str:
+    """Why a healthy verdict stands over a mostly uncertain timeline ("" when the timeline is not):
+    what it rests on instead, and what would let more sources weigh in."""
+    share = timeline.abstained_share if timeline.n_windows else 0.0
+    if share < THIN_TIMELINE_SHARE:
+        return ""
+    others = [s for s in sources if s != "model"]
+    text = (f"; {100 * share:.0f} % of the model's windows are uncertain ('?'): it could not tell this flight's "
+            f"propellers apart, so the verdict rests on " + (", ".join(others) if others else "the model's weak "
+                                                               "leaning alone"))
+    if cmd is not None and cmd.abstained and cmd.baseline != "profile":
+        text += "; calibrating on a healthy flight of this airframe lets its command pattern weigh in"
+    return text
 
 
 #: Severity order of verdicts when one log holds several flights (the log's verdict is its worst).
@@ -525,7 +555,8 @@ def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason
     p = _p_imbalance(vib)
     sources = [vib.analyzer] if vib.llr(n) is not None else []
     decision = Decision(sources=sources, results=[vib])
-    return Verdict(status=status, confidence=p if status != "healthy" else 1.0 - p, reason=text), decision
+    tied = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted and status != "healthy" else ()
+    return Verdict(status=status, confidence=p if status != "healthy" else 1.0 - p, reason=text, inspect=tied), decision
 
 
 def worst_flight(verdicts: Sequence[Verdict]) -> int:
@@ -540,4 +571,4 @@ def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     others = "".join(f"; {lab}: {v.status}" + (f" (motor {v.motor})" if v.motor else "")
                      for lab, v in parts if v is not worst)
     return Verdict(status=worst.status, motor=worst.motor, position=worst.position, confidence=worst.confidence,
-                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}")
+                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}", inspect=worst.inspect)

@@ -37,6 +37,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from .advice import advise, situation
 from .analyzers import REGISTRY, Context, run_analyzers
 from .analyzers.effectiveness_fit import estimate_effectiveness
 from .analyzers.reliability import log_kind
@@ -255,7 +256,10 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
     send back from a worker process when many logs are diagnosed in parallel).
     Runs with at most ``DIAGNOSE_BLAS_THREADS`` BLAS threads."""
     with blas_threads(DIAGNOSE_BLAS_THREADS):
-        return _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
+        d = _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
+    for x in [d, *d.flights]:  # what would resolve each verdict (the flight's streams decide the settings)
+        x.verdict.advice = advise(situation(x, flight))
+    return d
 
 
 #: A log with motor outputs holding several flights is judged once as a whole (its verdict is the
@@ -457,7 +461,8 @@ def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> V
     if own.motor and decision is not None and len(decision.motors) >= own.motor:
         whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"
     return Verdict(status=status, motor=None, position=None, confidence=log.confidence if status == log.status
-                   else own.confidence, first_seen=None,
+                   else own.confidence, first_seen=None, inspect=(own.inspect or ((own.motor,) if own.motor else ()))
+                   if status != "healthy" else (),
                    reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
                           f"confirm it ({log.status}{whole}), so this flight is {status}")
 

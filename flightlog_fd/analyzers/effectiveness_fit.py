@@ -84,6 +84,8 @@ from ..prepared import PreparedFlight, resample
 from ..streams import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
                        Segment, odd_window)
 
+#: The start of the reason an informative-enough fit was not reached (the advice reads it).
+LITTLE_MANOEUVRING = "too little manoeuvring"
 #: Centred moving-average length (s) removed from both sides before the fit (0.3-0.5 s gave the
 #: smallest error on simulated flights with known η: rmse 0.05 against 0.08 at 1 s and 0.10 at 2 s,
 #: px4_high, 16 flights): longer than a
@@ -708,7 +710,7 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     if not np.all(np.isfinite(point)):
         reason = "the fit failed (no roll/pitch response to the motor commands)"
     elif not informative:
-        reason = (f"too little manoeuvring to estimate it: the widest interval is ±{np.nanmax(widths) / 2:.2f} "
+        reason = (f"{LITTLE_MANOEUVRING} to estimate it: the widest interval is ±{np.nanmax(widths) / 2:.2f} "
                   f"(needs ±{MAX_CI_WIDTH / 2:.2f}); a flight with more roll/pitch changes would do")
     else:
         reason = f"from {seconds:.0f} s of airborne data"

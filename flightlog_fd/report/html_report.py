@@ -31,6 +31,7 @@ from typing import Optional, Sequence, Union
 import numpy as np
 
 from .. import __version__
+from ..advice import advice_line
 from ..diagnose import Diagnosis
 from ..flight import Series
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
@@ -224,6 +225,8 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("profile", d.profile.path if d.profile is not None and d.profile.path else "none"))
     v = d.verdict
     rows.append(("reason", v.reason))
+    for i, a in enumerate(v.advice):
+        rows.append(("to resolve it" if i == 0 else "", advice_line(a)))
     if d.timeline is not None and d.timeline.shortfall is None:
         ev = d.timeline
         names = class_names(len(ev.smoothed_share) - 1)

@@ -27,6 +27,7 @@ from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
 
+from ..advice import advice_line
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
@@ -178,6 +179,10 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
                    Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
     if v.status in ("damaged", "healthy", "uncertain", "stopped") and v.reason:
         parts.append(Text(f"  {v.reason}", style="dim"))
+    if v.advice:
+        parts.append(Text("  to resolve it:", style="bold"))
+        for a in v.advice:
+            parts.append(Text(f"  - {advice_line(a)}"))
     line = facts_line(diagnosis)
     if line:
         parts.append(Text(f"  {line}", style="dim"))
