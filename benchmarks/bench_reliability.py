@@ -44,7 +44,6 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = ROOT.parent / "shared"
 CACHE = ROOT / "build" / "reliability"
-GOLDEN_PROFILES = Path("/work/golden/profiles")
 SIM_SEED = 9100
 SIM_LOG_PROFILES = ("px4_high", "ardupilot_fast", "ardupilot", "ardupilot_slow", "px4_default", "ardupilot_rcou")
 SIM_ETAS = (0.6, 0.7, 0.8, 0.9)
@@ -147,7 +146,7 @@ def real_cases(profiles_dirs: list[Path]) -> list[dict]:
         airframes.append(("rrc_straight", goods, cuts))
     if (SHARED / "crazypad_e9").is_dir():
         cp = crazypad_logs(SHARED)
-        normals = [(lg.name, lg.path) for lg in cp if lg.healthy]
+        normals = sorted((lg.name, lg.path) for lg in cp if lg.healthy)
         dmg = [(lg.name, lg.path, lg.truth["motor"] if not lg.name.startswith("cut_M2_0.5mm") else -1,
                 f"motor {lg.truth['motor']}", None) for lg in cp if not lg.healthy]
         run("crazypad_e9", [(n, p, 0, "healthy", None) for n, p in normals] + dmg)
@@ -169,25 +168,21 @@ def real_cases(profiles_dirs: list[Path]) -> list[dict]:
                 continue
             others = [(n, p, 0, "healthy", None) for n, p in healthy if p != cal_path]
             run(af, others + list(damaged), profile, f"{cal_name} no-adapt")
-    # adapted profiles made by the other benchmarks, where present
-    adapted = {"rrc_g1_adapted": "rrc_straight", "rrc_g1": "rrc_straight", "cp00": "crazypad_e9",
-               "sih004": "px4_sih_dev"}
-    done = set()
-    for pname, af in adapted.items():
-        profile = find_profile(pname)
-        if profile is None or not profile.model or af in done:
-            continue
-        done.add(af)
-        healthy, damaged = next(((h, d) for a, h, d in airframes if a == af), ([], []))
-        cal = {s["name"] for s in (profile.source_logs or [])}
-        others = [(n, p, 0, "healthy", None) for n, p in healthy if p.name not in cal]
-        run(af, others + list(damaged), profile, f"{pname} (adapted)")
+    # one-flight adapted profiles (the default `fdlog calibrate`) made by bench_cross_session.py
+    # (--quick --calibrate-only), where present: named <airframe>_<i>_adapted
+    for af, healthy, damaged in airframes:
+        for i, (cal_name, cal_path) in enumerate(healthy):
+            profile = find_profile(f"{af}_{i + 1}_adapted")
+            if profile is None or not profile.model:
+                continue
+            others = [(n, p, 0, "healthy", None) for n, p in healthy if p != cal_path]
+            run(af, others + list(damaged), profile, f"{cal_name} adapted")
     return out
 
 
 # ------------------------------------------------------------------------------------ simulated
 def sim_cases(n_airframes: int, frames: tuple[str, ...] = ("quad_x",), log_profiles=SIM_LOG_PROFILES,
-              seed: int = SIM_SEED) -> list[dict]:
+              seed: int = SIM_SEED, esc=None) -> list[dict]:
     """Healthy / damaged / healthy-twin flights of ``n_airframes`` random airframes per frame and
     logging profile, diagnosed without a profile and with the twin's ``--no-adapt`` profile."""
     from flightlog_fd.calibration import calibrate
@@ -208,7 +203,7 @@ def sim_cases(n_airframes: int, frames: tuple[str, ...] = ("quad_x",), log_profi
             nrot = afs[0].rotor_count
             truth = [(int(rng.integers(1, nrot + 1)), SIM_ETAS[i % len(SIM_ETAS)]) for i in range(n_airframes)]
             t0 = time.perf_counter()
-            common = dict(duration_s=60.0, profile=lp, noise="real_logs", midflight_fraction=0.0)
+            common = dict(duration_s=60.0, profile=lp, noise="real_logs", midflight_fraction=0.0, esc=esc)
             res = []
             for mission, sub in (("waypoints", 0), ("manual", 1)):
                 idx = [i for i in range(n_airframes) if i % 2 == sub]
@@ -217,6 +212,11 @@ def sim_cases(n_airframes: int, frames: tuple[str, ...] = ("quad_x",), log_profi
                 a = [afs[i] for i in idx]
                 im = [imbs[i] for i in idx]
                 k = len(idx)
+                if esc == "random":  # the same motors and ESCs on the healthy, damaged and twin flights
+                    from flightlog_fd.sim.esc import random_esc_params
+
+                    e = [random_esc_params(x, np.random.default_rng([s, sub, j])) for j, x in enumerate(a)]
+                    common["esc"] = e * 3
                 fl = simulate_flights(3 * k, airframes=a * 3, imbalance=im * 3, mission=mission,
                                       damages=[Damage(0, 1.0, rotors=nrot)] * k + [Damage(*truth[i], rotors=nrot) for i in idx]
                                       + [Damage(0, 1.0, rotors=nrot)] * k,
@@ -226,7 +226,7 @@ def sim_cases(n_airframes: int, frames: tuple[str, ...] = ("quad_x",), log_profi
             for i, mission, healthy, damaged, twin in sorted(res, key=lambda r: r[0]):
                 motor, eta = truth[i]
                 profile = calibrate([twin])  # as `fdlog calibrate --no-adapt`
-                tag = f"sim {frame} {lp}"
+                tag = f"sim {frame} {lp}" + (" esc" if esc else "")
                 for prof in (None, profile):
                     for f, t, g in ((healthy, 0, "healthy"), (damaged, motor, f"eta {eta:.1f}")):
                         d = diagnose_flight(f, model, prof, keep_flight=True)
@@ -239,7 +239,7 @@ def sim_cases(n_airframes: int, frames: tuple[str, ...] = ("quad_x",), log_profi
 
 
 # ------------------------------------------------------------------------------------ cache
-def load_cases(which=("real", "sim", "nrotor")) -> list[dict]:
+def load_cases(which=("real", "sim", "nrotor", "esc")) -> list[dict]:
     out = []
     for w in which:
         p = CACHE / f"{w}.pkl"
@@ -251,95 +251,130 @@ def load_cases(which=("real", "sim", "nrotor")) -> list[dict]:
 def collect(args) -> None:
     CACHE.mkdir(parents=True, exist_ok=True)
     sets = args.sets.split(",")
-    dirs = [Path(d) for d in args.profiles] + [GOLDEN_PROFILES, ROOT / "build" / "bench_profiles"]
+    dirs = [Path(d) for d in args.profiles] + [ROOT / "build" / "cross_session_profiles"]
     if "real" in sets and SHARED.is_dir():
         (CACHE / "real.pkl").write_bytes(pickle.dumps(real_cases(dirs)))
     if "sim" in sets:
         (CACHE / "sim.pkl").write_bytes(pickle.dumps(sim_cases(args.sim_airframes)))
+    if "esc" in sets:
+        (CACHE / "esc.pkl").write_bytes(pickle.dumps(
+            sim_cases(args.sim_airframes, log_profiles=("px4_high", "ardupilot", "px4_default"), seed=SIM_SEED + 500,
+                      esc="random")))
     if "nrotor" in sets:
         (CACHE / "nrotor.pkl").write_bytes(pickle.dumps(
             sim_cases(args.sim_airframes, frames=("hexa_x", "octo_x"), log_profiles=("px4_high", "ardupilot", "px4_default"))))
 
 
 # ------------------------------------------------------------------------------------ table
-def _lead(raw: list[float]) -> float:
-    return float(np.max(raw))
-
-
-def table(cases: list[dict], out_md: Path | None = None) -> str:
+def measure(cases: list[dict]) -> dict:
+    """{(source, cell): {"real"|"sim": {"h": [healthy leads], "d": [(damaged motor's LLR, led)]}}}."""
     from flightlog_fd.analyzers import REGISTRY
-    from flightlog_fd.analyzers.reliability import FIRE_LLR, LogKind, cell_of, supported_cap
+    from flightlog_fd.analyzers.reliability import LogKind, cell_of
 
-    lines = []
-    cells: dict[tuple, dict] = defaultdict(lambda: {"h": [], "d": [], "d_lead": [], "sets": Counter()})
+    keys = {a.id: a.reliability_keys for a in REGISTRY if a.reliability_keys}
+    out: dict = defaultdict(lambda: {"real": {"h": [], "d": []}, "sim": {"h": [], "d": []}})
     for c in cases:
         if c["kind"] is None:
             continue
         kind = LogKind.from_dict(c["kind"])
-        for a in REGISTRY:
-            raw = c["raw"].get(a.id)
-            if raw is None:
+        origin = "sim" if c["set"].startswith("sim") else "real"
+        for src, raw in c["raw"].items():
+            if raw is None or src not in keys:
                 continue
-            key = (a.id, cell_of(a, kind))
-            e = cells[key]
-            e["sets"][c["set"].split(" | ")[0].split(" #")[0]] += 1
+            e = out[(src, cell_of(keys[src], kind))][origin]
             if c["truth"] == 0:
-                e["h"].append(_lead(raw))
-            elif c["truth"] > 0 and c["truth"] <= len(raw):
-                e["d"].append(raw[c["truth"] - 1])
-                e["d_lead"].append(int(np.argmax(raw)) + 1 == c["truth"])
-    hdr = (f"| source | cell | healthy n | lead median / p90 / max | FA | damaged n | damaged motor p10 / median "
-           f"| detected | supported cap | sets |")
-    lines += [hdr, "|" + "---|" * 10]
-    for (src, cell), e in sorted(cells.items(), key=lambda kv: (kv[0][0], kv[0][1])):
-        h, dd = np.array(e["h"]), np.array(e["d"])
-        fa = int(np.sum(h >= FIRE_LLR)) if len(h) else 0
-        det = int(np.sum((dd >= FIRE_LLR) & np.array(e["d_lead"], bool))) if len(dd) else 0
-        hs = f"{np.median(h):+.1f} / {np.percentile(h, 90):+.1f} / {h.max():+.1f}" if len(h) else "-"
-        ds = f"{np.percentile(dd, 10):+.1f} / {np.median(dd):+.1f}" if len(dd) else "-"
-        cap = supported_cap(fa, len(h), det, len(dd))
-        sets = ", ".join(f"{k} {v}" for k, v in e["sets"].most_common(4))
-        lines.append(f"| {src} | {cell} | {len(h)} | {hs} | {fa} | {len(dd)} | {ds} | {det} | {cap:.1f} | {sets} |")
+                e["h"].append(float(np.max(raw)))
+            elif 0 < c["truth"] <= len(raw):
+                e["d"].append((raw[c["truth"] - 1], int(np.argmax(raw)) + 1 == c["truth"]))
+    return out
+
+
+def table(cases: list[dict], out_md: Path | None = None) -> str:
+    """The measured table (module docstring), the level the rule gives each cell, and the level
+    the code holds (flightlog_fd/analyzers/reliability.RELIABILITY), flagging any difference."""
+    from flightlog_fd.analyzers.reliability import FIRE_LLR, RELIABILITY, cell_trust, trust_level
+    from flightlog_fd.decision import DAMAGED_LLR
+
+    lines = [f"| source | cell | origin | healthy n | leading LLR median / max | false alarms (>= {FIRE_LLR:g}) "
+             f"| damaged n | damaged motor's LLR p10 / median | named at >= {DAMAGED_LLR:g} | level | cell level "
+             f"| in code |", "|" + "---|" * 12]
+    for (src, cell), origins in sorted(measure(cases).items()):
+        levels = {}
+        rows = []
+        for origin in ("real", "sim"):
+            h = np.array(origins[origin]["h"])
+            d = origins[origin]["d"]
+            if not len(h) and not d:
+                continue
+            fa = int(np.sum(h >= FIRE_LLR))
+            levels[origin] = trust_level(len(h), fa)
+            dv = np.array([x for x, _ in d])
+            named = sum(1 for x, led in d if led and x >= DAMAGED_LLR)
+            rows.append([src, cell, origin, str(len(h)),
+                         f"{np.median(h):+.1f} / {h.max():+.1f}" if len(h) else "-", str(fa) if len(h) else "-",
+                         str(len(dv)), f"{np.percentile(dv, 10):+.1f} / {np.median(dv):+.1f}" if len(dv) else "-",
+                         str(named) if len(dv) else "-", levels[origin] or "too few"])
+        level = cell_trust(levels.get("real"), levels.get("sim"))
+        code = RELIABILITY.get(src, {}).get(cell, "-")
+        for i, r in enumerate(rows):
+            lines.append("| " + " | ".join(r + ([level, code + (" (differs)" if code != level else "")] if i == 0
+                                                else ["", ""])) + " |")
     text = "\n".join(lines)
     print(text)
+    print("\n# the rule's table, as flightlog_fd/analyzers/reliability.RELIABILITY holds it")
+    by_src: dict = defaultdict(dict)
+    for line in lines[2:]:
+        cols = [c.strip() for c in line.strip("|").split("|")]
+        if cols[10]:
+            by_src[cols[0]][cols[1]] = cols[10]
+    print("RELIABILITY = {\n" + "".join(
+        f"    {src!r}: {{\n" + "".join(f"        {c!r}: {lv!r},\n" for c, lv in cells.items()) + "    },\n"
+        for src, cells in by_src.items()) + "}")
     if out_md is not None:
         out_md.write_text(text + "\n")
     return text
 
 
 def replay(cases: list[dict]) -> None:
-    """Today's decision on the cached cases: per set, verdict against the model's window majority."""
+    """The decision as the code makes it now, on the cached cases, beside the verdict cached at
+    collection and the model's window majority: per set (profiles pooled) and group, healthy /
+    uncertain / damaged, and for a known damaged motor how often it was named."""
     from flightlog_fd.decision import decide
 
-    rows = defaultdict(lambda: Counter())
+    rows: dict = defaultdict(Counter)
     for c in cases:
         if c["replay"] is None:
             continue
         n, frame, tl, results, stopped, kind = pickle.loads(c["replay"])
         v, _ = decide(n, frame, timeline=tl, results=results, stopped=stopped, kind=kind)
-        key = (c["set"].split(" | ")[0] + (" | profile" if " | " in c["set"] else ""), c["group"])
-        r = rows[key]
+        prof = c["set"].split(" | ")[1].split(" ")[-1] if " | " in c["set"] else "none"
+        grp = c["group"] if c["truth"] <= 0 else ("damaged" if not c["set"].startswith("sim") else c["group"])
+        r = rows[(c["set"].split(" | ")[0], prof, grp)]
         r["n"] += 1
-        t = c["truth"]
-        r["verdict healthy"] += v.status == "healthy"
-        r["verdict uncertain"] += v.status == "uncertain"
-        r["verdict damaged"] += v.status == "damaged"
-        if t > 0:
-            r["verdict right"] += v.status == "damaged" and v.motor == t
-            r["model right"] += c["model_alone"] == ("damaged", t)
-        elif t == 0:
-            r["model healthy"] += c["model_alone"][0] == "healthy"
-    for (s, g), r in sorted(rows.items()):
-        print(f"{s:45s} {g:12s} n={r['n']:3d} h/u/d {r['verdict healthy']}/{r['verdict uncertain']}/"
-              f"{r['verdict damaged']}" + (f"  right: verdict {r['verdict right']} model {r['model right']}"
-                                            if 'verdict right' in r or 'model right' in r else
-                                            f"  model healthy {r['model healthy']}"))
+        for tag, st, m in (("was", c["status"], c["motor"]), ("now", v.status, v.motor)):
+            r[f"{tag} {st[0]}"] += 1
+            if c["truth"] > 0:
+                r[f"{tag} right"] += st == "damaged" and m == c["truth"]
+        if c["truth"] > 0:
+            r["model right"] += c["model_alone"] == ("damaged", c["truth"])
+        elif c["truth"] == 0:
+            r["model FA"] += c["model_alone"][0] == "damaged"
+
+    def cell(r, tag):
+        return f"{r[tag + ' h']}h {r[tag + ' u']}u {r[tag + ' d']}d" + (f" ({r[tag + ' right']} right)"
+                                                                       if (tag + " right") in r else "")
+    print(f"{'set':34s} {'profile':9s} {'group':10s} {'n':>4s}  {'before':>20s}  {'now':>20s}  model alone")
+    for (st, prof, grp), r in sorted(rows.items()):
+        model = f"{r['model right']} right" if "model right" in r else f"{r['model FA']} called damaged"
+        mark = " *" if cell(r, "was") != cell(r, "now") else ""
+        print(f"{st[:34]:34s} {prof:9s} {grp[:10]:10s} {r['n']:4d}  {cell(r, 'was'):>20s}  {cell(r, 'now'):>20s}  "
+              f"{model}{mark}")
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("what", choices=("collect", "table", "replay"))
-    ap.add_argument("--sets", default="real,sim,nrotor")
+    ap.add_argument("--sets", default="real,sim,nrotor,esc")
     ap.add_argument("--sim-airframes", type=int, default=12)
     ap.add_argument("--profiles", action="append", default=[], help="folders holding adapted profiles")
     ap.add_argument("--write", type=Path, default=None)

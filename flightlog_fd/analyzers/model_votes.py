@@ -133,9 +133,9 @@ class ModelVotes(Analyzer):
     #: whose command rose only 4 %, while the label says motor 2). Another source must add at least
     #: a nat.
     llr_cap = 5.0
-    #: Its reliability depends on how well the streams fill its windows and on the profile (an
-    #: adapted model, or the airframe's own vote baseline): the cell of the reliability table.
-    reliability_keys = ("rate", "profile")
+    #: Its reliability depends on how well the streams fill its windows, on the profile (an adapted
+    #: model, or the airframe's own vote baseline) and on the rotor count (another shipped model).
+    reliability_keys = ("rate", "profile", "rotors")
 
     def fit_baseline(self, flights, model=None):
         """Each motor's flight-mean window log ratio on the calibration flights with ``model``

@@ -8,7 +8,7 @@ Built once per diagnosis (:func:`log_kind`).
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any, Sequence
+from typing import Any, Optional, Sequence
 
 #: Profile kinds: no profile; a profile whose model is the shipped one (``--no-adapt``); a profile
 #: whose model was adapted to the airframe (the default ``fdlog calibrate``).
@@ -78,4 +78,68 @@ TRUST_LEVELS = ("trusted", "corroborating", "discounted")
 def cell_of(keys: Sequence[str], kind: LogKind) -> str:
     """The reliability-table cell of a source whose evidence depends on ``keys`` (PROPERTIES)."""
     return ", ".join(PROPERTIES[k](kind) for k in keys)
-RELIABILITY: dict = {}
+
+
+#: How the table below was measured (benchmarks/bench_reliability.py applies this rule and prints
+#: the table): a healthy flight is a false alarm of a source when the source's leading LLR reaches
+#: FIRE_LLR (it alone would give e^2 ~ 7 to 1 for damage on a healthy airframe).
+FIRE_LLR = 2.0
+#: Fewer healthy flights than this of one origin (real or simulated) measure nothing.
+MIN_MEASURED = 10
+#: Trusted where at most this share of the healthy flights are false alarms ...
+TRUST_RATE = 0.05
+#: ... discounted where at least this share are.
+DISCOUNT_RATE = 0.20
+
+
+def trust_level(n_healthy: int, false_alarms: int) -> Optional[str]:
+    """The trust level one origin's healthy flights support (None: too few to measure)."""
+    if n_healthy < MIN_MEASURED:
+        return None
+    rate = false_alarms / n_healthy
+    return "trusted" if rate <= TRUST_RATE else ("discounted" if rate >= DISCOUNT_RATE else "corroborating")
+
+
+def cell_trust(real: Optional[str], simulated: Optional[str]) -> str:
+    """A cell's level from its origins' levels (None: too few flights): the worse of the two, and
+    "trusted" only where real flights were measured too (a simulated airframe is not a real one:
+    the model was trained on simulation); "corroborating" when neither measured enough."""
+    measured = [x for x in (real, simulated) if x is not None]
+    level = max(measured, key=TRUST_LEVELS.index) if measured else "corroborating"
+    return "corroborating" if level == "trusted" and real is None else level
+
+#: Each source's trust level per cell, measured (benchmarks/bench_reliability.py table; the rule
+#: above) on the real flights in ../shared and simulated airframes, healthy and damaged; the
+#: figures behind each level are in results/reliability.md. A cell not listed is weighed by the
+#: analyzer's own cap.
+RELIABILITY: dict[str, dict[str, str]] = {
+    "commands": {
+        "adapted profile, quad": "corroborating",
+        "no profile, quad": "corroborating",
+        "profile, n-rotor": "corroborating",
+        "profile, quad": "corroborating",
+    },
+    "effectiveness": {
+        "full rate": "corroborating",
+        "low rate": "corroborating",
+        "mid rate": "corroborating",
+    },
+    "model": {
+        "full rate, adapted profile, quad": "corroborating",
+        "full rate, no profile, n-rotor": "corroborating",
+        "full rate, no profile, quad": "corroborating",
+        "full rate, profile, n-rotor": "corroborating",
+        "full rate, profile, quad": "trusted",
+        "low rate, adapted profile, quad": "corroborating",
+        "low rate, no profile, n-rotor": "corroborating",
+        "low rate, no profile, quad": "corroborating",
+        "low rate, profile, n-rotor": "corroborating",
+        "low rate, profile, quad": "discounted",
+        "mid rate, no profile, quad": "corroborating",
+        "mid rate, profile, quad": "corroborating",
+    },
+    "throttle": {
+        "adapted profile": "corroborating",
+        "profile": "trusted",
+    },
+}

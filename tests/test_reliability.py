@@ -1,0 +1,134 @@
+"""Each source weighed by its measured reliability on the kind of log at hand, and the advice that
+resolves an uncertain verdict (issue 28 parts 1, 4 and 6)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flightlog_fd import decision as D
+from flightlog_fd.advice import ADVICE_KINDS, Situation, advise
+from flightlog_fd.analyzers import REGISTRY, AnalyzerResult, Finding
+from flightlog_fd.analyzers.reliability import (FULL_RATE_HZ, LOW_RATE_HZ, MIN_MEASURED, PROPERTIES, RELIABILITY,
+                                                LogKind, cell_of, cell_trust, trust_level)
+from flightlog_fd.timeline import Timeline
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLES = ROOT / "sample_logs"
+
+
+def kind(hz: float = 250.0, profile: str = "none", n: int = 4) -> LogKind:
+    return LogKind(motors_hz=hz, rates_hz=max(hz, 50.0), covered_s=60.0, manoeuvre_share=0.2, profile=profile,
+                   n_motors=n)
+
+
+def test_cells_read_the_slower_stream_the_profile_and_the_rotor_count():
+    k = LogKind(motors_hz=10.0, rates_hz=250.0, covered_s=60.0, manoeuvre_share=0.0, profile="adapted")
+    assert k.stream_hz == 10.0
+    assert cell_of(("rate", "profile", "rotors"), k) == "low rate, adapted profile, quad"
+    assert cell_of(("rate",), kind(LOW_RATE_HZ)) == "mid rate"
+    assert cell_of(("rate",), kind(FULL_RATE_HZ)) == "full rate"
+    assert cell_of(("profile", "rotors"), kind(profile="profile", n=8)) == "profile, n-rotor"
+
+
+def test_every_cell_of_the_table_is_one_the_registry_can_reach():
+    """A table entry that no analyzer's keys can produce would never weigh anything."""
+    keys = {a.id: a.reliability_keys for a in REGISTRY}
+    values = {p: {f(kind(hz, prof, n)) for hz in (10.0, 30.0, 250.0) for prof in ("none", "profile", "adapted")
+                  for n in (4, 8)} for p, f in PROPERTIES.items()}
+    for source, cells in RELIABILITY.items():
+        assert keys.get(source), source
+        for cell, level in cells.items():
+            parts = cell.split(", ")
+            assert len(parts) == len(keys[source]) and level in D.TRUST_CAPS, (source, cell)
+            assert all(p in values[k] for p, k in zip(parts, keys[source])), (source, cell)
+
+
+def test_the_rule_trusts_only_what_real_flights_showed():
+    assert trust_level(MIN_MEASURED - 1, 0) is None  # too few to measure anything
+    assert trust_level(40, 1) == "trusted" and trust_level(40, 4) == "corroborating"
+    assert trust_level(20, 6) == "discounted"
+    assert cell_trust("trusted", "trusted") == "trusted"
+    assert cell_trust(None, "trusted") == "corroborating"  # simulation alone never makes a source trusted
+    assert cell_trust("discounted", "trusted") == "discounted"  # the worse origin decides
+    assert cell_trust(None, None) == "corroborating"
+
+
+def _model(llrs, keys=("rate", "profile", "rotors"), cap=5.0) -> AnalyzerResult:
+    r = AnalyzerResult("model", [Finding("model", k + 1, "vote", 0.5, llr=float(v)) for k, v in enumerate(llrs)])
+    r.llr_cap, r.reliability_keys = cap, keys
+    return r
+
+
+def test_a_source_gives_what_its_cell_allows():
+    """The same raw evidence weighs in full where the source was measured reliable, up to the
+    corroborating cap (another source must agree) where it was not measured well enough, and below
+    the uncertain bar where its measured false alarms are frequent."""
+    raw = [7.5, -1.0, -1.0, -1.0]
+    tl = Timeline(n_windows=60, covered_s=60.0, t_first=0.0)
+    trusted = kind(250.0, "profile")
+    assert RELIABILITY["model"][cell_of(("rate", "profile", "rotors"), trusted)] == "trusted"
+    v, d = D.decide(4, timeline=tl, results=[_model(raw)], kind=trusted)
+    assert d.weights["model"].trust == "trusted" and d.motors[0].llr == pytest.approx(7.5)
+    assert v.status == "damaged" and v.motor == 1
+    corroborating = kind(250.0, "none")
+    v, d = D.decide(4, timeline=tl, results=[_model(raw)], kind=corroborating)
+    assert d.motors[0].llr == pytest.approx(D.TRUST_CAPS["corroborating"]) and v.status == "uncertain"
+    assert v.inspect == (1,)
+    discounted = kind(10.0, "profile")
+    assert RELIABILITY["model"][cell_of(("rate", "profile", "rotors"), discounted)] == "discounted"
+    v, d = D.decide(4, timeline=tl, results=[_model(raw)], kind=discounted)
+    assert d.motors[0].llr == pytest.approx(D.TRUST_CAPS["discounted"]) and v.status == "healthy"
+    # an unknown kind of log, or a source without keys: its own cap
+    v, d = D.decide(4, timeline=tl, results=[_model(raw)])
+    assert d.weights["model"].trust is None and d.motors[0].llr == pytest.approx(5.0)
+
+
+def _situation(**kw) -> Situation:
+    base = dict(status="uncertain", inspect=(3,), kind=kind(10.0, "profile"), autopilot="px4",
+                log="/logs/my flight.ulg", profile="/p/x500.json", has_esc=False,
+                positions={3: "front-left"})
+    return Situation(**{**base, **kw})
+
+
+def test_an_uncertain_verdict_says_what_to_inspect_and_how_to_resolve_it():
+    out = advise(_situation())
+    kinds = [a.kind for a in out]
+    assert kinds == ["inspect", "add_session", "logging", "esc_telemetry"]
+    assert out[0].motors == (3,) and "propeller 3 (front-left)" in out[0].text
+    assert out[1].command == "fdlog calibrate --add /p/x500.json '/logs/my flight.ulg'"  # quoted as a shell needs
+    assert out[2].setting == "SDLOG_PROFILE" and "10 / 50 Hz" in out[2].text
+    assert out[3].setting == "DSHOT_TEL_CFG"
+    ap = advise(_situation(autopilot="ardupilot", profile=None, has_esc=True, kind=kind(10.0, "none", n=6)))
+    assert [a.kind for a in ap] == ["inspect", "calibrate", "logging"]
+    assert ap[1].command.startswith("fdlog calibrate --no-adapt ") and ap[2].setting == "LOG_BITMASK"
+    assert all(a.kind in ADVICE_KINDS for a in out + ap)
+
+
+def test_nothing_to_resolve_on_a_clear_verdict_and_why_on_a_thin_one():
+    assert advise(_situation(status="healthy")) == []
+    assert advise(_situation(status="damaged")) == []
+    thin = advise(_situation(status="healthy", profile=None, timeline_uncertain=0.9, kind=kind(250.0, "none", 8)))
+    assert [a.kind for a in thin] == ["calibrate"] and "could not tell" in thin[0].text
+    fast = advise(_situation(kind=kind(250.0, "profile"), little_manoeuvring=True, has_esc=True))
+    assert [a.kind for a in fast] == ["inspect", "add_session", "manoeuvre"]
+
+
+def test_octo_without_a_profile_names_the_rotor_that_lost_thrust_and_stays_quiet_when_healthy():
+    """The demo's octo samples (simulated, 250 Hz, no profile): 30 % thrust lost on motor 2 was
+    "no propeller damage found" over a 92 % uncertain timeline; the command pattern now weighs
+    n-rotors without a profile (against simulated airframes' spread) and names it."""
+    from flightlog_fd.diagnose import diagnose_path, resolve_model
+    from flightlog_fd.report.json_report import render_json, validate
+
+    model = resolve_model()
+    d = diagnose_path(SAMPLES / "px4_octo_motor2_damaged.ulg", model)
+    assert d.verdict.status in ("uncertain", "damaged") and 2 in (d.verdict.inspect or (d.verdict.motor,))
+    assert d.decision.weights["commands"].cell == "no profile, n-rotor"
+    doc = json.loads(render_json(d))
+    assert validate(doc) == [] and doc["verdict"]["advice"][0]["motors"] == [2]
+    h = diagnose_path(SAMPLES / "px4_octo_healthy.ulg", model)
+    assert h.verdict.status == "healthy" and "uncertain ('?')" in h.verdict.reason
+    assert np.isfinite(h.decision.motors[0].llr)
