@@ -349,6 +349,9 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     sources = {k: v for k, v in sources.items() if v is not None}
     weights = {k: w for k, w in weights.items() if k in sources}
     total = np.sum(list(sources.values()), axis=0) if sources else np.zeros(n)
+    # a discounted source (frequent false alarms on this kind of log) counts toward "uncertain" only
+    discounted = [v for s_, v in sources.items() if weights[s_].trust == "discounted"]
+    decisive = total - np.sum(discounted, axis=0) if discounted else total
     cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
     thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
     trim_held = _trim_held(cmd, sources, int(np.argmax(total)), n)
@@ -420,13 +423,13 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
     thr_sigma = (cmd.throttle_sigma if cmd is not None else None) or THROTTLE_DRIFT_SIGMA
     if (thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma
-            and total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported):
+            and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported):
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but the throttle is "
                     f"{100 * (1 - thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot do "
                     f"with the same load: the load or the set-up changed since calibration; inspect propeller {kb}, "
                     f"then re-calibrate on a healthy flight; {evidence_words(kb)}", (kb,))
-    if trim_held is not None and total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
+    if trim_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
         # commands against another session's calibration alone: at most uncertain
         sev = severity_words(kb)
         rise = 100 * (share.value / share.baseline - 1) if share is not None and share.baseline else float("nan")
@@ -437,12 +440,12 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     + f": inspect propeller {kb}; if it is sound, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
                       f"(log-likelihood ratio, nats): {parts}", (kb,))
-    if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
+    if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
                     f"did not rise as a rotor that lost thrust must ({share.value:.3f} against {share.baseline:.3f}); "
                     f"{evidence_words(kb)}; inspect propeller {kb} and the others", (kb,))
-    if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
+    if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
         since = f" from t={onset.first_seen:.1f} s" if onset is not None else ""
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
@@ -474,21 +477,23 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     f"healthy flight")
     return done("healthy", None, w[0], f"no rotor lost thrust: the strongest case is {_words(frame, kb)} at "
                                        f"{total[best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})"
-                + _thin_timeline_words(timeline, sources, cmd))
+                + _thin_timeline_words(timeline, weights, cmd))
 
 
-def _thin_timeline_words(timeline: Timeline, sources: dict, cmd: Optional[CommandSharesResult]) -> str:
+def _thin_timeline_words(timeline: Timeline, weights: dict, cmd: Optional[CommandSharesResult]) -> str:
     """Why a healthy verdict stands over a mostly uncertain timeline ("" when the timeline is not):
-    what it rests on instead, and what would let more sources weigh in."""
+    what it rests on instead (and how far those sources are trusted on this kind of log), and what
+    would let more of them weigh in."""
     share = timeline.abstained_share if timeline.n_windows else 0.0
     if share < THIN_TIMELINE_SHARE:
         return ""
-    others = [s for s in sources if s != "model"]
+    others = [f"{s} ({w.trust})" if w.trust and w.trust != "trusted" else s
+              for s, w in weights.items() if s != "model"]
     text = (f"; {100 * share:.0f} % of the model's windows are uncertain ('?'): it could not tell this flight's "
             f"propellers apart, so the verdict rests on " + (", ".join(others) if others else "the model's weak "
                                                                "leaning alone"))
-    if cmd is not None and cmd.abstained and cmd.baseline != "profile":
-        text += "; calibrating on a healthy flight of this airframe lets its command pattern weigh in"
+    if cmd is not None and cmd.baseline != "profile":
+        text += "; calibrating on a healthy flight of this airframe lets its command pattern weigh in fully"
     return text
 
 

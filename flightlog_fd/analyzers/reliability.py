@@ -71,7 +71,7 @@ PROPERTIES = {
 
 #: How far a source is trusted (decision.py turns a level into the most nats the source may give):
 #: "trusted" may make a damaged verdict alone; "corroborating" needs another source to agree;
-#: "discounted" cannot make even an uncertain verdict alone.
+#: "discounted" cannot make even an uncertain verdict alone, and never counts toward "damaged".
 TRUST_LEVELS = ("trusted", "corroborating", "discounted")
 
 
@@ -115,6 +115,7 @@ def cell_trust(real: Optional[str], simulated: Optional[str]) -> str:
 RELIABILITY: dict[str, dict[str, str]] = {
     "commands": {
         "adapted profile, quad": "corroborating",
+        "no profile, n-rotor": "discounted",
         "no profile, quad": "corroborating",
         "profile, n-rotor": "corroborating",
         "profile, quad": "corroborating",

@@ -28,6 +28,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ..advice import advice_line
+from ..decision import THIN_TIMELINE_SHARE
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
@@ -58,6 +59,8 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         n = tl.n_windows if tl else len(diagnosis.windows)
         covered = f", {tl.covered_s:.0f} s of flight" if tl else ""
         basis = f"{n} windows{covered}" if n else "vibration only"
+        if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
+            basis += f"; {100 * tl.abstained_share:.0f} % of them uncertain: see why below"
         return f"No propeller damage found, confidence {v.confidence:.2f} ({basis})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
