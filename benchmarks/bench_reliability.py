@@ -293,9 +293,13 @@ def table(cases: list[dict], out_md: Path | None = None) -> str:
     """The measured table (module docstring), the level the rule gives each cell, and the level
     the code holds (flightlog_fd/analyzers/reliability.RELIABILITY), flagging any difference."""
     from flightlog_fd.analyzers.reliability import FIRE_LLR, RELIABILITY, cell_trust, trust_level
-    from flightlog_fd.decision import DAMAGED_LLR
+    from flightlog_fd.decision import DAMAGED_LLR, UNCERTAIN_LLR
 
-    lines = [f"| source | cell | origin | healthy n | leading LLR median / max | false alarms (>= {FIRE_LLR:g}) "
+    from flightlog_fd.analyzers import REGISTRY
+
+    learned = {a.id: a.learned for a in REGISTRY}
+    lines = [f"| source | cell | origin | healthy n | leading LLR median / max | reaching {FIRE_LLR:g} / "
+             f"{UNCERTAIN_LLR:g} / {DAMAGED_LLR:g} "
              f"| damaged n | damaged motor's LLR p10 / median | named at >= {DAMAGED_LLR:g} | level | cell level "
              f"| in code |", "|" + "---|" * 12]
     for (src, cell), origins in sorted(measure(cases).items()):
@@ -307,14 +311,16 @@ def table(cases: list[dict], out_md: Path | None = None) -> str:
             if not len(h) and not d:
                 continue
             fa = int(np.sum(h >= FIRE_LLR))
-            levels[origin] = trust_level(len(h), fa)
+            fa_u, fa_d = int(np.sum(h >= UNCERTAIN_LLR)), int(np.sum(h >= DAMAGED_LLR))
+            levels[origin] = trust_level(len(h), fa, fa_u, fa_d)
             dv = np.array([x for x, _ in d])
             named = sum(1 for x, led in d if led and x >= DAMAGED_LLR)
             rows.append([src, cell, origin, str(len(h)),
-                         f"{np.median(h):+.1f} / {h.max():+.1f}" if len(h) else "-", str(fa) if len(h) else "-",
+                         f"{np.median(h):+.1f} / {h.max():+.1f}" if len(h) else "-",
+                         f"{fa} / {fa_u} / {fa_d}" if len(h) else "-",
                          str(len(dv)), f"{np.percentile(dv, 10):+.1f} / {np.median(dv):+.1f}" if len(dv) else "-",
                          str(named) if len(dv) else "-", levels[origin] or "too few"])
-        level = cell_trust(levels.get("real"), levels.get("sim"))
+        level = cell_trust(levels.get("real"), levels.get("sim"), learned[src])
         code = RELIABILITY.get(src, {}).get(cell, "-")
         for i, r in enumerate(rows):
             lines.append("| " + " | ".join(r + ([level, code + (" (differs)" if code != level else "")] if i == 0

@@ -45,14 +45,17 @@ def test_every_cell_of_the_table_is_one_the_registry_can_reach():
             assert all(p in values[k] for p, k in zip(parts, keys[source])), (source, cell)
 
 
-def test_the_rule_trusts_only_what_real_flights_showed():
-    assert trust_level(MIN_MEASURED - 1, 0) is None  # too few to measure anything
-    assert trust_level(40, 1) == "trusted" and trust_level(40, 4) == "corroborating"
-    assert trust_level(20, 6) == "discounted"
+def test_the_rule_trusts_only_what_was_measured_quiet():
+    assert trust_level(MIN_MEASURED - 1, 0, 0, 0) is None  # too few to measure anything
+    assert trust_level(40, 5, 2, 0) == "trusted"  # alone, 1 in 20 healthy flights uncertain, none damaged
+    assert trust_level(40, 5, 3, 0) == "corroborating" and trust_level(40, 2, 1, 1) == "corroborating"
+    assert trust_level(20, 4, 0, 0) == "discounted"  # 1 in 5 leans 7 to 1 for damage
     assert cell_trust("trusted", "trusted") == "trusted"
-    assert cell_trust(None, "trusted") == "corroborating"  # simulation alone never makes a source trusted
+    assert cell_trust(None, "trusted") == "trusted"  # a physics source: simulation measures it
+    assert cell_trust(None, "trusted", learned=True) == "corroborating"  # the model's quiet there is in-sample
     assert cell_trust("discounted", "trusted") == "discounted"  # the worse origin decides
     assert cell_trust(None, None) == "corroborating"
+    assert [a.id for a in REGISTRY if a.learned] == ["model"]
 
 
 def _model(llrs, keys=("rate", "profile", "rotors"), cap=5.0) -> AnalyzerResult:

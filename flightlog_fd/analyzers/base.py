@@ -141,6 +141,9 @@ class Analyzer(ABC):
     #: "profile", "rotors"): the cell of the measured reliability table the decision weighs it by
     #: (:data:`.reliability.RELIABILITY`); () = weighed by ``llr_cap`` alone.
     reliability_keys: tuple[str, ...] = ()
+    #: True when its evidence comes from a model trained on simulated flights: simulated flights then
+    #: measure its reliability in-sample, so the table trusts it only where real flights showed it quiet.
+    learned: bool = False
     #: True: the cap lowers every motor by the top one's excess before clipping (the differences
     #: between motors survive); False: each motor is clipped alone (motors above the cap tie).
     #: For a source whose motor-to-motor differences are physics, not a classifier's leaning.

@@ -136,6 +136,7 @@ class ModelVotes(Analyzer):
     #: Its reliability depends on how well the streams fill its windows, on the profile (an adapted
     #: model, or the airframe's own vote baseline) and on the rotor count (another shipped model).
     reliability_keys = ("rate", "profile", "rotors")
+    learned = True
 
     def fit_baseline(self, flights, model=None):
         """Each motor's flight-mean window log ratio on the calibration flights with ``model``

@@ -81,32 +81,37 @@ def cell_of(keys: Sequence[str], kind: LogKind) -> str:
 
 
 #: How the table below was measured (benchmarks/bench_reliability.py applies this rule and prints
-#: the table): a healthy flight is a false alarm of a source when the source's leading LLR reaches
-#: FIRE_LLR (it alone would give e^2 ~ 7 to 1 for damage on a healthy airframe).
+#: the table), from each origin's (real, simulated) healthy flights of the cell and the source's
+#: leading LLR (largest over the motors) on each. A trusted source may make a verdict alone, so what
+#: it alone would say on healthy flights decides: at most TRUST_RATE of them reach the decision's
+#: "uncertain" bar and none its "damaged" bar. A source is discounted where at least DISCOUNT_RATE
+#: of them reach FIRE_LLR (e^2 ~ 7 to 1 for damage on a healthy airframe).
 FIRE_LLR = 2.0
-#: Fewer healthy flights than this of one origin (real or simulated) measure nothing.
+#: Fewer healthy flights than this of one origin measure nothing.
 MIN_MEASURED = 10
-#: Trusted where at most this share of the healthy flights are false alarms ...
 TRUST_RATE = 0.05
-#: ... discounted where at least this share are.
 DISCOUNT_RATE = 0.20
 
 
-def trust_level(n_healthy: int, false_alarms: int) -> Optional[str]:
-    """The trust level one origin's healthy flights support (None: too few to measure)."""
+def trust_level(n_healthy: int, fired: int, uncertain: int, damaged: int) -> Optional[str]:
+    """The trust level one origin's healthy flights support (None: too few to measure): ``fired``,
+    ``uncertain``, ``damaged``: how many reached FIRE_LLR, the uncertain bar, the damaged bar."""
     if n_healthy < MIN_MEASURED:
         return None
-    rate = false_alarms / n_healthy
-    return "trusted" if rate <= TRUST_RATE else ("discounted" if rate >= DISCOUNT_RATE else "corroborating")
+    if fired / n_healthy >= DISCOUNT_RATE:
+        return "discounted"
+    return "trusted" if uncertain / n_healthy <= TRUST_RATE and damaged == 0 else "corroborating"
 
 
-def cell_trust(real: Optional[str], simulated: Optional[str]) -> str:
-    """A cell's level from its origins' levels (None: too few flights): the worse of the two, and
-    "trusted" only where real flights were measured too (a simulated airframe is not a real one:
-    the model was trained on simulation); "corroborating" when neither measured enough."""
+def cell_trust(real: Optional[str], simulated: Optional[str], learned: bool = False) -> str:
+    """A cell's level from its origins' levels (None: too few flights): the worse of the two;
+    "corroborating" when neither measured enough. A ``learned`` source (the model, trained on
+    simulation) is "trusted" only where real flights were measured too: simulated flights can show
+    it unreliable, but its quiet on them is in-sample."""
     measured = [x for x in (real, simulated) if x is not None]
     level = max(measured, key=TRUST_LEVELS.index) if measured else "corroborating"
-    return "corroborating" if level == "trusted" and real is None else level
+    return "corroborating" if level == "trusted" and learned and real is None else level
+
 
 #: Each source's trust level per cell, measured (benchmarks/bench_reliability.py table; the rule
 #: above) on the real flights in ../shared and simulated airframes, healthy and damaged; the
@@ -117,13 +122,17 @@ RELIABILITY: dict[str, dict[str, str]] = {
         "adapted profile, quad": "corroborating",
         "no profile, n-rotor": "discounted",
         "no profile, quad": "corroborating",
-        "profile, n-rotor": "corroborating",
+        "profile, n-rotor": "trusted",
         "profile, quad": "corroborating",
     },
     "effectiveness": {
-        "full rate": "corroborating",
-        "low rate": "corroborating",
-        "mid rate": "corroborating",
+        "full rate": "trusted",
+        "low rate": "trusted",
+        "mid rate": "trusted",
+    },
+    "esc": {
+        "no profile": "trusted",
+        "profile": "trusted",
     },
     "model": {
         "full rate, adapted profile, quad": "corroborating",
@@ -133,7 +142,7 @@ RELIABILITY: dict[str, dict[str, str]] = {
         "full rate, profile, quad": "trusted",
         "low rate, adapted profile, quad": "corroborating",
         "low rate, no profile, n-rotor": "corroborating",
-        "low rate, no profile, quad": "corroborating",
+        "low rate, no profile, quad": "trusted",
         "low rate, profile, n-rotor": "corroborating",
         "low rate, profile, quad": "discounted",
         "mid rate, no profile, quad": "corroborating",
