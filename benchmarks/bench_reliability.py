@@ -1,33 +1,37 @@
 """Each evidence source's measured reliability by kind of log: the table the decision weighs with.
 
-    python benchmarks/bench_reliability.py collect [--sets real,sim,nrotor] [--sim-airframes 12]
-    python benchmarks/bench_reliability.py table [--write results/reliability.md]
-    python benchmarks/bench_reliability.py replay            # today's decision on the cached cases
+    python benchmarks/bench_reliability.py collect [--sets real,sim,nrotor,esc] [--sim-airframes 30]
+    python benchmarks/bench_reliability.py table [--write results/reliability.md]   # between its markers
+    python benchmarks/bench_reliability.py replay            # the decision now, on the cached cases
 
-``collect`` diagnoses (in-process, shipped or the profile's model) every case below and caches,
-per case, the log's kind (:class:`flightlog_fd.analyzers.reliability.LogKind`: motor-output and
-rate-stream rates, airborne time, manoeuvre share, profile kind), each analyzer's LLR per motor as
-it computed it (no cap), the verdict, the model's window classes, and the decision's inputs
-(pickled) so that ``replay`` can re-decide without diagnosing again. Cases:
+``collect`` diagnoses (in-process, shipped or the profile's model) every case below and caches
+(build/reliability/*.pkl), per case, the log's kind (:class:`flightlog_fd.analyzers.reliability.LogKind`:
+motor-output and rate-stream rates, covered time, manoeuvre share, profile kind, rotor count), each
+analyzer's LLR per motor as it computed it (no cap), the verdict, the model's window classes and
+flight-mean log ratios, the command shares, and the decision's inputs (pickled) so that ``replay``
+re-decides without diagnosing again. Cases:
 
-- real (``../shared``, each set skipped when absent): the real healthy ArduCopter flights and
-  rrc_straight, CrazyPAD E9, px4_sih_dev without a profile; each airframe's other flights against
-  a one-flight ``--no-adapt`` profile of each of its healthy flights (Erle board groups, rrc goods,
-  E9 normals, SIH healthy); adapted profiles where ``--profiles`` holds them (``rrc_g1_adapted``,
-  ``cp00``, ``sih004``... as ``bench_real_damage.py`` and ``golden_verdicts.py`` name them);
+- real (``../shared``, each set skipped when absent): the real healthy ArduCopter flights,
+  rrc_straight, CrazyPAD E9 and px4_sih_dev without a profile; each airframe's other flights
+  (healthy and damaged) against a one-flight ``--no-adapt`` profile of each of its healthy flights
+  (Erle board groups, rrc goods, E9 normals, SIH healthy), and against a one-flight adapted profile
+  where build/cross_session_profiles holds one (``<airframe>_<i>_adapted.json``, as
+  ``bench_cross_session.py --calibrate-only`` names them);
 - sim: random quad airframes with realistic imbalance and real-log noise (seeds 9100+, neither
   training's nor the other benchmarks'), each flown healthy, damaged (one rotor, eta 0.6-0.9 from
-  take-off) and healthy again (the twin a ``--no-adapt`` profile is calibrated on), logged at every
-  logging profile of :data:`flightlog_fd.sim.logger.PROFILES` but ``training``; diagnosed without
-  and with the twin's profile;
-- nrotor: the same for hexa-X and octo-X airframes (their shipped models).
+  take-off) and healthy again (the twin a ``--no-adapt`` profile is calibrated on), waypoint and
+  manual missions, logged at every logging profile of :data:`flightlog_fd.sim.logger.PROFILES`
+  but ``training``; diagnosed without and with the twin's profile;
+- esc: the same with simulated ESC telemetry (the twin flies the same motors and ESCs);
+- nrotor: hexa-X and octo-X airframes (their shipped models).
 
-``table`` prints, per source and per cell of the reliability table (the source's own keys), the
-healthy flights' leading LLR (largest over motors) and the damaged flights' LLR of the damaged
-motor (raw, before any cap): count, median, 90th percentile / 10th percentile, largest / smallest,
-the false-alarm rate (healthy lead >= ``FIRE_LLR``) and detection rate (damaged motor's LLR >=
-``FIRE_LLR`` and the largest), and the cap that rate pair supports. ``--write`` also writes it as
-markdown. Figures only; nothing is asserted.
+``table`` prints, per source and cell of the reliability table (the analyzer's own
+``reliability_keys``) and per origin (real, simulated): the healthy flights' leading LLR (largest
+over the motors, before any cap), how many reach ``reliability.FIRE_LLR`` and the decision's
+uncertain and damaged bars, the damaged flights' LLR of the damaged motor and how often it alone
+names it at the damaged bar; the level ``reliability.trust_level`` gives each origin, the cell's
+level (``reliability.cell_trust``) and the level the code holds, flagging a difference; then the
+rule's table as the code holds it. Figures only; nothing is asserted.
 """
 from __future__ import annotations
 
@@ -336,8 +340,11 @@ def table(cases: list[dict], out_md: Path | None = None) -> str:
     print("RELIABILITY = {\n" + "".join(
         f"    {src!r}: {{\n" + "".join(f"        {c!r}: {lv!r},\n" for c, lv in cells.items()) + "    },\n"
         for src, cells in by_src.items()) + "}")
-    if out_md is not None:
-        out_md.write_text(text + "\n")
+    if out_md is not None:  # the table between its markers; the words around it are kept
+        start, end = "<!-- table: bench_reliability.py table --write -->", "<!-- /table -->"
+        doc = out_md.read_text() if out_md.exists() else f"{start}\n{end}\n"
+        a, b = doc.index(start) + len(start), doc.index(end)
+        out_md.write_text(doc[:a] + "\n" + text + "\n" + doc[b:])
     return text
 
 

@@ -143,3 +143,29 @@ def test_octo_without_a_profile_weighs_its_command_pattern_and_says_why_when_the
     assert validate(doc) == [] and doc["motor_evidence"]["decision"]["weights"]["commands"]["cell"] == w.cell
     h = diagnose_path(SAMPLES / "px4_octo_healthy.ulg", model)
     assert h.verdict.status == "healthy" and max(m.llr for m in h.decision.motors) < 0.0
+
+
+def test_the_cli_prints_how_to_resolve_an_uncertain_verdict(tmp_path):
+    """`make demo`'s second part: the octo calibrated on its healthy flight, then its damaged one
+    (uncertain: only the commands point at motor 2). Every report carries the advice; the command
+    that adds the flight as a session names the real profile and log."""
+    from typer.testing import CliRunner
+
+    from flightlog_fd.cli import app
+
+    runner = CliRunner()
+    prof = tmp_path / "octo profile.json"
+    log = SAMPLES / "px4_octo_motor2_damaged.ulg"
+    res = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / "px4_octo_healthy.ulg"), "-o", str(prof)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["diagnose", "--json", "--profile", str(prof), str(log)])
+    doc = json.loads(res.stdout)
+    v = doc["verdict"]
+    assert v["status"] == "uncertain" and res.exit_code == 1
+    kinds = {a["kind"]: a for a in v["advice"]}
+    assert kinds["inspect"]["motors"] == [2]
+    assert kinds["add_session"]["command"] == f"fdlog calibrate --add '{prof}' {log}"
+    html = tmp_path / "r.html"
+    res = runner.invoke(app, ["diagnose", "--profile", str(prof), "--html", str(html), str(log)])
+    assert "to resolve it:" in res.stdout and "fdlog calibrate --add" in res.stdout
+    assert "fdlog calibrate --add" in html.read_text()
