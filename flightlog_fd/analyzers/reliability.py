@@ -142,14 +142,14 @@ RELIABILITY: dict[str, dict[str, str]] = {
         "full rate, profile, quad": "trusted",
         "low rate, adapted profile, quad": "corroborating",
         "low rate, no profile, n-rotor": "corroborating",
-        "low rate, no profile, quad": "trusted",
+        "low rate, no profile, quad": "corroborating",
         "low rate, profile, n-rotor": "corroborating",
         "low rate, profile, quad": "discounted",
         "mid rate, no profile, quad": "corroborating",
         "mid rate, profile, quad": "corroborating",
     },
     "throttle": {
-        "adapted profile": "corroborating",
+        "adapted profile": "trusted",
         "profile": "trusted",
     },
 }
