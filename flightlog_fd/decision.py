@@ -57,7 +57,7 @@ import numpy as np
 
 from .analyzers import AnalyzerResult
 from .analyzers.base import SOURCE_LLR_CAP
-from .analyzers.reliability import RELIABILITY, LogKind, cell_of
+from .analyzers.reliability import LogKind, cell_of, trust_of
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
@@ -328,13 +328,13 @@ def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[T
 
 def source_weight(r: AnalyzerResult, kind: Optional[LogKind]) -> SourceWeight:
     """How much source ``r`` may give on this kind of log: the trust level of its cell in the
-    measured reliability table (:data:`~flightlog_fd.analyzers.reliability.RELIABILITY`) and the cap
+    measured reliability table (:func:`~flightlog_fd.analyzers.reliability.trust_of`) and the cap
     that level sets (``TRUST_CAPS``); the analyzer's own ``llr_cap`` where the table has no cell
     for it (or the kind of log is not known)."""
     if kind is None or not r.reliability_keys:
         return SourceWeight("", None, r.llr_cap)
     cell = cell_of(r.reliability_keys, kind)
-    trust = RELIABILITY.get(r.analyzer, {}).get(cell)
+    trust = trust_of(r.analyzer, cell)
     if trust is None:
         return SourceWeight(cell, None, r.llr_cap)
     cap = TRUST_CAPS[trust]

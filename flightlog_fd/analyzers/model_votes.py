@@ -135,7 +135,7 @@ class ModelVotes(Analyzer):
     llr_cap = 5.0
     #: Its reliability depends on how well the streams fill its windows, on the profile (an adapted
     #: model, or the airframe's own vote baseline) and on the rotor count (another shipped model).
-    reliability_keys = ("rate", "profile", "rotors")
+    reliability_keys = ("rate", "profile", "adapted", "rotors")
     learned = True
 
     def fit_baseline(self, flights, model=None):
