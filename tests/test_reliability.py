@@ -10,8 +10,8 @@ import pytest
 from flightlog_fd import decision as D
 from flightlog_fd.advice import ADVICE_KINDS, Situation, advise
 from flightlog_fd.analyzers import REGISTRY, AnalyzerResult, Finding
-from flightlog_fd.analyzers.reliability import (FULL_RATE_HZ, LOW_RATE_HZ, MIN_MEASURED, PROPERTIES, RELIABILITY,
-                                                LogKind, cell_of, cell_trust, trust_level)
+from flightlog_fd.analyzers.reliability import (FULL_RATE_HZ, LOW_RATE_HZ, MIN_MEASURED, RELIABILITY, LogKind,
+                                                cell_of, cell_trust, trust_level, trust_of)
 from flightlog_fd.timeline import Timeline
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,33 +58,45 @@ def test_the_rule_trusts_only_what_was_measured_quiet():
     assert [a.id for a in REGISTRY if a.learned] == ["model"]
 
 
-def _model(llrs, keys=("rate", "profile", "adapted", "rotors"), cap=5.0) -> AnalyzerResult:
-    r = AnalyzerResult("model", [Finding("model", k + 1, "vote", 0.5, llr=float(v)) for k, v in enumerate(llrs)])
-    r.llr_cap, r.reliability_keys = cap, keys
+def _source(source: str, llrs, cap: float) -> AnalyzerResult:
+    r = AnalyzerResult(source, [Finding(source, k + 1, "f", 0.5, llr=float(v)) for k, v in enumerate(llrs)])
+    r.llr_cap = cap
+    r.reliability_keys = next(a.reliability_keys for a in REGISTRY if a.id == source)
     return r
+
+
+def _kind_at(source: str, level: str, n: int = 4) -> LogKind:
+    """A kind of log whose cell the table (with its exceptions) holds at ``level`` for ``source``."""
+    keys = next(a.reliability_keys for a in REGISTRY if a.id == source)
+    for hz in (250.0, 10.0, 30.0):
+        for prof in ("profile", "none", "adapted"):
+            k = kind(hz, prof, n)
+            if trust_of(source, cell_of(keys, k)) == level:
+                return k
+    raise AssertionError(f"no {level} cell for {source}")
 
 
 def test_a_source_gives_what_its_cell_allows():
     """The same raw evidence weighs in full where the source was measured reliable, up to the
     corroborating cap (another source must agree) where it was not measured well enough, and below
-    the uncertain bar where its measured false alarms are frequent."""
+    the uncertain bar, never toward "damaged", where its false alarms are verdicts."""
     raw = [7.5, -1.0, -1.0, -1.0]
     tl = Timeline(n_windows=60, covered_s=60.0, t_first=0.0)
-    trusted = kind(250.0, "profile")
-    assert RELIABILITY["model"][cell_of(("rate", "profile", "adapted", "rotors"), trusted)] == "trusted"
-    v, d = D.decide(4, timeline=tl, results=[_model(raw)], kind=trusted)
+    v, d = D.decide(4, timeline=tl, results=[_source("model", raw, 5.0)], kind=_kind_at("model", "trusted"))
     assert d.weights["model"].trust == "trusted" and d.motors[0].llr == pytest.approx(7.5)
     assert v.status == "damaged" and v.motor == 1
-    corroborating = kind(250.0, "none")
-    v, d = D.decide(4, timeline=tl, results=[_model(raw)], kind=corroborating)
+    v, d = D.decide(4, timeline=tl, results=[_source("model", raw, 5.0)], kind=_kind_at("model", "corroborating"))
     assert d.motors[0].llr == pytest.approx(D.TRUST_CAPS["corroborating"]) and v.status == "uncertain"
     assert v.inspect == (1,)
-    discounted = kind(10.0, "profile")
-    assert RELIABILITY["model"][cell_of(("rate", "profile", "adapted", "rotors"), discounted)] == "discounted"
-    v, d = D.decide(4, timeline=tl, results=[_model(raw)], kind=discounted)
-    assert d.motors[0].llr == pytest.approx(D.TRUST_CAPS["discounted"]) and v.status == "healthy"
-    # an unknown kind of log, or a source without keys: its own cap
-    v, d = D.decide(4, timeline=tl, results=[_model(raw)])
+    # a discounted source: 2.5 at most, and a corroborating one beside it cannot lift the pair to damaged
+    raw8 = raw + [-1.0] * 4
+    k = _kind_at("commands", "discounted", n=8)
+    both = [_source("commands", raw8, 8.0), _source("model", [4.0] + [-1.0] * 7, 5.0)]
+    v, d = D.decide(8, timeline=tl, results=both, kind=k)
+    assert d.weights["commands"].trust == "discounted" and d.motors[0].llr == pytest.approx(6.5)
+    assert v.status == "uncertain" and v.inspect == (1,)
+    # an unknown kind of log: each source's own cap
+    v, d = D.decide(4, timeline=tl, results=[_source("model", raw, 5.0)])
     assert d.weights["model"].trust is None and d.motors[0].llr == pytest.approx(5.0)
 
 
