@@ -8,14 +8,17 @@ little flight in the :class:`~flightlog_fd.timeline.Timeline`); then the evidenc
 The evidence: for each motor k, "rotor k lost thrust" against "healthy, with this airframe's
 normal trim drift". The log-likelihood ratios (LLR, nats) of the registered analyzers'
 (:mod:`flightlog_fd.analyzers`) findings are summed per motor, each analyzer's total clipped to
-its ``llr_cap`` (``analyzers.base.SOURCE_LLR_CAP`` unless the analyzer says otherwise; the command
-shares are capped keeping their order, so a weak rotor stays apart from its coaxial partner).
+what its measured reliability on this kind of log allows (:func:`source_weight`: the trust level
+of its cell in :mod:`flightlog_fd.analyzers.reliability`'s table, ``TRUST_CAPS``; the analyzer's
+own ``llr_cap`` where the table has no cell; the command shares are capped keeping their order, so
+a weak rotor stays apart from its coaxial partner). A discounted source counts toward "uncertain"
+only.
 The sources: the model's window votes, the command shares (mixer-physics fit, which also gives
 each rotor's thrust eta-hat), the throttle against calibration, the effectiveness fit when it is
 informative, and ESC telemetry where the log has it. Their noise figures are measured and written
 beside their constants in their own modules.
 
-``damaged`` when the best motor's total LLR reaches ``DAMAGED_LLR``, beats the runner-up by
+``damaged`` when the best motor's total LLR (without the discounted sources) reaches ``DAMAGED_LLR``, beats the runner-up by
 ``SEPARATION_LLR`` and its command share rose against its baseline (a weak rotor must need more);
 ``uncertain`` from ``UNCERTAIN_LLR`` (the reason names the motor to inspect, or the two it cannot
 tell apart); ``healthy`` below. "Airframe changed" (re-calibrate) is said only when the shares
@@ -44,6 +47,10 @@ of balance" raises a verdict the per-motor sums leave lower: from ``DAMAGED_LLR`
 ESC rpm; a tie by commanded speed alone is named as a hint only in an uncertain verdict). A log the
 pipeline cannot judge (no motor outputs, no damage model for its frame) is judged from vibration
 alone when its result is given, the reason saying what the log lacks.
+
+The verdict names the propellers to inspect (``Verdict.inspect``); what would resolve it
+(``Verdict.advice``) is :mod:`flightlog_fd.advice`'s. A healthy verdict over a mostly uncertain
+timeline (``THIN_TIMELINE_SHARE``) says what it rests on.
 
 Limits: one damaged rotor per flight; the sources are treated as independent (the model sees the
 same commands the command analyzer weighs, which is why each source is capped).
