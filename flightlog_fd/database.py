@@ -58,9 +58,10 @@ MAX_RETRIES = 10
 RETRY_BASE_S = 0.05
 #: Key of the PostgreSQL advisory lock held while migrating (any fixed 64-bit number).
 PG_MIGRATION_LOCK = 0x66646C6F67  # "fdlog"
-#: Seconds after a failed connection attempt during which other threads are told "unavailable" at
-#: once instead of each trying again (a request during an outage answers at once, not after
-#: ``connect_timeout``); shorter than the smallest retry delay, so no retry waits on it.
+#: Seconds after a failed PostgreSQL connection attempt during which other threads are told
+#: "unavailable" at once instead of each trying again (a request during an outage answers at once,
+#: not after ``connect_timeout``); shorter than the smallest retry delay, so no retry waits on it.
+#: (SQLite needs none: the file's stat is the probe.)
 RECONNECT_GAP_S = 0.25
 #: Backoff of a caller waiting for the store to come back (:func:`retry_while_unavailable`): the
 #: first retry after STORE_RETRY_MIN_S, doubling up to STORE_RETRY_MAX_S. The cap bounds how long a
@@ -169,7 +170,7 @@ class Database:
             else:
                 return c
         down = self._down
-        if down is not None and time.monotonic() - down["tried"] < RECONNECT_GAP_S:
+        if self.dialect == "postgres" and down is not None and time.monotonic() - down["tried"] < RECONNECT_GAP_S:
             raise StoreUnavailable(self.where, f"the store is unavailable: {down['reason']}")
         try:
             if self.dialect == "postgres":
