@@ -17,6 +17,13 @@ the status codes seen during the outage; after the store is back, the seconds to
 ``/``; the seconds until every job is done (or ``--max-s``); each job's final state and claims
 (``attempts``: 1 = diagnosed once); whether the server process is still the same one.
 
+``--watch``: the same outage under `fdlog watch DIR --db STORE` instead: every sample log copied
+slowly into the watched folder (64 KB chunks every 20 ms), the store taken away for
+``--outage-s`` after the first third, copies going on meanwhile; `fdlog serve --db STORE
+--workers 0` reads the same store. Printed: the seconds from the store's return to the next
+diagnosis stored, to all stored; flights, claims per log, and whether the fleet page (200) names
+every file.
+
 Measured figures and the machine's load: results/store_outage.md.
 """
 from __future__ import annotations
@@ -42,7 +49,7 @@ PROBE_S = 0.25
 SQLITE_SIDECARS = ("", "-wal", "-shm")
 
 
-def start_server(data: Path, db: str, port: int, code: str | None) -> subprocess.Popen:
+def start_server(data: Path, db: str, port: int, code: str | None, workers: int = 1) -> subprocess.Popen:
     import urllib.request
 
     tokens = data.parent / "tokens"
@@ -52,7 +59,7 @@ def start_server(data: Path, db: str, port: int, code: str | None) -> subprocess
         env["PYTHONPATH"] = code
     log = open(data.parent / "serve.log", "wb")
     proc = subprocess.Popen([sys.executable, "-c", "from flightlog_fd.cli import main; main()", "serve", "--data",
-                             str(data), "--db", db, "--port", str(port), "--token-file", str(tokens), "--workers", "1"],
+                             str(data), "--db", db, "--port", str(port), "--token-file", str(tokens), "--workers", str(workers)],
                             env=env, stdout=subprocess.DEVNULL, stderr=log, start_new_session=True,
                             cwd=str(data.parent))  # not the repo: `python -c` puts the cwd first on sys.path
     log.close()
@@ -180,6 +187,103 @@ def run_one(kind: str, n_logs: int, outage_s: float, code: str | None, max_s: fl
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def slow_copy(src: Path, dst: Path, chunk: int = 64 * 1024, pause_s: float = 0.02) -> None:
+    with open(src, "rb") as fi, open(dst, "wb") as fo:
+        while b := fi.read(chunk):
+            fo.write(b)
+            fo.flush()
+            time.sleep(pause_s)
+
+
+def run_watch(kind: str, outage_s: float, max_s: float) -> dict:
+    import httpx
+    from serve_helpers import Postgres, free_port, pg_halt, pg_resume
+
+    tmp = Path(tempfile.mkdtemp(prefix=f"fdlog-watch-outage-{kind}-"))
+    pg = watcher = server = None
+    try:
+        folder, data = tmp / "downloads", tmp / "data"
+        folder.mkdir()
+        data.mkdir()
+        if kind == "postgres":
+            pg = Postgres()
+            db = pg.url()
+        else:
+            db = str(tmp / "fleet.sqlite")
+        out = open(tmp / "watch.log", "wb")
+        watcher = subprocess.Popen([sys.executable, "-c", "from flightlog_fd.cli import main; main()", "watch", str(folder),
+                                    "--db", db, "--settle", "1"], stdout=out, stderr=out, start_new_session=True,
+                                   cwd=str(tmp), env={**os.environ, "OMP_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1"})
+        out.close()
+        time.sleep(3)
+        port = free_port()
+        subprocess.run([sys.executable, "-c", "from flightlog_fd.store import Store; import sys; Store(sys.argv[1]).close()",
+                        db], check=True, cwd=str(tmp))
+        server = start_server(data, db, port, None, workers=0)
+
+        def stored() -> int:
+            return sum(1 for r in job_rows(db) if r["state"] == "done")
+
+        third = len(SAMPLES) // 3
+        t_back = None
+        for k, p in enumerate(SAMPLES):
+            if k == third:
+                while True:  # the first third stored, then the store goes away
+                    try:
+                        if stored() >= third:
+                            break
+                    except Exception:
+                        pass
+                    time.sleep(0.2)
+                if pg is not None:
+                    pg_halt(pg)
+                else:
+                    os.replace(db, db + ".away")
+                t_down = time.monotonic()
+            slow_copy(p, folder / p.name)
+            if t_back is None and k >= third and time.monotonic() - t_down >= outage_s:
+                t_back = _back(pg, db, pg_resume)
+        if t_back is None:
+            time.sleep(max(0.0, outage_s - (time.monotonic() - t_down)))
+            t_back = _back(pg, db, pg_resume)
+        n_before = stored()
+        first_after = all_after = None
+        end = t_back + max_s
+        while time.monotonic() < end:
+            n = stored()
+            if first_after is None and n > n_before:
+                first_after = time.monotonic() - t_back
+            if n >= len(SAMPLES):
+                all_after = time.monotonic() - t_back
+                break
+            time.sleep(0.2)
+        rows = job_rows(db)
+        page = httpx.get(f"http://127.0.0.1:{port}/", timeout=30)
+        named = sum(p.name in page.text for p in SAMPLES)
+        watcher.send_signal(15)
+        code = watcher.wait(60)
+        return {"store": kind, "logs": len(SAMPLES), "stored_before_back": n_before, "first_after_s": first_after,
+                "all_after_s": all_after, "jobs": Counter(r["state"] for r in rows),
+                "attempts": Counter(int(r["attempts"]) for r in rows), "page": page.status_code, "named": named,
+                "watch_exit": code, "watch_tail": (tmp / "watch.log").read_text(errors="replace").strip().splitlines()[-4:]}
+    finally:
+        for proc in (watcher, server):
+            if proc is not None and proc.poll() is None:
+                os.killpg(proc.pid, 9)
+                proc.wait(10)
+        if pg is not None:
+            pg.stop()
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _back(pg, db: str, pg_resume) -> float:
+    if pg is not None:
+        pg_resume(pg)
+    else:
+        os.replace(db + ".away", db)
+    return time.monotonic()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--store", choices=("postgres", "sqlite", "both"), default="both")
@@ -187,9 +291,24 @@ def main() -> int:
     ap.add_argument("--outage-s", type=float, default=10.0)
     ap.add_argument("--code", default=None, help="run the server from this checkout (PYTHONPATH)")
     ap.add_argument("--max-s", type=float, default=240.0)
+    ap.add_argument("--watch", action="store_true", help="the outage under `fdlog watch` (module docstring)")
     a = ap.parse_args()
     print(f"load average {os.getloadavg()[0]:.2f}; code {a.code or ROOT}")
     ok = True
+    if a.watch:
+        for kind in (("postgres", "sqlite") if a.store == "both" else (a.store,)):
+            r = run_watch(kind, a.outage_s, a.max_s)
+            good = (r["jobs"].get("done", 0) == r["logs"] and set(r["attempts"]) == {1} and r["page"] == 200
+                    and r["named"] == r["logs"])
+            ok &= good
+            print(f"\n== fdlog watch --db {kind}: {r['logs']} logs copied slowly, store away {a.outage_s:.0f} s after "
+                  f"{r['stored_before_back']} were stored")
+            print(f"  after it is back: next diagnosis stored after {r['first_after_s']} s, all after {r['all_after_s']} s")
+            print(f"  jobs: {dict(r['jobs'])}; claims per log: {dict(r['attempts'])}; fleet page {r['page']} naming "
+                  f"{r['named']}/{r['logs']} files; watch exit code {r['watch_exit']}")
+            print(f"  watch output tail: {r['watch_tail']}")
+            print(f"  {'OK' if good else 'FAILED'}")
+        return 0 if ok else 1
     for kind in (("postgres", "sqlite") if a.store == "both" else (a.store,)):
         r = run_one(kind, a.logs, a.outage_s, a.code, a.max_s)
         good = (r["final"].get("done", 0) == a.logs and set(r["attempts"]) == {1} and r["last_page"] == 200

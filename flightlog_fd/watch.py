@@ -54,9 +54,10 @@ from .store import LEASE_S, RunInfo, Store, holder_is_dead
 SETTLE_S = 5.0
 #: Seconds between scans where events are not delivered (network shares, no watchdog).
 POLL_S = 2.0
-#: Seconds between full rescans in event mode: a safety net for lost events (inotify queue
-#: overflow); a scan of a folder of a thousand logs takes milliseconds (results/watch.md).
-RESCAN_S = 60.0
+#: Seconds between full rescans in event mode: a safety net for lost events (an inotify queue
+#: that overflowed). One rescan of 20,000 files costs ~0.17 s of CPU here (results/watch.md), so
+#: every 5 min is 0.06 % of a core, and a log whose event was lost waits at most that long.
+RESCAN_S = 300.0
 #: Longest one diagnosis may run before its worker process is killed and the log is an error
 #: row: as the server's (serve.worker.JOB_TIMEOUT_S; the 67 MB real log takes ~20 s).
 JOB_TIMEOUT_S = 600.0
@@ -188,11 +189,18 @@ class FolderWatch:
                     if p:
                         watch._notify(os.fsdecode(p))
 
-        self._observer = Observer()
-        for f in event_folders:
-            self._observer.schedule(Handler(), str(f), recursive=True)
-        self._observer.daemon = True
-        self._observer.start()
+        observer = Observer()
+        observer.daemon = True
+        try:
+            for f in event_folders:
+                observer.schedule(Handler(), str(f), recursive=True)
+            observer.start()
+        except OSError as e:  # e.g. the inotify watch limit (fs.inotify.max_user_watches) reached
+            for f in event_folders:
+                self.modes[f] = ("poll", f"filesystem events failed ({e.strerror or e}): polling")
+                self.report("info", str(f), self.modes[f][1])
+            return
+        self._observer = observer
 
     # ------------------------------------------------------------------ finding files
 
@@ -300,7 +308,7 @@ class FolderWatch:
             self.report("info", str(f), f"watching ({why})")
         if not once:
             self._start_events()
-        polled = any(m == "poll" for m, _ in self.modes.values())
+        polled = any(m == "poll" for m, _ in self.modes.values())  # after _start_events: it may fall back
         next_scan = 0.0
         try:
             while not self._stop.is_set():
