@@ -163,7 +163,17 @@ class FolderWatch:
     def stopping(self) -> threading.Event:
         return self._stop
 
+    def _hidden(self, path: str) -> bool:
+        """Inside a hidden folder of a watched folder (the scan skips those too)."""
+        for f in self.folders:
+            rel = os.path.relpath(path, f)
+            if not rel.startswith(".."):
+                return any(part.startswith(".") for part in Path(rel).parts[:-1])
+        return False
+
     def _notify(self, path: str) -> None:
+        if self._hidden(path):
+            return
         with self._dirty_lock:
             self._dirty.add(path)
         self._wake.set()

@@ -70,6 +70,8 @@ def test_a_file_is_taken_once_only_after_it_stops_growing(tmp_path, poll):
         slow_copy(src, folder / "sub" / "b.part")  # a download in progress: never read under this name
         os.replace(folder / "sub" / "b.part", folder / "sub" / "b.bin")  # renamed in when complete
         (folder / ".hidden.bin").write_bytes(src.read_bytes())
+        (folder / ".cache").mkdir()
+        (folder / ".cache" / "c.bin").write_bytes(src.read_bytes())
         (folder / "README.txt").write_text("not a log")
         end = time.monotonic() + 20
         while len(taken) < 2 and time.monotonic() < end:
@@ -181,8 +183,9 @@ def test_watch_diagnoses_each_log_once_through_copies_renames_duplicates_a_bad_f
         os.replace(folder / "flight_b.ulg.part", folder / "flight_b.ulg")
         shutil.copyfile(SAMPLES / SMALL[0], folder / "flight_a_copy.bin")  # the same bytes again
         bad_log(folder / "corrupt.ulg")
+        (folder / "garbage.bin").write_bytes(b"this is no flight log\n" * 50)  # named like one: a row
         (folder / "notes.txt").write_text("battery 3 swapped")
-        _wait_for(lambda: {"flight_b.ulg", "corrupt.ulg"} <= _done_names(db)
+        _wait_for(lambda: {"flight_b.ulg", "corrupt.ulg", "garbage.bin"} <= _done_names(db)
                   and ({"flight_a.bin", "flight_a_copy.bin"} & _done_names(db)), "the first logs", watcher=w, db=db)
         first = {r["sha256"]: r["diagnosed_at"] for r in _rows(db, "SELECT sha256, diagnosed_at FROM flight")}
 
@@ -217,23 +220,23 @@ def test_watch_diagnoses_each_log_once_through_copies_renames_duplicates_a_bad_f
 
     flights = _rows(db, "SELECT sha256, name, state, status, reason, diagnosed_at FROM flight")
     names = sorted(Path(f["name"]).name for f in flights)
-    assert len(flights) == 5 and len({f["sha256"] for f in flights}) == 5, names  # one row per content
-    assert {"flight_b.ulg", "flight_c.bin", "flight_d.ulg", "corrupt.ulg"} <= set(names)
+    assert len(flights) == 6 and len({f["sha256"] for f in flights}) == 6, names  # one row per content
+    assert {"flight_b.ulg", "flight_c.bin", "flight_d.ulg", "corrupt.ulg", "garbage.bin"} <= set(names)
     assert all(f["state"] == "done" for f in flights)
-    bad = next(f for f in flights if f["name"].endswith("corrupt.ulg"))
-    assert bad["status"] == "not_diagnosable" and bad["reason"]
-    assert {f["status"] for f in flights if f is not bad} <= {"healthy", "damaged", "uncertain", "stopped"}
+    bad = [f for f in flights if f["name"].endswith(("corrupt.ulg", "garbage.bin"))]
+    assert all(f["status"] == "not_diagnosable" and f["reason"] for f in bad)
+    assert {f["status"] for f in flights if f not in bad} <= {"healthy", "damaged", "uncertain", "stopped"}
     for f in flights:  # the restarted watcher re-read nothing it had stored
         if f["sha256"] in first:
             assert f["diagnosed_at"] == first[f["sha256"]]
     jobs = _rows(db, "SELECT j.state, j.attempts, f.name FROM job j JOIN flight f ON f.id = j.flight_id")
-    assert len(jobs) == 5 and all(j["state"] == "done" for j in jobs)
+    assert len(jobs) == 6 and all(j["state"] == "done" for j in jobs)
     assert {Path(j["name"]).name: j["attempts"] for j in jobs if j["attempts"] != 1} == {"flight_d.ulg": 2}
     text = out.read_text(errors="replace")
     assert "Traceback" not in text
     assert "already in the store" in text  # the copy, and every file again after the restart
-    assert "corrupt.ulg: not diagnosable" in text
+    assert "corrupt.ulg: not diagnosable" in text and "garbage.bin: not diagnosable" in text
     if kind == "sqlite":
         assert "store is unavailable" in text  # said while waiting
         with sqlite3.connect(db) as c:  # the file that came back is the store (no empty one made meanwhile)
-            assert c.execute("SELECT COUNT(*) FROM watched_file").fetchone()[0] >= 6
+            assert c.execute("SELECT COUNT(*) FROM watched_file").fetchone()[0] >= 7
