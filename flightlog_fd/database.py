@@ -159,6 +159,8 @@ class Database:
         SQLite, when the file at the path is not the one it was opened on). Raises
         :class:`StoreUnavailable` when the store cannot be reached."""
         c = getattr(self._local, "conn", None)
+        if c is not None and getattr(self._local, "in_tx", False):
+            return c  # a transaction ends on the connection it began on (its COMMIT decides)
         if self.dialect == "sqlite":
             fid = self._sqlite_file_id()
             if c is not None and getattr(self._local, "file_id", None) != fid:

@@ -75,6 +75,9 @@ def test_jobs_survive_the_store_going_away_mid_queue(tmp_path, outage, runlog):
         assert api.status_code == 503 and "store is unavailable" in api.json()["error"]
         assert health.status_code == 503 and health.json()["outage"]["reason"]
         assert waiting, health.json()
+        end = time.monotonic() + 30
+        while c.get("/api/health").status_code != 200 and time.monotonic() < end:
+            time.sleep(0.1)  # within RECONNECT_GAP_S of a failed attempt a request is still told 503
         done = [wait_done(c, fid, timeout=180) for fid in fids]
         assert [d["state"] for d in done] == ["done"] * len(LOGS)
         assert c.get("/").status_code == 200
