@@ -34,22 +34,27 @@ from __future__ import annotations
 import bisect
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, Optional, Protocol
 
 from ..errors import VehicleLinkError
 
 #: Data bytes in one LOG_DATA (MAVLINK_MSG_LOG_DATA_FIELD_DATA_LEN).
 LOG_DATA_LEN = 90
-#: An answer to LOG_REQUEST_DATA starts within one autopilot loop (PX4's mavlink thread, ArduPilot's
-#: logger thread: milliseconds) plus the link's latency; 1 s is 10x a slow telemetry radio's round
-#: trip, after which the request is taken as lost and sent again.
+#: Before the link's round trip is measured, a request unanswered for 1 s is taken as lost and
+#: sent again (10x a slow telemetry radio's round trip; PX4's mavlink thread and ArduPilot's logger
+#: thread answer within milliseconds).
 REQUEST_TIMEOUT_S = 1.0
+#: Once measured: REQUEST_RTT_FACTOR x the worst of the last RTT_WINDOW round trips, never less than
+#: REQUEST_TIMEOUT_MIN_S (a loaded host's scheduling hiccups reach tens of ms: measured on the 2-core
+#: test machine at load 8-13). A request re-sent too early costs little: PX4 restarts the same
+#: range, ArduPilot drops a request while it streams.
+REQUEST_RTT_FACTOR, RTT_WINDOW, REQUEST_TIMEOUT_MIN_S = 4.0, 16, 0.05
 #: No new byte for this long despite re-requests: the link is lost (``--timeout``).
 STALL_TIMEOUT_S = 10.0
 #: A stream counts as over after this many packet intervals (measured) without a packet, plus two
-#: round trips, and never less than STREAM_IDLE_MIN_S (the scheduler's granularity on a loaded host).
-STREAM_IDLE_INTERVALS, STREAM_IDLE_MIN_S = 20, 0.05
+#: round trips, within [STREAM_IDLE_MIN_S, the request timeout].
+STREAM_IDLE_INTERVALS, STREAM_IDLE_MIN_S = 20, 0.02
 #: The log list: PX4 scans its SD card's log folders before the first LOG_ENTRY (seconds with
 #: hundreds of logs); each pass waits this long for the next entry, and the missing ids are
 #: re-requested at most LIST_TRIES times.
@@ -117,6 +122,11 @@ class Coverage:
         self.done += added
         return added
 
+    def covers(self, start: int, end: int) -> bool:
+        """Whether every byte of ``[start, end)`` was received."""
+        i = bisect.bisect_right(self._starts, start) - 1
+        return i >= 0 and self._ends[i] >= min(end, self.size)
+
     @property
     def complete(self) -> bool:
         return self.done >= self.size
@@ -178,29 +188,43 @@ class TransferStats:
         return self.bytes / self.seconds if self.seconds > 0 else 0.0
 
 
-@dataclass
 class _LinkTiming:
-    """Round trip (request -> first packet) and packet interval on this link, smoothed."""
-    rtt: Optional[float] = None
-    interval: Optional[float] = None
-    samples: list = field(default_factory=list)
+    """What this link costs, measured as the transfer goes: round trips (request -> first packet),
+    the packet interval within a stream, and the share of requests that got no answer."""
+
+    def __init__(self) -> None:
+        self.rtts: list[float] = []
+        self.interval: Optional[float] = None
+        self.requests = self.unanswered = 0
+
+    @property
+    def rtt(self) -> Optional[float]:
+        return sum(self.rtts) / len(self.rtts) if self.rtts else None
 
     def add_rtt(self, x: float) -> None:
-        self.rtt = x if self.rtt is None else 0.7 * self.rtt + 0.3 * x
+        self.rtts = (self.rtts + [x])[-RTT_WINDOW:]
 
     def add_interval(self, x: float) -> None:
         self.interval = x if self.interval is None else 0.95 * self.interval + 0.05 * x
 
-    def idle_timeout(self) -> float:
-        if self.interval is None or self.rtt is None:
+    def request_timeout(self) -> float:
+        if not self.rtts:
             return REQUEST_TIMEOUT_S
-        return min(REQUEST_TIMEOUT_S, max(STREAM_IDLE_MIN_S, STREAM_IDLE_INTERVALS * self.interval + 2 * self.rtt))
+        return min(REQUEST_TIMEOUT_S, max(REQUEST_TIMEOUT_MIN_S, REQUEST_RTT_FACTOR * max(self.rtts)))
+
+    def idle_timeout(self) -> float:
+        if self.interval is None or not self.rtts:
+            return self.request_timeout()
+        return min(self.request_timeout(), max(STREAM_IDLE_MIN_S, STREAM_IDLE_INTERVALS * self.interval + 2 * self.rtt))
 
     def bridge_bytes(self) -> int:
-        """Re-sending fewer received bytes than one round trip's worth costs less than a new request."""
-        if not self.interval or self.rtt is None:
+        """Received bytes worth re-sending to save one request: a request costs a round trip plus,
+        as often as requests go unanswered here, a timeout; re-sent bytes cost packet intervals."""
+        if not self.interval or not self.rtts:
             return 0
-        return int(math.ceil(self.rtt / self.interval)) * LOG_DATA_LEN
+        fail = self.unanswered / self.requests if self.requests else 0.0
+        cost = self.rtt + fail * self.request_timeout()
+        return int(math.ceil(cost / self.interval)) * LOG_DATA_LEN
 
 
 def download(link: LinkLike, entry: LogEntry, sink: Sink, *, start: int = 0, end: Optional[int] = None,
@@ -234,6 +258,8 @@ def download(link: LinkLike, entry: LogEntry, sink: Sink, *, start: int = 0, end
         for r_start, r_end in ranges:
             if cov.complete:
                 break
+            if cov.covers(r_start, r_end):  # arrived late, out of order
+                continue
             link.send_log_request_data(entry.id, r_start, r_end - r_start)
             stats.requests += 1
             if not first_request:
@@ -241,14 +267,16 @@ def download(link: LinkLike, entry: LogEntry, sink: Sink, *, start: int = 0, end
             first_request = False
             sent = last_packet = time.monotonic()
             got_any = False
+            timing.requests += 1
             while True:
-                wait = timing.idle_timeout() if got_any else REQUEST_TIMEOUT_S
+                wait = timing.idle_timeout() if got_any else timing.request_timeout()
                 m = link.recv(("LOG_DATA",), wait)
                 now = time.monotonic()
                 if now - last_new > stall_timeout:
                     raise link.fail(f"log {entry.id}: no data from the vehicle for {stall_timeout:g} s "
                                     f"({cov.done} of {entry.size} bytes received): the link is lost")
                 if m is None:
+                    timing.unanswered += not got_any
                     break  # stream over (or the request was lost): re-plan from the gaps
                 if m.id != entry.id:
                     continue
