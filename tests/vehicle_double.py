@@ -65,7 +65,7 @@ class VehicleDouble:
     def __init__(self, logs: list[bytes], *, flavour: str = "px4", connect: str, times: Optional[list[int]] = None,
                  loss: float = 0.0, duplicate: float = 0.0, reorder: float = 0.0, rate: float = 1e6,
                  stall_after: Optional[int] = None, stall_for: Optional[float] = None, armed: bool = False,
-                 scan_reversed: bool = False, seed: int = 0):
+                 scan_reversed: bool = False, listed_extra: int = 0, seed: int = 0):
         if flavour not in AUTOPILOT_IDS:
             raise ValueError(f"flavour must be px4 or ardupilot, got {flavour!r}")
         self.flavour = flavour
@@ -76,6 +76,7 @@ class VehicleDouble:
         self.stall_after, self.stall_for = stall_after, stall_for
         self.armed = armed
         self.scan_reversed = scan_reversed
+        self.listed_extra = listed_extra  # LOG_ENTRY sizes this much larger than the files (a lying card)
         self.rng = random.Random(seed)
         self.conn = mavutil.mavlink_connection(connect, source_system=1, source_component=1)
         self.mav = self.conn.mav
@@ -200,7 +201,7 @@ class VehicleDouble:
                 return
             self.state = "idle"
             self.cur_id = m.id
-            size = self._entry(m.id)[1]
+            size = self._entry(m.id)[1] + self.listed_extra
             self.ofs = m.ofs
             self.remaining = min(max(0, size - m.ofs), m.count)
             self.state = "sending"
@@ -227,6 +228,7 @@ class VehicleDouble:
             k, size, _ = self._entry(m.id)
             if k < 0:
                 return
+            size += self.listed_extra
             self.cur_id = m.id
             self.ofs = m.ofs
             self.remaining = min(max(0, size - m.ofs), m.count)
@@ -243,7 +245,7 @@ class VehicleDouble:
         else:
             n = self._count()
             _, size, t = self._entry(self.next_entry) if self.next_entry else (-1, 0, 0)
-        self._send(self.mav.log_entry_encode(self.next_entry, n, self.last_entry, t, size))
+        self._send(self.mav.log_entry_encode(self.next_entry, n, self.last_entry, t, size + self.listed_extra * (size > 0)))
         if self.next_entry == self.last_entry:
             self.state = "idle"
         else:
@@ -315,6 +317,7 @@ def main(argv: Optional[list[str]] = None) -> None:
     ap.add_argument("--stall-for", type=float, default=None, help="... for this many seconds (default: forever)")
     ap.add_argument("--armed", action="store_true")
     ap.add_argument("--scan-reversed", action="store_true", help="PX4: list the newest log first (folder scan order)")
+    ap.add_argument("--listed-extra", type=int, default=0, help="list every log this many bytes larger than it is")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     a = ap.parse_args(argv)
@@ -322,7 +325,8 @@ def main(argv: Optional[list[str]] = None) -> None:
     times = [0] * len(logs) if a.no_clock else None
     double = VehicleDouble(logs, flavour=a.flavour, connect=a.connect, times=times, loss=a.loss,
                            duplicate=a.duplicate, reorder=a.reorder, rate=a.rate, stall_after=a.stall_after,
-                           stall_for=a.stall_for, armed=a.armed, scan_reversed=a.scan_reversed, seed=a.seed)
+                           stall_for=a.stall_for, armed=a.armed, scan_reversed=a.scan_reversed,
+                           listed_extra=a.listed_extra, seed=a.seed)
     print("ready", flush=True)
     try:
         double.run(a.duration)
