@@ -49,7 +49,7 @@ REQUEST_TIMEOUT_S = 1.0
 #: REQUEST_TIMEOUT_MIN_S (a loaded host's scheduling hiccups reach tens of ms: measured on the 2-core
 #: test machine at load 8-13). A request re-sent too early costs little: PX4 restarts the same
 #: range, ArduPilot drops a request while it streams.
-REQUEST_RTT_FACTOR, RTT_WINDOW, REQUEST_TIMEOUT_MIN_S = 4.0, 16, 0.05
+REQUEST_RTT_FACTOR, RTT_WINDOW, REQUEST_TIMEOUT_MIN_S = 4.0, 16, 0.02
 #: No new byte for this long despite re-requests: the link is lost (``--timeout``).
 STALL_TIMEOUT_S = 10.0
 #: A stream counts as over after this many packet intervals (measured) without a packet, plus two
@@ -126,6 +126,32 @@ class Coverage:
         """Whether every byte of ``[start, end)`` was received."""
         i = bisect.bisect_right(self._starts, start) - 1
         return i >= 0 and self._ends[i] >= min(end, self.size)
+
+    def gap_run(self, cursor: int, bridge: int) -> Optional[tuple[int, int]]:
+        """The first gap ending after ``cursor`` (else, wrapping round, the first gap), extended over
+        the gaps that follow it across fewer than ``bridge`` received bytes; None when complete."""
+        if self.complete:
+            return None
+        starts, ends, n = self._starts, self._ends, len(self._starts)
+
+        def gap(i: int) -> tuple[int, int]:  # the gap before range i (i == n: after the last range)
+            return (ends[i - 1] if i > 0 else 0, starts[i] if i < n else self.size)
+
+        i = bisect.bisect_right(starts, cursor)
+        while i <= n and (gap(i)[0] >= gap(i)[1] or gap(i)[1] <= cursor):
+            i += 1
+        if i > n:
+            i = 0
+            while gap(i)[0] >= gap(i)[1]:
+                i += 1
+        g_start, g_end = gap(i)
+        while i < n:
+            following = gap(i + 1)
+            if following[0] >= following[1] or ends[i] - starts[i] >= bridge:
+                break
+            g_end = following[1]
+            i += 1
+        return g_start, g_end
 
     @property
     def complete(self) -> bool:
@@ -253,61 +279,63 @@ def download(link: LinkLike, entry: LogEntry, sink: Sink, *, start: int = 0, end
             last_report = now
             progress(cov.done - base, end - start)
 
-    while not cov.complete:
-        ranges = merge_gaps(cov.missing(), timing.bridge_bytes())
-        for r_start, r_end in ranges:
-            if cov.complete:
-                break
-            if cov.covers(r_start, r_end):  # arrived late, out of order
+    cursor = start
+    while True:
+        # One request at a time (ArduPilot drops a request while it streams, PX4 restarts on it),
+        # planned from the gaps and the link's costs as measured so far.
+        run = cov.gap_run(cursor, timing.bridge_bytes())
+        if run is None:
+            break
+        r_start, r_end = run
+        cursor = r_end
+        link.send_log_request_data(entry.id, r_start, r_end - r_start)
+        stats.requests += 1
+        if not first_request:
+            stats.re_requests += 1
+        first_request = False
+        sent = last_packet = time.monotonic()
+        got_any = False
+        timing.requests += 1
+        while True:
+            wait = timing.idle_timeout() if got_any else timing.request_timeout()
+            m = link.recv(("LOG_DATA",), wait)
+            now = time.monotonic()
+            if now - last_new > stall_timeout:
+                raise link.fail(f"log {entry.id}: no data from the vehicle for {stall_timeout:g} s "
+                                f"({cov.done} of {entry.size} bytes received): the link is lost")
+            if m is None:
+                timing.unanswered += not got_any
+                break  # stream over (or the request was lost): re-plan from the gaps
+            if m.id != entry.id:
                 continue
-            link.send_log_request_data(entry.id, r_start, r_end - r_start)
-            stats.requests += 1
-            if not first_request:
-                stats.re_requests += 1
-            first_request = False
-            sent = last_packet = time.monotonic()
-            got_any = False
-            timing.requests += 1
-            while True:
-                wait = timing.idle_timeout() if got_any else timing.request_timeout()
-                m = link.recv(("LOG_DATA",), wait)
-                now = time.monotonic()
-                if now - last_new > stall_timeout:
-                    raise link.fail(f"log {entry.id}: no data from the vehicle for {stall_timeout:g} s "
-                                    f"({cov.done} of {entry.size} bytes received): the link is lost")
-                if m is None:
-                    timing.unanswered += not got_any
-                    break  # stream over (or the request was lost): re-plan from the gaps
-                if m.id != entry.id:
-                    continue
-                if not got_any:
-                    timing.add_rtt(now - sent)
-                    got_any = True
+            if not got_any:
+                timing.add_rtt(now - sent)
+                got_any = True
+            else:
+                timing.add_interval(now - last_packet)
+            last_packet = now
+            count = int(m.count)
+            stats.packets += 1
+            if m.ofs + count > entry.size:
+                raise link.fail(f"log {entry.id}: the vehicle sent data past the listed size of {entry.size} "
+                                "bytes (is it still writing this log?)")
+            if count:
+                new = cov.add(m.ofs, m.ofs + count)
+                if new:
+                    sink.write_at(m.ofs, bytes(m.data[:count]))
+                    last_new = now
                 else:
-                    timing.add_interval(now - last_packet)
-                last_packet = now
-                count = int(m.count)
-                stats.packets += 1
-                if m.ofs + count > entry.size:
-                    raise link.fail(f"log {entry.id}: the vehicle sent data past the listed size of {entry.size} "
-                                    "bytes (is it still writing this log?)")
-                if count:
-                    new = cov.add(m.ofs, m.ofs + count)
-                    if new:
-                        sink.write_at(m.ofs, bytes(m.data[:count]))
-                        last_new = now
-                    else:
-                        stats.duplicates += 1
-                reached = m.ofs + count
-                if count < LOG_DATA_LEN and reached < min(r_end, entry.size):
-                    short_eof[reached] = short_eof.get(reached, 0) + 1
-                    if short_eof[reached] >= SHORT_EOF_CONFIRMATIONS:
-                        raise link.fail(f"log {entry.id}: the vehicle's log ends at {reached} bytes but its "
-                                        f"LOG_ENTRY said {entry.size}")
-                    break
-                report()
-                if reached >= r_end or count < LOG_DATA_LEN:
-                    break
+                    stats.duplicates += 1
+            reached = m.ofs + count
+            if count < LOG_DATA_LEN and reached < min(r_end, entry.size):
+                short_eof[reached] = short_eof.get(reached, 0) + 1
+                if short_eof[reached] >= SHORT_EOF_CONFIRMATIONS:
+                    raise link.fail(f"log {entry.id}: the vehicle's log ends at {reached} bytes but its "
+                                    f"LOG_ENTRY said {entry.size}")
+                break
+            report()
+            if reached >= r_end or count < LOG_DATA_LEN:
+                break
     stats.bytes = cov.done - base
     stats.seconds = time.monotonic() - t0
     stats.rtt_s = timing.rtt or 0.0
