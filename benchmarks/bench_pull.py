@@ -7,8 +7,9 @@ packets lost each way (plus 2 % duplicated and 2 % reordered LOG_DATA), and once
 double unthrottled (the client's own ceiling: TCP has flow control, so nothing is dropped).
 
 Prints, per run: seconds, MB/s of log, LOG_DATA packets per second received (chunk rate), requests
-(the first one and the re-requests of gaps), duplicates, the measured round trip, and whether the
-file is byte-identical. Usage::
+(the first one and the re-requests of gaps), duplicates, the measured round trip, the client's CPU
+time per packet received (the double runs in its own process), and whether the file is
+byte-identical. Usage::
 
     nice -n 5 .venv/bin/python benchmarks/bench_pull.py [--mb 30] [--rate 1e6] [--flavour px4 ardupilot]
 """
@@ -64,14 +65,14 @@ def run_once(flavour: str, log: Path, out: Path, *, rate: float, loss: float, tc
         shutil.rmtree(out, ignore_errors=True)
         conn = parse_connection(f"tcp:127.0.0.1:{port}" if tcp else f"udp:127.0.0.1:{port}")
         with VehicleLink(conn) as vl:
-            t0 = time.monotonic()
+            t0, cpu0 = time.monotonic(), time.process_time()
             report = pull_logs(vl, out, stall_timeout=20)
-            seconds = time.monotonic() - t0
+            seconds, cpu = time.monotonic() - t0, time.process_time() - cpu0
         pulled = report.logs[0]
         s = pulled.stats
         return {"seconds": seconds, "mb_s": s.bytes / 1e6 / s.seconds, "chunks_s": s.packets / s.seconds,
                 "requests": s.requests, "re_requests": s.re_requests, "duplicates": s.duplicates,
-                "packets": s.packets, "rtt_ms": s.rtt_s * 1e3,
+                "packets": s.packets, "rtt_ms": s.rtt_s * 1e3, "cpu_us": cpu / max(1, s.packets) * 1e6,
                 "identical": pulled.path.read_bytes() == log.read_bytes()}
     finally:
         proc.terminate()
@@ -92,13 +93,13 @@ def main() -> None:
             t = time.monotonic()
             log = make_log(folder, "ulog" if flavour == "px4" else "dataflash", a.mb)
             print(f"\n{flavour}: {log.name} {log.stat().st_size / 1e6:.1f} MB (simulated in {time.monotonic() - t:.0f} s)")
-            print(f"{'run':<28}{'s':>7}{'MB/s':>7}{'chunks/s':>10}{'requests':>10}{'dups':>7}{'rtt ms':>8}  identical")
+            print(f"{'run':<28}{'s':>7}{'MB/s':>7}{'chunks/s':>10}{'requests':>10}{'dups':>7}{'rtt ms':>8}{'cpu us/chunk':>13}  identical")
             for name, kw in ((f"udp {a.rate / 1e6:g} MB/s, no loss", dict(rate=a.rate, loss=0.0, tcp=False)),
                              (f"udp {a.rate / 1e6:g} MB/s, 5 % loss", dict(rate=a.rate, loss=0.05, tcp=False)),
                              ("tcp unthrottled, no loss", dict(rate=1e9, loss=0.0, tcp=True))):
                 r = run_once(flavour, log, folder / "out", **kw)
                 print(f"{name:<28}{r['seconds']:>7.1f}{r['mb_s']:>7.2f}{r['chunks_s']:>10.0f}"
-                      f"{r['requests']:>10}{r['duplicates']:>7}{r['rtt_ms']:>8.2f}  {r['identical']}", flush=True)
+                      f"{r['requests']:>10}{r['duplicates']:>7}{r['rtt_ms']:>8.2f}{r['cpu_us']:>13.0f}  {r['identical']}", flush=True)
             log.unlink()
 
 
