@@ -21,7 +21,7 @@ from flightlog_fd.errors import VehicleLinkError
 from flightlog_fd.vehicle.folder import PartialLog, find_pulled, fingerprint, stamp
 from flightlog_fd.vehicle.ports import SerialPort, parse_connection, pick_usb_autopilot
 from flightlog_fd.vehicle.pull import choose
-from flightlog_fd.vehicle.transfer import Coverage, LogEntry, merge_gaps, newest_entry
+from flightlog_fd.vehicle.transfer import Coverage, LogEntry, newest_entry
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = ROOT / "sample_logs"
@@ -91,11 +91,33 @@ def test_coverage_matches_a_byte_map():
         assert cov.covers(s, e) == all(seen[s:e])
 
 
-def test_merge_gaps_bridges_only_short_runs():
-    gaps = [(0, 90), (180, 270), (1000, 1090)]
-    assert merge_gaps(gaps, 0) == gaps
-    assert merge_gaps(gaps, 100) == [(0, 270), (1000, 1090)]
-    assert merge_gaps(gaps, 10_000) == [(0, 1090)]
+def test_gap_run_starts_after_the_cursor_and_bridges_only_short_received_runs():
+    cov = Coverage(2000)
+    for s, e in ((90, 180), (270, 1000), (1090, 1900)):
+        cov.add(s, e)
+    assert cov.missing() == [(0, 90), (180, 270), (1000, 1090), (1900, 2000)]
+    assert cov.gap_run(0, 0) == (0, 90)
+    assert cov.gap_run(0, 100) == (0, 270)  # the 90 received bytes between are re-sent
+    assert cov.gap_run(200, 100) == (180, 270)  # the gap around the cursor
+    assert cov.gap_run(270, 10_000) == (1000, 2000)
+    assert cov.gap_run(2000, 0) == (0, 90)  # past the last gap: round again
+    rng = random.Random(5)
+    for _ in range(500):  # against a plain reading of the gaps
+        n = rng.randint(1, 2000)
+        cov = Coverage(n)
+        for _ in range(rng.randint(0, 30)):
+            s = rng.randint(0, n)
+            cov.add(s, s + rng.randint(0, 200))
+        cursor, bridge = rng.randint(0, n), rng.choice([0, 50, 300, 5000])
+        gaps = cov.missing()
+        if not gaps:
+            assert cov.gap_run(cursor, bridge) is None
+            continue
+        k = next((i for i, g in enumerate(gaps) if g[1] > cursor), 0)
+        start, end = gaps[k]
+        while k + 1 < len(gaps) and gaps[k + 1][0] - gaps[k][1] < bridge:
+            end, k = gaps[k + 1][1], k + 1
+        assert cov.gap_run(cursor, bridge) == (start, end)
 
 
 def test_newest_log_per_autopilot():

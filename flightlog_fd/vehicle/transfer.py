@@ -169,17 +169,6 @@ class Coverage:
         return gaps
 
 
-def merge_gaps(gaps: list[tuple[int, int]], bridge: int) -> list[tuple[int, int]]:
-    """Join gaps separated by fewer than ``bridge`` received bytes into one range to request."""
-    out: list[tuple[int, int]] = []
-    for s, e in gaps:
-        if out and s - out[-1][1] < bridge:
-            out[-1] = (out[-1][0], e)
-        else:
-            out.append((s, e))
-    return out
-
-
 class Sink(Protocol):
     def write_at(self, offset: int, data: bytes) -> None: ...
 
