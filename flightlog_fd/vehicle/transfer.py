@@ -23,11 +23,12 @@ How the two autopilots answer, read from their sources, and what this client doe
   request at or past the end gets one packet of count 0.
 
 Robustness: received byte ranges are tracked (:class:`Coverage`), so lost, duplicated and
-reordered packets are harmless; gaps are re-requested, near gaps merged into one request when
-re-sending the bytes between them costs less than another round trip (both measured on this
-link); a request unanswered for ``REQUEST_TIMEOUT_S`` is sent again, and no new byte for
-``stall_timeout`` seconds ends the transfer with one error. A log that turns out shorter or longer
-than its ``LOG_ENTRY`` is an error, never a silently truncated file.
+reordered packets are harmless. Each next request is planned from the gaps after the previous one
+(:meth:`Coverage.gap_run`), bridging gaps when re-sending the received bytes between them costs less
+than one more request (costs measured on this link as the transfer goes: round trip, packet
+interval, share of requests unanswered). A request unanswered within its timeout is sent again; no
+new byte for ``stall_timeout`` seconds ends the transfer with one error. A log that turns out
+shorter or longer than its ``LOG_ENTRY`` is an error, never a silently truncated file.
 """
 from __future__ import annotations
 
@@ -46,9 +47,11 @@ LOG_DATA_LEN = 90
 #: thread answer within milliseconds).
 REQUEST_TIMEOUT_S = 1.0
 #: Once measured: REQUEST_RTT_FACTOR x the worst of the last RTT_WINDOW round trips, never less than
-#: REQUEST_TIMEOUT_MIN_S (a loaded host's scheduling hiccups reach tens of ms: measured on the 2-core
-#: test machine at load 8-13). A request re-sent too early costs little: PX4 restarts the same
-#: range, ArduPilot drops a request while it streams.
+#: REQUEST_TIMEOUT_MIN_S. On the loopback the round trip is ~0.1 ms but a loaded host pauses a
+#: process for tens of ms (bench_pull at load 7-15: streams without loss were re-requested after
+#: such pauses); a request re-sent too early costs little (PX4 restarts the same range, ArduPilot
+#: drops a request while it streams), one waited for too long costs the whole wait: a 6 MB PX4 pull
+#: with 5 % loss took 29.5 s with a 50 ms floor and 23.7 s with 20 ms (two runs at load 11-13).
 REQUEST_RTT_FACTOR, RTT_WINDOW, REQUEST_TIMEOUT_MIN_S = 4.0, 16, 0.02
 #: No new byte for this long despite re-requests: the link is lost (``--timeout``).
 STALL_TIMEOUT_S = 10.0
