@@ -286,46 +286,53 @@ def download(link: LinkLike, entry: LogEntry, sink: Sink, *, start: int = 0, end
             stats.re_requests += 1
         first_request = False
         sent = last_packet = time.monotonic()
-        got_any = False
+        answered = False  # a packet of this request's range arrived
+        reached = r_start  # how far this request's stream got
         timing.requests += 1
         while True:
-            wait = timing.idle_timeout() if got_any else timing.request_timeout()
+            if not answered:
+                wait = timing.request_timeout()
+            elif r_end - reached <= 2 * LOG_DATA_LEN:
+                wait = timing.idle_timeout()  # the stream's last packets are lost, or on their way
+            else:
+                wait = REQUEST_TIMEOUT_S  # a stream stopping short of its end is mostly a pause
             m = link.recv(("LOG_DATA",), wait)
             now = time.monotonic()
             if now - last_new > stall_timeout:
                 raise link.fail(f"log {entry.id}: no data from the vehicle for {stall_timeout:g} s "
                                 f"({cov.done} of {entry.size} bytes received): the link is lost")
             if m is None:
-                timing.unanswered += not got_any
-                break  # stream over (or the request was lost): re-plan from the gaps
+                timing.unanswered += not answered
+                break  # stream over (or the request was lost): plan the next request from the gaps
             if m.id != entry.id:
                 continue
-            if not got_any:
-                timing.add_rtt(now - sent)
-                got_any = True
-            else:
-                timing.add_interval(now - last_packet)
-            last_packet = now
             count = int(m.count)
             stats.packets += 1
             if m.ofs + count > entry.size:
                 raise link.fail(f"log {entry.id}: the vehicle sent data past the listed size of {entry.size} "
                                 "bytes (is it still writing this log?)")
             if count:
-                new = cov.add(m.ofs, m.ofs + count)
-                if new:
+                if cov.add(m.ofs, m.ofs + count):
                     sink.write_at(m.ofs, bytes(m.data[:count]))
                     last_new = now
                 else:
                     stats.duplicates += 1
-            reached = m.ofs + count
-            if count < LOG_DATA_LEN and reached < min(r_end, entry.size):
-                short_eof[reached] = short_eof.get(reached, 0) + 1
-                if short_eof[reached] >= SHORT_EOF_CONFIRMATIONS:
-                    raise link.fail(f"log {entry.id}: the vehicle's log ends at {reached} bytes but its "
+            report()
+            if not r_start <= m.ofs < r_end:
+                continue  # a late packet of an earlier stream: kept, but it says nothing of this one
+            if not answered:
+                timing.add_rtt(now - sent)
+                answered = True
+            else:
+                timing.add_interval(now - last_packet)
+            last_packet = now
+            reached = max(reached, m.ofs + count)
+            if count < LOG_DATA_LEN and m.ofs + count < min(r_end, entry.size):
+                short_eof[m.ofs + count] = short_eof.get(m.ofs + count, 0) + 1
+                if short_eof[m.ofs + count] >= SHORT_EOF_CONFIRMATIONS:
+                    raise link.fail(f"log {entry.id}: the vehicle's log ends at {m.ofs + count} bytes but its "
                                     f"LOG_ENTRY said {entry.size}")
                 break
-            report()
             if reached >= r_end or count < LOG_DATA_LEN:
                 break
     stats.bytes = cov.done - base
