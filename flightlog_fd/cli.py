@@ -453,12 +453,12 @@ def _size(n: float) -> str:
 
 
 def _download_bar(console: Console):
-    """A rich progress bar per download on stderr: bytes, rate, time left."""
+    """A rich progress bar per download on stderr: bytes, rate, time left (only on a terminal)."""
     from rich.progress import (BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn,
                                TransferSpeedColumn)
 
     return Progress(TextColumn("{task.description}"), BarColumn(), DownloadColumn(), TransferSpeedColumn(),
-                    TimeRemainingColumn(), console=console, transient=True)
+                    TimeRemainingColumn(), console=console, transient=True, disable=not console.is_terminal)
 
 
 def _print_log_list(entries) -> None:
