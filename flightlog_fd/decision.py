@@ -214,7 +214,6 @@ class Decision:
     sources: list[str] = field(default_factory=list)  # the analyzers that weighed in
     results: list[AnalyzerResult] = field(default_factory=list)
     weights: dict = field(default_factory=dict)  # analyzer id -> SourceWeight (how much it could give)
-    kind: Optional[LogKind] = None  # the kind of log the sources were weighed for
 
 
 @dataclass(frozen=True)
@@ -386,7 +385,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     decision = Decision(motors=motors, airframe_changed=airframe_changed,
                         healthy_chi2=None if cmd is None else cmd.healthy_chi2,
                         share_sigma=None if cmd is None else cmd.share_sigma,
-                        sources=list(sources), results=list(results), weights=weights, kind=kind)
+                        sources=list(sources), results=list(results), weights=weights)
     onset = timeline.onset
     first_seen = onset.first_seen if onset is not None else timeline.t_first
 
