@@ -64,8 +64,8 @@ import numpy as np
 
 from .analyzers import AnalyzerResult
 from .analyzers.base import SOURCE_LLR_CAP
-from .analyzers.reliability import LogKind, cell_of, trust_of
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
+from .analyzers.reliability import LogKind, cell_of, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
 from .flight import Frame
