@@ -403,6 +403,12 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         cite = f"it {cmd.words[k - 1]}; " if cmd is not None and cmd.analyzer in sources and cmd.words else ""
         return cite + "evidence for it (log-likelihood ratio, nats): " + ", ".join(parts)
 
+    def discounted_words(k: int) -> str:
+        """", +2.4 of them from commands, discounted on this kind of log" ("" when none gave any)."""
+        low = [s_ for s_, wt in weights.items() if wt.trust == "discounted" and sources[s_][k - 1] > 0]
+        part = float(sum(sources[s_][k - 1] for s_ in low))
+        return f", {part:+.1f} of them from {', '.join(low)}, discounted on this kind of log" if low else ""
+
     vib = _vibration(results)
 
     def done(status: str, motor: Optional[int], confidence: float, reason: str,
@@ -469,8 +475,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             sev = severity_words(kb)
             confidence = w[kb]
             reason = (f"{_words(frame, kb)} may have lost thrust" + (f" (it {sev})" if sev else "")
-                      + f", but the evidence is too weak to call ({total[best]:+.1f} nats, damage needs "
-                      f"{DAMAGED_LLR:.0f}); {evidence_words(kb)}; inspect propeller {kb}")
+                      + f", but the evidence is too weak to call ({total[best]:+.1f} nats{discounted_words(kb)}; "
+                        f"damage needs {DAMAGED_LLR:.0f}); {evidence_words(kb)}; inspect propeller {kb}")
             if cmd is not None and cmd.baseline == "profile":
                 reason += "; if it is sound, the load moved since calibration (battery, payload): re-calibrate"
         if airframe_changed:
