@@ -5,7 +5,7 @@
 The logs: every ULog / DataFlash log in ../shared (117 real and SITL logs of many airframes,
 formats and rates) and, to make up ``--logs``, simulated flights of mixed format, logging rate
 and length (:data:`BASE_FLIGHTS`: PX4 default and high-rate ULogs, ArduPilot DataFlash at 20-400
-Hz, 2-15 minutes, a third with a damaged propeller), each written as several byte-distinct logs
+Hz, 2-10 minutes, a third with a damaged propeller), each written as several byte-distinct logs
 of their own vehicle id (a fleet of aircraft flying the same missions). Simulating is slow
 (~20 s CPU per 300 s flight): ``--cache DIR`` keeps the simulated logs between runs.
 
@@ -49,10 +49,10 @@ TOKEN = "fleet-day-token-0123456789abcdef"
 #: of the fleet. Mostly the autopilots' default logging rates (what fleets keep), some high-rate.
 BASE_FLIGHTS = [
     ("px4_default", "ulog", 120, 0), ("px4_default", "ulog", 300, 2), ("px4_default", "ulog", 600, 0),
-    ("px4_default", "ulog", 900, 0), ("px4_high", "ulog", 120, 0), ("px4_high", "ulog", 300, 3),
-    ("ardupilot", "dataflash", 300, 0), ("ardupilot", "dataflash", 600, 1), ("ardupilot", "dataflash", 900, 0),
-    ("ardupilot_fast", "dataflash", 300, 0), ("ardupilot_slow", "dataflash", 600, 4),
-    ("ardupilot_rcou", "dataflash", 300, 0),
+    ("px4_default", "ulog", 240, 0), ("px4_high", "ulog", 120, 0), ("px4_high", "ulog", 180, 3),
+    ("ardupilot", "dataflash", 300, 0), ("ardupilot", "dataflash", 420, 1), ("ardupilot", "dataflash", 180, 0),
+    ("ardupilot_fast", "dataflash", 180, 0), ("ardupilot_slow", "dataflash", 300, 4),
+    ("ardupilot_rcou", "dataflash", 240, 0),
 ]
 _MAIN = "import sys; sys.argv = ['fdlog'] + sys.argv[1:]; from flightlog_fd.cli import main; main()"
 
