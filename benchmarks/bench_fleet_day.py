@@ -1,6 +1,6 @@
 """A fleet's day: 200 logs through `fdlog diagnose DIR --jobs 2 --db` and through `fdlog serve`'s queue.
 
-    python benchmarks/bench_fleet_day.py [--logs 200] [--cache DIR] [--before REV] [--no-serve] [--max-s 3600]
+    python benchmarks/bench_fleet_day.py [--logs 200] [--cache DIR] [--before REV] [--no-serve] [--no-cli] [--max-s 3600]
 
 The logs: every ULog / DataFlash log in ../shared (117 real and SITL logs of many airframes,
 formats and rates) and, to make up ``--logs``, simulated flights of mixed format, logging rate
@@ -259,6 +259,7 @@ def main() -> int:
     ap.add_argument("--cache", type=Path, default=None, help="keep the simulated logs here between runs")
     ap.add_argument("--before", help="also run this git revision's tree, alternating with this one")
     ap.add_argument("--no-serve", action="store_true")
+    ap.add_argument("--no-cli", action="store_true")
     ap.add_argument("--max-s", type=float, default=3600.0, help="give up waiting for the serve queue after this long")
     args = ap.parse_args()
 
@@ -283,7 +284,7 @@ def main() -> int:
             trees = {"before": extract(args.before, work), "after": None}
         la = os.getloadavg()
         print(f"load average at start: {la[0]:.2f} {la[1]:.2f} {la[2]:.2f}", flush=True)
-        for name, tree in trees.items():
+        for name, tree in trees.items() if not args.no_cli else ():
             report("cli", name, run_cli(tree, folder, work, name), len(logs))
         if not args.no_serve:
             for name, tree in trees.items():
