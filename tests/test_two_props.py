@@ -371,10 +371,10 @@ def test_an_existing_store_gets_the_named_propellers_when_upgraded(pair_run, tmp
         for table in ("flight", "flight_part"):
             c.execute(f"ALTER TABLE {table} DROP COLUMN verdict_motors")
             c.execute(f"ALTER TABLE {table} DROP COLUMN pair")
-        c.execute("DELETE FROM schema_migrations WHERE version = 5")
-        c.execute("PRAGMA user_version = 4")
+        c.execute("DELETE FROM schema_migrations WHERE version = 6")
+        c.execute("PRAGMA user_version = 5")
     with Store(db) as store:
-        assert store.db.schema_version() == SCHEMA_VERSION == 5
+        assert store.db.schema_version() == SCHEMA_VERSION == 6
         (f,) = store.logs()
         row = store.flight(f["id"])
     assert (row["verdict_motors"], row["pair"]) == ("1;4", 1)

@@ -67,6 +67,7 @@ class AnalyzerResult:
     notes: list[str] = field(default_factory=list)
     llr_cap: float = SOURCE_LLR_CAP  # set from the analyzer by run_analyzers
     cap_keeps_order: bool = False  # likewise
+    reliability_keys: tuple[str, ...] = ()  # likewise
     #: {(a, b): nats} this source's own evidence for "rotors a and b both lost thrust" (1-based,
     #: a < b), before the cap, for a source whose per-motor figures are not independent of each
     #: other; empty: :meth:`pair_llr` sums the two motors' findings
@@ -76,8 +77,9 @@ class AnalyzerResult:
         """Its finding ``name`` about ``motor`` (1-based), or None."""
         return next((f for f in self.findings if f.name == name and f.motor == motor), None)
 
-    def _per_motor(self, n_motors: int) -> Optional[np.ndarray]:
-        """(n,) summed LLR of the weighed findings per motor, before the cap; None if none."""
+    def raw_llr(self, n_motors: int) -> Optional[np.ndarray]:
+        """(n,) summed LLR of this analyzer's weighed findings as it computed them (no cap); None if
+        it weighs nothing."""
         out = np.zeros(n_motors)
         weighed = False
         for f in self.findings:
@@ -91,46 +93,49 @@ class AnalyzerResult:
         pairs = [(a, b) for a in range(1, n_motors + 1) for b in range(a + 1, n_motors + 1)]
         if self.pair_llrs:
             return {pr: float(self.pair_llrs[pr]) for pr in pairs if pr in self.pair_llrs}
-        per = self._per_motor(n_motors)
+        per = self.raw_llr(n_motors)
         return {} if per is None else {(a, b): float(per[a - 1] + per[b - 1]) for a, b in pairs}
 
-    def _joint_shift(self, per: Optional[np.ndarray], pairs: dict) -> float:
+    @staticmethod
+    def _joint_shift(per: Optional[np.ndarray], pairs: dict, cap: float) -> float:
         """With ``cap_keeps_order``: how far every hypothesis (each motor and each pair) is lowered
         so the top one sits at the cap (:meth:`llr` ``with_pairs``, :meth:`pair_llr`)."""
         tops = ([float(per.max())] if per is not None else []) + list(pairs.values())
-        return max((max(tops) if tops else 0.0) - self.llr_cap, 0.0)
+        return max((max(tops) if tops else 0.0) - cap, 0.0)
 
-    def llr(self, n_motors: int, with_pairs: bool = False) -> Optional[np.ndarray]:
-        """(n,) summed LLR of this analyzer's weighed findings, clipped to +-``llr_cap``; None if it
-        weighs nothing. With ``cap_keeps_order`` (the analyzer's :attr:`Analyzer.cap_keeps_order`)
-        all motors are first lowered by the top one's excess over the cap, so the cap bounds the
+    def llr(self, n_motors: int, cap: Optional[float] = None, with_pairs: bool = False) -> Optional[np.ndarray]:
+        """(n,) :meth:`raw_llr` clipped to +-``cap`` (default ``llr_cap``); None if it weighs
+        nothing. With ``cap_keeps_order`` (the analyzer's :attr:`Analyzer.cap_keeps_order`) all
+        motors are first lowered by the top one's excess over the cap, so the cap bounds the
         evidence against healthy but keeps what the source says between motors; ``with_pairs``:
         lowered with the pairs of :meth:`pair_llr` (by the top of motors and pairs together), so
         the cap keeps what the source says between one rotor and two (the decision's pair step)."""
-        out = self._per_motor(n_motors)
+        out = self.raw_llr(n_motors)
         if out is None:
             return None
+        cap = self.llr_cap if cap is None else cap
         if self.cap_keeps_order:
             if with_pairs and n_motors in PAIR_ROTOR_COUNTS:
-                out = out - self._joint_shift(out, self._raw_pairs(n_motors))
+                out = out - self._joint_shift(out, self._raw_pairs(n_motors), cap)
             else:
-                out = out - max(float(out.max()) - self.llr_cap, 0.0)
-        return np.clip(out, -self.llr_cap, self.llr_cap)
+                out = out - max(float(out.max()) - cap, 0.0)
+        return np.clip(out, -cap, cap)
 
-    def pair_llr(self, n_motors: int) -> Optional[dict]:
-        """{(a, b): nats} for every pair of motors, clipped like :meth:`llr` (with
-        ``cap_keeps_order`` every motor and pair lowered together by the top one's excess over the
-        cap): ``pair_llrs`` when the analyzer gave them, else the sum of the two motors' weighed
-        findings (a source whose finding about one motor does not depend on the others: a
-        vibration line tied to a rotor). None when it weighs nothing, or on a rotor count outside
-        ``PAIR_ROTOR_COUNTS``."""
+    def pair_llr(self, n_motors: int, cap: Optional[float] = None) -> Optional[dict]:
+        """{(a, b): nats} for every pair of motors, clipped like :meth:`llr` to +-``cap`` (default
+        ``llr_cap``; with ``cap_keeps_order`` every motor and pair lowered together by the top
+        one's excess over the cap): ``pair_llrs`` when the analyzer gave them, else the sum of the
+        two motors' weighed findings (a source whose finding about one motor does not depend on the
+        others: a vibration line tied to a rotor). None when it weighs nothing, or on a rotor count
+        outside ``PAIR_ROTOR_COUNTS``."""
         if n_motors not in PAIR_ROTOR_COUNTS:
             return None
         raw = self._raw_pairs(n_motors)
         if not raw:
             return None
-        shift = self._joint_shift(self._per_motor(n_motors), raw) if self.cap_keeps_order else 0.0
-        return {pr: float(np.clip(v - shift, -self.llr_cap, self.llr_cap)) for pr, v in raw.items()}
+        cap = self.llr_cap if cap is None else cap
+        shift = self._joint_shift(self.raw_llr(n_motors), raw, cap) if self.cap_keeps_order else 0.0
+        return {pr: float(np.clip(v - shift, -cap, cap)) for pr, v in raw.items()}
 
     def as_dict(self) -> dict:
         return {"analyzer": self.analyzer, "abstained": self.abstained, "notes": list(self.notes),
@@ -173,8 +178,16 @@ class Analyzer(ABC):
     description: str = ""
     #: Flight streams it needs (attribute names of Flight); it abstains when one is missing.
     requires: tuple[str, ...] = ()
-    #: Its LLR per motor is clipped to +- this before the decision sums the sources.
+    #: Its LLR per motor is clipped to +- this before the decision sums the sources: the most it may
+    #: give where the reliability table trusts it, and all it gives where the table has no cell.
     llr_cap: float = SOURCE_LLR_CAP
+    #: The log properties its evidence depends on (:data:`.reliability.PROPERTIES`: "rate",
+    #: "profile", "rotors"): the cell of the measured reliability table the decision weighs it by
+    #: (:data:`.reliability.RELIABILITY`); () = weighed by ``llr_cap`` alone.
+    reliability_keys: tuple[str, ...] = ()
+    #: True when its evidence comes from a model trained on simulated flights: simulated flights then
+    #: measure its reliability in-sample, so the table trusts it only where real flights showed it quiet.
+    learned: bool = False
     #: True: the cap lowers every motor by the top one's excess before clipping (the differences
     #: between motors survive); False: each motor is clipped alone (motors above the cap tie).
     #: For a source whose motor-to-motor differences are physics, not a classifier's leaning.

@@ -26,7 +26,13 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                   "position": "front-right" | ... | null,
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
-                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ..."},
+                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
+                  "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "logging" |
+                                      "esc_telemetry" | "manoeuvre",
+                              "text": str,              # what to do, in words
+                              "motors": [1-n],          # inspect: the propellers, first first
+                              "command": str | null,    # add_session / calibrate: the fdlog command
+                              "setting": str | null}]}, # logging / esc_telemetry: the autopilot parameter
       "evidence": {"n_windows": int, "covered_s": float,
                    "share": [healthy, m1, ..., mn],   # smoothed votes, 0..1
                    "abstained": 0-1} | null,
@@ -55,6 +61,9 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                          "airframe_changed": str | null,
                          "decision": {"sources": [str], "healthy_chi2": float|null,
                                       "share_sigma": float|null,
+                                      "weights": {analyzer id: {"cell": str,   # its reliability-table cell
+                                                  "trust": "trusted" | "corroborating" | "discounted" | null,
+                                                  "cap": float}},  # the most nats it could give
                                       "pair": {"motors": [a, b], "llr": float,     # the most likely pair of
                                                "llr_by_source": {id: nats},       # rotors and its excess over
                                                "eta_hat": [ea, eb]|null,          # the best single rotor
@@ -94,9 +103,12 @@ analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the 
 what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
 own verdict: judged from vibration alone, the log's verdict is its worst flight's; with motor outputs,
 the whole log's, each flight judged from the log's windows and never worse than it) and
-flight-level findings (``motor`` 0: the vibration level); schema 6 adds ``verdict.motors``,
-``verdict.positions`` and ``verdict.pair`` (two propellers named together; ``motor`` stays the
-first) and ``motor_evidence.decision.pair`` (the most likely pair hypothesis).
+flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verdict's ``advice`` (what would
+resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
+settings that let a source decide next time), each source's reliability ``weights`` in
+``motor_evidence.decision``, ``verdict.motors``, ``verdict.positions`` and ``verdict.pair`` (two
+propellers named together; ``motor`` stays the first) and ``motor_evidence.decision.pair`` (the
+most likely pair hypothesis).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -107,6 +119,7 @@ from typing import Any, Optional, Sequence, Union
 import numpy as np
 
 from .. import __version__
+from ..advice import ADVICE_KINDS
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
@@ -149,7 +162,7 @@ JSON_SCHEMA: dict = {
         "verdict": {
             "type": "object",
             "required": ["status", "motor", "motors", "positions", "pair", "position", "confidence", "first_seen",
-                         "reason"],
+                         "reason", "advice"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
@@ -161,6 +174,12 @@ JSON_SCHEMA: dict = {
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
+                "advice": {"type": "array", "items": {
+                    "type": "object", "required": ["kind", "text", "motors", "command", "setting"],
+                    "properties": {"kind": {"enum": list(ADVICE_KINDS)}, "text": {"type": "string"},
+                                   "motors": {"type": "array", "items": {"type": "integer", "minimum": 1,
+                                                                         "maximum": MAX_ROTORS}},
+                                   "command": _STR_OR_NULL, "setting": _STR_OR_NULL}}},
             },
         },
         "evidence": {"type": ["object", "null"], "required": ["n_windows", "covered_s", "share", "abstained"],
@@ -216,9 +235,10 @@ JSON_SCHEMA: dict = {
                                                  "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
                 "decision": {"type": ["object", "null"],
-                             "required": ["sources", "healthy_chi2", "share_sigma"],
+                             "required": ["sources", "healthy_chi2", "share_sigma", "weights"],
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
                                             "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL,
+                                            "weights": {"type": "object"},
                                             "pair": {"type": ["object", "null"],
                                                      "required": ["motors", "llr", "llr_by_source", "eta_hat",
                                                                   "excess"],
@@ -291,6 +311,7 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
                 "sources": list(d.decision.sources),
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
                 "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4),
+                "weights": {k: w.as_dict() for k, w in d.decision.weights.items()},
                 "pair": d.decision.pairs[0].as_dict() if d.decision.pairs else None}}
 
 
