@@ -77,7 +77,7 @@ FINDING_COLUMNS = ("analyzer", "motor", "name", "value", "unit", "interval_lo", 
 #: Each flight of a log holding several: the JSON report's ``flights[]`` (``part`` 1..n in time order).
 PART_COLUMNS = ("label", "t_start_s", "t_end_s", "airborne_s", "status", "motor", "confidence", "reason",
                 "verdict_motors", "pair")
-#: The columns flight_part had at migration 4 (what that migration fills; migration 5 adds the rest).
+#: The columns flight_part had at migration 4 (what that migration fills; migration 6 adds the rest).
 _PART_COLUMNS_V4 = PART_COLUMNS[:8]
 #: Per-motor figures drawn across an airframe's flights (history page, airframe page): (column, title).
 TREND_FIGURES = (("command_change", "command-share change"),
