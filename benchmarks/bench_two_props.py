@@ -22,7 +22,7 @@ called damaged; pairs on one-propeller flights counted).
 
 ``--measure`` (seed 21, not a scoring seed): the model's votes on two-propeller flights
 (model_votes.PAIR_VOTE_STATS) and the best pair's excess over the best single rotor on
-one-propeller, healthy and two-propeller flights (decision.PAIR_EXCESS_LLR).
+one-propeller, healthy and two-propeller flights (decision.PAIR_EXCESS_LLR and _PROFILE_LLR).
 Figures only; nothing is asserted.
 """
 from __future__ import annotations
@@ -233,7 +233,7 @@ def measure(args) -> None:
         sd = x.std(ddof=1)
         print(f"  {name:42s} n={len(x):3d} mean {x.mean():+.2f} sd {sd:.2f} (between flights "
               f"{np.sqrt(max(sd ** 2 - within ** 2, 0)):.2f})")
-    print("\n== best pair's total minus the best single rotor's (decision.PAIR_EXCESS_LLR) ==")
+    print("\n== best pair's total minus the best single rotor's (decision.PAIR_EXCESS_LLR, _PROFILE_LLR) ==")
     for pname in ("no profile", "profile"):
         for what in ("healthy", "single", "pair"):
             x = np.array([r["pair_excess"] for r in rows if r["profile"] == pname and r["flight"] == what

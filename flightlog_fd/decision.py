@@ -54,8 +54,8 @@ source also weighs "rotors a and b both lost thrust" for every pair (:meth:`Anal
 capped as its single rotors are: the command shares' two-rotor mixer fit, the throttle's part of
 it, the effectiveness fit with both weak, the model seeing at most one of the two, ESC telemetry's
 less likely member, a vibration line tied to a rotor). The best pair is named when its total
-reaches ``UNCERTAIN_LLR`` and beats the best single rotor by ``PAIR_EXCESS_LLR`` (the pair's prior
-odds: it has a second free efficiency and is rarer), ``damaged`` under the single rotor's bars
+reaches ``UNCERTAIN_LLR`` and beats the best single rotor by ``PAIR_EXCESS_LLR`` (against a profile
+``PAIR_EXCESS_PROFILE_LLR``: the pair's prior odds, it has a second free efficiency and is rarer), ``damaged`` under the single rotor's bars
 (discounted sources not counted toward them), else ``uncertain`` naming both (a moved load or
 re-trim makes the same command pattern: against a profile the commands alone reach at most
 ``uncertain``). ``Verdict.motors`` lists both, ``motor`` is the first, ``inspect`` both; the
@@ -164,16 +164,22 @@ TRIM_ONLY_LLR_CAP = 1.0
 #: Two propellers: a pair of rotors is named only when its total beats the best single rotor's by
 #: this much. Two weak rotors explain every pattern one does and more (a second free efficiency),
 #: and two damaged propellers at once are rarer than one, so the pair must earn its extra
-#: freedom: this is the prior log odds of one pair against one rotor. Measured: the best pair's
-#: excess over the best single rotor on one-propeller flights reaches 4.09 on 72 simulated quads
-#: without a profile (99th percentile 1.7; eta 0.6-0.85, random airframes and presets with
-#: realistic imbalance, three logging rates; benchmarks/bench_two_props.py --measure, seed 21) and
-#: 0.67 with one; on healthy flights 0.50 and -0.76. Above the largest; two-propeller flights of
-#: that set reach a median 2.3 without a profile, 8.6 with one. The real flights of ../shared
-#: (bench_two_props.py --real): at most 0.1 on the 18 healthy ones without a profile, 2.7 on the
-#: healthy cross-session pairs with one-flight profiles (Erle board B), 2.6 on the rrc_straight
-#: cuts against them, 1.3 on CrazyPAD's.
+#: freedom: this is the prior log odds of one pair against one rotor, measured per kind of
+#: baseline since the freedom is worth more where the healthy noise model is cruder. Without a
+#: profile (the command shares against an even split, whose independent per-motor spread
+#: NEIGHBOUR_SHARE_SIGMA does not describe a healthy airframe's structured trim): the best pair's
+#: excess reaches 4.09 on 72 simulated one-propeller quads (99th percentile 1.7; eta 0.6-0.85,
+#: random airframes and presets with realistic imbalance, three logging rates;
+#: benchmarks/bench_two_props.py --measure, seed 21), 0.50 on their healthy twins, 0.1 on the 18
+#: real healthy flights of ../shared, -0.2 on the rrc_straight cuts, -0.6 on px4_sih_dev's
+#: (bench_two_props.py --real). Above the largest.
 PAIR_EXCESS_LLR = 4.5
+#: ... and against a profile: 2.7 on the real healthy cross-session pairs with one-flight
+#: profiles (Erle board B), 2.6 on the rrc_straight cuts against them, 1.3 on CrazyPAD's, 1.0 on
+#: px4_sih_dev's; 0.67 and -0.76 on the simulated one-propeller and healthy flights above. Above
+#: the largest by 0.8. Two-propeller flights of the simulated set reach a median 8.4 (2.3 without
+#: a profile).
+PAIR_EXCESS_PROFILE_LLR = 3.5
 
 
 @dataclass
@@ -430,12 +436,20 @@ def _pairs(results: Sequence[AnalyzerResult], sources: dict, weights: dict, cmd:
     return out, singles_by_source
 
 
-def _pair_posterior(pairs: list[PairDecision], singles_by_source: dict, held: bool) -> tuple[float, np.ndarray]:
+def pair_excess_bar(cmd: Optional[CommandSharesResult]) -> float:
+    """The pair's prior log odds against one rotor for this flight's baseline:
+    ``PAIR_EXCESS_PROFILE_LLR`` against a profile, else ``PAIR_EXCESS_LLR``."""
+    profile = cmd is not None and not cmd.abstained and cmd.baseline == "profile"
+    return PAIR_EXCESS_PROFILE_LLR if profile else PAIR_EXCESS_LLR
+
+
+def _pair_posterior(pairs: list[PairDecision], singles_by_source: dict, held: bool,
+                    bar: float = PAIR_EXCESS_LLR) -> tuple[float, np.ndarray]:
     """(P(the top pair lost thrust), (n,) P(rotor k lost thrust, alone or in a pair)) among
     healthy, each single rotor and each pair, on the footing of the pair step's comparison
     (:func:`_pairs`): the single rotors as in :func:`posterior` (their LLRs floored), each pair
-    with the prior of one rotor times exp(-PAIR_EXCESS_LLR); with the trim sources held their part
-    of every hypothesis is at most TRIM_ONLY_LLR_CAP, as for one rotor."""
+    with the prior of one rotor times exp(-``bar``) (:func:`pair_excess_bar`); with the trim
+    sources held their part of every hypothesis is at most TRIM_ONLY_LLR_CAP, as for one rotor."""
     trim_single = sum((v for src, v in singles_by_source.items() if src in TRIM_SOURCES), np.zeros(1))
     singles = np.sum(list(singles_by_source.values()), axis=0)
     if held:
@@ -450,7 +464,7 @@ def _pair_posterior(pairs: list[PairDecision], singles_by_source: dict, held: bo
         return pd.llr - trim + min(trim, TRIM_ONLY_LLR_CAP)
 
     logits = np.concatenate([[np.log1p(-PRIOR_DAMAGED)], prior_one + np.maximum(singles, MILD_DAMAGE_LLR_FLOOR),
-                             [prior_one - PAIR_EXCESS_LLR + stated(pd) for pd in pairs]])
+                             [prior_one - bar + stated(pd) for pd in pairs]])
     w = np.exp(logits - logits.max())
     w = w / w.sum()
     marginal = w[1:n + 1].copy()
@@ -467,7 +481,8 @@ def _pair_step(pairs: list[PairDecision], singles_by_source: dict, motors: list[
     explain the evidence and no single one does, else None (the single-rotor verdict follows).
 
     The top pair is named when its total reaches ``UNCERTAIN_LLR`` and beats the best single rotor
-    by ``PAIR_EXCESS_LLR``. ``damaged`` needs the single-rotor bars as well (``DAMAGED_LLR``; the
+    by :func:`pair_excess_bar` (``PAIR_EXCESS_LLR``, against a profile ``PAIR_EXCESS_PROFILE_LLR``).
+    ``damaged`` needs the single-rotor bars as well (``DAMAGED_LLR``; the
     next pair ``SEPARATION_LLR`` behind; both command shares risen; against a profile a source
     that does not read the trim agreeing, ``TRIM_FREE_AGREE_LLR``, and the throttle not well
     below calibration); otherwise ``uncertain`` naming both, saying which bar it missed. The
@@ -475,7 +490,8 @@ def _pair_step(pairs: list[PairDecision], singles_by_source: dict, motors: list[
     if not pairs:
         return None
     top = pairs[0]
-    if top.llr < UNCERTAIN_LLR or top.excess < PAIR_EXCESS_LLR:
+    bar = pair_excess_bar(cmd)
+    if top.llr < UNCERTAIN_LLR or top.excess < bar:
         return None
     a, b = top.motors
     names = f"propellers {a} and {b}"
@@ -514,7 +530,7 @@ def _pair_step(pairs: list[PairDecision], singles_by_source: dict, motors: list[
         if thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma:
             why_not.append(f"the throttle is {100 * (1 - thr.ratio):.0f} % lower than at calibration, which rotors that "
                            f"lost thrust cannot do with the same load: re-calibrate after the inspection")
-    confidence, marginal = _pair_posterior(pairs, singles_by_source, pair_held)
+    confidence, marginal = _pair_posterior(pairs, singles_by_source, pair_held, bar)
     for m in motors:  # each rotor's weight: alone or in a pair
         m.weight = float(marginal[m.motor - 1])
     if not why_not:

@@ -233,7 +233,7 @@ def test_two_weak_rotors_named_together_when_a_trim_free_source_agrees():
     assert v.positions == ["front-right", "rear-right"]
     assert "propellers 1 and 4 (front-right and rear-right) lost thrust" in v.reason and "inspect both" in v.reason
     top = d.pairs[0]
-    assert top.motors == (1, 4) and top.excess >= D.PAIR_EXCESS_LLR and top.eta_hat == pytest.approx((0.72, 0.78),
+    assert top.motors == (1, 4) and top.excess >= D.PAIR_EXCESS_PROFILE_LLR and top.eta_hat == pytest.approx((0.72, 0.78),
                                                                                                      abs=0.05)
     # the confidence is that pair's probability; both rotors' weights count it
     assert v.confidence > 0.9 and d.motors[0].weight > 0.9 and d.motors[3].weight > 0.9 and d.motors[1].weight < 0.1
@@ -268,7 +268,7 @@ def test_one_weak_rotor_stays_one():
     eff = _eff(relative_to_others(np.array([1, 1, 0.74, 1]), Frame.quad_x()))
     v, d = decide(u / u.mean(), u.mean() / BASE.mean(), window_probs(3, 0.6), eff=eff)
     assert (v.status, v.motor, v.motors, v.pair) == ("damaged", 3, [3], False)
-    assert d.pairs[0].excess < D.PAIR_EXCESS_LLR
+    assert d.pairs[0].excess < D.PAIR_EXCESS_PROFILE_LLR
     v, d = decide(BASE / BASE.mean(), 1.0, window_probs(0, 0.9), eff=_eff([1.0] * 4))
     assert v.status == "healthy" and v.motors == [] and not v.pair
 
