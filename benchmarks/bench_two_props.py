@@ -73,6 +73,7 @@ def _record(d, truth_motors, **extra) -> dict:
     true_pair = next((pd for pd in (dec.pairs if dec is not None else []) if sorted(pd.motors) == sorted(truth_motors)),
                      None)
     return dict(truth=list(truth_motors), status=v.status, motor=v.motor, motors=list(v.motors), pair=bool(v.pair),
+                inspect=[int(k) for k in getattr(v, "inspect", ()) or ()],
                 model_alone=_model_alone(d),
                 single_best=None if dec is None or not dec.motors else max(m.llr for m in dec.motors),
                 pair_best=None if top is None else top.llr, pair_motors=None if top is None else list(top.motors),
@@ -148,7 +149,10 @@ def _both(r) -> bool:
 
 
 def _one_of(r) -> bool:
-    return r["status"] in ("damaged", "uncertain") and not r["pair"] and bool(set(r["motors"]) & set(r["truth"]))
+    """Not named as a pair, but a damaged or uncertain verdict naming (or sending the pilot to) one
+    of the two damaged propellers."""
+    named = set(r["motors"]) | set(r.get("inspect") or [])
+    return r["status"] in ("damaged", "uncertain") and not r["pair"] and bool(named & set(r["truth"]))
 
 
 def summary(rows: list[dict]) -> None:
