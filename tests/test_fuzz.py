@@ -489,6 +489,9 @@ def test_pyulog_definitions_stall_finds_the_backward_step():
     assert pyulog_definitions_stall(header + ok + bogus) == (16 + 3 + len(fmt), 0xAB, 20_000)
     # a complete corrupt message is stepped over one byte at a time, as pyulog does
     assert pyulog_definitions_stall(header + struct.pack("<HB", 12_000, 0) + bytes(12_000)) is None
+    # zero-filled bytes are jumped over to 2 bytes before the next non-zero one, as pyulog steps:
+    # there [0, 0, "F"] is a format of size 0 (skipped whole), so the bogus message after it is hit
+    assert pyulog_definitions_stall(header + bytes(50) + b"F" + bogus) == (16 + 50 + 1, 0xAB, 20_000)
     # a subscription ends the section before the bogus message is reached
     assert pyulog_definitions_stall(header + ok + struct.pack("<HB", 0, ord("A")) + bogus) is None
     for log in sorted(SAMPLES.glob("*.ulg")):
@@ -527,7 +530,10 @@ def test_pyulog_definitions_stall_agrees_with_pyulog():
     spins = 0
     for seed in range(100):
         rng = random.Random(f"{SEED}:pyulog-stall:{seed}")
-        data = header + rng.randbytes(rng.choice((10, 300, 3_000, 12_000)))
+        data = header + rng.randbytes(rng.choice((10, 300, 3_000, 8_000)))
+        if seed % 2:  # a zero-filled block inside (the check jumps over zero runs)
+            at = rng.randrange(16, len(data))
+            data = data[:at] + bytes(rng.choice((3, 50, 1_000))) + data[at:]
         stall = pyulog_definitions_stall(data)
         try:
             with contextlib.redirect_stdout(io.StringIO()):

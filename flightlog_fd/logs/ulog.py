@@ -229,6 +229,7 @@ PYULOG_CORRUPT_MSG_SIZE = 10000
 _PYULOG_DEFINITION_TYPES = frozenset(b"BFIMPQ")
 _PYULOG_SECTION_END_TYPES = frozenset(b"ALC")
 _FLAG_BITS_BYTES = 40  # compat (8) + incompat (8) + 3 appended-data offsets (8 each)
+_NON_ZERO_BYTE = re.compile(rb"[^\x00]")
 
 
 def pyulog_definitions_stall(data: bytes) -> Optional[tuple[int, int, int]]:
@@ -258,7 +259,11 @@ def pyulog_definitions_stall(data: bytes) -> Optional[tuple[int, int, int]]:
         if kind not in _PYULOG_DEFINITION_TYPES and (kind == 0 or size == 0 or size > PYULOG_CORRUPT_MSG_SIZE):
             if pos + 3 + size > n:
                 return pos, kind, size
-            pos += 1
+            if kind == 0 and size == 0:  # zero-filled bytes: pyulog steps to 2 bytes before the next non-zero one
+                nonzero = _NON_ZERO_BYTE.search(data, pos)
+                pos = max(pos + 1, (nonzero.start() if nonzero else n) - 2)
+            else:
+                pos += 1
             continue
         pos += 3 + size
     return None
