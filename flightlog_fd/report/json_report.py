@@ -1,4 +1,4 @@
-"""JSON report, schema version 5 (``fdlog diagnose --json``).
+"""JSON report, schema version 6 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals; n is the
@@ -7,7 +7,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
 .. code-block:: text
 
     {
-      "schema": 5,
+      "schema": 6,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -16,7 +16,8 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "frame": "quad_x" | "quad_plus" | "hexa_x" | "octo_x" | ... | null,
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
-      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
+      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null,
+                  "sessions": int} | null,             # its calibration sessions (schema 6)
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
                   "motor": 1-n | null,
                   "position": "front-right" | ... | null,
@@ -86,7 +87,8 @@ analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the 
 what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
 own verdict: judged from vibration alone, the log's verdict is its worst flight's; with motor outputs,
 the whole log's, each flight judged from the log's windows and never worse than it) and
-flight-level findings (``motor`` 0: the vibration level).
+flight-level findings (``motor`` 0: the vibration level); schema 6 adds ``profile.sessions`` (how
+many calibration sessions the profile holds).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -100,7 +102,7 @@ from .. import __version__
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -133,9 +135,9 @@ JSON_SCHEMA: dict = {
         "model": {"type": ["object", "null"], "required": ["path", "version", "sha256", "calibrated"],
                   "properties": {"path": _STR_OR_NULL, "version": {"type": "string"},
                                  "sha256": {"type": "string"}, "calibrated": {"type": "boolean"}}},
-        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256"],
+        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256", "sessions"],
                     "properties": {"path": _STR_OR_NULL, "model_path": _STR_OR_NULL,
-                                   "model_sha256": _STR_OR_NULL}},
+                                   "model_sha256": _STR_OR_NULL, "sessions": {"type": "integer", "minimum": 1}}},
         "verdict": {
             "type": "object",
             "required": ["status", "motor", "position", "confidence", "first_seen", "reason"],
@@ -270,7 +272,7 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
 
 
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-5 object for one diagnosis (and, in ``flights``, each flight of its log)."""
+    """The schema-6 object for one diagnosis (and, in ``flights``, each flight of its log)."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
     ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {
@@ -286,7 +288,7 @@ def to_dict(d: Diagnosis) -> dict:
         "model": None if m is None else {"path": m.path, "version": m.version, "sha256": m.sha256,
                                          "calibrated": m.calibrated},
         "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
-                                           "model_sha256": p.model_sha256},
+                                           "model_sha256": p.model_sha256, "sessions": p.sessions},
         "verdict": v.as_dict(),
         "evidence": None if ev is None or ev.n_windows == 0 else {
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),
