@@ -192,9 +192,11 @@ def run(args) -> list[dict]:
     folder = Path(args.profiles)
     folder.mkdir(parents=True, exist_ok=True)
     recs: list[dict] = []
-    paths = ["noadapt"] + ([] if args.no_adapted else ["adapted"])
+    paths = ([] if args.adapted_only else ["noadapt"]) + ([] if args.no_adapted else ["adapted"])
     t0 = time.perf_counter()
     for af in airframes():
+        if args.only and af.name not in args.only.split(","):
+            continue
         n = len(af.healthy)
         cal_sets = [(i,) for i in range(n)] + ([tuple(j for j in range(n) if j != i) for i in range(n)] if n >= 3 else [])
         for path in paths:
@@ -229,7 +231,7 @@ def run(args) -> list[dict]:
                     recs.append(record(docs[str(p)], **meta, kind="damage", truth=motor, group=group))
                 print(f"{name}: {len(rest)} healthy + {len(damaged)} damaged ({time.perf_counter() - t0:.0f} s)",
                       file=sys.stderr, flush=True)
-    for set_name, items in ([] if args.calibrate_only else no_profile_sets()):
+    for set_name, items in ([] if args.calibrate_only or args.only else no_profile_sets()):
         docs = diagnose([p for p, _, _ in items], None, args.jobs)
         for p, motor, group in items:
             recs.append(record(docs[str(p)], airframe=set_name, path="none", profile="", n_cal=0, cal=[],
@@ -445,6 +447,8 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="leave-one-out profiles only on the healthy flights")
     ap.add_argument("--via-add", action="store_true",
                     help="make the --no-adapt leave-one-out profiles with `fdlog calibrate --add` too")
+    ap.add_argument("--adapted-only", action="store_true", help="only the adapted (default `fdlog calibrate`) profiles")
+    ap.add_argument("--only", help="only these airframes (comma-separated names, e.g. rrc_straight,erle_A)")
     ap.add_argument("--calibrate-only", action="store_true", help="only make the profiles (for a later run)")
     ap.add_argument("--jobs", type=int, default=1, help="fdlog diagnose --jobs")
     ap.add_argument("--out", help="write the records (JSON) here")

@@ -347,7 +347,9 @@ def baseline_of_sessions(base: dict, sessions: Sequence[dict]) -> dict:
     spreads, the mean's pinning (root-mean-square of the sessions' over sqrt(S)) and the throttle
     range widened to the sessions'; ``base``'s slope is kept."""
     if len(sessions) < 2:
-        return dict(base, n_sessions=max(len(sessions), 1))
+        # flights grouped as one session: their spread is within a session, not between sessions
+        grouped = {"spread": None, "throttle_spread": None} if sessions and len(sessions[0].get("logs") or []) > 1 else {}
+        return dict(base, n_sessions=max(len(sessions), 1), **grouped)
     shares = np.array([s["share"] for s in sessions], float)
     share = shares.mean(axis=0)
     share = share / share.mean()

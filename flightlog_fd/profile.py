@@ -195,7 +195,7 @@ class Profile:
                             throttle_spread=b.get("throttle_spread"), n_flights=int(b.get("n_flights", 1)),
                             pin=None if b.get("pin") is None else np.asarray(b["pin"], float),
                             throttle_range=_range(b.get("throttle_range")),
-                            sessions=self.session_figures(), n_sessions=self.n_sessions)
+                            sessions=self.session_figures(), n_sessions=len(self.sessions_))
         share = self.rho_ ** 2
         return Baseline(share=share / share.mean(), slope=np.zeros(len(share)), throttle_ref=float(self.hover_throttle_),
                         source="from rho_ (schema 1 profile)")

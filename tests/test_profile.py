@@ -251,4 +251,5 @@ def test_schema_6_sessions_read_back_and_schemas_5_and_4_are_one_session(tmp_pat
         path.write_text(json.dumps(old))
         q = Profile.load(path)
         assert q.n_sessions == 1 and q.sessions_ == [] and q.baseline().sessions is None
+        assert q.baseline().n_sessions == 0  # pooled flights, not sessions
         assert q.to_dict()["schema"] == 6  # read as the current schema, written back as it

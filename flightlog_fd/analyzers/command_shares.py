@@ -98,7 +98,7 @@ class CommandSharesResult(AnalyzerResult):
     pin: Optional[list[float]] = None  # (n,) how well calibration and this flight pin each share (profile only)
     n_flights: Optional[int] = None  # the profile's calibration flights (None without a profile)
     throttle_sigma: Optional[float] = None  # the relative throttle drift against the baseline
-    n_sessions: Optional[int] = None  # the profile's calibration sessions (None without a profile)
+    n_sessions: Optional[int] = None  # the profile's calibration sessions (0: older than schema 6; None: no profile)
 
 
 def _mixer_rows(frame: Optional[Frame], n: int) -> np.ndarray:

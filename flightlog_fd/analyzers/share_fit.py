@@ -79,8 +79,9 @@ class Baseline:
     #: the profile's calibration sessions (:class:`~flightlog_fd.analyzers.session_drift.SessionFigures`)
     #: when it holds two or more: the airframe's own session-to-session drift is weighed then
     sessions: Optional[object] = None
-    #: calibration sessions the profile holds (one flight is one session unless grouped)
-    n_sessions: int = 1
+    #: calibration sessions the profile holds (one flight is one session unless grouped); 0 for a
+    #: profile older than schema 6, whose flights were pooled
+    n_sessions: int = 0
 
     def share_at(self, throttle: float) -> np.ndarray:
         if self.throttle_range is not None:
