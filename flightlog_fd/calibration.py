@@ -12,6 +12,14 @@ command-share baseline, the healthy windows' statistics), then
   needs torch, quadrotors only), stores it beside the profile and fits the analyzers' baselines
   with it.
 
+Sessions: each log is one calibration session (``one_session`` groups them), a ``sessions_`` entry
+(:func:`session_entry`: its shares, throttle, pinning); with two or more the command-share baseline
+is their mean (:func:`baseline_of_sessions`) and the diagnosis weighs the commands against the
+airframe's own session drift (:mod:`flightlog_fd.analyzers.session_drift`). Each session is first
+diagnosed against the others (:func:`check_sessions`) and one that looks damaged is refused.
+:func:`add_sessions` (``fdlog calibrate --add``, the web page's "add" job) adds sessions to an
+existing profile, keeping the previous file.
+
 Logs without per-motor outputs (e.g. ArduPilot logs without RCOU) give a profile of what they
 support: the vibration baseline, with ``lacks_`` naming the rest (no imbalance, command shares,
 throttle, model statistics or adapted model), with and without ``adapt``.

@@ -50,7 +50,7 @@ SESSION_PRIOR_SESSIONS = 0.08
 SESSION_PRIOR_TAU = 1.0
 #: Grid of tau^2 the posterior is held on (log-spaced): 1e-4 (a hundredth of the population
 #: drift) to 1e5 (every share free): the measured airframes' scales lie well inside it.
-TAU2_GRID = np.exp(np.linspace(np.log(1e-4), np.log(1e5), 181))
+TAU2_GRID = np.exp(np.linspace(np.log(1e-4), np.log(1e5), 121))
 
 
 @dataclass
@@ -115,16 +115,18 @@ class SessionDrift:
 
     def loglik(self, resid, thr_resid=None, flight_pin=None) -> np.ndarray:
         """Log density (...) of share residuals ``resid`` (..., n) and, when given, log-throttle
-        residuals ``thr_resid`` (...), under the posterior mixture over tau."""
-        r = np.asarray(resid, float)[..., None, :]  # (..., 1, n)
-        var = self.share_var(flight_pin)  # (G, n)
+        residuals ``thr_resid`` (...), under the posterior mixture over tau (the grid points of
+        negligible posterior weight, below e^-30 of the largest, left out)."""
+        keep = self.log_w > self.log_w.max() - 30.0
+        var = self.share_var(flight_pin)[keep]  # (G', n)
         n = var.shape[1]
-        ll = -0.5 * (np.sum(r ** 2 / var, axis=-1) + (n - 1) / n * np.sum(np.log(2 * np.pi * var), axis=-1))
+        r = np.asarray(resid, float)
+        ll = -0.5 * ((r ** 2) @ (1.0 / var).T + (n - 1) / n * np.sum(np.log(2 * np.pi * var), axis=-1))
         if thr_resid is not None:
-            vt = self.throttle_var()
+            vt = self.throttle_var()[keep]
             t = np.asarray(thr_resid, float)[..., None]
             ll = ll - 0.5 * (t ** 2 / vt + np.log(2 * np.pi * vt))
-        return logsumexp(ll + self.log_w, axis=-1)
+        return logsumexp(ll + self.log_w[keep], axis=-1)
 
     def chi2_equivalent(self, resid, thr_resid=None, flight_pin=None) -> float:
         """The chi-square (n - 1 degrees of freedom, n with the throttle) with the same tail
@@ -153,8 +155,9 @@ class SessionDrift:
 
     def tau_median(self) -> float:
         """Posterior median of tau (1 = the population drift)."""
-        cdf = np.cumsum(np.exp(self.log_w))
-        return float(np.sqrt(self.tau2[min(int(np.searchsorted(cdf, 0.5)), len(cdf) - 1)]))
+        w = np.exp(self.log_w)
+        cdf = np.cumsum(w) - 0.5 * w  # each grid point at the middle of its mass
+        return float(np.exp(0.5 * np.interp(0.5, cdf, np.log(self.tau2))))
 
 
 def session_loglik(sessions: SessionFigures, share_scale: float, throttle_scale: float,
