@@ -125,17 +125,25 @@ def x500(tmp_path_factory):
     d = tmp_path_factory.mktemp("x500")
     out = {}
     for name, extra in (("healthy2.ulg", ["--seed", "5"]), ("m2.ulg", ["--seed", "6", "--motor", "2", "--eta", "0.6"])):
-        r = runner.invoke(app, ["simulate", "-o", str(d / name), "--duration", "40", *extra])
+        r = runner.invoke(app, ["simulate", "-o", str(d / name), "--duration", "30", *extra])
         assert r.exit_code == 0, r.output
         out[name] = d / name
     return out
 
 
-def test_calibrate_add_adds_a_session_and_keeps_the_previous_profile(tmp_path, x500):
-    prof = tmp_path / "x500.json"
+@pytest.fixture(scope="module")
+def one_session(tmp_path_factory):
+    """The bytes of a `--no-adapt` profile of the sample x500's healthy flight (one session)."""
+    prof = tmp_path_factory.mktemp("one") / "x500.json"
     r = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / "px4_healthy.ulg"), "-o", str(prof)])
     assert r.exit_code == 0, r.output
-    assert "1 calibration session" in r.output
+    assert "1 calibration session: one session cannot show" in r.output
+    return prof.read_bytes()
+
+
+def test_calibrate_add_adds_a_session_and_keeps_the_previous_profile(tmp_path, x500, one_session):
+    prof = tmp_path / "x500.json"
+    prof.write_bytes(one_session)
     before = prof.read_bytes()
     r = runner.invoke(app, ["calibrate", "--add", str(prof), str(x500["healthy2.ulg"])])
     assert r.exit_code == 0, r.output
@@ -165,11 +173,11 @@ def test_calibrate_add_adds_a_session_and_keeps_the_previous_profile(tmp_path, x
     assert "2 calibration sessions" in html.read_text()
 
 
-def test_calibrate_add_refuses_a_session_that_looks_damaged(tmp_path, x500):
+def test_calibrate_add_refuses_a_session_that_looks_damaged(tmp_path, x500, one_session):
     """A flight with propeller 2 at 60 % thrust added as a session: refused with one line and exit
     2, the profile untouched and no copy made, so the damage is not calibrated away."""
     prof = tmp_path / "x500.json"
-    assert runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / "px4_healthy.ulg"), "-o", str(prof)]).exit_code == 0
+    prof.write_bytes(one_session)
     before = prof.read_bytes()
     r = runner.invoke(app, ["calibrate", "--add", str(prof), str(x500["m2.ulg"])])
     assert r.exit_code == 2, r.output
@@ -186,13 +194,23 @@ def test_calibrate_add_refuses_a_session_that_looks_damaged(tmp_path, x500):
     assert not out.exists()
 
 
-def test_each_log_is_a_session_unless_grouped_and_bad_arguments(tmp_path, x500):
+def test_each_log_is_a_session_unless_grouped_and_bad_arguments(tmp_path, x500, one_session):
     logs = [str(SAMPLES / "px4_healthy.ulg"), str(x500["healthy2.ulg"])]
     two, one = tmp_path / "two.json", tmp_path / "one.json"
     r = runner.invoke(app, ["calibrate", "--no-adapt", *logs, "-o", str(two)])
     assert r.exit_code == 0, r.output
     assert "2 calibration sessions: session-to-session drift of this airframe" in r.output
     assert len(json.loads(two.read_text())["sessions_"]) == 2
+    # the same sessions by adding the second log later
+    added = tmp_path / "added.json"
+    added.write_bytes(one_session)
+    assert runner.invoke(app, ["calibrate", "--add", str(added), logs[1]]).exit_code == 0
+    a, b = json.loads(two.read_text()), json.loads(added.read_text())
+    for key in ("share", "throttle", "pin", "seconds"):
+        assert [x[key] for x in a["sessions_"]] == [x[key] for x in b["sessions_"]]
+    for key in ("share", "throttle_ref", "spread", "pin", "n_sessions"):
+        assert a["baseline_"][key] == pytest.approx(b["baseline_"][key], abs=1e-12)
+    assert np.allclose(a["analyzers"]["model"]["sessions"], b["analyzers"]["model"]["sessions"], atol=1e-9)
     r = runner.invoke(app, ["calibrate", "--no-adapt", "--one-session", *logs, "-o", str(one)])
     assert r.exit_code == 0, r.output
     d = json.loads(one.read_text())
@@ -204,10 +222,9 @@ def test_each_log_is_a_session_unless_grouped_and_bad_arguments(tmp_path, x500):
         assert r.exit_code == 2 and words in r.output and len(r.output.strip().splitlines()) == 1, r.output
 
 
-def test_a_schema_5_profile_is_one_session_and_takes_more(tmp_path, x500):
+def test_a_schema_5_profile_is_one_session_and_takes_more(tmp_path, x500, one_session):
     prof = tmp_path / "old.json"
-    assert runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / "px4_healthy.ulg"), "-o", str(prof)]).exit_code == 0
-    d = json.loads(prof.read_text())
+    d = json.loads(one_session)
     d.pop("sessions_")
     d["schema"] = 5
     prof.write_text(json.dumps(d))
