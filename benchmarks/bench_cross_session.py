@@ -208,8 +208,12 @@ def run(args) -> list[dict]:
                     continue
                 base, logs = None, [af.healthy[i] for i in cal]
                 if len(cal) >= 2 and (path == "adapted" or args.via_add):
-                    base, why = calibrate(f"{af.name}_{cal[0] + 1}_{path}", logs[:1], folder, path == "adapted")
-                    logs = logs[1:]
+                    # the first flight that calibrates alone, the others added to it as sessions
+                    for i in cal:
+                        base, why = calibrate(f"{af.name}_{i + 1}_{path}", [af.healthy[i]], folder, path == "adapted")
+                        if base is not None:
+                            logs = [af.healthy[j] for j in cal if j != i]
+                            break
                     if base is None:
                         recs.append({"airframe": af.name, "path": path, "profile": name, "n_cal": len(cal),
                                      "cal": [af.healthy[i].name for i in cal], "kind": "refused", "log": None,

@@ -138,7 +138,7 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
                           base_model=None if base_model is None else Path(base_model), progress=progress)
         profile.extra = {**(profile.extra or {}), "adaptation": res.summary}
         profile.set_model(out_onnx, profile_path=out)
-        profile.fit_analyzers(flights, FaultModel(out_onnx), sessions=groups)
+        profile.fit_analyzers(flights, FaultModel(out_onnx), sessions=groups, adapted_on=True)
     if part is not None:
         profile.extra = {**(profile.extra or {}), "flight": part}
     if out is not None:
@@ -516,8 +516,10 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
     sha = str(getattr(model, "sha256", ""))
     if votes and votes.get("model_sha256") == sha:
         earlier = [{"model_sha256": sha, "healthy_mean": m} for m in (votes.get("sessions") or [votes["healthy_mean"]])]
+        seen = list(votes.get("sessions_seen") or [bool(profile.model)] * len(earlier))
         added = [ModelVotes().fit_baseline(g, model) for g in groups]
-        profile.analyzers = {**profile.analyzers, "model": combine_sessions(earlier + [a for a in added if a])}
+        profile.analyzers = {**profile.analyzers, "model": combine_sessions(earlier + added,
+                                                                            seen + [False] * len(added))}
     changes = _session_changes(old_base, profile.baseline_, new, votes, profile.analyzers.get("model"), sessions,
                                n_before)
     previous = _keep_previous(src, n_before) if keep_previous else None

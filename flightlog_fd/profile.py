@@ -144,11 +144,11 @@ class Profile:
             "sessions_": list(self.sessions_),
         }
 
-    def fit_analyzers(self, flights, model, sessions=None) -> None:
+    def fit_analyzers(self, flights, model, sessions=None, adapted_on: bool = False) -> None:
         """Fit every registered analyzer's healthy baseline on the calibration ``flights`` with
         the profile's ``model`` (the adapted one, or the shipped one with --no-adapt); the model
         votes' per session (``sessions``: the flights' indices grouped as ``sessions_``; default
-        one per flight)."""
+        one per flight; ``adapted_on``: the model was adapted on these flights)."""
         from .analyzers import REGISTRY, fit_baselines
         from .analyzers.model_votes import ModelVotes, combine_sessions
 
@@ -157,7 +157,7 @@ class Profile:
         groups = sessions if sessions is not None else [[i] for i in range(len(flights))]
         for a in votes:
             each = [a.fit_baseline([flights[i] for i in g], model) for g in groups]
-            combined = combine_sessions([e for e in each if e is not None])
+            combined = combine_sessions(each, [adapted_on] * len(each))
             if combined is not None:
                 self.analyzers = {a.id: combined, **self.analyzers}
 

@@ -156,6 +156,7 @@ def test_calibrate_add_adds_a_session_and_keeps_the_previous_profile(tmp_path, x
     assert [e["name"] for e in d["source_logs"]] == ["px4_healthy.ulg", "healthy2.ulg"]
     assert [e["name"] for s in d["sessions_"] for e in s["logs"]] == ["px4_healthy.ulg", "healthy2.ulg"]
     assert len(d["analyzers"]["model"]["sessions"]) == 2 and d["analyzers"]["model"]["n_flights"] == 2
+    assert d["analyzers"]["model"]["sessions_seen"] == [False, False]  # the shipped model saw neither
     assert np.allclose(d["baseline_"]["share"], np.mean([s["share"] for s in d["sessions_"]], axis=0), atol=1e-6)
     # the same log twice is refused, and nothing is written
     after = prof.read_bytes()
