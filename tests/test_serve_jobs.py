@@ -219,6 +219,7 @@ def test_calibration_jobs_keep_the_airframes_sessions(tmp_path):
         r = c.post("/airframe/calibrate", headers=AUTH, data={"key": key, "mode": "add"})
         assert r.status_code == 400 and "already a session" in r.text
         bad = wait_done(c, upload(c, again("px4_motor1_damaged.ulg", key, tmp_path / "m1.ulg")).json()["id"])["id"]
+        assert "airframe profile, 2 calibration sessions" in c.get(f"/flights/{bad}").text  # diagnosed with it
         job = calibrate(bad, "add")
         assert job["state"] == "error" and "looks damaged against the 2 sessions" in job["error"], job["error"]
         assert store.airframes()[key]["profile_path"] == p2 and len(store.calibration_sessions(key)) == 2
