@@ -12,7 +12,9 @@ Pipeline (every step documented where it is implemented):
    touchdown transients are not what the model was trained on). Grid points are integer
    multiples of ``1 / rate_hz`` on the log's clock, so the same log always gives the same grid.
    - **Gaps**: a stream has a gap between two consecutive samples when they are further apart
-     than ``min(max_gap_s, GAP_FACTOR x its median sample interval)``. No value is ever
+     than ``min(max_gap_s, GAP_FACTOR x the longer of its median sample interval and the grid's
+     interval)`` (:func:`grid_gap_s`: a stream logged faster than the grid that misses a few
+     samples between two grid points still gives the grid all it keeps). No value is ever
      interpolated across a gap in ANY needed stream: the airborne interval is split there into
      separate :class:`Segment` s, and no window crosses a segment boundary. NaN samples count as
      missing (they create gaps), and so do samples beyond ``MAX_ABS_SAMPLE`` (a flipped exponent
@@ -249,6 +251,28 @@ def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     return Stream(t, v, 0.0)
 
 
+def grid_gap_s(stream: Stream, rate_hz: float, max_gap_s: float) -> float:
+    """The gap threshold of ``stream`` put on a grid at ``rate_hz``: ``GAP_FACTOR`` times the
+    longer of its own median sample interval and the grid's interval, at most ``max_gap_s``.
+
+    Why the grid's interval: a hole no longer than a few grid steps loses nothing the grid keeps
+    that a stream logged at the grid's rate would have given (a 10 Hz motor stream is bridged over
+    350 ms). A logger that drops messages under load (ArduPilot fast logging, ``DSF.Dp``) leaves
+    holes of 2-16 samples in its 400 Hz streams; judged by its own interval (8.75 ms), ArduCopter
+    4.7 SITL ``healthy_fastlog.BIN`` (126,941 dropped messages, 1,569 IMU intervals over 8.75 ms,
+    the longest 40 ms) was cut into stretches of at most 1.3 s and refused."""
+    own = GAP_FACTOR * float(stream.median_dt if stream.median_dt is not None else
+                             (np.median(np.diff(stream.t)) if len(stream.t) > 1 else 0.0))
+    return min(max_gap_s, max(own, GAP_FACTOR / rate_hz))
+
+
+def at_grid_rate(stream: Stream, rate_hz: float, max_gap_s: float) -> Stream:
+    """``stream`` (same arrays) with the gap threshold :func:`grid_gap_s` for a grid at ``rate_hz``."""
+    if len(stream.t) < 2:
+        return stream
+    return Stream(stream.t, stream.v, grid_gap_s(stream, rate_hz, max_gap_s), stream.median_dt)
+
+
 def _intersect_sorted(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
     """Overlaps of two time-ordered lists of disjoint closed intervals (one linear merge)."""
     out, i, j = [], 0, 0
@@ -399,11 +423,13 @@ def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savg
     ``attitude``); :func:`flightlog_fd.prepared.resample` calls it once per setting."""
     flight = prep.flight
     _check_streams(flight, need_attitude, n_motors)
-    rates = prep.clean("rates", max_gap_s, 3)
+    rates = at_grid_rate(prep.clean("rates", max_gap_s, 3), rate_hz, max_gap_s)
     speed, source = prep.speed_stream(speed_source, rate_hz, max_gap_s, n_motors)
-    motors = prep.clean("motors", max_gap_s, n_motors)
+    speed = at_grid_rate(speed, rate_hz, max_gap_s)
+    motors = at_grid_rate(prep.clean("motors", max_gap_s, n_motors), rate_hz, max_gap_s)
     # Unwrapped (after NaNs are gone) so interpolation between +179 and -179 deg avoids 0.
     attitude = prep.attitude(max_gap_s)
+    attitude = at_grid_rate(attitude, rate_hz, max_gap_s) if attitude is not None else None
     needed = [rates, speed, motors] + ([attitude] if need_attitude else [])
 
     # Fine grid for the derivative: an integer multiple of the model rate, so that every model
