@@ -7,16 +7,151 @@ simulator) happen inside the commands that need them, so `fdlog diagnose` runs w
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 from typing import List, Optional
 
 import typer
 from rich.console import Console
+from typer.core import TyperGroup
 
 from .errors import FlightLogError, NotALogError
 
+#: typer.rich_utils imports these at its top but uses them only for markdown help text and
+#: pretty tracebacks, neither of which fdlog uses; with pygments and markdown_it they were 0.05 s
+#: of the 0.17 s CPU of `fdlog --help` (python -X importtime and process CPU, 2026-11-26).
+_TYPER_HELP_UNUSED = (("rich.markdown", "Markdown"), ("rich.traceback", "Traceback"))
+#: The command-line values typer would hand to pydantic that Python's own int()/float() read to
+#: the same number (pydantic is 0.1 s CPU of every command's start); anything else goes to typer.
+_PLAIN_INT = re.compile(r"-?(0|[1-9][0-9]*)")
+_PLAIN_FLOAT = re.compile(r"-?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][-+]?[0-9]+)?")
+_NOT_PLAIN = object()
+
+
+def _deferred_class(module: str, name: str) -> type:
+    """A stand-in for class ``module.name`` that imports the real module when it is called or
+    an attribute of it is read, and returns the real class's objects."""
+    import importlib
+
+    def real():
+        return getattr(importlib.import_module(module), name)
+
+    class _Deferred(type):
+        def __getattr__(cls, attr):
+            return getattr(real(), attr)
+
+    return _Deferred(name, (), {"__new__": lambda cls, *a, **k: real()(*a, **k)})
+
+
+def _import_typer_help() -> None:
+    """Import typer's help renderer (typer.rich_utils) without the modules it does not use for
+    fdlog's help (:data:`_TYPER_HELP_UNUSED`): while it imports, those are stand-in modules whose
+    classes load the real ones on first use; they leave ``sys.modules`` right after, so a later
+    ``import rich.traceback`` gets the real module. A typer that needs more from them is imported
+    whole."""
+    import types
+
+    if "typer.rich_utils" in sys.modules:
+        return
+    placed = {}
+    for module, name in _TYPER_HELP_UNUSED:
+        if module not in sys.modules:
+            stand_in = types.ModuleType(module)
+            setattr(stand_in, name, _deferred_class(module, name))
+            sys.modules[module] = placed[module] = stand_in
+    try:
+        import typer.rich_utils  # noqa: F401
+    except ImportError:
+        sys.modules.pop("typer.rich_utils", None)
+    finally:
+        for module, stand_in in placed.items():
+            if sys.modules.get(module) is stand_in:
+                del sys.modules[module]
+    import typer.rich_utils  # noqa: F401,F811  (a no-op unless the import above failed)
+
+
+def _plain_value(annotation, info, value, param, ctx):
+    """``value`` coerced as typer would for the plain types fdlog's options use (str, int, float,
+    Path, lists of them), or :data:`_NOT_PLAIN` for anything else (typer then does it, with its
+    own messages)."""
+    if getattr(annotation, "__origin__", None) is list and isinstance(value, (list, tuple)):
+        (item,) = annotation.__args__
+        out = [_plain_value(item, info, v, param, ctx) for v in value]
+        return _NOT_PLAIN if any(v is _NOT_PLAIN for v in out) else out
+    if info.parser is not None or getattr(info, "clamp", False):
+        return _NOT_PLAIN
+    if annotation in (str, bool):
+        return value if type(value) is annotation else _NOT_PLAIN
+    if annotation is Path and info.path_type is None:
+        if not isinstance(value, (str, Path)) or value == "":
+            return _NOT_PLAIN
+        from typer._param_types import coerce_cli_path
+
+        return coerce_cli_path(Path(value), info, path_type=Path, param=param, ctx=ctx)
+    if annotation in (int, float):
+        if isinstance(value, str):
+            if not (_PLAIN_INT if annotation is int else _PLAIN_FLOAT).fullmatch(value):
+                return _NOT_PLAIN
+            number = annotation(value)
+        elif isinstance(value, (int, float)) and not isinstance(value, bool) and (annotation is float or isinstance(value, int)):
+            number = annotation(value)
+        else:
+            return _NOT_PLAIN
+        if (info.min is not None and number < info.min) or (info.max is not None and number > info.max):
+            return _NOT_PLAIN  # out of range: typer says so
+        return number
+    return _NOT_PLAIN
+
+
+def _use_plain_coercion(params) -> None:
+    """Give each of a command's ``params`` a coercion that reads plain values without importing
+    pydantic (typer >= 0.2x builds a pydantic TypeAdapter for every parameter of the command that
+    runs); any other value is passed to typer's own coercion, so results and messages are
+    typer's. Does nothing on a typer without this machinery."""
+    try:
+        from dataclasses import dataclass
+
+        from typer._coercion import RuntimeParam, build_runtime_param
+    except ImportError:  # pragma: no cover - another typer
+        return
+
+    @dataclass(frozen=True)
+    class PlainRuntimeParam(RuntimeParam):
+        descriptor: object = None
+
+        def _coerce_value(self, value, param, ctx):
+            out = _plain_value(self.annotation, self.parameter_info, value, param, ctx)
+            if out is _NOT_PLAIN:
+                out = build_runtime_param(self.descriptor)._coerce_value(value, param=param, ctx=ctx)
+            return out
+
+    for p in params:
+        descriptor = getattr(p, "type_descriptor", None)
+        if descriptor is not None and getattr(p, "_runtime_param", 0) is None and descriptor.file_annotation is None:
+            p._runtime_param = PlainRuntimeParam(parameter_info=descriptor.parameter_info,
+                                                 annotation=descriptor.annotation, descriptor=descriptor)
+
+
+class _FdlogGroup(TyperGroup):
+    """typer's group, starting faster: help without typer's unused imports, commands without
+    pydantic (see :func:`_import_typer_help`, :func:`_use_plain_coercion`)."""
+
+    def parse_args(self, ctx, args):
+        if not args or set(args) & set(ctx.help_option_names):
+            _import_typer_help()
+        _use_plain_coercion(self.get_params(ctx))
+        return super().parse_args(ctx, args)
+
+    def resolve_command(self, ctx, args):
+        name, command, rest = super().resolve_command(ctx, args)
+        if command is not None:
+            _use_plain_coercion(command.get_params(ctx))
+        return name, command, rest
+
+
 app = typer.Typer(
+    cls=_FdlogGroup,
     help="Offline propeller-fault diagnosis for multirotor flight logs (PX4 ULog, ArduPilot DataFlash).",
     no_args_is_help=True,
     add_completion=False,
