@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 from .errors import FlightLogError
 from .flight import Flight
-from .prepared import PreparedFlight, resample
+from .prepared import PreparedFlight, segment_times
 from .stopped import diagnose_stopped
 
 #: Below this the derivative of the gyro no longer resolves a quad's attitude dynamics (a few Hz).
@@ -121,15 +121,15 @@ def _stretch_reason(prep: PreparedFlight, spec: dict | None, n_motors: int) -> s
 
     try:
         fs = FeatureSpec.from_dict(spec) if spec else FeatureSpec(n_motors=n_motors)
-        segments = resample(prep, fs.rate_hz, fs.max_gap_s, fs.trim_s, fs.savgol_window_s,
-                            need_attitude=fs.features == "cf", speed_source=fs.speed_source, n_motors=fs.n_motors)
+        times = segment_times(prep, fs.rate_hz, fs.max_gap_s, fs.trim_s, fs.savgol_window_s,
+                              need_attitude=fs.features == "cf", speed_source=fs.speed_source, n_motors=fs.n_motors)
     except FlightLogError as e:
         return e.message
     except ValueError:  # a malformed spec is the model's problem, reported where the model is read
         return None
-    t0, t1 = window_spans(segments, fs)
+    t0, t1 = window_spans(times, fs)
     if t0.size == 0:
-        return no_window_reason(prep.flight, segments, fs)
+        return no_window_reason(prep.flight, times, fs)
     return shortfall(int(t0.size), covered_seconds(t0, t1))
 
 

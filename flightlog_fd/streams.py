@@ -416,11 +416,33 @@ def _check_n_rotor_frame(flight: Flight, n_motors: int) -> None:
                                                    f"{frame.name} with {frame.rotor_count} rotors")
 
 
-def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
-                     need_attitude: bool, speed_source: str, n_motors: int) -> list[Segment]:
-    """Gap-free airborne segments on the grid (module docstring) from ``prep``'s cleaned streams
+@dataclass
+class GridRuns:
+    """Where the airborne grid has gap-free data (module docstring), before any value is
+    interpolated or filtered: the streams on the grid, the fine-grid factor ``k`` (fine rate
+    ``fine_hz``), the Savitzky-Golay length ``n_sg`` and, per future segment, its fine-grid times
+    and indices (``runs``)."""
+
+    rates: Stream
+    speed: Stream
+    source: str
+    motors: Stream
+    attitude: Optional[Stream]
+    k: int
+    fine_hz: float
+    n_sg: int
+    runs: list[tuple[np.ndarray, np.ndarray]]
+
+    def times(self) -> list[np.ndarray]:
+        """Each segment's model-grid times (what :func:`resample_streams` gives as ``Segment.t``)."""
+        return [j[(j % self.k) == 0] / self.fine_hz for _, j in self.runs]
+
+
+def grid_runs(prep, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
+              need_attitude: bool, speed_source: str, n_motors: int) -> GridRuns:
+    """The gap-free airborne runs of the grid (:class:`GridRuns`) from ``prep``'s cleaned streams
     (a :class:`~flightlog_fd.prepared.PreparedFlight`: ``flight``, ``clean``, ``speed_stream``,
-    ``attitude``); :func:`flightlog_fd.prepared.resample` calls it once per setting."""
+    ``attitude``): what decides the segments, without the filters (`fdlog info` needs no more)."""
     flight = prep.flight
     _check_streams(flight, need_attitude, n_motors)
     rates = at_grid_rate(prep.clean("rates", max_gap_s, 3), rate_hz, max_gap_s)
@@ -447,7 +469,7 @@ def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savg
         raise NotDiagnosableError(flight.path, f"the streams cover {covered_s / 3600:.0f} h: no flight log spans "
                                                f"more than {MAX_GRID_S / 3600:.0f} h (damaged timestamps?)")
 
-    segments: list[Segment] = []
+    runs = []
     for a, b in sorted(flight.airborne):
         t0, t1 = a + trim_s, b - trim_s
         if t1 <= t0:
@@ -461,21 +483,33 @@ def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savg
         for lo, hi in _split_at_jumps(_runs(ok), j):
             if hi - lo < n_sg:
                 continue
-            tf_run, j_run = tf[lo:hi], j[lo:hi]
-            on_grid = (j_run % k) == 0
-            if np.count_nonzero(on_grid) < 2:
+            if np.count_nonzero((j[lo:hi] % k) == 0) < 2:
                 continue
-            w_fine = rates.interp(tf_run)
-            dt = 1.0 / fine_hz
-            # the filters' values at the grid samples only (the fine samples between are dropped)
-            keep = np.flatnonzero(on_grid)
-            smooth = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=0)
-            dwdt = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=1, delta=dt)
-            tg = j_run[on_grid] / fine_hz
-            att = (attitude.interp(tg) if attitude is not None else np.full((tg.size, 2), np.nan))
-            att = (att + np.pi) % (2 * np.pi) - np.pi
-            segments.append(Segment(t=tg, rates=smooth, attitude=att, motors=motors.interp(tg),
-                                    w_sq=speed.interp(tg), ang_acc=dwdt, speed_source=source))
+            runs.append((tf[lo:hi], j[lo:hi]))
+    return GridRuns(rates, speed, source, motors, attitude, k, fine_hz, n_sg, runs)
+
+
+def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
+                     need_attitude: bool, speed_source: str, n_motors: int) -> list[Segment]:
+    """Gap-free airborne segments on the grid (module docstring) from ``prep``'s
+    :func:`grid_runs`; :func:`flightlog_fd.prepared.resample` calls it once per setting."""
+    g = prep.grid_runs(rate_hz, max_gap_s, trim_s, savgol_window_s, need_attitude, speed_source, n_motors)
+    rates, speed, source, motors, attitude = g.rates, g.speed, g.source, g.motors, g.attitude
+    k, fine_hz, n_sg = g.k, g.fine_hz, g.n_sg
+    segments: list[Segment] = []
+    for tf_run, j_run in g.runs:
+        on_grid = (j_run % k) == 0
+        w_fine = rates.interp(tf_run)
+        dt = 1.0 / fine_hz
+        # the filters' values at the grid samples only (the fine samples between are dropped)
+        keep = np.flatnonzero(on_grid)
+        smooth = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=0)
+        dwdt = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=1, delta=dt)
+        tg = j_run[on_grid] / fine_hz
+        att = (attitude.interp(tg) if attitude is not None else np.full((tg.size, 2), np.nan))
+        att = (att + np.pi) % (2 * np.pi) - np.pi
+        segments.append(Segment(t=tg, rates=smooth, attitude=att, motors=motors.interp(tg),
+                                w_sq=speed.interp(tg), ang_acc=dwdt, speed_source=source))
     return segments
 
 
