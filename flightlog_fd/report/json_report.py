@@ -1,4 +1,4 @@
-"""JSON report, schema version 5 (``fdlog diagnose --json``).
+"""JSON report, schema version 6 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals; n is the
@@ -7,7 +7,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
 .. code-block:: text
 
     {
-      "schema": 5,
+      "schema": 6,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -22,7 +22,12 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                   "position": "front-right" | ... | null,
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
-                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ..."},
+                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
+                  "cause": "propeller" | "motor_or_esc" | null,   # the named rotor's likely cause
+                  "cause_evidence": {"motor": 1-n,                # null when no rotor is named
+                                     "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
+                                     "rpm_per_command": % | null, "current_per_rpm2": % | null,
+                                     "reason": str} | null},      # why that cause, or why none
       "evidence": {"n_windows": int, "covered_s": float,
                    "share": [healthy, m1, ..., mn],   # smoothed votes, 0..1
                    "abstained": 0-1} | null,
@@ -86,7 +91,9 @@ analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the 
 what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
 own verdict: judged from vibration alone, the log's verdict is its worst flight's; with motor outputs,
 the whole log's, each flight judged from the log's windows and never worse than it) and
-flight-level findings (``motor`` 0: the vibration level).
+flight-level findings (``motor`` 0: the vibration level); schema 6 adds ``verdict.cause`` and
+``verdict.cause_evidence`` (:mod:`flightlog_fd.cause`: with ESC telemetry, whether the named rotor's
+propeller or its motor / ESC lost the thrust; null and the reason when the log cannot tell).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -100,7 +107,7 @@ from .. import __version__
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -138,7 +145,8 @@ JSON_SCHEMA: dict = {
                                    "model_sha256": _STR_OR_NULL}},
         "verdict": {
             "type": "object",
-            "required": ["status", "motor", "position", "confidence", "first_seen", "reason"],
+            "required": ["status", "motor", "position", "confidence", "first_seen", "reason", "cause",
+                         "cause_evidence"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
@@ -146,6 +154,12 @@ JSON_SCHEMA: dict = {
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
+                "cause": {"enum": ["propeller", "motor_or_esc", None]},
+                "cause_evidence": {"type": ["object", "null"],
+                                   "required": ["motor", "llr", "rpm_per_command", "current_per_rpm2", "reason"],
+                                   "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                                  "llr": _NUM_OR_NULL, "rpm_per_command": _NUM_OR_NULL,
+                                                  "current_per_rpm2": _NUM_OR_NULL, "reason": {"type": "string"}}},
             },
         },
         "evidence": {"type": ["object", "null"], "required": ["n_windows", "covered_s", "share", "abstained"],
@@ -270,7 +284,7 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
 
 
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-5 object for one diagnosis (and, in ``flights``, each flight of its log)."""
+    """The schema-6 object for one diagnosis (and, in ``flights``, each flight of its log)."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
     ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {
