@@ -397,7 +397,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         return done("uncertain", None, w[kb],
                     f"{_words(frame, kb)} needs {rise:.0f} % more command than at calibration"
                     + (f" (if its propeller were the cause, it {sev})" if sev else "")
-                    + f": {inspect}; if it is sound, the load moved (battery, payload, centre of mass): "
+                    + f": {inspect}; if nothing is found, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
                       f"(log-likelihood ratio, nats): {parts}", cause)
     if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
@@ -426,7 +426,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                       f"{DAMAGED_LLR:.0f}); {evidence_words(kb)}; {inspect}")
             named = cause
             if cmd is not None and cmd.baseline == "profile":
-                reason += "; if it is sound, the load moved since calibration (battery, payload): re-calibrate"
+                reason += "; if nothing is found, the load moved since calibration (battery, payload): re-calibrate"
         if airframe_changed:
             reason += f"; also {airframe_changed}: after the inspection, re-calibrate"
         return done("uncertain", None, confidence, reason, named)
