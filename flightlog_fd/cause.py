@@ -31,9 +31,10 @@ from .analyzers.esc import ANALYZER_ID as ESC_ID
 from .analyzers.esc import NO_ESC
 
 #: |cause LLR| (nats) from which a cause is stated: e^3 = 20 to 1. Measured
-#: (`benchmarks/bench_esc.py --causes`, see its threshold sweep): on simulated damaged
-#: propellers and weak motors at eta 0.6-0.9 and 10/50/100 Hz ESC telemetry, no flight's cause
-#: LLR lay beyond 3 nats on the wrong side; the weakest right ones (eta 0.9, 10 Hz) lie at 4-8.
+#: (`benchmarks/bench_esc.py --causes --per-cell 6 --seed 2026`): on 144 simulated damaged
+#: propellers and weak motors (eta 0.6-0.9, ESC at 10/50/100 Hz, random airframes 30 g-5 kg) no
+#: cause LLR lay beyond 1 nat on the wrong side, and the lowest toward the truth were +4.1
+#: (propeller) and +3.8 (motor, eta 0.9); the ArduCopter SITL weak motor: +277.
 CAUSE_LLR = 3.0
 CAUSES = ("propeller", "motor_or_esc")
 

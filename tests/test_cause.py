@@ -143,3 +143,9 @@ def test_a_weak_motor_does_not_make_its_neighbours_look_like_damaged_propellers(
     assert rpm[2] < -10 and a.cause_llr[2] > 20 and a.decision_llr[2] > 20
     for k in (1, 3, 4):
         assert abs(rpm[k]) < 3.0 and a.decision_llr[k] < 1.0, (k, rpm, a.decision_llr)
+
+
+def test_simulate_refuses_an_unknown_cause_in_one_line(tmp_path):
+    res = runner.invoke(app, ["simulate", "-o", str(tmp_path / "x.ulg"), "--motor", "1", "--cause", "esc"])
+    assert res.exit_code == 2 and "--cause must be one of propeller, motor" in res.output
+    assert "Traceback" not in res.output and not (tmp_path / "x.ulg").exists()
