@@ -245,11 +245,6 @@ def diagnose(
 
     Exit code: 0 every log healthy, 1 damage found or uncertain, 2 invalid input or not diagnosable.
     """
-    from .batch import run_batch
-    from .diagnose import resolve_model
-    from .profile import Profile
-    from .report import terminal
-
     for out in (csv_out, html_out):
         if out is not None and out.exists() and not force:
             _fail(f"{out}: already exists (use --force to overwrite)")
@@ -263,19 +258,35 @@ def diagnose(
         if not errors:
             _fail("no log files found in " + ", ".join(str(p) for p in logs))
         raise typer.Exit(EXIT_INVALID)
+    raise typer.Exit(_diagnose_files(files, bool(errors), profile=profile, model=model, as_json=as_json,
+                                     csv_out=csv_out, html_out=html_out, windows=windows, jobs=jobs,
+                                     scheduler=scheduler, db=db))
+
+
+def _diagnose_files(files: list, had_errors: bool, *, profile: Optional[Path], model: Optional[Path] = None,
+                    as_json: bool = False, csv_out: Optional[Path] = None, html_out: Optional[Path] = None,
+                    windows: bool = False, jobs: Optional[int] = None, scheduler: Optional[str] = None,
+                    db: Optional[str] = None) -> int:
+    """Diagnose ``files`` and print / write the reports: `fdlog diagnose`'s work after it found the
+    logs, shared with `fdlog pull`. Returns the exit code (``had_errors``: some input already failed)."""
+    from .batch import run_batch
+    from .diagnose import resolve_model
+    from .profile import Profile
+    from .report import terminal
+
     try:
         prof = Profile.load(profile) if profile is not None else None
         fault_model = resolve_model(model, prof)
     except FlightLogError as e:
         _fail(e)
-        raise typer.Exit(EXIT_INVALID)
+        return EXIT_INVALID
 
     if scheduler is not None:
         try:
             import dask.distributed  # noqa: F401
         except ImportError:
             _fail("--scheduler needs Dask: pip install 'flightlog-fd[fleet]'")
-            raise typer.Exit(EXIT_INVALID)
+            return EXIT_INVALID
     store = run_info = None
     if db is not None:
         from .store import RunInfo, Store
@@ -284,7 +295,7 @@ def diagnose(
             store = Store(db)
         except FlightLogError as e:
             _fail(e)
-            raise typer.Exit(EXIT_INVALID)
+            return EXIT_INVALID
         run_info = RunInfo.for_batch(fault_model, prof)
 
     console = _console()
@@ -308,7 +319,7 @@ def diagnose(
                               on_result=on_result)
         except FlightLogError as e:
             _fail(e)
-            raise typer.Exit(EXIT_INVALID)
+            return EXIT_INVALID
         finally:
             if store is not None:
                 store.close()
@@ -338,7 +349,127 @@ def diagnose(
 
         write_html(results if len(results) > 1 else results[0], html_out)
     codes = [d.exit_code for d in results]
-    raise typer.Exit(EXIT_INVALID if errors or store_errors or EXIT_INVALID in codes else max(codes))
+    return EXIT_INVALID if had_errors or store_errors or EXIT_INVALID in codes else max(codes)
+
+
+
+@app.command()
+def pull(
+    connection: Optional[str] = typer.Argument(None, help="The autopilot's link as mavutil spells it: udp:HOST:PORT (listen), udpin:, udpout:, tcp:HOST:PORT, tcpin:, or a serial DEVICE[,BAUD]. Default: the one autopilot plugged in over USB."),
+    output: Path = typer.Option(Path("fdlog-logs"), "--output", "-o", help="Folder for pulled logs: one subfolder per vehicle (autopilot and board id)."),
+    log_id: Optional[int] = typer.Option(None, "--id", min=0, help="Pull this log (its id in --list) instead of the newest."),
+    since: Optional[str] = typer.Option(None, "--since", metavar="LAST", help="'last': pull every log not yet pulled from this vehicle into --output."),
+    all_logs: bool = typer.Option(False, "--all", help="Pull every log on the vehicle (those already here are not downloaded again)."),
+    list_only: bool = typer.Option(False, "--list", help="Only list the logs on the vehicle (id, size, time) and exit."),
+    no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Only download; do not diagnose."),
+    profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate`, as in `fdlog diagnose`."),
+    db: Optional[str] = typer.Option(None, "--db", help="Also write the diagnoses to this store (SQLite file or postgresql:// URL), as in `fdlog diagnose`."),
+    as_json: bool = typer.Option(False, "--json", help="Print the diagnosis as `fdlog diagnose --json` does (pull messages go to stderr)."),
+    windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
+    erase: bool = typer.Option(False, "--erase", help="After pulling with --all or --since last, erase every log on the vehicle (asks to confirm; only when each one is in --output)."),
+    timeout: float = typer.Option(10.0, "--timeout", min=0.5, help="Seconds without data from the vehicle before giving up (a lost link)."),
+) -> None:
+    """Pull logs from the aircraft over MAVLink (PX4 or ArduPilot), then diagnose them.
+
+    Downloads the newest log (or --id N, --since last, --all) with the MAVLink log protocol into OUTPUT/<vehicle>/, skipping logs pulled before, and prints the same verdict as `fdlog diagnose`. A partial download never stays behind. Logs on the vehicle are never erased without --erase and a confirmation.
+
+    Exit code: as `fdlog diagnose` (0 healthy, 1 damage found or uncertain), 2 when the link fails or nothing could be pulled or diagnosed.
+    """
+    from .errors import VehicleLinkError
+    from .vehicle.link import CONNECT_TIMEOUT_S, VehicleLink
+    from .vehicle.ports import parse_connection
+    from .vehicle.pull import erase_all, pull_logs
+
+    chosen = [name for name, on in (("--id", log_id is not None), ("--since", since is not None),
+                                    ("--all", all_logs)) if on]
+    if len(chosen) > 1:
+        _fail(f"{' and '.join(chosen)} cannot be combined: choose one")
+        raise typer.Exit(EXIT_INVALID)
+    if since is not None and since.strip().lower() != "last":
+        _fail(f"--since takes 'last' (the logs not yet pulled from this vehicle), got {since!r}")
+        raise typer.Exit(EXIT_INVALID)
+    if erase and not (all_logs or since is not None):
+        _fail("--erase needs --all or --since last, so that every log on the vehicle is pulled before it is erased")
+        raise typer.Exit(EXIT_INVALID)
+    mode = "id" if log_id is not None else "since_last" if since is not None else "all" if all_logs else "newest"
+    err = _console(stderr=True)
+    try:
+        conn = parse_connection(connection)
+        with VehicleLink(conn, connect_timeout=min(CONNECT_TIMEOUT_S, timeout)) as link:
+            err.print(f"vehicle: {link.describe()}", markup=False)
+            if list_only:
+                from .vehicle.transfer import list_logs
+
+                entries = list_logs(link)
+                link.send_log_request_end()
+                _print_log_list(entries)
+                raise typer.Exit(EXIT_OK)
+            with _download_bar(err) as bar:
+                def on_start(entry):
+                    task = bar.add_task(f"log {entry.id}", total=entry.size)
+                    return lambda done, total: bar.update(task, completed=done)
+
+                def on_log(p):
+                    what = "pulled" if p.downloaded else "already pulled"
+                    figures = (f" ({_size(p.entry.size)} in {p.stats.seconds:.1f} s, {_size(p.stats.rate)}/s, "
+                               f"{p.stats.re_requests} re-requests)" if p.stats else "")
+                    bar.console.print(f"{what} log {p.entry.id}: {p.path}{figures}", markup=False)
+
+                report = pull_logs(link, output, mode=mode, log_id=log_id, stall_timeout=timeout,
+                                   on_start=on_start, on_log=on_log)
+            for e in report.empty:
+                err.print(f"log {e.id} is empty on the vehicle (0 bytes): skipped", markup=False)
+            if not report.entries:
+                err.print("no logs on the vehicle", markup=False)
+            elif mode == "since_last" and not report.downloaded:
+                err.print(f"no new logs: all {len(report.entries)} on the vehicle are in {report.folder}", markup=False)
+            if erase:
+                if not report.every_log_here:
+                    _fail("not erasing: not every log on the vehicle is pulled")
+                    raise typer.Exit(EXIT_INVALID)
+                if typer.confirm(f"Erase all {len(report.entries)} logs on the vehicle? Each one is in "
+                                 f"{report.folder}", default=False, err=True):
+                    erase_all(link)
+                    err.print("erased every log on the vehicle", markup=False)
+                else:
+                    err.print("not erased", markup=False)
+    except VehicleLinkError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    files = [p.path for p in report.logs]
+    if no_diagnose:
+        raise typer.Exit(EXIT_OK)
+    if not files:
+        raise typer.Exit(EXIT_OK if mode == "since_last" and report.entries else EXIT_INVALID)
+    raise typer.Exit(_diagnose_files(files, False, profile=profile, as_json=as_json, windows=windows, db=db))
+
+
+def _size(n: float) -> str:
+    """Bytes as B / kB / MB (decimal units, as transfer rates are quoted)."""
+    for unit, scale in (("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n:.0f} B"
+
+
+def _download_bar(console: Console):
+    """A rich progress bar per download on stderr: bytes, rate, time left (only on a terminal)."""
+    from rich.progress import (BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn,
+                               TransferSpeedColumn)
+
+    return Progress(TextColumn("{task.description}"), BarColumn(), DownloadColumn(), TransferSpeedColumn(),
+                    TimeRemainingColumn(), console=console, transient=True, disable=not console.is_terminal)
+
+
+def _print_log_list(entries) -> None:
+    from .vehicle.folder import stamp
+
+    console = _console()
+    if not entries:
+        console.print("no logs on the vehicle", markup=False)
+    for e in entries:
+        when = stamp(e).replace("_", " ", 1) if stamp(e) != "nodate" else "no date"
+        console.print(f"{e.id:>5}  {_size(e.size):>10}  {when}", markup=False)
 
 
 @app.command()

@@ -49,7 +49,7 @@ def test_importing_the_cli_loads_nothing_heavy():
 
 
 @pytest.mark.parametrize("args", [(), ("--help",), ("info", "--help"), ("diagnose", "--help"),
-                                  ("calibrate", "--help"), ("serve", "--help")])
+                                  ("calibrate", "--help"), ("serve", "--help"), ("pull", "--help")])
 def test_help_loads_nothing_heavy(args):
     modules, res = _modules_after(*args)
     assert "Usage" in res.stdout + res.stderr
