@@ -21,8 +21,9 @@ A trim change (centre of mass off the middle, motor tilt / yaw trim) only moves 
 its own curves, so neither offset moves; command shares cannot tell the two apart with four
 motors. Both relations are fitted on 1 s bin means of the airborne time (``BIN_S``; each ESC on
 its own samples, never interpolated; a bin in which any motor's ESC is silent is skipped), per
-motor against the median of the other motors (one rotor far off does not move the others'
-reference), so everything common to all motors (battery voltage, air density, throttle) cancels.
+motor against a robust (Huber) level of the other motors (one rotor far off does not move the
+others' reference), so everything common to all motors (battery voltage, air density, throttle)
+cancels.
 
 Score: ``r_k = (a_k, d_k)`` is Gaussian around 0 for a healthy motor with covariance ``Σ`` =
 motor-to-motor spread (``HEALTHY_SPREAD_COV``, without a profile; with one, the profile's own
@@ -222,7 +223,7 @@ class EscAnalysis:
 
 @dataclass
 class _Measurement:
-    r: np.ndarray  # (M, 2) offsets a, d against the median of the other motors (d NaN without current)
+    r: np.ndarray  # (M, 2) offsets a, d against the others' robust level (d NaN without current)
     cov: np.ndarray  # (M, 2, 2) measurement covariance of r
     has_current: bool
     bins: int
@@ -302,8 +303,8 @@ def _against_others(c: np.ndarray, scale: float) -> np.ndarray:
     Robust, not the mean: one motor far off (a weak motor turning 25 % slower per command) would
     move the mean of every other motor's reference by a third of that on a quad, and a healthy
     motor would then read as turning 10 % faster per command, a propeller's sign (ArduCopter SITL
-    motor1_weak_esc.BIN, rpm only: +9.5 % on motors 2-4 against the mean, +0.3 % against the
-    robust level). Not the median of the others: on Gaussian motors it is noisier, and it named
+    motor1_weak_esc.BIN, rpm only: +9.8 to +10.2 % on motors 2-4 against the mean, +0.7 to +1.1 %
+    against the robust level). Not the median of the others: on Gaussian motors it is noisier, and it named
     the damaged motor at eta 0.9 in 18 of 24 simulated flights where the mean and this level named
     21 (bench_esc.py's eta 0.9 cells at seed 1700; largest healthy llr 5.5 mean, 5.6 this level,
     24 healthy flights)."""
