@@ -76,7 +76,8 @@ def test_an_existing_store_gets_its_flight_rows_when_upgraded(tmp_path):
     assert runner.invoke(app, ["diagnose", "--db", str(db), str(log)]).exit_code == 1
     with sqlite3.connect(db) as c:  # back to what the release at migration 3 left
         c.execute("DROP TABLE flight_part")
-        c.execute("ALTER TABLE flight DROP COLUMN cause")  # migration 5's
+        c.execute("DROP TABLE IF EXISTS watched_file")  # migration 5
+        c.execute("ALTER TABLE flight DROP COLUMN cause")  # migration 6
         c.execute("DELETE FROM schema_migrations WHERE version >= 4")
         c.execute("PRAGMA user_version = 3")
     with Store(db) as store:

@@ -17,8 +17,8 @@ range (:func:`predicted_commands`), which also tells a coaxial octaquad rotor fr
 (same arm, opposite spin: only the yaw pattern differs); the pattern cannot separate damage from
 an equal and opposite trim change (against a profile the healthy noise includes a moved load,
 ``SESSION_MOVE_*``, and the decision holds the commands alone to "uncertain"); after a mid-flight onset a
-steady rise (a drift: motor, ESC, mount) is not weighed; without a profile it abstains on
-n-rotor frames (below).
+steady rise (a drift: motor, ESC, mount) is not weighed; without a profile an n-rotor's healthy
+spread is measured on simulated airframes only (``NROTOR_NEIGHBOUR_SHARE_SIGMA``).
 """
 from __future__ import annotations
 
@@ -45,11 +45,16 @@ M_GRID = np.array([0.25, 0.5, 0.75, 1.0, 1.25, 1.6])
 #: Without a profile the healthy pattern is unknown: healthy airframes' airborne-mean command
 #: shares scatter around an even split with this per-motor standard deviation. Measured:
 #: 18 real healthy ArduCopter flights (../shared/real_healthy + Erle), RMS share deviation from 1
-#: over all motors = 0.12 (benchmarks/bench_real_damage.py prints it). Quads only: there is no
-#: real hexa or octo log to measure their spread on, and simulated healthy hexas with the
-#: realistic imbalance reach a 0.25 opposite-pair split (bench_nrotor.py: 5 of 39 flights called
-#: damaged with this sigma), so without a profile the command analyzer abstains on them.
+#: over all motors = 0.12 (benchmarks/bench_real_damage.py prints it). Quads only: with more
+#: rotors a trim is shared by more motors (below).
 NEIGHBOUR_SHARE_SIGMA = 0.12
+#: The same spread for hexa and octo frames, which have no real log to measure it on: simulated
+#: healthy airframes with the realistic imbalance (benchmarks/bench_reliability.py collect --sets
+#: nrotor: 30 hexa-X and 30 octo-X flights, seeds 10100/11100, PX4 high-rate, ArduPilot and PX4
+#: default logging): RMS share deviation from 1 over all motors 0.092 (hexa; per flight 0.02-0.27)
+#: and 0.070 (octo; 0.01-0.19). The reliability table weighs the n-rotor command pattern without a
+#: profile by these simulated flights alone, so it never decides alone.
+NROTOR_NEIGHBOUR_SHARE_SIGMA = {6: 0.092, 8: 0.070}
 #: Against the same flight before a mid-flight onset: a healthy airframe's share wander within
 #: one flight. Measured: the 18 real healthy flights, rrc goods and CrazyPAD normals, shares of
 #: the last two thirds against the first third: RMS 0.064 (robust 0.032; Erle 6-3-2014_6 and
@@ -255,7 +260,7 @@ def share_sigma(baseline_kind: str, spread: Optional[Sequence[float]], n: int, n
     added in quadrature to how well the calibration and this flight pin their shares (``pins``:
     per-motor :func:`flightlog_fd.analyzers.share_fit.pin_spread` figures, None where unknown)."""
     if baseline_kind == "neighbours":
-        return np.full(n, NEIGHBOUR_SHARE_SIGMA)
+        return np.full(n, NEIGHBOUR_SHARE_SIGMA if n == 4 else NROTOR_NEIGHBOUR_SHARE_SIGMA.get(n, NEIGHBOUR_SHARE_SIGMA))
     if baseline_kind == "before onset":
         return np.full(n, ONSET_BASELINE_SIGMA)
     if spread is not None and len(spread) == n and np.all(np.isfinite(spread)):
@@ -309,16 +314,15 @@ class CommandShares(Analyzer):
     #: coaxial partner, same roll/pitch levers and the opposite spin, 1-24; both at 8, the decision
     #: could not choose in 13 of 46 damaged flights; benchmarks/bench_nrotor.py).
     cap_keeps_order = True
+    #: Means only (any rate serves); the healthy spread it is weighed against depends on the profile
+    #: and, without one, on the rotor count.
+    reliability_keys = ("profile", "rotors")
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
         share_fit = ctx.share_fit
         why = self.missing(ctx.flight)
         if why or share_fit is None:
             return CommandSharesResult(self.id, abstained=why or "no command shares")
-        if share_fit.baseline == "neighbours" and len(share_fit.motors) != 4:
-            return CommandSharesResult(self.id, abstained=(
-                f"without a profile the healthy spread of {len(share_fit.motors)}-rotor command patterns is not measured "
-                f"on real airframes (NEIGHBOUR_SHARE_SIGMA is from real quads); calibrate on a healthy flight"))
         drifting = share_fit.drifting() if share_fit.baseline == "before onset" else None
         if drifting is not None:
             return CommandSharesResult(self.id, abstained=f"motor {drifting}'s command rose steadily after the onset",

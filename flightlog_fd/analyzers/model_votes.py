@@ -127,12 +127,18 @@ class ModelVotes(Analyzer):
     id = "model"
     description = "the model's window votes (mean probability per motor), weighed as one flight"
     requires = ()
-    #: The model alone never makes a damaged verdict (decision.DAMAGED_LLR 6): it was trained on
-    #: simulated airframes, and on a real one a session's trim can look like damage to it
-    #: (CrazyPAD E9 cut_propeller_M3_2mm logs 04-05: a calibrated model 6 sigma sure of motor 1,
-    #: whose command rose only 4 %, while the label says motor 2). Another source must add at least
-    #: a nat.
+    #: Where the reliability table has no cell for the log (or the kind of log is unknown) the model
+    #: alone never makes a damaged verdict (decision.DAMAGED_LLR 6): it was trained on simulated
+    #: airframes, and on a real one a session's trim can look like damage to it (CrazyPAD E9
+    #: cut_propeller_M3_2mm logs 04-05: a calibrated model 6 sigma sure of motor 1, whose command
+    #: rose only 4 %, while the label says motor 2). Another source must add at least a nat. Where
+    #: the table trusts it (measured quiet on real flights of that kind) it may give up to
+    #: SOURCE_LLR_CAP.
     llr_cap = 5.0
+    #: Its reliability depends on how well the streams fill its windows, on the profile (an adapted
+    #: model, or the airframe's own vote baseline) and on the rotor count (another shipped model).
+    reliability_keys = ("rate", "profile", "adapted", "rotors")
+    learned = True
 
     def fit_baseline(self, flights, model=None):
         """Each motor's flight-mean window log ratio on the calibration flights with ``model``

@@ -27,7 +27,13 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                   "cause_evidence": {"motor": 1-n,                # null when no rotor is named
                                      "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
                                      "rpm_per_command": % | null, "current_per_rpm2": % | null,
-                                     "reason": str} | null},      # why that cause, or why none
+                                     "reason": str} | null,       # why that cause, or why none
+                  "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "logging" |
+                                      "esc_telemetry" | "manoeuvre",
+                              "text": str,              # what to do, in words
+                              "motors": [1-n],          # inspect: the propellers, first first
+                              "command": str | null,    # add_session / calibrate: the fdlog command
+                              "setting": str | null}]}, # logging / esc_telemetry: the autopilot parameter
       "evidence": {"n_windows": int, "covered_s": float,
                    "share": [healthy, m1, ..., mn],   # smoothed votes, 0..1
                    "abstained": 0-1} | null,
@@ -55,7 +61,10 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
                          "airframe_changed": str | null,
                          "decision": {"sources": [str], "healthy_chi2": float|null,
-                                      "share_sigma": float|null} | null} | null,
+                                      "share_sigma": float|null,
+                                      "weights": {analyzer id: {"cell": str,   # its reliability-table cell
+                                                  "trust": "trusted" | "corroborating" | "discounted" | null,
+                                                  "cap": float}}} | null} | null,   # the most nats it could give
       "windows": [{"t_start": s, "t_end": s,
                    "class": 0-n,                  # the model's most probable class
                    "probabilities": [p0, p1, ..., pn],   # healthy, then motor 1..n
@@ -91,7 +100,10 @@ analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the 
 what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
 own verdict: judged from vibration alone, the log's verdict is its worst flight's; with motor outputs,
 the whole log's, each flight judged from the log's windows and never worse than it) and
-flight-level findings (``motor`` 0: the vibration level); schema 6 adds ``verdict.cause`` and
+flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verdict's ``advice`` (what would
+resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
+settings that let a source decide next time) and each source's reliability ``weights`` in
+``motor_evidence.decision``. Schema 6 also adds ``verdict.cause`` and
 ``verdict.cause_evidence`` (:mod:`flightlog_fd.cause`: with ESC telemetry, whether the named rotor's
 propeller or its motor / ESC lost the thrust; null and the reason when the log cannot tell).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
@@ -104,6 +116,7 @@ from typing import Any, Optional, Sequence, Union
 import numpy as np
 
 from .. import __version__
+from ..advice import ADVICE_KINDS
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
@@ -145,7 +158,7 @@ JSON_SCHEMA: dict = {
                                    "model_sha256": _STR_OR_NULL}},
         "verdict": {
             "type": "object",
-            "required": ["status", "motor", "position", "confidence", "first_seen", "reason", "cause",
+            "required": ["status", "motor", "position", "confidence", "first_seen", "reason", "advice", "cause",
                          "cause_evidence"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
@@ -160,6 +173,12 @@ JSON_SCHEMA: dict = {
                                    "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
                                                   "llr": _NUM_OR_NULL, "rpm_per_command": _NUM_OR_NULL,
                                                   "current_per_rpm2": _NUM_OR_NULL, "reason": {"type": "string"}}},
+                "advice": {"type": "array", "items": {
+                    "type": "object", "required": ["kind", "text", "motors", "command", "setting"],
+                    "properties": {"kind": {"enum": list(ADVICE_KINDS)}, "text": {"type": "string"},
+                                   "motors": {"type": "array", "items": {"type": "integer", "minimum": 1,
+                                                                         "maximum": MAX_ROTORS}},
+                                   "command": _STR_OR_NULL, "setting": _STR_OR_NULL}}},
             },
         },
         "evidence": {"type": ["object", "null"], "required": ["n_windows", "covered_s", "share", "abstained"],
@@ -215,9 +234,10 @@ JSON_SCHEMA: dict = {
                                                  "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
                 "decision": {"type": ["object", "null"],
-                             "required": ["sources", "healthy_chi2", "share_sigma"],
+                             "required": ["sources", "healthy_chi2", "share_sigma", "weights"],
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
-                                            "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL}},
+                                            "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL,
+                                            "weights": {"type": "object"}}},
             },
         },
         "windows": {
@@ -280,7 +300,8 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
             "decision": None if d.decision is None else {
                 "sources": list(d.decision.sources),
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
-                "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4)}}
+                "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4),
+                "weights": {k: w.as_dict() for k, w in d.decision.weights.items()}}}
 
 
 def to_dict(d: Diagnosis) -> dict:

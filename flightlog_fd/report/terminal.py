@@ -27,6 +27,8 @@ from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
 
+from ..advice import advice_line
+from ..decision import THIN_TIMELINE_SHARE
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
@@ -60,6 +62,8 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         n = tl.n_windows if tl else len(diagnosis.windows)
         covered = f", {tl.covered_s:.0f} s of flight" if tl else ""
         basis = f"{n} windows{covered}" if n else "vibration only"
+        if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
+            basis += f"; {100 * tl.abstained_share:.0f} % of them uncertain: see why below"
         return f"No propeller damage found, confidence {v.confidence:.2f} ({basis})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
@@ -181,6 +185,10 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
                    Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
     if v.status in ("damaged", "healthy", "uncertain", "stopped") and v.reason:
         parts.append(Text(f"  {v.reason}", style="dim"))
+    if v.advice:
+        parts.append(Text("  to resolve it:", style="bold"))
+        for a in v.advice:
+            parts.append(Text(f"  - {advice_line(a)}"))
     line = facts_line(diagnosis)
     if line:
         parts.append(Text(f"  {line}", style="dim"))
