@@ -34,7 +34,7 @@ from .analyzers.esc import NO_ESC
 #: (`benchmarks/bench_esc.py --causes --per-cell 6 --seed 2026`): on 144 simulated damaged
 #: propellers and weak motors (eta 0.6-0.9, ESC at 10/50/100 Hz, random airframes 30 g-5 kg) no
 #: cause LLR lay beyond 1 nat on the wrong side, and the lowest toward the truth were +4.1
-#: (propeller) and +3.8 (motor, eta 0.9); the ArduCopter SITL weak motor: +277.
+#: (propeller) and +3.8 (motor, eta 0.9); the ArduCopter SITL weak motor: +284.
 CAUSE_LLR = 3.0
 CAUSES = ("propeller", "motor_or_esc")
 
