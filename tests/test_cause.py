@@ -151,19 +151,19 @@ def test_simulate_refuses_an_unknown_cause_in_one_line(tmp_path):
     assert "Traceback" not in res.output and not (tmp_path / "x.ulg").exists()
 
 
-def test_a_store_at_migration_5_gets_the_cause_from_its_stored_reports(logs, tmp_path):
-    """Migration 6 adds flight.cause and fills it from each stored report's verdict."""
+def test_a_store_at_migration_6_gets_the_cause_from_its_stored_reports(logs, tmp_path):
+    """Migration 7 adds flight.cause and fills it from each stored report's verdict."""
     import sqlite3
 
     from flightlog_fd.store import SCHEMA_VERSION, Store
 
     db = tmp_path / "s.sqlite"
     assert runner.invoke(app, ["diagnose", "--db", str(db), str(logs["weak_motor2"])]).exit_code == 1
-    with sqlite3.connect(db) as c:  # back to what the release at migration 5 left
+    with sqlite3.connect(db) as c:  # back to what the release at migration 6 left
         c.execute("ALTER TABLE flight DROP COLUMN cause")
-        c.execute("DELETE FROM schema_migrations WHERE version >= 6")
-        c.execute("PRAGMA user_version = 5")
+        c.execute("DELETE FROM schema_migrations WHERE version >= 7")
+        c.execute("PRAGMA user_version = 6")
     with Store(db) as store:
-        assert store.db.schema_version() == SCHEMA_VERSION >= 6
+        assert store.db.schema_version() == SCHEMA_VERSION >= 7
         (f,) = store.logs()
         assert store.flight(f["id"])["cause"] == "motor_or_esc"

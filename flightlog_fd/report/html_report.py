@@ -231,7 +231,9 @@ def _facts_table(d: Diagnosis) -> str:
         rows += [("model", f"{m.path or '-'} version {m.version or '-'}"),
                  ("model sha256", m.sha256 or "-"),
                  ("calibrated", "yes (profile's own model)" if m.calibrated else "no")]
-    rows.append(("profile", d.profile.path if d.profile is not None and d.profile.path else "none"))
+    rows.append(("profile", "none" if d.profile is None else
+                 f"{d.profile.path or 'in memory'} ({d.profile.sessions} calibration session"
+                 f"{'s' if d.profile.sessions != 1 else ''})"))
     v = d.verdict
     rows.append(("reason", v.reason))
     if v.cause_evidence:
