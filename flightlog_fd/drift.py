@@ -29,18 +29,21 @@ FIGURE_DIRECTION = {"model_vote": +1, "command_share": +1, "effectiveness": -1}
 FIGURES = tuple(FIGURE_FLOORS)
 
 
-def verdict_words(status: Optional[str], motor: Optional[int], motors: list, pair: bool, short: bool = False) -> str:
+def verdict_words(status: Optional[str], motor: Optional[int], motors: list, pair: bool, short: bool = False,
+                  cause: Optional[str] = None) -> str:
     """A stored verdict in words: its status, and the motor it names (damaged, stopped) or both
     of a pair: "damaged m3", "uncertain m1+m4" (short); "damaged (motor 3)", "uncertain (motors 1
-    and 4)"."""
+    and 4)"; a single motor whose ``cause`` is its motor / ESC reads "damaged (motor 3, motor or
+    ESC)" ("damaged m3, motor or ESC")."""
     status = status or "-"
     named = list(motors) if pair and len(motors or []) > 1 else ([motor] if motor else [])
     if not named:
         return status
+    why = ", motor or ESC" if cause == "motor_or_esc" and len(named) == 1 else ""
     if short:
-        return f"{status} " + "+".join(f"m{k}" for k in named)
+        return f"{status} " + "+".join(f"m{k}" for k in named) + why
     if len(named) == 1:
-        return f"{status} (motor {named[0]})"
+        return f"{status} (motor {named[0]}{why})"
     return f"{status} (motors {', '.join(map(str, named[:-1]))} and {named[-1]})"
 
 
@@ -61,6 +64,8 @@ class FlightRecord:
     diagnosed_at: str
     vehicle_source: str
     motors: dict[int, dict] = field(default_factory=dict)
+    #: The named rotor's likely cause (propeller | motor_or_esc), None when unknown or none named.
+    cause: Optional[str] = None
     #: Each take-off to landing of a log holding several (``store.PART_COLUMNS`` and ``part``).
     parts: list[dict] = field(default_factory=list)
     #: Every propeller the verdict names (the JSON verdict's ``motors``) and whether it names two together.
@@ -70,7 +75,7 @@ class FlightRecord:
     def verdict_words(self, short: bool = False) -> str:
         """The status with the motor(s) it names: "damaged m1+m4" (short) or "damaged (motors 1
         and 4)"; a pair is named for uncertain too."""
-        return verdict_words(self.status, self.motor, self.verdict_motors, self.pair, short)
+        return verdict_words(self.status, self.motor, self.verdict_motors, self.pair, short, self.cause)
 
     def figure(self, name: str) -> Optional[list[float]]:
         """Every motor's value of ``name`` (motor order), or None unless all are known."""

@@ -33,7 +33,7 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
             "vehicle": vehicle,
             "vehicle_source": latest.vehicle_source if latest else None,
             "flights": [{"log": f.log_path, "log_sha256": f.log_sha256, "flight_start_utc": f.flight_start_utc,
-                         "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor,
+                         "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor, "cause": f.cause,
                          "verdict_motors": list(f.verdict_motors), "pair": bool(f.pair),
                          "confidence": f.confidence, "reason": f.reason, "diagnosed_at": f.diagnosed_at,
                          "motors": [{"motor": k, **f.motors[k]} for k in sorted(f.motors)],
@@ -42,7 +42,7 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
                        "latest_z": d.latest_z, "n_flights": d.n_flights, "text": d.describe()} for d in drifts],
             "latest_damaged": bool(latest and latest.status == "damaged"),
             "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor,
-                                                   "motors": _damaged_motors(latest)},
+                                                   "motors": _damaged_motors(latest), "cause": latest.cause},
         })
     flagged = any(v["drift"] or v["latest_damaged"] for v in vehicles)
     return {"schema": 1, "rule": {"min_flights": MIN_FLIGHTS, "drift_slope_min": DRIFT_SLOPE_MIN,
@@ -56,11 +56,15 @@ def _damaged_motors(f: FlightRecord) -> list[int]:
 
 
 def _latest_words(latest: dict) -> str:
-    """"propeller 3 damaged" / "propellers 1 and 4 damaged" for the latest-flight flag."""
+    """"propeller 3 damaged" / "propellers 1 and 4 damaged" / "motor 2 or its ESC weak" for the
+    latest-flight flag."""
     motors = latest.get("motors") or ([latest["motor"]] if latest.get("motor") else [])
     if len(motors) > 1:
         return f"propellers {', '.join(map(str, motors[:-1]))} and {motors[-1]} damaged"
-    return f"propeller {motors[0] if motors else latest.get('motor')} damaged"
+    motor = motors[0] if motors else latest.get("motor")
+    if latest.get("cause") == "motor_or_esc":
+        return f"motor {motor} or its ESC weak"
+    return f"propeller {motor} damaged"
 
 
 # ----------------------------------------------------------------------------- html
@@ -138,7 +142,8 @@ def render_html(summary: dict) -> str:
         out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
                    + "".join(f"<th>{html.escape(summary_header(k))}</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
         for i, f in enumerate(v["flights"], 1):
-            verdict = verdict_words(f["status"], f["motor"], f.get("verdict_motors") or [], f.get("pair", False))
+            verdict = verdict_words(f["status"], f["motor"], f.get("verdict_motors") or [], f.get("pair", False),
+                                    cause=f.get("cause"))
             cells = []
             by_motor = {m["motor"]: m for m in f["motors"]}
             for k in _motor_numbers(v["flights"]):
@@ -182,7 +187,7 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
             summary_header(k).replace(" / ", "/") for k in _motor_numbers(v["flights"])) + "  log"
         for i, f in enumerate(v["flights"], 1):
             verdict = verdict_words(f["status"], f["motor"], f.get("verdict_motors") or [], f.get("pair", False),
-                                    short=True)
+                                    short=True, cause=f.get("cause"))
             by_motor = {m["motor"]: m for m in f["motors"]}
             figs = "  ".join(_cell(by_motor.get(k, {}), "/") for k in _motor_numbers(v["flights"]))
             yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "

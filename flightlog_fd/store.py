@@ -22,6 +22,9 @@ Tables (migrations 3 and 4 give them their present columns):
   found in a watched folder, diagnosed by the watcher that found it; ``args`` holds its path).
 - ``watched_file`` (host, path): the size, modification time and sha256 of each file a watcher has
   taken, so a restarted watcher does not read every file again to hash it.
+- ``calibration_session`` (airframe, flight): which flights the airframe's profile holds, as which
+  calibration session (one flight, one session; a later calibration job adds sessions, a new one
+  from scratch replaces them).
 
 Airframe of a log without an id: ``fdlog diagnose --db`` files it under the profile's name
 (``profile:NAME``) or ``unknown`` (:func:`vehicle_identity`; history does not treat ``unknown`` as
@@ -77,7 +80,7 @@ FINDING_COLUMNS = ("analyzer", "motor", "name", "value", "unit", "interval_lo", 
 #: Each flight of a log holding several: the JSON report's ``flights[]`` (``part`` 1..n in time order).
 PART_COLUMNS = ("label", "t_start_s", "t_end_s", "airborne_s", "status", "motor", "confidence", "reason",
                 "verdict_motors", "pair")
-#: The columns flight_part had at migration 4 (what that migration fills; migration 6 adds the rest).
+#: The columns flight_part had at migration 4 (what that migration fills; migration 8 adds the rest).
 _PART_COLUMNS_V4 = PART_COLUMNS[:8]
 #: Per-motor figures drawn across an airframe's flights (history page, airframe page): (column, title).
 TREND_FIGURES = (("command_change", "command-share change"),
@@ -151,8 +154,8 @@ def parse_verdict_motors(text: Optional[str]) -> list[int]:
     return [int(x) for x in (text or "").split(";") if x.strip().isdigit()]
 
 
-def _v6(db: Database) -> None:
-    """Migration 6: every propeller a verdict names (``verdict_motors`` "1;4") and whether it
+def _v8(db: Database) -> None:
+    """Migration 8: every propeller a verdict names (``verdict_motors`` "1;4") and whether it
     names two together (``pair``), on the flight and on each flight of a log, filled from the
     stored diagnoses."""
     for table in ("flight", "flight_part"):
@@ -163,6 +166,16 @@ def _v6(db: Database) -> None:
         db.run("UPDATE flight SET verdict_motors = ?, pair = ? WHERE id = ?",
                (verdict_motors_text(v), int(bool(v.get("pair"))), flight_id))
         _write_parts(db, flight_id, doc)
+
+
+def _v7(db: Database) -> None:
+    """Migration 7: ``flight.cause``, the named rotor's likely cause (propeller | motor_or_esc |
+    NULL), filled from each stored diagnosis's verdict (reports before schema 6 have none)."""
+    db.run("ALTER TABLE flight ADD COLUMN cause TEXT")
+    for flight_id, doc in _stored_diagnoses(db):
+        cause = (doc.get("verdict") or {}).get("cause")
+        if cause:
+            db.run("UPDATE flight SET cause = ? WHERE id = ?", (cause, flight_id))
 
 
 MIGRATIONS: list[tuple[int, str, Any]] = [
@@ -266,7 +279,20 @@ CREATE TABLE watched_file (
     PRIMARY KEY (host, path)
 )
 """),
-    (6, "every propeller a verdict names, and two named together", _v6),
+    (6, "each airframe's calibration sessions", """
+CREATE TABLE calibration_session (
+    airframe     TEXT NOT NULL,         -- airframe.key (the resolved one when it was calibrated)
+    session      INTEGER NOT NULL,      -- 1..n in the order they were added (the profile's sessions_)
+    flight_id    BIGINT NOT NULL REFERENCES flight(id) ON DELETE CASCADE,
+    job_id       BIGINT,                -- the calibration job that added it
+    profile_path TEXT NOT NULL,         -- the profile file it was first part of
+    created_at   TEXT NOT NULL,
+    PRIMARY KEY (airframe, flight_id)
+);
+CREATE INDEX calibration_session_airframe ON calibration_session (airframe, session)
+"""),
+    (7, "the named rotor's likely cause: its propeller or its motor / ESC", _v7),
+    (8, "every propeller a verdict names, and two named together", _v8),
 ]
 #: The schema version this fdlog writes (its newest migration).
 SCHEMA_VERSION = max(v for v, _, _ in MIGRATIONS)
@@ -501,12 +527,12 @@ class Store:
         self.db.run(
             "UPDATE flight SET state = 'done', airframe = ?, autopilot = ?, firmware = ?, flight_start_utc = ?, "
             "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, verdict_motors = ?, pair = ?, confidence = ?, "
-            "reason = ?, sentence = ?, "
+            "reason = ?, cause = ?, sentence = ?, "
             "profile_sha256 = ?, profile_path = ?, model_sha256 = ?, model_version = ?, tool_version = ?, "
             "exit_code = ?, diagnosis_json = ?, plot_json = ?, error = NULL, diagnosed_at = ? WHERE id = ?",
             (airframe, doc.get("autopilot"), doc.get("firmware"), flight_start_utc, _num(log_t_start_s),
              _num(doc.get("airborne_s")), v.get("status"), v.get("motor"), verdict_motors_text(v),
-             int(bool(v.get("pair"))), _num(v.get("confidence")), v.get("reason"),
+             int(bool(v.get("pair"))), _num(v.get("confidence")), v.get("reason"), v.get("cause"),
              sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
              json.dumps(doc), None if plot is None else json.dumps(plot), diagnosed_at or utc_now(), fid))
         _write_figures(self.db, fid, doc, command_share)
@@ -665,11 +691,16 @@ class Store:
 
     # ------------------------------------------------------------------ jobs
 
-    def enqueue_calibration(self, airframe: str, flight_ids: list[int], adapt: bool) -> int:
+    def enqueue_calibration(self, airframe: str, flight_ids: list[int], adapt: bool,
+                            add_to: Optional[str] = None) -> int:
+        """Queue a calibration of ``airframe`` from ``flight_ids`` (one session each); ``add_to``:
+        the profile they are added to as new sessions (None: a new profile)."""
+        args = {"flights": flight_ids, "adapt": adapt, **({"add_to": add_to} if add_to else {})}
+
         def tx():
             row = self.db.one("INSERT INTO job (kind, airframe, args, state, created_at) VALUES "
                               "('calibrate', ?, ?, 'queued', ?) RETURNING id",
-                              (airframe, json.dumps({"flights": flight_ids, "adapt": adapt}), utc_now()))
+                              (airframe, json.dumps(args), utc_now()))
             return int(row["id"])
 
         return self.db.transaction(tx, "queue the calibration")
@@ -748,7 +779,7 @@ class Store:
         db.run("UPDATE job SET state = 'error', error = ?, finished_at = ?, lease_until = NULL WHERE id = ?",
                (reason, utc_now(), job["id"]))
         if job.get("flight_id") is not None:
-            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', reason = ?, "
+            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', cause = NULL, reason = ?, "
                    "diagnosis_json = COALESCE(?, diagnosis_json), diagnosed_at = ? WHERE id = ?",
                    (reason, reason, diagnosis_json, utc_now(), job["flight_id"]))
 
@@ -787,16 +818,39 @@ class Store:
         return db.transaction(tx, "store the diagnosis")
 
     def complete_calibration(self, job: dict, worker: str, profile_path: str, profile_sha256: str) -> bool:
+        """Store a calibration job's profile as its airframe's and mark the job done, in one
+        transaction: the job's flights become the airframe's next calibration sessions (one each),
+        after those it already has when the job added sessions (``args.add_to``), else replacing
+        them. False (nothing written) when ``worker`` no longer holds the job."""
+        args = json.loads(job.get("args") or "{}")
+        flights = [int(f) for f in args.get("flights", [])]
+        key = job["airframe"]
+
         def tx():
             ok = self.db.run("UPDATE job SET state = 'done', finished_at = ?, lease_until = NULL WHERE id = ? "
                              "AND state = 'running' AND worker = ?", (utc_now(), job["id"], worker))
             if ok != 1:
                 return False
             self.db.run("UPDATE airframe SET profile_path = ?, profile_sha256 = ? WHERE key = ?",
-                        (profile_path, profile_sha256, job["airframe"]))
+                        (profile_path, profile_sha256, key))
+            if not args.get("add_to"):
+                self.db.run("DELETE FROM calibration_session WHERE airframe = ?", (key,))
+            top = self.db.one("SELECT MAX(session) AS n FROM calibration_session WHERE airframe = ?", (key,))
+            first = int(top["n"] or 0) + 1 if top else 1
+            now = utc_now()
+            for k, fid in enumerate(flights):
+                self.db.run("INSERT INTO calibration_session (airframe, session, flight_id, job_id, profile_path, "
+                            "created_at) VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (airframe, flight_id) DO NOTHING",
+                            (key, first + k, fid, job["id"], profile_path, now))
             return True
 
         return self.db.transaction(tx, "store the calibration")
+
+    def calibration_sessions(self, airframe: str) -> list[dict]:
+        """The airframe's calibration sessions in order: session, flight id, its name, when added."""
+        return self.db.query("SELECT s.session, s.flight_id, f.name, f.sha256, s.job_id, s.created_at "
+                             "FROM calibration_session s JOIN flight f ON f.id = s.flight_id "
+                             "WHERE s.airframe = ? ORDER BY s.session, s.flight_id", (airframe,))
 
     def job(self, jid: int) -> Optional[dict]:
         return self.db.one("SELECT * FROM job WHERE id = ?", (jid,))
@@ -855,7 +909,7 @@ class Store:
         """Resolved airframe -> its flights in time order (UTC start; flights without it after,
         by name, then upload), each with ``motors``: motor -> figures."""
         flights = self.db.query("SELECT id, sha256, name, state, airframe, healthy_mark, autopilot, firmware, "
-                                "flight_start_utc, airborne_s, status, motor, verdict_motors, pair, confidence, "
+                                "flight_start_utc, airborne_s, status, motor, verdict_motors, pair, cause, confidence, "
                                 "reason, uploaded_at, diagnosed_at, error FROM flight WHERE airframe IS NOT NULL")
         figs: dict[int, dict[int, dict]] = {}
         for m in self.db.query(f"SELECT flight_id, motor, {', '.join(MOTOR_COLUMNS)} FROM motor_figure"):
@@ -938,7 +992,7 @@ def holder_is_dead(worker: str) -> bool:
 def _record_of(f: dict, source: str) -> FlightRecord:
     return FlightRecord(id=int(f["id"]), log_path=f["name"], log_sha256=f["sha256"],
                         flight_start_utc=f["flight_start_utc"], airborne_s=f["airborne_s"], status=f["status"] or "",
-                        motor=f["motor"], confidence=f["confidence"], reason=f["reason"] or "",
+                        motor=f["motor"], cause=f.get("cause"), confidence=f["confidence"], reason=f["reason"] or "",
                         verdict_motors=list(f.get("verdict_motors") or []), pair=bool(f.get("pair")),
                         diagnosed_at=f["diagnosed_at"] or "", vehicle_source=source,
                         motors={k: dict(v) for k, v in f["motors"].items()}, parts=list(f.get("parts") or []))

@@ -359,7 +359,7 @@ def test_store_history_and_web_pages_name_both(pair_run, tmp_path):
 
 
 def test_an_existing_store_gets_the_named_propellers_when_upgraded(pair_run, tmp_path):
-    """A store at migration 5 (before verdict_motors and pair): opening it runs migration 6, which
+    """A store at migration 7 (before verdict_motors and pair): opening it runs migration 8, which
     fills them from each stored report."""
     import shutil
 
@@ -371,27 +371,31 @@ def test_an_existing_store_gets_the_named_propellers_when_upgraded(pair_run, tmp
         for table in ("flight", "flight_part"):
             c.execute(f"ALTER TABLE {table} DROP COLUMN verdict_motors")
             c.execute(f"ALTER TABLE {table} DROP COLUMN pair")
-        c.execute("DELETE FROM schema_migrations WHERE version = 6")
-        c.execute("PRAGMA user_version = 5")
+        c.execute("DELETE FROM schema_migrations WHERE version = 8")
+        c.execute("PRAGMA user_version = 7")
     with Store(db) as store:
-        assert store.db.schema_version() == SCHEMA_VERSION == 6
+        assert store.db.schema_version() == SCHEMA_VERSION == 8
         (f,) = store.logs()
         row = store.flight(f["id"])
     assert (row["verdict_motors"], row["pair"]) == ("1;4", 1)
 
 
 def test_a_weak_motor_or_esc_is_not_made_a_pair_by_its_neighbours_esc_offsets():
-    """ArduCopter SITL, motor 1 weakened as a motor or ESC fault (slower per command): each ESC is
-    measured against the others, so its neighbours look fast; a pair must not borrow that."""
+    """ArduCopter SITL, motor 1 weakened as a motor or ESC fault (slower per command): the ESC
+    evidence is for motor 1 alone, and a pair gets its less likely member's (each ESC is measured
+    against the others, so one motor's offset moves its neighbours' figures too); the verdict names
+    motor 1 alone, with its cause (a pair's cause would be null)."""
     from flightlog_fd import load_flight
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
 
     log = shared_path("ardupilot_sitl_quad", "motor1_weak_esc.BIN")
     d = diagnose_flight(load_flight(log), resolve_model(), None, keep_flight=False)
     assert not d.verdict.pair and (d.verdict.motors or list(d.verdict.inspect)) == [1]
+    assert d.verdict.cause == "motor_or_esc"
     esc = next(r for r in d.decision.results if r.analyzer == "esc")
     per = esc.llr(4)
-    assert per[0] < 0 < per[1] and esc.pair_llr(4)[(1, 2)] == pytest.approx(per[0])
+    assert per[0] > 0 > max(per[1:])
+    assert all(esc.pair_llr(4)[(1, k)] == pytest.approx(min(per[0], per[k - 1])) for k in (2, 3, 4))
 
 
 def test_several_flights_and_stopped_motors_keep_every_named_motor():

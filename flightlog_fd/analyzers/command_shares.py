@@ -29,6 +29,7 @@ import numpy as np
 
 from ..flight import Frame
 from .base import PAIR_ROTOR_COUNTS, Analyzer, AnalyzerResult, Context, Finding
+from .session_drift import SessionDrift
 
 #: Thrust-efficiency grid of the damage hypothesis (uniform prior). 0.4: below it a quad cannot
 #: hold yaw and the flight ends; 0.99: damage too small to matter is still "damage" here but
@@ -120,6 +121,7 @@ class CommandSharesResult(AnalyzerResult):
     pin: Optional[list[float]] = None  # (n,) how well calibration and this flight pin each share (profile only)
     n_flights: Optional[int] = None  # the profile's calibration flights (None without a profile)
     throttle_sigma: Optional[float] = None  # the relative throttle drift against the baseline
+    n_sessions: Optional[int] = None  # the profile's calibration sessions (0: older than schema 6; None: no profile)
     pairs: list[PairFit] = field(default_factory=list)  # each pair's fit (with the throttle when weighed)
 
 
@@ -227,17 +229,24 @@ def _share_likelihood(share, base_share, sigma, frame, throttle_ratio, throttle_
 
 def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
                  throttle_ratio: Optional[float] = None,
-                 throttle_sigma: float = THROTTLE_DRIFT_SIGMA, move: bool = False) -> tuple[float, list[SeverityFit]]:
+                 throttle_sigma: float = THROTTLE_DRIFT_SIGMA, move: bool = False,
+                 sessions: Optional[SessionDrift] = None,
+                 flight_pin: Optional[Sequence[float]] = None) -> tuple[float, list[SeverityFit]]:
     """Fit each motor's damage to the observed shares (mean 1) against the healthy ``base_share``.
 
     ``sigma`` (n,): each share's noise; ``throttle_ratio``: the flight's mean command over the
     baseline's (None without a profile); ``move``: the healthy noise includes a moved load
     (SESSION_MOVE_*, THROTTLE_MOVE_RANGE: against a calibration from another session; also
-    around the damage hypothesis). Returns the healthy chi-square (small drift) and one
+    around the damage hypothesis). ``sessions``: against a profile of two or more sessions, the
+    airframe's own drift (:class:`~flightlog_fd.analyzers.session_drift.SessionDrift`, with this
+    flight's pinning ``flight_pin``) replaces ``sigma``, ``throttle_sigma`` and ``move``, and the
+    chi-squares are its equivalents. Returns the healthy chi-square (small drift) and one
     :class:`SeverityFit` per motor (LLR = log Bayes factor over the eta/m prior grid)."""
     s, b, sig, rows, with_thr, loglik = _share_likelihood(share, base_share, sigma, frame, throttle_ratio,
                                                           throttle_sigma, move)
     n = len(s)
+    if sessions is not None:
+        return _session_severity_fit(s, b, rows, throttle_ratio if with_thr else None, sessions, flight_pin)
     chi_h = float(np.sum(((s - b) / sig) ** 2))
     if with_thr:
         chi_h += ((throttle_ratio - 1.0) / throttle_sigma) ** 2
@@ -295,7 +304,8 @@ def all_pairs(n: int) -> list[tuple[int, int]]:
 def pair_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
              throttle_ratio: Optional[float] = None, throttle_sigma: float = THROTTLE_DRIFT_SIGMA,
              move: bool = False, pairs: Optional[Sequence[tuple[int, int]]] = None,
-             tables: Optional[dict] = None) -> list[PairFit]:
+             tables: Optional[dict] = None, sessions: Optional[SessionDrift] = None,
+             flight_pin: Optional[Sequence[float]] = None) -> list[PairFit]:
     """The two-rotor hypothesis for each pair (default :func:`all_pairs`): the same likelihood as
     :func:`severity_fit`, the commands predicted with both rotors weak (one drag-torque exponent
     for both: the same propeller type), the LLR averaged over the uniform prior on
@@ -303,10 +313,29 @@ def pair_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame
     (the average over a prior twice as wide), but two weak rotors explain any share pattern a
     single one does, which is why :mod:`flightlog_fd.decision` asks more of a pair. ``tables``: a
     dict the predicted commands are kept in between calls on the same baseline (with and without
-    the throttle)."""
+    the throttle). ``sessions``/``flight_pin``: against a profile of two or more sessions, the
+    airframe's own drift, as for :func:`severity_fit` (the single rotors and the pairs on one
+    likelihood)."""
     s, b, sig, rows, with_thr, loglik = _share_likelihood(share, base_share, sigma, frame, throttle_ratio,
                                                           throttle_sigma, move)
-    ll_h = float(loglik(s - b, throttle_ratio - 1.0 if with_thr else None))
+    if sessions is not None:
+        log_thr = float(np.log(max(throttle_ratio, 1e-9))) if with_thr else None
+
+        def loglik(resid, thr_resid):  # noqa: F811 - the session drift's likelihood replaces the fixed noise
+            return sessions.loglik(resid, thr_resid, flight_pin)
+
+        def thr_resid_of(mean_u):
+            return None if log_thr is None else log_thr - np.log(np.clip(mean_u, 1e-9, None))
+
+        def chi_at(resid, thr_resid):
+            return sessions.chi2_equivalent(resid, thr_resid, flight_pin)
+    else:
+        def thr_resid_of(mean_u):
+            return throttle_ratio - mean_u if with_thr else None
+
+        def chi_at(resid, thr_resid):
+            return float(np.sum((resid / sig) ** 2) + ((thr_resid / throttle_sigma) ** 2 if with_thr else 0.0))
+    ll_h = float(loglik(s - b, thr_resid_of(np.float64(1.0))))
     out = []
     for a, c in (pairs if pairs is not None else all_pairs(len(s))):
         key = (a, c, b.tobytes(), rows.tobytes())
@@ -317,15 +346,57 @@ def pair_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame
                 tables[key] = u
         mean_u = u.mean(axis=-1)
         pred = u / mean_u[..., None]
-        ll = loglik(s - pred, throttle_ratio - mean_u if with_thr else None)
+        thr_resid = thr_resid_of(mean_u)
+        ll = loglik(s - pred, thr_resid)
         top = ll.max()
         llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
         i, j, k = np.unravel_index(int(np.argmax(ll)), ll.shape)
-        chi = float(np.sum(((s - pred[i, j, k]) / sig) ** 2)
-                    + (((throttle_ratio - mean_u[i, j, k]) / throttle_sigma) ** 2 if with_thr else 0.0))
+        chi = float(chi_at(s - pred[i, j, k], None if thr_resid is None else thr_resid[i, j, k]))
         hat = tuple(1.0 if x >= PAIR_ETA_GRID[-1] else float(x) for x in (PAIR_ETA_GRID[i], PAIR_ETA_GRID[j]))
         out.append(PairFit(motors=(a, c), llr=llr, eta_hat=hat, chi2=chi))
     return out
+
+
+def _session_severity_fit(s: np.ndarray, b: np.ndarray, rows: np.ndarray, throttle_ratio: Optional[float],
+                          drift: SessionDrift, flight_pin) -> tuple[float, list[SeverityFit]]:
+    """:func:`severity_fit` against an airframe's own session drift: the healthy and the damaged
+    shares (and the log throttle) weighed with its posterior mixture over the session scale."""
+    n = len(s)
+    log_thr = None if throttle_ratio is None else float(np.log(max(throttle_ratio, 1e-9)))
+
+    def loglik(resid, thr_resid):
+        return drift.loglik(resid, thr_resid, flight_pin)
+
+    ll_h = float(loglik(s - b, log_thr))
+    chi_h = drift.chi2_equivalent(s - b, log_thr, flight_pin)
+    fits = []
+    for k in range(1, n + 1):
+        u = _pred_table(b, rows, k)  # (E, M, n)
+        mean_u = u.mean(axis=2)
+        pred = u / mean_u[..., None]
+        thr_resid = None if log_thr is None else log_thr - np.log(np.clip(mean_u, 1e-9, None))
+        ll = loglik(s - pred, thr_resid)
+        fits.append(_fit_from_grid(ll, ll_h, lambda a, bm: drift.chi2_equivalent(
+            s - pred[a, bm], None if thr_resid is None else thr_resid[a, bm], flight_pin)))
+    return chi_h, fits
+
+
+def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
+    """One motor's :class:`SeverityFit` from its log-likelihood over the eta/m grid (``ll`` (E, M))
+    and the healthy one; ``chi_at(a, bm)``: the chi-square at the best grid point."""
+    top = ll.max()
+    llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+    post_eta = np.exp(ll - top).sum(axis=1)
+    cdf = np.cumsum(post_eta / post_eta.sum())
+    ia = min(int(np.searchsorted(cdf, 0.05)), len(ETA_GRID) - 1)
+    ib = min(int(np.searchsorted(cdf, 0.95)), len(ETA_GRID) - 1)
+    lo = 0.0 if ia == 0 else float(ETA_GRID[max(ia - (ia == ib), 0)])
+    hi = float(ETA_GRID[min(ib + (ia == ib), len(ETA_GRID) - 1)])
+    a, bm = np.unravel_index(int(np.argmax(ll)), ll.shape)
+    eta_hat = float(ETA_GRID[a])
+    if eta_hat >= ETA_GRID[-1]:
+        eta_hat, hi = 1.0, 1.0
+    return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)))
 
 
 def pooled_sigma(measured: Optional[float], n_flights: int, prior: float) -> float:
@@ -385,24 +456,39 @@ def _fits(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[Sever
     sig = share_sigma(share_fit.baseline, None if b is None else b.spread, n, n_flights, pins)
     ratio = share_fit.throttle_ratio if with_throttle else None
     thr_sig = pooled_sigma(None if b is None else b.throttle_spread, n_flights, THROTTLE_DRIFT_SIGMA)
-    chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile)
-    ctx.memo[("commands.inputs", with_throttle)] = (shares, base, sig, ratio, thr_sig, profile)
+    drift = session_drift(share_fit) if profile else None
+    if drift is not None:
+        sig = drift.share_sigma(share_fit.pin)
+    chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile, sessions=drift,
+                               flight_pin=share_fit.pin)
+    ctx.memo[("commands.inputs", with_throttle)] = (shares, base, sig, ratio, thr_sig, profile, drift, share_fit.pin)
     return chi_h, fits, sig
+
+
+def session_drift(share_fit) -> Optional[SessionDrift]:
+    """The airframe's own session drift when the profile holds two or more sessions, else None."""
+    b = share_fit.baseline_
+    figs = None if b is None else b.sessions
+    if figs is None or figs.n_sessions < 2 or figs.shares.shape[1] != len(share_fit.motors):
+        return None
+    return SessionDrift.fit(figs, DEFAULT_DRIFT_SIGMA, THROTTLE_DRIFT_SIGMA)
 
 
 def pair_fits_for(ctx: Context, with_throttle: bool) -> Optional[list[PairFit]]:
     """Every pair's two-rotor fit (:func:`pair_fit`) of the flight's shares, or None (also on a rotor
     count outside ``PAIR_ROTOR_COUNTS``); computed once per diagnosis, after :func:`fits_for` (the
-    command-share and throttle analyzers both need them)."""
+    command-share and throttle analyzers both need them), on the same likelihood as the single
+    rotors (the airframe's own session drift when the profile holds two or more sessions)."""
     key = ("commands.pairs", with_throttle)
     if key not in ctx.memo:
         inputs = ctx.memo.get(("commands.inputs", with_throttle)) if fits_for(ctx, with_throttle) else None
         if inputs is None or len(inputs[0]) not in PAIR_ROTOR_COUNTS:
             ctx.memo[key] = None
         else:
-            shares, base, sig, ratio, thr_sig, profile = inputs
+            shares, base, sig, ratio, thr_sig, profile, drift, pin = inputs
             tables = ctx.memo.setdefault("commands.pair_tables", {})
-            ctx.memo[key] = pair_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile, tables=tables)
+            ctx.memo[key] = pair_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile, tables=tables,
+                                     sessions=drift, flight_pin=pin)
     return ctx.memo[key]
 
 
@@ -455,11 +541,16 @@ class CommandShares(Analyzer):
                                    healthy_chi2_shares=chi_h, fit_chi2_shares=[f.chi2 for f in fits],
                                    pin=_combined_pin(share_fit),
                                    n_flights=None if share_fit.baseline_ is None else share_fit.baseline_.n_flights,
+                                   n_sessions=None if share_fit.baseline_ is None else share_fit.baseline_.n_sessions,
                                    throttle_sigma=_throttle_sigma(share_fit))
 
 
 def _throttle_sigma(share_fit) -> float:
-    """The relative throttle drift against the baseline (measured spread pooled with the default)."""
+    """The relative throttle drift against the baseline (measured spread pooled with the default;
+    the airframe's own session drift against a profile of two or more sessions)."""
+    drift = session_drift(share_fit) if share_fit.baseline == "profile" else None
+    if drift is not None:
+        return drift.throttle_sigma()
     b = share_fit.baseline_
     return pooled_sigma(None if b is None else b.throttle_spread, 1 if b is None else b.n_flights,
                         THROTTLE_DRIFT_SIGMA)

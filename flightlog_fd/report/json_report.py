@@ -16,7 +16,8 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "frame": "quad_x" | "quad_plus" | "hexa_x" | "octo_x" | ... | null,
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
-      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
+      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null,
+                  "sessions": int} | null,             # its calibration sessions (schema 6)
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
                   "motor": 1-n | null,               # the damaged (stopped) motor, the first of two
                   "motors": [1-n],                   # every propeller it names: damaged, stopped, or for
@@ -27,6 +28,11 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
                   "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
+                  "cause": "propeller" | "motor_or_esc" | null,   # the named rotor's likely cause
+                  "cause_evidence": {"motor": 1-n,                # null when no rotor is named
+                                     "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
+                                     "rpm_per_command": % | null, "current_per_rpm2": % | null,
+                                     "reason": str} | null,       # why that cause, or why none
                   "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "logging" |
                                       "esc_telemetry" | "manoeuvre",
                               "text": str,              # what to do, in words
@@ -106,9 +112,12 @@ the whole log's, each flight judged from the log's windows and never worse than 
 flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verdict's ``advice`` (what would
 resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
 settings that let a source decide next time), each source's reliability ``weights`` in
-``motor_evidence.decision``, ``verdict.motors``, ``verdict.positions`` and ``verdict.pair`` (two
-propellers named together; ``motor`` stays the first) and ``motor_evidence.decision.pair`` (the
-most likely pair hypothesis).
+``motor_evidence.decision``, ``profile.sessions`` (how many calibration sessions the profile
+holds), ``verdict.motors``, ``verdict.positions`` and ``verdict.pair`` (two propellers named
+together; ``motor`` stays the first) and ``motor_evidence.decision.pair`` (the most likely pair
+hypothesis), ``verdict.cause`` and ``verdict.cause_evidence`` (:mod:`flightlog_fd.cause`: with ESC
+telemetry, whether the named rotor's propeller or its motor / ESC lost the thrust; null and the
+reason when the log cannot tell, and null for a pair).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -156,13 +165,13 @@ JSON_SCHEMA: dict = {
         "model": {"type": ["object", "null"], "required": ["path", "version", "sha256", "calibrated"],
                   "properties": {"path": _STR_OR_NULL, "version": {"type": "string"},
                                  "sha256": {"type": "string"}, "calibrated": {"type": "boolean"}}},
-        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256"],
+        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256", "sessions"],
                     "properties": {"path": _STR_OR_NULL, "model_path": _STR_OR_NULL,
-                                   "model_sha256": _STR_OR_NULL}},
+                                   "model_sha256": _STR_OR_NULL, "sessions": {"type": "integer", "minimum": 1}}},
         "verdict": {
             "type": "object",
             "required": ["status", "motor", "motors", "positions", "pair", "position", "confidence", "first_seen",
-                         "reason", "advice"],
+                         "reason", "advice", "cause", "cause_evidence"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
@@ -174,6 +183,12 @@ JSON_SCHEMA: dict = {
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
+                "cause": {"enum": ["propeller", "motor_or_esc", None]},
+                "cause_evidence": {"type": ["object", "null"],
+                                   "required": ["motor", "llr", "rpm_per_command", "current_per_rpm2", "reason"],
+                                   "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                                  "llr": _NUM_OR_NULL, "rpm_per_command": _NUM_OR_NULL,
+                                                  "current_per_rpm2": _NUM_OR_NULL, "reason": {"type": "string"}}},
                 "advice": {"type": "array", "items": {
                     "type": "object", "required": ["kind", "text", "motors", "command", "setting"],
                     "properties": {"kind": {"enum": list(ADVICE_KINDS)}, "text": {"type": "string"},
@@ -332,7 +347,7 @@ def to_dict(d: Diagnosis) -> dict:
         "model": None if m is None else {"path": m.path, "version": m.version, "sha256": m.sha256,
                                          "calibrated": m.calibrated},
         "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
-                                           "model_sha256": p.model_sha256},
+                                           "model_sha256": p.model_sha256, "sessions": p.sessions},
         "verdict": v.as_dict(),
         "evidence": None if ev is None or ev.n_windows == 0 else {
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),

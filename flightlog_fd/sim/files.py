@@ -19,7 +19,7 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
                       rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
                       esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
                       imbalance: Optional[list[str]] = None, imu_rate: Optional[float] = None,
-                      ) -> list[tuple[Path, dict]]:
+                      cause: str = "propeller") -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
 
     ``imbalance``: ["MOTOR:G_MM"] propeller mass imbalance m·r in g·mm on that motor, or
@@ -35,6 +35,10 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     ``eta`` (one value for all, or one per motor) and ``onset`` (seconds after arming; None or 0:
     from take-off; one value for all, or one per motor).
 
+    ``cause``: what lost the thrust of each ``motor``: ``"propeller"`` (damaged) or ``"motor"``
+    (the motor or its ESC is weak: the rotor turns at sqrt(eta) of its commanded speed, the
+    propeller is sound; sim/damage.py).
+
     ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
     Existing files are never overwritten unless ``force``.
     """
@@ -42,8 +46,10 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     from ..logs.ulog_writer import write_ulog
     from .airframe import N_ROTOR_FRAMES, SIM_FRAMES, preset
     from .api import simulate_flights
-    from .damage import Damage
+    from .damage import CAUSES, Damage
 
+    if cause not in CAUSES:
+        raise FlightLogError(out, f"--cause must be one of {', '.join(CAUSES)}, got {cause!r}")
     if fmt not in FORMATS:
         raise FlightLogError(out, f"unknown format {fmt!r}: use ulog or dataflash")
     if frame is not None and frame not in SIM_FRAMES:
@@ -80,7 +86,8 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
     # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
     # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
-    damage = Damage.several(*(Damage(k, e, o, e ** ESC_SAMPLE_TORQUE_EXPONENT if esc_rate else None, rotors=rotors)
+    torque_exp = ESC_SAMPLE_TORQUE_EXPONENT if (esc_rate and cause == "propeller") else None
+    damage = Damage.several(*(Damage(k, e, o, e ** torque_exp if torque_exp else None, rotors=rotors, cause=cause)
                               for k, e, o in zip(motors, etas, onsets))) if motors else Damage()
     props = parse_imbalance(out, imbalance, rotors, imu_rate) if (imbalance or imu_rate) else None
     flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
@@ -102,9 +109,10 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
 
         with open(out / "truth.csv", "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["file", "label", "motor", "eta", "onset_s", "airframe", "mission", "seed", "motors", "etas"])
+            w.writerow(["file", "label", "motor", "eta", "cause", "onset_s", "airframe", "mission", "seed",
+                        "motors", "etas"])
             for p, t in written:
-                w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("onset_s"),
+                w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("cause"), t.get("onset_s"),
                             (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed"),
                             ";".join(str(k) for k in t.get("motors") or []),
                             ";".join(f"{e:g}" for e in t.get("etas") or [])])
@@ -133,7 +141,7 @@ def _damaged(out: Path, motor, eta, onset, rotors: int) -> tuple[list[int], list
     etas = [float(e) for e in per_motor(eta, "eta")] if motors else []
     for e in etas:
         if not 0.0 < e < 1.0:
-            raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {e}")
+            raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller or weak motor, got {e}")
     raw = per_motor(onset if onset is not None else [None], "onset") if motors else []
     onsets = [None if o is None or float(o) == 0.0 else float(o) for o in raw]
     if any(o is not None and o < 0 for o in onsets):
