@@ -58,9 +58,13 @@ reaches ``UNCERTAIN_LLR`` and beats the best single rotor by ``PAIR_EXCESS_LLR``
 ``PAIR_EXCESS_PROFILE_LLR``: the pair's prior odds, it has a second free efficiency and is rarer), ``damaged`` under the single rotor's bars
 (discounted sources not counted toward them), else ``uncertain`` naming both (a moved load or
 re-trim makes the same command pattern: against a profile the commands alone reach at most
-``uncertain``). ``Verdict.motors`` lists both, ``motor`` is the first, ``inspect`` both; the
-confidence is P(that pair) among healthy, every rotor and every pair (:func:`_pair_posterior`).
-Quads only (``analyzers.base.PAIR_ROTOR_COUNTS``).
+``uncertain``). An uncertain pair does not replace a single rotor that meets every bar of
+``damaged`` (a noisy source can favour two rotors where the commands' physics backs one: a
+simulated f450 at 10 Hz motor logging, propeller 3 weak, read the effectiveness of 2 and 3 low and
+became "uncertain, propellers 2 and 3" with rotor 3 alone at +14.8 nats). ``Verdict.motors`` lists
+both, ``motor`` is the first, ``inspect`` both, ``cause`` null; the confidence is P(that pair)
+among healthy, every rotor and every pair (:func:`_pair_posterior`). Quads only
+(``analyzers.base.PAIR_ROTOR_COUNTS``).
 
 The verdict names the propellers to inspect (``Verdict.inspect``); what would resolve it
 (``Verdict.advice``) is :mod:`flightlog_fd.advice`'s. A healthy verdict over a mostly uncertain
@@ -715,18 +719,26 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                        cause=named.cause if named else None,
                        cause_evidence=named.evidence() if named else None), decision
 
-    # the pair-hypothesis step: two rotors that explain the evidence where no single one does
-    decision.pairs, singles_for_pairs = _pairs(results, sources, weights, cmd, n)
-    call = _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
-    if call is not None:
-        status, motor, confidence, reason, inspect, pair_motors, pair = call
-        return done(status, motor, confidence, reason, inspect, None, pair_motors, pair)
-
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
     thr_sigma = (cmd.throttle_sigma if cmd is not None else None) or THROTTLE_DRIFT_SIGMA
-    if (thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma
-            and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported):
+    throttle_fell = thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma
+    # every bar of the single-rotor "damaged" below met
+    single_damaged = (decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported
+                      and not throttle_fell and trim_held is None)
+
+    # the pair-hypothesis step: two rotors that explain the evidence where no single one does; a
+    # pair that misses a bar of "damaged" does not replace a single rotor that meets all of them
+    decision.pairs, singles_for_pairs = _pairs(results, sources, weights, cmd, n)
+    single_weights = [m.weight for m in motors]
+    call = _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
+    if call is not None and not (call[0] == "uncertain" and single_damaged):
+        status, motor, confidence, reason, inspect, pair_motors, pair = call
+        return done(status, motor, confidence, reason, inspect, None, pair_motors, pair)
+    for m, wt in zip(motors, single_weights):
+        m.weight = wt
+
+    if (throttle_fell and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported):
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but the throttle is "
                     f"{100 * (1 - thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot do "

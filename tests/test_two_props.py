@@ -273,6 +273,31 @@ def test_one_weak_rotor_stays_one():
     assert v.status == "healthy" and v.motors == [] and not v.pair
 
 
+def test_an_uncertain_pair_does_not_replace_a_single_rotor_that_meets_every_bar():
+    """Propeller 3 weak (commands, model), the effectiveness estimate noisy (a simulated f450 at
+    10 Hz motor logging read 1.05 / 0.80 / 0.89 / 1.55): rotors 2 and 3 together beat rotor 3 alone
+    by more than the pair's bar, but propeller 2's command share did not rise, so the pair could
+    only be uncertain, while rotor 3 alone meets every bar of damaged: the verdict is rotor 3."""
+    rows = CS._mixer_rows(Frame.quad_x(), 4)
+    u = CS.predicted_commands(BASE, rows, 3, 0.72, 0.75)
+    eff = _eff(relative_to_others(np.array([1.05, 0.8, 0.885, 1.55]), Frame.quad_x()))
+    v, d = decide(u / u.mean(), u.mean() / BASE.mean(), window_probs(3, 0.6), eff=eff)
+    assert d.pairs[0].motors == (2, 3) and d.pairs[0].excess >= D.PAIR_EXCESS_PROFILE_LLR
+    assert (v.status, v.motor, v.motors, v.pair) == ("damaged", 3, [3], False)
+    assert d.motors[2].weight > 0.9 and d.motors[1].weight < 0.1  # the single-rotor posterior, not the pair's
+
+
+def test_an_uncertain_pairs_advice_is_to_inspect_both():
+    from flightlog_fd.advice import Situation, advise
+
+    where = {1: "front-right", 4: "rear-right"}
+    (first, *_) = advise(Situation("uncertain", inspect=(1, 4), pair=True, positions=where, profile="p.json"))
+    assert first.kind == "inspect" and first.motors == (1, 4)
+    assert first.text.startswith("inspect both propellers, 1 (front-right) and 4 (rear-right)")
+    (two, *_) = advise(Situation("uncertain", inspect=(1, 4), positions=where))  # two it cannot tell apart
+    assert two.text.startswith("inspect propellers 1 (front-right) and 4 (rear-right) first")
+
+
 def test_no_pair_on_other_rotor_counts():
     r = AnalyzerResult("esc", [Finding("esc", k + 1, "rpm", 0.0, llr=5.0 if k in (0, 3) else -2.0) for k in range(6)])
     v, d = D.decide(6, None, timeline=Timeline(60, 60.0, 0.0), results=[r])
