@@ -3,6 +3,7 @@ flights what they are?
 
     python benchmarks/bench_two_props.py [--seeds 101 102] [--per-set 12] [--duration 60] [--real]
     python benchmarks/bench_two_props.py --measure          # the figures decision.py / model_votes.py cite
+    python benchmarks/bench_two_props.py --esc --seeds 31   # with ESC telemetry (what esc.py's pair_keeps_order cites)
 
 Simulated part: for each seed and logging profile (px4_high, ardupilot, px4_default: 10 Hz motor
 outputs) and airframe set (random quads 30 g-5 kg, X and +, with realistic imbalance; and the
@@ -303,6 +304,74 @@ def run_real(args) -> None:
             report(f"{af.name}, one-flight profiles: one propeller", damaged)
 
 
+ESC_RATES = (("px4_default", 50.0), ("ardupilot", 10.0), ("px4_high", 100.0))
+
+
+def run_esc(seeds, per_set: int, duration: float) -> None:
+    """``--esc``: random quads with ESC telemetry (50 / 10 / 100 Hz at the px4_default / ardupilot /
+    px4_high logging profiles), ``per_set`` each, healthy, two propellers and one (eta 0.6-0.85,
+    eta_torque = eta^k as sim/damage.py TORQUE_EXPONENT_RANGE), no profile: the ESC analyzer's
+    per-motor LLRs before the cap (the second-largest on one-propeller and healthy flights, the
+    weaker member's on two-propeller ones) and the verdicts."""
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+    from flightlog_fd.sim.airframe import random_airframes
+    from flightlog_fd.sim.api import simulate_flights
+    from flightlog_fd.sim.damage import (PAIR_ETA_RANGE, TORQUE_EXPONENT_RANGE, Damage, min_feasible_eta,
+                                         random_pair_damages)
+    from flightlog_fd.sim.imbalance import random_imbalances
+
+    model = resolve_model()
+    rows = []
+    for seed in seeds:
+        for prof, rate in ESC_RATES:
+            rng = np.random.default_rng([seed, int(rate)])
+            afs = random_airframes(per_set, rng)
+            imbs = random_imbalances(afs, rng)
+            pairs = random_pair_damages(afs, rng, torque_exponent_range=TORQUE_EXPONENT_RANGE)
+            singles = []
+            for af in afs:
+                lo = min(max(PAIR_ETA_RANGE[0], min_feasible_eta(af)), PAIR_ETA_RANGE[1])
+                e = float(rng.uniform(lo, PAIR_ETA_RANGE[1]))
+                singles.append(Damage(int(rng.integers(1, 5)), e, None, float(e ** rng.uniform(*TORQUE_EXPONENT_RANGE))))
+            flights = simulate_flights(3 * per_set, airframes=afs * 3, imbalance=imbs * 3,
+                                       damages=[Damage()] * per_set + pairs + singles, duration_s=duration,
+                                       profile=prof, seed=seed, midflight_fraction=0.0, esc=rate)
+            for i, fl in enumerate(flights):
+                what = ("healthy", "pair", "single")[i // per_set]
+                truth = fl.truth.get("motors") or []
+                if what == "pair" and len(truth) != 2:
+                    continue
+                d = diagnose_flight(fl, model, None, keep_flight=False)
+                esc = next((r for r in d.decision.results if r.analyzer == "esc"), None)
+                raw = None if esc is None else esc.raw_llr(4)
+                v = d.verdict
+                rows.append(dict(what=what, truth=truth, raw=None if raw is None else raw.tolist(), status=v.status,
+                                 motors=list(v.motors), pair=bool(v.pair),
+                                 excess=d.decision.pairs[0].excess if d.decision.pairs else None))
+            print(f"  seed {seed} {prof:11s} ESC {rate:3.0f} Hz: {per_set} airframes", flush=True)
+    print("\n== with ESC telemetry, no profile ==")
+    for what in ("healthy", "single", "pair"):
+        rs = [r for r in rows if r["what"] == what and r["raw"] is not None]
+        if not rs:
+            continue
+        second = [float(np.sort(r["raw"])[-2]) for r in rs]
+        ex = [r["excess"] for r in rs if r["excess"] is not None]
+        line = f"  {what:8s} {len(rs):3d} flights, verdicts {dict(Counter((r['status'], r['pair']) for r in rs))}"
+        if ex:
+            line += f"; best pair's excess max {max(ex):+.2f}"
+        if what == "pair":
+            weaker = [min(r["raw"][r["truth"][0] - 1], r["raw"][r["truth"][1] - 1]) for r in rs]
+            both = sum(r["pair"] and sorted(r["motors"]) == sorted(r["truth"]) for r in rs)
+            one = sum(not r["pair"] and r["status"] in ("damaged", "uncertain") and bool(set(r["motors"]) & set(r["truth"]))
+                      for r in rs)
+            line += (f"; both named {both} ({100 * both / len(rs):.0f} %), one {one}; the weaker member's ESC LLR "
+                     f"10/50 % {np.percentile(weaker, 10):+.1f} / {np.percentile(weaker, 50):+.1f}")
+        else:
+            line += (f"; named as a pair {sum(r['pair'] for r in rs)}; second-largest ESC LLR 50/90 %/max "
+                     f"{np.percentile(second, 50):+.1f} / {np.percentile(second, 90):+.1f} / {max(second):+.1f}")
+        print(line)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[101, 102])
@@ -314,7 +383,11 @@ def main() -> None:
     ap.add_argument("--skip-sim", action="store_true")
     ap.add_argument("--cache", type=Path, default=None, help="write (or with --summary read) the rows here")
     ap.add_argument("--summary", action="store_true", help="summarise --cache without simulating")
+    ap.add_argument("--esc", action="store_true", help="instead: random quads with ESC telemetry, no profile")
     args = ap.parse_args()
+    if args.esc:
+        run_esc(args.seeds, args.per_set, args.duration)
+        return
     if args.measure:
         measure(args)
         return

@@ -273,18 +273,56 @@ def test_one_weak_rotor_stays_one():
     assert v.status == "healthy" and v.motors == [] and not v.pair
 
 
-def test_an_uncertain_pair_does_not_replace_a_single_rotor_that_meets_every_bar():
-    """Propeller 3 weak (commands, model), the effectiveness estimate noisy (a simulated f450 at
-    10 Hz motor logging read 1.05 / 0.80 / 0.89 / 1.55): rotors 2 and 3 together beat rotor 3 alone
-    by more than the pair's bar, but propeller 2's command share did not rise, so the pair could
-    only be uncertain, while rotor 3 alone meets every bar of damaged: the verdict is rotor 3."""
+def test_an_uncertain_pair_does_not_replace_a_single_rotor_that_meets_every_bar(monkeypatch):
+    """Propeller 3 weak, every bar of a single-rotor damaged verdict met: a pair the pair step could
+    only call uncertain (a bar missed; a simulated f450 at 10 Hz motor logging whose effectiveness
+    read 2 and 3 low) does not replace it; a damaged pair does."""
     rows = CS._mixer_rows(Frame.quad_x(), 4)
     u = CS.predicted_commands(BASE, rows, 3, 0.72, 0.75)
-    eff = _eff(relative_to_others(np.array([1.05, 0.8, 0.885, 1.55]), Frame.quad_x()))
+    eff = _eff(relative_to_others(np.array([1, 1, 0.74, 1]), Frame.quad_x()))
+
+    def pair_step(status):
+        def step(pairs, singles, motors, *rest):
+            for m in motors:
+                m.weight = 0.5 if m.motor in (2, 3) else 0.0
+            return (status, 2 if status == "damaged" else None, 0.6, "propellers 2 and 3 ...", (2, 3), [2, 3], True)
+        return step
+
+    monkeypatch.setattr(D, "_pair_step", pair_step("uncertain"))
     v, d = decide(u / u.mean(), u.mean() / BASE.mean(), window_probs(3, 0.6), eff=eff)
-    assert d.pairs[0].motors == (2, 3) and d.pairs[0].excess >= D.PAIR_EXCESS_PROFILE_LLR
     assert (v.status, v.motor, v.motors, v.pair) == ("damaged", 3, [3], False)
     assert d.motors[2].weight > 0.9 and d.motors[1].weight < 0.1  # the single-rotor posterior, not the pair's
+    monkeypatch.setattr(D, "_pair_step", pair_step("damaged"))
+    v, d = decide(u / u.mean(), u.mean() / BASE.mean(), window_probs(3, 0.6), eff=eff)
+    assert (v.status, v.motors, v.pair) == ("damaged", [2, 3], True)
+
+
+def test_a_pair_needs_more_command_together_not_each():
+    """Propellers 1 (0.65) and 4 (0.85) weak, drag exponent 1.6: the mixer moves the yaw load so
+    that propeller 4's share falls below its baseline while the two together rise (the two-rotor
+    fit's physics); the pair is named damaged, not held for propeller 4's share."""
+    s, thr = pair_shares(BASE, 1, 4, 0.65, 0.85, m=1.6)
+    b = BASE / BASE.mean()
+    assert s[3] < b[3] and s[0] + s[3] > b[0] + b[3]
+    eff = _eff(relative_to_others(np.array([0.65, 1, 1, 0.85]), Frame.quad_x()))
+    v, d = decide(s, thr, window_probs(1, 0.3), eff=eff)
+    assert (v.status, v.motors, v.pair) == ("damaged", [1, 4], True), v.reason
+
+
+def test_esc_far_above_its_cap_on_two_motors_says_two_not_one():
+    """ESC telemetry reads each motor against the others: two damaged propellers both far above
+    the cap (12) keep "two rather than one" in the pair step; one damaged propeller with healthy
+    neighbours (negative) keeps one; the single-rotor view is clipped motor by motor."""
+    def esc(values):
+        r = AnalyzerResult("esc", [Finding("esc", k + 1, "esc_damage", 0.0, llr=v) for k, v in enumerate(values)],
+                           llr_cap=12.0, pair_keeps_order=True)
+        return r
+
+    two = esc([40.0, 2.0, 3.0, 35.0])
+    assert two.llr(4).tolist() == [12.0, 2.0, 3.0, 12.0]  # what the single-rotor decision reads
+    assert two.pair_llr(4)[(1, 4)] == 12.0 and two.llr(4, with_pairs=True).max() == -12.0
+    one = esc([40.0, -1.0, -0.8, -1.1])
+    assert one.llr(4, with_pairs=True)[0] == 12.0 and max(one.pair_llr(4).values()) == pytest.approx(11.2)
 
 
 def test_an_uncertain_pairs_advice_is_to_inspect_both():
@@ -407,9 +445,9 @@ def test_an_existing_store_gets_the_named_propellers_when_upgraded(pair_run, tmp
 
 def test_a_weak_motor_or_esc_is_not_made_a_pair_by_its_neighbours_esc_offsets():
     """ArduCopter SITL, motor 1 weakened as a motor or ESC fault (slower per command): the ESC
-    evidence is for motor 1 alone, and a pair gets its less likely member's (each ESC is measured
-    against the others, so one motor's offset moves its neighbours' figures too); the verdict names
-    motor 1 alone, with its cause (a pair's cause would be null)."""
+    evidence is for motor 1 alone (each ESC against a robust level of the others, so motor 1 does
+    not lift its neighbours), a pair with a healthy member is less likely than motor 1 alone, and
+    the verdict names motor 1 alone, with its cause (a pair's cause would be null)."""
     from flightlog_fd import load_flight
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
 
@@ -420,7 +458,8 @@ def test_a_weak_motor_or_esc_is_not_made_a_pair_by_its_neighbours_esc_offsets():
     esc = next(r for r in d.decision.results if r.analyzer == "esc")
     per = esc.llr(4)
     assert per[0] > 0 > max(per[1:])
-    assert all(esc.pair_llr(4)[(1, k)] == pytest.approx(min(per[0], per[k - 1])) for k in (2, 3, 4))
+    singles = esc.llr(4, with_pairs=True)  # the pair step's view: a healthy member lowers a pair
+    assert all(esc.pair_llr(4)[(1, k)] < singles[0] for k in (2, 3, 4))
 
 
 def test_several_flights_and_stopped_motors_keep_every_named_motor():

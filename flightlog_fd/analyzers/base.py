@@ -67,6 +67,7 @@ class AnalyzerResult:
     notes: list[str] = field(default_factory=list)
     llr_cap: float = SOURCE_LLR_CAP  # set from the analyzer by run_analyzers
     cap_keeps_order: bool = False  # likewise
+    pair_keeps_order: bool = False  # likewise
     reliability_keys: tuple[str, ...] = ()  # likewise
     #: {(a, b): nats} this source's own evidence for "rotors a and b both lost thrust" (1-based,
     #: a < b), before the cap, for a source whose per-motor figures are not independent of each
@@ -109,16 +110,17 @@ class AnalyzerResult:
         motors are first lowered by the top one's excess over the cap, so the cap bounds the
         evidence against healthy but keeps what the source says between motors; ``with_pairs``:
         lowered with the pairs of :meth:`pair_llr` (by the top of motors and pairs together), so
-        the cap keeps what the source says between one rotor and two (the decision's pair step)."""
+        the cap keeps what the source says between one rotor and two (the decision's pair step);
+        ``pair_keeps_order`` does that ``with_pairs`` only (the single-rotor view clipped motor by
+        motor)."""
         out = self.raw_llr(n_motors)
         if out is None:
             return None
         cap = self.llr_cap if cap is None else cap
-        if self.cap_keeps_order:
-            if with_pairs and n_motors in PAIR_ROTOR_COUNTS:
-                out = out - self._joint_shift(out, self._raw_pairs(n_motors), cap)
-            else:
-                out = out - max(float(out.max()) - cap, 0.0)
+        if (self.cap_keeps_order or self.pair_keeps_order) and with_pairs and n_motors in PAIR_ROTOR_COUNTS:
+            out = out - self._joint_shift(out, self._raw_pairs(n_motors), cap)
+        elif self.cap_keeps_order:
+            out = out - max(float(out.max()) - cap, 0.0)
         return np.clip(out, -cap, cap)
 
     def pair_llr(self, n_motors: int, cap: Optional[float] = None) -> Optional[dict]:
@@ -134,7 +136,8 @@ class AnalyzerResult:
         if not raw:
             return None
         cap = self.llr_cap if cap is None else cap
-        shift = self._joint_shift(self.raw_llr(n_motors), raw, cap) if self.cap_keeps_order else 0.0
+        keeps = self.cap_keeps_order or self.pair_keeps_order
+        shift = self._joint_shift(self.raw_llr(n_motors), raw, cap) if keeps else 0.0
         return {pr: float(np.clip(v - shift, -cap, cap)) for pr, v in raw.items()}
 
     def as_dict(self) -> dict:
@@ -192,6 +195,11 @@ class Analyzer(ABC):
     #: between motors survive); False: each motor is clipped alone (motors above the cap tie).
     #: For a source whose motor-to-motor differences are physics, not a classifier's leaning.
     cap_keeps_order: bool = False
+    #: True: in the decision's pair step only, every motor and pair is lowered together by the top
+    #: one's excess over the cap (:meth:`AnalyzerResult.llr` ``with_pairs``), so a source far above
+    #: its cap on two motors still says "two rather than one"; the single-rotor view is clipped
+    #: motor by motor as without it.
+    pair_keeps_order: bool = False
     #: False when it can judge (and fit its baseline on) a log without per-motor outputs.
     needs_motor_outputs: bool = True
 

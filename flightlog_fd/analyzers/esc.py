@@ -562,6 +562,13 @@ class Esc(Analyzer):
     #: stayed 60/60 right (bench_esc.py --verdicts, seed 4242, 2026-11-24).
     llr_cap = 12.0
     reliability_keys = ("profile",)
+    #: Two damaged propellers each read far above the cap (simulated quads with ESC telemetry at
+    #: 10/50/100 Hz, two propellers at eta 0.6-0.85: the weaker member's LLR median +21, 10th
+    #: percentile +10.4; one propeller: the second-largest motor's at most +5.3, healthy flights
+    #: at most -0.2; benchmarks/bench_two_props.py --esc --seeds 31 --per-set 12): clipped motor by
+    #: motor, one rotor and the pair both sat at the cap and the ESC could not tell them apart (both
+    #: named in 2 of 33 such flights; with it 30 of 33).
+    pair_keeps_order = True
 
     def fit_baseline(self, flights, model=None):
         try:
@@ -591,13 +598,11 @@ class Esc(Analyzer):
             out.append(Finding(self.id, f.motor, f.name, f.value, f.unit, interval, f.baseline, f.direction,
                                a.decision_llr[f.motor] if weighed else None,
                                text if f.name != "esc_damage" else f"{f.value:.0f}%"))
-        # a pair is as likely as its less likely member: each motor is measured against the mean
-        # of the others, so one motor that turns slowly (a motor or ESC fault) makes the others
-        # look fast; the sum would let that artefact cancel the slow motor's evidence (ArduCopter
-        # SITL motor1_weak_esc: motor 1 -6.1 nats, its neighbour +6.5)
-        per = {f.motor: f.llr for f in out if f.llr is not None}
-        pairs = {(a, b): min(per[a], per[b]) for a in per for b in per if a < b}
-        return EscResult(self.id, out, cause_llr=dict(a.cause_llr), pair_llrs=pairs)
+        # a pair's evidence is its two motors' summed (AnalyzerResult.pair_llr): each motor is now
+        # taken against a robust level of the others (ROBUST_LEVEL_K), so one motor far off no
+        # longer lifts its neighbours (ArduCopter SITL motor1_weak_esc: motor 1 +12, the others
+        # -0.8 to -1.1), and a healthy member lowers a pair
+        return EscResult(self.id, out, cause_llr=dict(a.cause_llr))
 
 
 __all__ = ["ANALYZER_ID", "NO_ESC", "EscFigure", "Esc", "EscAnalysis", "EscBaseline", "EscResult", "analyze_esc",
