@@ -44,3 +44,8 @@ class ProfileError(FlightLogError):
 
 class ModelError(FlightLogError):
     """A model file is missing, unreadable, or lacks the metadata needed to build its input."""
+
+
+class VehicleLinkError(FlightLogError):
+    """The link to a vehicle (`fdlog pull`) failed: no autopilot found or answering, a stalled
+    transfer, a log that does not match its listing. Named by the connection, not a file."""

@@ -341,3 +341,44 @@ def test_sanitise_flight_drops_spikes_and_clips_intervals():
     assert flight.airborne == [(1.0, pytest.approx(t[-1]))]
     assert any(w.startswith("rates (r): dropped 1 sample") for w in flight.warnings), flight.warnings
     assert any("log end time" in w for w in flight.warnings), flight.warnings
+
+
+def test_running_median_is_scipys_median_filter():
+    """The timestamp check's NumPy running median gives scipy.ndimage.median_filter's numbers
+    (mode "mirror"), so the samples it drops are the same; short lines go to scipy itself."""
+    from scipy.ndimage import median_filter
+
+    from flightlog_fd.flight import TIME_SPIKE_NEIGHBOURS, _running_median
+
+    rng = np.random.default_rng(7)
+    for n in list(range(2, 60)) + [257, 4000]:
+        for _ in range(20):
+            t = np.cumsum(rng.random(n))
+            t[rng.integers(n)] += 1e3 * rng.random()  # a spike
+            if rng.random() < 0.3:
+                t = np.round(t, 1)  # ties
+            want = median_filter(t, size=TIME_SPIKE_NEIGHBOURS, mode="mirror")
+            assert np.array_equal(_running_median(t, TIME_SPIKE_NEIGHBOURS), want), n
+
+
+def test_short_streams_skip_the_median_only_where_it_cannot_matter():
+    """A stream of fewer samples than the median's neighbourhood is judged without the median
+    when its span is within the end limit; the result is the full check's."""
+    from flightlog_fd import flight as F
+
+    rng = np.random.default_rng(3)
+    for n in range(2, F.TIME_SPIKE_NEIGHBOURS):
+        for span in (5.0, 500.0, 5000.0):
+            t = np.sort(rng.random(n)) * span
+            t[rng.integers(n)] += rng.choice([0.0, 30.0, 2.0 ** 31 / 1e6])
+            fast = F.implausible_times(t)
+            thr = F._spike_threshold(t[np.isfinite(t)])
+            med = F._running_median(t, F.TIME_SPIKE_NEIGHBOURS)
+            spike = np.abs(t - med) > max(thr, F.MAX_SAMPLE_GAP_S)
+            kept = t[~spike]
+            back = kept < np.maximum.accumulate(kept) - thr
+            keep = ~spike
+            keep[np.flatnonzero(keep)[back]] = False
+            if np.diff(t).min() >= -thr and np.diff(t).max() <= thr:
+                keep[:] = True
+            assert np.array_equal(fast, ~keep), (n, span, t)

@@ -18,7 +18,7 @@ PACKAGE = "flightlog_fd"
 #: entry fails the test: place it.
 LAYERS: list[tuple[str, ...]] = [
     ("errors", "util", "filters", "flight", "frames", "flights"),  # the Flight and its helpers (flights: one per take-off)
-    ("logs", "sim", ""),                                          # what makes a Flight ("": the package's __init__)
+    ("logs", "sim", "", "vehicle"),                               # what makes a Flight ("": the package's __init__); vehicle: logs pulled over MAVLink
     ("streams",),                                                 # cleaned streams, thrust proxy, airborne grid
     ("prepared",),                                                # one prepared flight per diagnosis
     ("windows", "hover", "phases", "stopped", "timeline", "model"),  # views of a prepared flight, the model
