@@ -602,6 +602,7 @@ def serve(
     workers: int = typer.Option(1, "--workers", "-j", min=0, help="Logs diagnosed at once (worker processes; 0: only queue)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run jobs on Dask: 'local' or tcp://HOST:8786 (workers must see --data)."),
     adapt: bool = typer.Option(False, "--adapt/--no-adapt", help="Calibration jobs also adapt the model (needs torch, minutes); default: measure only."),
+    watch: Optional[List[Path]] = typer.Option(None, "--watch", help="Also queue every log that appears in this folder (repeatable), once each, as `fdlog watch` does."),
 ) -> None:
     """Serve the fleet's web page: upload logs, background diagnosis, per-airframe history and drift, calibration.
 
@@ -634,7 +635,7 @@ def serve(
             made = secrets.token_urlsafe(24)
             tokens = TokenSet([made])
         cfg = ServeConfig(data_dir=data, tokens=tokens, db=db, view=view, max_upload_bytes=int(max_upload_mb * 1024 * 1024),
-                          workers=workers, scheduler=scheduler, calibrate_adapt=adapt)
+                          workers=workers, scheduler=scheduler, calibrate_adapt=adapt, watch=list(watch or []))
         web = create_app(cfg)
         if token_file is None:
             err.print(f"fdlog serve: upload token (shown once, not stored; use --token-file to choose your own): {made}",
@@ -657,6 +658,77 @@ def serve(
     except (OSError, SystemExit) as e:
         _fail(f"cannot serve on {host}:{port}: {e}")
         raise typer.Exit(EXIT_INVALID)
+
+
+@app.command()
+def watch(
+    folders: List[Path] = typer.Argument(..., help="Folders to watch, with their subfolders: a ground station's download folder, a fleet share."),
+    db: str = typer.Option(..., "--db", help="The store to write: a SQLite file or a postgresql:// URL (the one `fdlog history` and `fdlog serve --db` read)."),
+    profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate` (its adapted model is used)."),
+    model: Optional[Path] = typer.Option(None, "--model", "-m", help="ONNX model to use instead of the profile's or the shipped one."),
+    settle: Optional[float] = typer.Option(None, "--settle", min=0.05, help="Seconds a file must stay unchanged before it is read (default 5): longer than the longest pause of whatever writes the folder."),
+    poll: Optional[float] = typer.Option(None, "--poll", min=0.05, help="Look every this many seconds instead of using filesystem events (network shares are always polled, every 2 s by default)."),
+    once: bool = typer.Option(False, "--once", help="Diagnose what is in the folders now, then exit (exit code as `fdlog diagnose`)."),
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Also list the files already in the store."),
+) -> None:
+    """Diagnose every log that appears in folders, once each (by content), into the store; runs until Ctrl-C.
+
+    A file is read once its size stops changing; a log copied twice, renamed or found again after a
+    restart is one flight; a bad file is one row saying why, and the watch goes on.
+    """
+    import signal
+
+    from .diagnose import resolve_model
+    from .profile import Profile
+    from .store import Store
+    from .watch import SETTLE_S, DiagnoseSink, FolderWatch
+
+    err = _console(stderr=True)
+    out = _console()
+    try:
+        prof = Profile.load(profile) if profile is not None else None
+        fault_model = resolve_model(model, prof)
+        store = Store(db)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+
+    def report(kind: str, path: str, text: str) -> None:
+        if kind == "known" and not verbose:
+            return
+        line = f"{path}: {text}" if path else text
+        if kind in ("bad", "skip"):
+            _fail(line)
+        elif kind in ("info", "waiting", "busy", "known"):
+            err.print(f"fdlog watch: {line}", markup=False)
+        else:
+            out.print(line, markup=False)
+
+    sink = watcher = None
+    try:
+        sink = DiagnoseSink(store, fault_model, prof)
+        watcher = FolderWatch(folders, store, sink, settle_s=settle if settle is not None else SETTLE_S,
+                              poll_s=poll, report=report)
+        sink.stop = watcher.stopping
+        signal.signal(signal.SIGTERM, lambda *_: watcher.stop())
+        watcher.run(once=once)
+    except KeyboardInterrupt:
+        pass
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    finally:
+        if watcher is not None:
+            watcher.stop()
+        if sink is not None:
+            sink.close()
+        store.close()
+    if watcher is not None:
+        c = watcher.counts
+        err.print(f"fdlog watch: {c['diagnosed']} diagnosed, {c['bad']} not diagnosable, {c['known']} already in the store",
+                  markup=False)
+    codes = sink.exit_codes if sink is not None else []
+    raise typer.Exit(max(codes) if once and codes else EXIT_OK)
 
 
 @app.command()

@@ -18,7 +18,10 @@ Tables (migrations 3 and 4 give them their present columns):
 - ``flight_part`` (flight, part): each take-off to landing of a log holding several, with its own
   verdict (:data:`PART_COLUMNS`, :func:`part_rows`: the JSON report's ``flights``); none for a log
   with one flight. Migration 4 fills it from the stored diagnoses, so an older store upgrades in place.
-- ``job``: the server's diagnose / calibrate queue.
+- ``job``: the server's diagnose / calibrate queue, and the ``watch`` jobs of `fdlog watch` (a log
+  found in a watched folder, diagnosed by the watcher that found it; ``args`` holds its path).
+- ``watched_file`` (host, path): the size, modification time and sha256 of each file a watcher has
+  taken, so a restarted watcher does not read every file again to hash it.
 
 Airframe of a log without an id: ``fdlog diagnose --db`` files it under the profile's name
 (``profile:NAME``) or ``unknown`` (:func:`vehicle_identity`; history does not treat ``unknown`` as
@@ -45,13 +48,14 @@ import json
 import math
 import os
 import re
+import socket
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .database import Database, DatabaseError, is_postgres_url, open_database, utc_now
+from .database import Database, DatabaseError, StoreUnavailable, is_postgres_url, open_database, utc_now
 from .drift import FlightRecord, find_drift
 
 #: Seconds a claimed job's lease lasts; the server renews it every LEASE_S / 3 while it runs.
@@ -220,6 +224,17 @@ CREATE INDEX finding_flight ON finding (flight_id)
     # down | ''); flight: model_sha256, model_version, profile_path, tool_version, exit_code.
     (3, "one store: the JSON report's per-motor names, the model and profile of each diagnosis", _v3),
     (4, "each flight of a log holding several, with its verdict", _v4),
+    (5, "files seen by fdlog watch", """
+CREATE TABLE watched_file (
+    host        TEXT NOT NULL,     -- the machine whose folder it is (paths differ between machines)
+    path        TEXT NOT NULL,     -- absolute path as the watcher saw it
+    size_bytes  BIGINT NOT NULL,
+    mtime_ns    BIGINT NOT NULL,   -- with the size: the file is unchanged since it was hashed
+    sha256      TEXT NOT NULL,     -- flight.sha256 of its content
+    seen_at     TEXT NOT NULL,
+    PRIMARY KEY (host, path)
+)
+"""),
 ]
 #: The schema version this fdlog writes (its newest migration).
 SCHEMA_VERSION = max(v for v, _, _ in MIGRATIONS)
@@ -466,34 +481,105 @@ class Store:
         self.db.run("INSERT INTO airframe (key, source, created_at) VALUES (?, ?, ?) ON CONFLICT (key) DO NOTHING",
                     (key, source, utc_now()))
 
+    def _record_result(self, fid: int, result: Any, run: RunInfo, when: str) -> None:
+        """Write a :class:`~flightlog_fd.batch.LogResult` as flight ``fid``'s diagnosis (inside a
+        transaction), its airframe as ``fdlog diagnose --db`` names it (:func:`vehicle_identity`)."""
+        from .report.json_report import to_dict
+
+        doc = to_dict(result.diagnosis)
+        vehicle, vsource = vehicle_identity(result.vehicle_id, result.vehicle_id_source, run)
+        facts = result.diagnosis.facts
+        self._airframe(vehicle, vsource)
+        self._record(fid, doc, airframe=vehicle, flight_start_utc=utc_iso(result.utc_start),
+                     log_t_start_s=facts.t_start if facts else None, profile_sha256=run.profile_sha256,
+                     command_share=result.command_share, diagnosed_at=when, run=run)
+
     def add_result(self, result: Any, run: RunInfo, diagnosed_at: Optional[str] = None) -> Optional[int]:
         """Write one :class:`~flightlog_fd.batch.LogResult` of ``fdlog diagnose --db`` (one
         transaction); returns its flight id, or None for a file that could not even be read (no
         sha256 to key it on). The same bytes again replace that flight's diagnosis."""
-        from .report.json_report import to_dict
-
         if not result.log_sha256:
             return None
-        d = result.diagnosis
-        doc = to_dict(d)
-        vehicle, vsource = vehicle_identity(result.vehicle_id, result.vehicle_id_source, run)
         when = diagnosed_at or utc_now()
-        facts = d.facts
-        fmt = _AUTOPILOT_FORMAT.get(getattr(facts, "autopilot", None) or "", "")
+        fmt = _AUTOPILOT_FORMAT.get(getattr(result.diagnosis.facts, "autopilot", None) or "", "")
         db = self.db
 
         def tx() -> int:
-            self._airframe(vehicle, vsource)
             fid = int(db.one("INSERT INTO flight (sha256, name, size_bytes, format, uploaded_at, state) "
                              "VALUES (?, ?, ?, ?, ?, 'done') ON CONFLICT (sha256) DO UPDATE SET name = excluded.name "
                              "RETURNING id", (result.log_sha256, str(result.path), _file_size(str(result.path)), fmt,
                                               when))["id"])
-            self._record(fid, doc, airframe=vehicle, flight_start_utc=utc_iso(result.utc_start),
-                         log_t_start_s=facts.t_start if facts else None, profile_sha256=run.profile_sha256,
-                         command_share=result.command_share, diagnosed_at=when, run=run)
+            self._record_result(fid, result, run, when)
             return fid
 
         return db.transaction(tx, f"write the diagnosis of {result.path}")
+
+    # ------------------------------------------------------------------ fdlog watch
+
+    def claim_watched(self, sha256: str, path: str, size: int, fmt: str, worker: str) -> tuple[str, Optional[dict]]:
+        """Take a log `fdlog watch` found, in one transaction: ("claimed", job) when ``worker``
+        is to diagnose it (a new flight with a ``watch`` job held by ``worker``, or such a job of
+        these bytes back in the queue after its watcher stopped); ("stored", None) when these
+        bytes are already a flight (diagnosed, uploaded, or queued on a server); ("busy", None)
+        while another watcher holds them (look again later: it may stop)."""
+        db = self.db
+
+        def tx():
+            now = utc_now()
+            row = db.one("SELECT id FROM flight WHERE sha256 = ?", (sha256,))
+            if row is None:
+                fid = db.one("INSERT INTO flight (sha256, name, size_bytes, format, uploaded_at, state) "
+                             "VALUES (?, ?, ?, ?, ?, 'running') ON CONFLICT (sha256) DO NOTHING RETURNING id",
+                             (sha256, path, size, fmt, now))
+                if fid is None:  # another watcher inserted it between our SELECT and INSERT (PostgreSQL)
+                    return "busy", None
+                job = db.one("INSERT INTO job (kind, flight_id, args, state, attempts, worker, lease_until, created_at, "
+                             "started_at) VALUES ('watch', ?, ?, 'running', 1, ?, ?, ?, ?) RETURNING *",
+                             (fid["id"], json.dumps({"path": path}), worker, time.time() + LEASE_S, now, now))
+                return "claimed", job
+            jobs = db.query("SELECT id, state FROM job WHERE flight_id = ? AND kind = 'watch' ORDER BY id", (row["id"],))
+            queued = [j for j in jobs if j["state"] == "queued"]
+            if queued:
+                job = db.one("UPDATE job SET state = 'running', worker = ?, attempts = attempts + 1, lease_until = ?, "
+                             "started_at = ?, args = ? WHERE id = ? AND state = 'queued' RETURNING *",
+                             (worker, time.time() + LEASE_S, now, json.dumps({"path": path}), queued[0]["id"]))
+                if job:
+                    db.run("UPDATE flight SET state = 'running' WHERE id = ?", (row["id"],))
+                    return "claimed", job
+            if any(j["state"] in ("queued", "running") for j in jobs):
+                return "busy", None
+            return "stored", None
+
+        return db.transaction(tx, "claim a watched log")
+
+    def complete_watched(self, job: dict, worker: str, result: Any, run: RunInfo) -> bool:
+        """Store a watched log's diagnosis (a LogResult) and mark its job done, in one transaction;
+        False (nothing written) when ``worker`` no longer holds the job."""
+        db = self.db
+
+        def tx():
+            when = utc_now()
+            ok = db.run("UPDATE job SET state = 'done', finished_at = ?, lease_until = NULL WHERE id = ? "
+                        "AND state = 'running' AND worker = ?", (when, job["id"], worker))
+            if ok != 1:
+                return False
+            self._record_result(int(job["flight_id"]), result, run, when)
+            return True
+
+        return db.transaction(tx, f"store the diagnosis of {result.path}")
+
+    def watched_sha(self, host: str, path: str, size: int, mtime_ns: int) -> Optional[str]:
+        """The sha256 a watcher recorded for this file, if it is unchanged since (size, mtime)."""
+        row = self.db.one("SELECT sha256 FROM watched_file WHERE host = ? AND path = ? AND size_bytes = ? "
+                          "AND mtime_ns = ?", (host, path, size, mtime_ns))
+        return row["sha256"] if row else None
+
+    def remember_watched(self, host: str, path: str, size: int, mtime_ns: int, sha256: str) -> None:
+        self.db.transaction(lambda: self.db.run(
+            "INSERT INTO watched_file (host, path, size_bytes, mtime_ns, sha256, seen_at) VALUES (?, ?, ?, ?, ?, ?) "
+            "ON CONFLICT (host, path) DO UPDATE SET size_bytes = excluded.size_bytes, mtime_ns = excluded.mtime_ns, "
+            "sha256 = excluded.sha256, seen_at = excluded.seen_at", (host, path, size, mtime_ns, sha256, utc_now())),
+            "remember a watched file")
 
     def findings(self, flight_id: int) -> list[dict]:
         """A flight's findings as stored (:data:`FINDING_COLUMNS`), in the report's order."""
@@ -792,6 +878,23 @@ class Store:
         return {r["sha256"]: int(r["n"]) for r in rows}
 
 
+def holder_is_dead(worker: str) -> bool:
+    """True when ``worker`` (``host:pid:random``, the job holder's id) ran on this machine and
+    its process is gone: its jobs need not wait for their lease. A reused pid only makes us wait
+    for the lease, never take a live holder's job."""
+    host, _, rest = worker.partition(":")
+    pid = rest.partition(":")[0]
+    if host != socket.gethostname() or not pid.isdigit():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists, owned by someone else
+        return False
+    return False
+
+
 def _record_of(f: dict, source: str) -> FlightRecord:
     return FlightRecord(id=int(f["id"]), log_path=f["name"], log_sha256=f["sha256"],
                         flight_start_utc=f["flight_start_utc"], airborne_s=f["airborne_s"], status=f["status"] or "",
@@ -894,4 +997,5 @@ def _adopt_results_store(db: Database, tables: set) -> Optional[Callable[[], Non
 
 __all__ = ["Store", "StoreError", "RunInfo", "FlightRecord", "MIGRATIONS", "SCHEMA_VERSION", "LEASE_S",
            "MAX_ATTEMPTS", "MOTOR_COLUMNS", "FINDING_COLUMNS", "PART_COLUMNS", "part_rows", "TREND_FIGURES", "UNKNOWN_VEHICLE",
-           "load_history", "motor_rows", "finding_rows", "own_airframe_key", "vehicle_identity", "utc_iso", "drift_of"]
+           "load_history", "motor_rows", "finding_rows", "own_airframe_key", "vehicle_identity", "utc_iso", "drift_of",
+           "holder_is_dead", "StoreUnavailable"]

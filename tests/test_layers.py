@@ -26,7 +26,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("decision", "profile"),                                      # the verdict; the calibration profile
     ("diagnose",),                                                # one flight, end to end
     ("training",),                                                # model training and adaptation
-    ("calibration", "batch", "store", "database", "drift", "history", "report"),
+    ("calibration", "batch", "store", "database", "drift", "history", "report", "watch"),
     ("serve", "cli", "training.experiment", "training.build_default"),  # entry points
 ]
 
