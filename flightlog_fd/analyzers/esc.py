@@ -447,6 +447,7 @@ class Esc(Analyzer):
     #: profile the fused verdict said damaged on 6 (10 when it got the GLR), and eta 0.6-0.8
     #: stayed 60/60 right (bench_esc.py --verdicts, seed 4242, 2026-11-24).
     llr_cap = 12.0
+    reliability_keys = ("profile",)
 
     def fit_baseline(self, flights, model=None):
         try:
