@@ -237,7 +237,7 @@ def diagnose(
     html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
     jobs: Optional[int] = typer.Option(None, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes (with --scheduler local: the number of Dask workers, default one per core)."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd[fleet])."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd\\[fleet])."),
     db: Optional[str] = typer.Option(None, "--db", help="Write every diagnosis to this store: a SQLite file or a postgresql:// URL (see `fdlog history`, `fdlog serve --db`)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
 ) -> None:
@@ -531,7 +531,7 @@ def calibrate(
     commands against the airframe's own session-to-session drift. `--add PROFILE LOG` adds a
     healthy flight of another day or battery to an existing profile (no torch needed); a session
     that looks damaged against the others is refused. Adapting needs the training extra (torch):
-    pip install 'flightlog-fd[train]'.
+    pip install 'flightlog-fd\\[train]'.
     """
     from .logs import collect_logs
 

@@ -214,3 +214,18 @@ def test_calibrate_sample_logs_without_hover(tmp_path):
         res = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / name), "-o", str(out)])
         assert res.exit_code == 0, res.output
         assert json.loads(out.read_text())["rho_source_"] in ("hover", "steady flight", "airborne mean")
+
+
+def test_help_keeps_square_brackets():
+    """typer renders help as rich markup: an unescaped "[train]" would vanish from the install hint."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    fdlog = str(Path(sys.executable).with_name("fdlog"))
+    env = {**os.environ, "COLUMNS": "250"}
+    calibrate = subprocess.run([fdlog, "calibrate", "--help"], capture_output=True, text=True, env=env).stdout
+    diagnose = subprocess.run([fdlog, "diagnose", "--help"], capture_output=True, text=True, env=env).stdout
+    assert "flightlog-fd[train]" in calibrate
+    assert "flightlog-fd[fleet]" in diagnose
