@@ -50,6 +50,9 @@ CACHE = ROOT / "build" / "reliability"
 SIM_SEED = 9100
 SIM_LOG_PROFILES = ("px4_high", "ardupilot_fast", "ardupilot", "ardupilot_slow", "px4_default", "ardupilot_rcou")
 SIM_ETAS = (0.6, 0.7, 0.8, 0.9)
+#: The seed of the simulated set the model's vote statistics per rate class are measured on
+#: (``collect --sets simfit``; model_votes.RATE_VOTE_STATS), apart from the table's own (SIM_SEED).
+SIM_FIT_SEED = 12100
 
 
 # ------------------------------------------------------------------------------------ one case
@@ -79,7 +82,9 @@ def case(d, *, set_name: str, name: str, truth: int, group: str, profile_kind: s
     from flightlog_fd.analyzers.model_votes import mean_log_ratio
 
     mlr = [float(x) for x in mean_log_ratio(np.array([w.probabilities for w in d.windows]))] if d.windows else None
+    mctx = getattr(d, "_model_ctx", None)  # what the model analyzer read (recorded by _recording_contexts)
     return {"set": set_name, "name": name, "truth": truth, "group": group, "eta": eta, "profile_kind": profile_kind,
+            "model_ctx": mctx,
             "n": n, "kind": None if kind is None else kind.as_dict(), "raw": raw, "mlr": mlr,
             "shares": None if d.share_fit is None else [float(m.command_share) for m in d.share_fit.motors], "abstained": abst,
             "status": d.verdict.status, "motor": d.verdict.motor, "confidence": d.verdict.confidence,
@@ -87,6 +92,37 @@ def case(d, *, set_name: str, name: str, truth: int, group: str, profile_kind: s
             "damaged_windows": sum(c > 0 for c in cls), "windows": len(cls),
             "replay": pickle.dumps((n, d.flight.frame if d.flight is not None else None, d.timeline, results,
                                     d.stopped, kind)) if dec is not None else None}
+
+
+class _recording_contexts:
+    """Within it, every diagnosis records what its (whole-log) model analyzer read: the windows'
+    probabilities after the onset selection, the covered time, the profile's model-vote baseline
+    and the judging model's sha256 (``d._model_ctx``), so ``replay`` can re-weigh the model's votes
+    with the code as it is now."""
+
+    def __enter__(self):
+        import flightlog_fd.diagnose as dg
+
+        self._dg, self._orig, self._diag = dg, dg.run_analyzers, dg.diagnose_flight
+        self.seen: list = []
+
+        def run(ctx, *a, **k):
+            self.seen.append({"probs": np.asarray(ctx.probs, np.float32), "covered_s": float(ctx.covered_s),
+                              "baseline": ctx.baseline_for("model"), "model_sha256": ctx.model_sha256})
+            return self._orig(ctx, *a, **k)
+
+        def diag(*a, **k):
+            self.seen.clear()
+            d = self._diag(*a, **k)
+            d._model_ctx = self.seen[0] if self.seen else None
+            return d
+
+        dg.run_analyzers, dg.diagnose_flight = run, diag
+        return self
+
+    def __exit__(self, *exc):
+        self._dg.run_analyzers, self._dg.diagnose_flight = self._orig, self._diag
+        return False
 
 
 # ------------------------------------------------------------------------------------ real sets
@@ -259,6 +295,8 @@ def collect(args) -> None:
         (CACHE / "real.pkl").write_bytes(pickle.dumps(real_cases(dirs)))
     if "sim" in sets:
         (CACHE / "sim.pkl").write_bytes(pickle.dumps(sim_cases(args.sim_airframes)))
+    if "simfit" in sets:  # another seed: the set the model's vote statistics are measured on (model_votes)
+        (CACHE / "simfit.pkl").write_bytes(pickle.dumps(sim_cases(args.sim_airframes, seed=SIM_FIT_SEED)))
     if "esc" in sets:
         (CACHE / "esc.pkl").write_bytes(pickle.dumps(
             sim_cases(args.sim_airframes, log_profiles=("px4_high", "ardupilot", "px4_default"), seed=SIM_SEED + 500,
@@ -403,7 +441,8 @@ def main(argv=None) -> None:
     ap.add_argument("--write", type=Path, default=None)
     args = ap.parse_args(argv)
     if args.what == "collect":
-        collect(args)
+        with _recording_contexts():
+            collect(args)
     elif args.what == "table":
         table(load_cases(args.sets.split(",")), args.write)
     else:

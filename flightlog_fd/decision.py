@@ -155,6 +155,8 @@ class Verdict:
     on the log's clock (damaged: the onset's first window, or the first window; stopped: the stop)."""
 
     status: str  # "healthy" | "damaged" | "uncertain" | "stopped" | "not_diagnosable"
+    #: The damaged (stopped) motor, or the one propeller an uncertain verdict asks to inspect first
+    #: (:func:`named_motor`); None when it names none, or two it cannot tell apart.
     motor: Optional[int] = None
     position: Optional[str] = None
     confidence: float = 0.0  # the probability of the verdict as stated (module docstring)
@@ -176,6 +178,14 @@ class Verdict:
             "reason": self.reason,
             "advice": [a.as_dict() for a in self.advice],
         }
+
+
+def named_motor(status: str, motor: Optional[int], inspect: Sequence[int]) -> Optional[int]:
+    """The motor a verdict names: a damaged or stopped verdict's own; for an uncertain one, the
+    propeller it asks to inspect when it names exactly one (two it cannot tell apart name none)."""
+    if status == "uncertain" and motor is None and len(inspect) == 1:
+        return int(inspect[0])
+    return motor
 
 
 def not_diagnosable(reason: str) -> Verdict:
@@ -426,10 +436,12 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         one = _one_flight_note(cmd) if status != "healthy" else None
         if one:
             reason += f"; {one}"
+        inspect = tuple(inspect) if status != "healthy" else ()
+        motor = named_motor(status, motor, inspect)
         return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
                        else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
                        first_seen=first_seen if status == "damaged" else None, reason=reason,
-                       inspect=tuple(inspect) if status != "healthy" else ()), decision
+                       inspect=inspect), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -573,7 +585,9 @@ def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason
     sources = [vib.analyzer] if vib.llr(n) is not None else []
     decision = Decision(sources=sources, results=[vib])
     tied = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted and status != "healthy" else ()
-    return Verdict(status=status, confidence=p if status != "healthy" else 1.0 - p, reason=text, inspect=tied), decision
+    motor = named_motor(status, None, tied)
+    return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor) else None,
+                   confidence=p if status != "healthy" else 1.0 - p, reason=text, inspect=tied), decision
 
 
 def worst_flight(verdicts: Sequence[Verdict]) -> int:

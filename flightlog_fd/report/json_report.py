@@ -18,8 +18,9 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
       "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
-                  "motor": 1-n | null,
-                  "position": "front-right" | ... | null,
+                  "motor": 1-n | null,               # the damaged (stopped) propeller, or the one an
+                                                     #   uncertain verdict asks to inspect first
+                  "position": "front-right" | ... | null,   # the frame's words for "motor"
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
                   "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
@@ -97,8 +98,9 @@ own verdict: judged from vibration alone, the log's verdict is its worst flight'
 the whole log's, each flight judged from the log's windows and never worse than it) and
 flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verdict's ``advice`` (what would
 resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
-settings that let a source decide next time) and each source's reliability ``weights`` in
-``motor_evidence.decision``.
+settings that let a source decide next time), each source's reliability ``weights`` in
+``motor_evidence.decision``, and ``verdict.motor`` for an ``uncertain`` verdict naming one propeller
+to inspect (it was null for every uncertain verdict).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
