@@ -1,16 +1,29 @@
-"""The model's window votes as evidence: per motor, the flight mean of the windows' log ratio.
+"""The model's window votes as evidence for "propeller k damaged", per motor.
 
 Input: the windows' class probabilities (N, n+1) and the flight time they cover. Finding per
-motor: ``vote`` (mean probability that this propeller is damaged, 0..1) with its LLR: the flight
-mean of ``log(q_k / q_0)`` (floored probabilities) against its measured distribution on real
-healthy flights and on damaged ones. Overlapping windows are correlated, and an airframe's trims
-bias all windows of a flight alike, so the mean's noise is a between-flight spread plus a
-within-flight term that shrinks with the flight's decorrelated length, never 1/sqrt(N windows).
-With a profile, the airframe's own healthy mean per motor is measured on the calibration flights
-with the profile's model (:meth:`ModelVotes.fit_baseline`), and damage is expected
-``MODEL_DAMAGE_SHIFT`` above it; without one, the means measured across real healthy airframes
-are used. The levels and spreads are the shipped model's for the flight's rotor count
-(:data:`NROTOR_VOTE_STATS` for the hexa and octo models, measured on simulated flights).
+motor: ``vote`` (mean probability that this propeller is damaged, 0..1) with its LLR, from one of
+two statistics of the windows, whichever measured better for the kind of log (benchmarks/
+bench_reliability.py votes):
+
+- the **flight mean** of ``log(q_k / q_0)`` (floored probabilities) against its measured
+  distribution on healthy flights and on damaged ones. Overlapping windows are correlated, and an
+  airframe's trims bias all windows of a flight alike, so the mean's noise is a between-flight
+  spread plus a within-flight term that shrinks with the flight's decorrelated length, never
+  1/sqrt(N windows). With a profile, the airframe's own healthy mean per motor is measured on the
+  calibration flights with the profile's model (:meth:`ModelVotes.fit_baseline`), and damage is
+  expected ``MODEL_DAMAGE_SHIFT`` above it. Without one, a quad log's rate class
+  (:func:`~flightlog_fd.analyzers.reliability.rate_class`) picks the levels measured on such logs
+  (:data:`QUAD_RATE_VOTE_STATS`), the hexa and octo models have their own
+  (:data:`NROTOR_VOTE_STATS`);
+- the **vote share**, how consistently the windows name motor k (the share whose most probable
+  class is k, beta-binomial over the flight's effective window count): a quad log at full rate
+  without a profile (:data:`QUAD_VOTE_SHARE_STATS`), where it measured at least as well as the
+  flight mean on the real damaged flights with fewer healthy airframes reaching the decision's bars.
+
+Without a profile neither statistic can tell a damaged propeller from a trim the model reads as
+one: on simulated healthy airframes with realistic imbalance (trims as wide as real airframes')
+the windows of about 7 % of them name one motor as consistently, and with as large a mean, as on
+damaged flights of eta <= 0.8 (results/reliability.md); a profile removes the airframe's own trim.
 Limits: measured with the shipped models (a user's own model is weighed with them too); the
 healthy re-flight spread with a profile is the quads' for every frame.
 """
@@ -18,10 +31,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
 
 from ..timeline import floored  # the same floor the timeline's votes use
 from .base import Analyzer, AnalyzerResult, Context, Finding
+from .reliability import flight_rate_class
 
 #: Healthy flights: mean and between-flight standard deviation of a motor's flight-mean window
 #: log ratio log(q_k/q_0). Measured with the shipped model on the 18 real healthy flights
@@ -85,9 +101,116 @@ NROTOR_VOTE_STATS = {
 }
 
 
-def vote_stats(n_motors: int) -> VoteStats:
-    """The vote statistics of the shipped model for ``n_motors`` rotors (the quad's otherwise)."""
+#: A motor's window votes (the windows whose most probable class is that motor) decorrelate over
+#: this many seconds of flight at full rate: the integrated autocorrelation time of the vote
+#: indicator, the larger of the real and the simulated figure (benchmarks/bench_reliability.py
+#: votes: real 1.5 s on the 18 SIH and Erle-Brain2 flights of >= 25 windows, simulated 1.1 s).
+#: Windows overlap by half (1.6 s every 0.8 s).
+VOTE_DECORRELATION_S = {"full rate": 1.5}
+
+
+@dataclass(frozen=True)
+class VoteShareStats:
+    """Between flights, the probability that a window votes for a given motor (its vote share):
+    on a healthy airframe a two-Beta mixture (``healthy``: a1, b1, a2, b2, w; most motors near 0,
+    weight w of motors an airframe's trim draws votes to), for the damaged motor one Beta
+    (``damaged``: a, b). The flight's votes for motor k are then beta-binomial over its effective
+    window count (covered seconds / :data:`VOTE_DECORRELATION_S`)."""
+
+    healthy: tuple[float, float, float, float, float]
+    damaged: tuple[float, float]
+
+
+#: The shipped quad model's vote shares at full rate without a profile: maximum likelihood
+#: (beta-binomial, effective window counts as above) on simulated flights of seed 12100
+#: (benchmarks/bench_reliability.py collect --sets simfit: 30 random airframes with realistic
+#: imbalance per logging profile, each flown healthy and damaged, eta 0.6-0.9 from take-off)
+#: pooled with the real flights of ../shared without a profile (healthy: SIH, CrazyPAD normals,
+#: Erle-Brain2; damaged: SIH, eta <= 0.8), 97 healthy and 79 damaged flights; checked on the
+#: table's own simulated set (seed 9100) and the real flights (bench_reliability.py votes). The
+#: healthy mixture's tail: a motor's share >= 0.5 on 4.6 % of healthy motors (measured 3.9 %),
+#: >= 0.9 on 1.3 % (1.5 %); the damaged motor's median share 0.99. At low and mid rate the flight
+#: mean measured better (below): the share cannot say "healthy" as firmly where a motor's
+#: windows never name it (real Erle 6-3-2014_6, whose command pattern alone reaches +5 nats).
+QUAD_VOTE_SHARE_STATS = {
+    "full rate": VoteShareStats(healthy=(0.1896, 14.6422, 0.1501, 0.6639, 0.2841), damaged=(0.4824, 0.1201)),
+}
+
+
+def vote_share_stats(n_motors: int, rate: str | None) -> VoteShareStats | None:
+    """The vote-share statistics for a flight without a profile (None where they are not the
+    statistic weighed: another rotor count or rate class, or an unknown rate)."""
+    return QUAD_VOTE_SHARE_STATS.get(rate) if int(n_motors) == 4 and rate is not None else None
+
+
+def betaln(a, b) -> np.ndarray:
+    """log B(a, b), elementwise (math.lgamma: scipy.special is not needed for a few motors)."""
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    return np.array([math.lgamma(x) + math.lgamma(y) - math.lgamma(x + y) for x, y in zip(a.ravel(), b.ravel())]
+                    ).reshape(a.shape)
+
+
+def _log_beta_binomial(k: np.ndarray, n: np.ndarray, params: tuple) -> np.ndarray:
+    """log P(k votes of n effective windows) under a Beta (a, b) or a two-Beta mixture
+    (a1, b1, a2, b2, w) of the vote share; k and n need not be integers (the binomial
+    coefficient, the same under every hypothesis, is left out)."""
+    if len(params) == 2:
+        a, b = params
+        return betaln(k + a, n - k + b) - betaln(a, b)
+    a1, b1, a2, b2, w = params
+    return np.logaddexp(np.log1p(-w) + betaln(k + a1, n - k + b1) - betaln(a1, b1),
+                        np.log(w) + betaln(k + a2, n - k + b2) - betaln(a2, b2))
+
+
+def vote_shares(probs: np.ndarray) -> np.ndarray:
+    """(n_motors,) the share of windows whose most probable class is each motor."""
+    p = np.asarray(probs, float)
+    cls = np.argmax(p, axis=1)
+    return np.array([np.mean(cls == k + 1) for k in range(p.shape[1] - 1)])
+
+
+def effective_windows(covered_s: float, rate: str) -> float:
+    """The flight's effective window count for the votes (at least 1)."""
+    return max(float(covered_s) / VOTE_DECORRELATION_S[rate], 1.0)
+
+
+def vote_share_llr(probs: np.ndarray, covered_s: float, stats: VoteShareStats, rate: str) -> np.ndarray:
+    """(n_motors,) LLR of "motor k damaged" against a healthy airframe from the windows' vote
+    shares (:class:`VoteShareStats`): how consistently the windows name motor k, weighed by how
+    many independent windows the flight holds."""
+    n = effective_windows(covered_s, rate)
+    k = vote_shares(probs) * n
+    return _log_beta_binomial(k, n, stats.damaged) - _log_beta_binomial(k, n, stats.healthy)
+
+
+def vote_stats(n_motors: int, rate: str | None = None) -> VoteStats:
+    """The vote statistics of the shipped model for ``n_motors`` rotors (the quad's otherwise),
+    for the log's rate class where measured (quads without a profile)."""
+    if int(n_motors) == 4 and rate in QUAD_RATE_VOTE_STATS:
+        return QUAD_RATE_VOTE_STATS[rate]
     return NROTOR_VOTE_STATS.get(int(n_motors), QUAD_VOTE_STATS)
+
+
+#: At low and mid rate (reliability.rate_class) the windows' log ratio decorrelates over this many
+#: seconds and one window's log ratio spreads this much within a flight: the real flights'
+#: figures, larger than the simulated ones (benchmarks/bench_reliability.py votes: integrated
+#: autocorrelation time and median within-flight standard deviation; low rate 3.4 s / 0.80 on 18
+#: (20) Erle, rrc and SIH-default flights, mid rate 2.5 s / 0.67 on two Erle ArduCopter 3.4 flights;
+#: simulated 1.4-1.7 s / 0.34-0.35).
+MODEL_DECORRELATION_BY_RATE = {"low rate": 3.4, "mid rate": 2.5}
+MODEL_WINDOW_SIGMA_BY_RATE = {"low rate": 0.80, "mid rate": 0.67}
+#: The shipped quad model without a profile at low and mid rate: the flight-mean log ratio of a
+#: healthy motor and of the damaged one (eta <= 0.8 from take-off), between-flight spreads with the
+#: within-flight term removed, maximum likelihood on the real flights of ../shared (low rate: 19
+#: healthy Erle, rrc goods and SIH-default flights, SIH-default damaged; mid rate: 2 healthy Erle
+#: ArduCopter 3.4 flights) pooled with simulated flights of random airframes with realistic
+#: imbalance (seed 12100: benchmarks/bench_reliability.py collect --sets simfit, then votes;
+#: 79 / 47 healthy / damaged flights at low rate, 32 / 23 at mid rate), checked on the table's own
+#: simulated set (seed 9100). The profile's figures (damage_shift, shift_sigma) are the quad's above.
+QUAD_RATE_VOTE_STATS: dict[str, VoteStats] = {
+    "low rate": VoteStats(-0.964, 0.751, 1.336, 1.453, MODEL_DAMAGE_SHIFT, MODEL_DAMAGED_SIGMA),
+    "mid rate": VoteStats(-1.023, 0.669, 1.529, 1.354, MODEL_DAMAGE_SHIFT, MODEL_DAMAGED_SIGMA),
+}
 
 
 def _gauss_logpdf(x: float, mu: float, sd: float) -> float:
@@ -101,23 +224,27 @@ def mean_log_ratio(probs: np.ndarray) -> np.ndarray:
 
 
 def model_llr(probs: np.ndarray, covered_s: float, healthy_mean=None, healthy_sigma=None,
-              stats: VoteStats | None = None) -> np.ndarray:
+              stats: VoteStats | None = None, rate: str | None = None) -> np.ndarray:
     """(n_motors,) LLR of the model's windows for "motor k damaged" vs healthy (module docstring);
     ``healthy_mean`` (n,) and ``healthy_sigma``: the airframe's own healthy means and their spread
     (a profile), else the model's healthy level; ``stats``: the model's vote statistics (default:
-    :func:`vote_stats` for the probabilities' rotor count)."""
+    :func:`vote_stats` for the probabilities' rotor count and ``rate``, the log's rate class);
+    ``rate`` also sets the within-flight term where it was measured (no profile)."""
     p = np.asarray(probs, float)
     if p.ndim != 2 or p.shape[0] == 0:
         return np.zeros(max(p.shape[-1] - 1, 0) if p.ndim == 2 else 0)
     mean = mean_log_ratio(p)
     n = len(mean)
-    st = vote_stats(n) if stats is None else stats
+    st = vote_stats(n, rate if healthy_mean is None else None) if stats is None else stats
+    per_rate = healthy_mean is None and n == 4 and rate in MODEL_DECORRELATION_BY_RATE
+    decorrelation = MODEL_DECORRELATION_BY_RATE[rate] if per_rate else MODEL_DECORRELATION_S
+    window_sigma = MODEL_WINDOW_SIGMA_BY_RATE[rate] if per_rate else MODEL_WINDOW_SIGMA
     if healthy_sigma is None:
         healthy_sigma = st.healthy_sigma
     mu_h = np.full(n, st.healthy_mean) if healthy_mean is None else np.asarray(healthy_mean, float)
     mu_d = np.full(n, st.damaged_mean) if healthy_mean is None else mu_h + st.damage_shift
-    n_eff = max(covered_s / MODEL_DECORRELATION_S, 1.0)
-    within = MODEL_WINDOW_SIGMA / np.sqrt(n_eff)
+    n_eff = max(covered_s / decorrelation, 1.0)
+    within = window_sigma / np.sqrt(n_eff)
     sd_h = float(np.hypot(healthy_sigma, within))
     sd_d = float(np.hypot(st.damaged_sigma if healthy_mean is None else st.shift_sigma, within))
     return np.array([_gauss_logpdf(x, mu_d[k], sd_d) - _gauss_logpdf(x, mu_h[k], sd_h) for k, x in enumerate(mean)])
@@ -175,7 +302,10 @@ class ModelVotes(Analyzer):
         else:
             if base:
                 notes.append("the profile's model-vote baseline was measured with another model: not used")
-            llr = model_llr(p, ctx.covered_s)
+            rate = flight_rate_class(ctx.flight)
+            shares = vote_share_stats(p.shape[1] - 1, rate)
+            llr = (vote_share_llr(p, ctx.covered_s, shares, rate) if shares is not None
+                   else model_llr(p, ctx.covered_s, rate=rate))
         votes = p[:, 1:].mean(axis=0)
         return AnalyzerResult(self.id, [Finding(self.id, k + 1, "vote", float(votes[k]), "", None, None, "up",
                                                 float(llr[k]), f"{votes[k]:.2f}") for k in range(len(llr))],
