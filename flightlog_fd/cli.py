@@ -237,7 +237,7 @@ def diagnose(
     html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
     jobs: Optional[int] = typer.Option(None, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes (with --scheduler local: the number of Dask workers, default one per core)."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd[fleet])."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd\\[fleet])."),
     db: Optional[str] = typer.Option(None, "--db", help="Write every diagnosis to this store: a SQLite file or a postgresql:// URL (see `fdlog history`, `fdlog serve --db`)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
 ) -> None:
@@ -514,8 +514,10 @@ def history(
 
 @app.command()
 def calibrate(
-    logs: List[Path] = typer.Argument(..., help="One or more logs of HEALTHY flights of one airframe."),
-    output: Path = typer.Option(..., "--output", "-o", help="Profile to write (JSON); the adapted model goes beside it (.onnx)."),
+    logs: List[Path] = typer.Argument(..., help="One or more logs of HEALTHY flights of one airframe (each log is one calibration session)."),
+    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Profile to write (JSON); the adapted model goes beside it (.onnx)."),
+    add: Optional[Path] = typer.Option(None, "--add", help="Add the logs as new sessions to this existing profile (in place; the previous file is kept beside it)."),
+    one_session: bool = typer.Option(False, "--one-session", help="The logs given are one calibration session (e.g. several short flights on one battery)."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing profile and model."),
     no_adapt: bool = typer.Option(False, "--no-adapt", help="Only measure the imbalance and statistics; keep the shipped model."),
     flights: int = typer.Option(192, help="Simulated flights of this airframe to adapt on."),
@@ -525,7 +527,11 @@ def calibrate(
 ) -> None:
     """Calibrate one airframe from healthy flights: motor imbalance from hover, then adapt the model to it.
 
-    Needs the training extra (torch): pip install 'flightlog-fd[train]'.
+    Each log is one calibration session; from the second session on, the diagnosis weighs the
+    commands against the airframe's own session-to-session drift. `--add PROFILE LOG` adds a
+    healthy flight of another day or battery to an existing profile (no torch needed); a session
+    that looks damaged against the others is refused. Adapting needs the training extra (torch):
+    pip install 'flightlog-fd\\[train]'.
     """
     from .logs import collect_logs
 
@@ -535,6 +541,15 @@ def calibrate(
     if errors or not files:
         if not files and not errors:
             _fail("no log files found")
+        raise typer.Exit(EXIT_INVALID)
+    if add is not None:
+        if output is not None or flight is not None:
+            _fail("--add updates the profile in place: give no --output or --flight with it")
+            raise typer.Exit(EXIT_INVALID)
+        _add_sessions(add, files, one_session)
+        return
+    if output is None:
+        _fail("give the profile to write (--output PROFILE.json), or --add PROFILE.json to add sessions to one")
         raise typer.Exit(EXIT_INVALID)
     if not no_adapt:
         try:
@@ -550,7 +565,7 @@ def calibrate(
     err_console = _console(stderr=True)
     try:
         if no_adapt:
-            profile = run_calibration(files, output=output, overwrite=force, flight=flight)
+            profile = run_calibration(files, output=output, overwrite=force, flight=flight, one_session=one_session)
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -565,7 +580,7 @@ def calibrate(
 
                 settings = AdaptSettings(n_flights=flights, max_epochs=epochs, seed=seed)
                 profile = run_calibration(files, adapt=True, output=output, overwrite=force, settings=settings,
-                                          progress=progress, flight=flight)
+                                          progress=progress, flight=flight, one_session=one_session)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -580,6 +595,11 @@ def calibrate(
         console.print(f"wrote {output}: {profile.autopilot} {profile.frame}{level}", markup=False)
     if (profile.extra or {}).get("flight"):
         console.print(f"calibrated on {profile.extra['flight']} of {files[0]}", markup=False)
+    if profile.measures_motors:
+        from .calibration import session_drift_words
+
+        console.print(f"{profile.n_sessions} calibration session{'s' if profile.n_sessions != 1 else ''}: "
+                      f"{session_drift_words(profile.sessions_)}", markup=False)
     for lack in profile.lacks_:
         console.print(f"note: {lack}", markup=False)
     if profile.model:
@@ -587,6 +607,21 @@ def calibrate(
         console.print(f"adapted model: {output.with_suffix('.onnx')} ({ad.get('epochs', '?')} epochs, "
                       f"{ad.get('total_seconds', '?')} s)", markup=False)
     console.print(f"use it with: fdlog diagnose --profile {output} LOG", markup=False)
+
+
+def _add_sessions(profile: Path, files: list, one_session: bool) -> None:
+    """`fdlog calibrate --add`: add the logs as sessions, print what changed (exit 2 on refusal)."""
+    from .calibration import add_sessions
+
+    try:
+        res = add_sessions(profile, files, one_session=one_session)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    console = _console()
+    console.print(f"updated {res.path}:", markup=False)
+    for line in res.changes:
+        console.print(f"  {line}", markup=False)
 
 
 @app.command()

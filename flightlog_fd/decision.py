@@ -296,11 +296,15 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
 
 
 def _one_flight_note(cmd: Optional[CommandSharesResult]) -> Optional[str]:
-    """The note that a one-flight profile cannot show the trim's session-to-session move, or None."""
-    if cmd is None or cmd.abstained or cmd.baseline != "profile" or (cmd.n_flights or 1) > 1:
+    """The note that a one-session profile cannot show the trim's session-to-session move, or None."""
+    if cmd is None or cmd.abstained or cmd.baseline != "profile":
         return None
-    return ("the profile comes from one flight, which cannot show how this airframe's trim moves between "
-            "sessions: calibrating on two or more healthy flights makes it stronger")
+    sessions = cmd.n_sessions or 0  # 0: a profile older than schema 6, its flights pooled
+    if sessions >= 2 or (sessions == 0 and (cmd.n_flights or 1) > 1):
+        return None
+    return ("the profile holds one calibration session, which cannot show how this airframe's trim moves "
+            "between sessions: adding healthy flights of other days or batteries as sessions "
+            "(fdlog calibrate --add PROFILE LOG) makes it stronger")
 
 
 def _stopped(stops: Sequence, frame: Optional[Frame], underneath: Optional[Verdict]) -> Verdict:

@@ -121,6 +121,7 @@ class ProfileInfo:
     path: Optional[str]
     model_path: Optional[str]
     model_sha256: Optional[str]
+    sessions: int = 1  # calibration sessions the profile holds
 
 
 @dataclass
@@ -197,7 +198,7 @@ def profile_info(profile: Any) -> Optional[ProfileInfo]:
     if model_path and pfile is not None and not Path(model_path).is_absolute():
         model_path = str(pfile.parent / model_path)
     return ProfileInfo(path=str(pfile) if pfile else None, model_path=model_path,
-                       model_sha256=ref.get("sha256"))
+                       model_sha256=ref.get("sha256"), sessions=int(getattr(profile, "n_sessions", 1) or 1))
 
 
 def model_info(model: Any, profile: Any = None) -> ModelInfo:

@@ -16,6 +16,9 @@ class FlightLogError(Exception):
         self.message = message
         super().__init__(f"{self.path}: {message}" if self.path else message)
 
+    def __reduce__(self):  # picklable as raised (a worker process hands it back to the server)
+        return (self.__class__, (self.path, self.message))
+
 
 class NotALogError(FlightLogError):
     """The file is neither a ULog nor a DataFlash log (or it is empty)."""

@@ -514,8 +514,10 @@ def implausible_times(t: np.ndarray) -> np.ndarray:
     if idx.size < 2:
         return bad
     tt = t[idx]
-    thr = _spike_threshold(tt)
     d = np.diff(tt)
+    if d.min() >= -TIME_SPIKE_S and d.max() <= TIME_SPIKE_S:
+        return bad  # no step beyond the smallest threshold: no jump anywhere, without the median
+    thr = _spike_threshold(tt)
     if d.min() >= -thr and d.max() <= thr:
         return bad  # no jump anywhere: nothing can be a spike or a backward step
     edge = TIME_SPIKE_NEIGHBOURS // 2

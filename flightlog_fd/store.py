@@ -22,6 +22,9 @@ Tables (migrations 3 and 4 give them their present columns):
   found in a watched folder, diagnosed by the watcher that found it; ``args`` holds its path).
 - ``watched_file`` (host, path): the size, modification time and sha256 of each file a watcher has
   taken, so a restarted watcher does not read every file again to hash it.
+- ``calibration_session`` (airframe, flight): which flights the airframe's profile holds, as which
+  calibration session (one flight, one session; a later calibration job adds sessions, a new one
+  from scratch replaces them).
 
 Airframe of a log without an id: ``fdlog diagnose --db`` files it under the profile's name
 (``profile:NAME``) or ``unknown`` (:func:`vehicle_identity`; history does not treat ``unknown`` as
@@ -234,6 +237,18 @@ CREATE TABLE watched_file (
     seen_at     TEXT NOT NULL,
     PRIMARY KEY (host, path)
 )
+"""),
+    (6, "each airframe's calibration sessions", """
+CREATE TABLE calibration_session (
+    airframe     TEXT NOT NULL,         -- airframe.key (the resolved one when it was calibrated)
+    session      INTEGER NOT NULL,      -- 1..n in the order they were added (the profile's sessions_)
+    flight_id    BIGINT NOT NULL REFERENCES flight(id) ON DELETE CASCADE,
+    job_id       BIGINT,                -- the calibration job that added it
+    profile_path TEXT NOT NULL,         -- the profile file it was first part of
+    created_at   TEXT NOT NULL,
+    PRIMARY KEY (airframe, flight_id)
+);
+CREATE INDEX calibration_session_airframe ON calibration_session (airframe, session)
 """),
 ]
 #: The schema version this fdlog writes (its newest migration).
@@ -630,11 +645,16 @@ class Store:
 
     # ------------------------------------------------------------------ jobs
 
-    def enqueue_calibration(self, airframe: str, flight_ids: list[int], adapt: bool) -> int:
+    def enqueue_calibration(self, airframe: str, flight_ids: list[int], adapt: bool,
+                            add_to: Optional[str] = None) -> int:
+        """Queue a calibration of ``airframe`` from ``flight_ids`` (one session each); ``add_to``:
+        the profile they are added to as new sessions (None: a new profile)."""
+        args = {"flights": flight_ids, "adapt": adapt, **({"add_to": add_to} if add_to else {})}
+
         def tx():
             row = self.db.one("INSERT INTO job (kind, airframe, args, state, created_at) VALUES "
                               "('calibrate', ?, ?, 'queued', ?) RETURNING id",
-                              (airframe, json.dumps({"flights": flight_ids, "adapt": adapt}), utc_now()))
+                              (airframe, json.dumps(args), utc_now()))
             return int(row["id"])
 
         return self.db.transaction(tx, "queue the calibration")
@@ -752,16 +772,39 @@ class Store:
         return db.transaction(tx, "store the diagnosis")
 
     def complete_calibration(self, job: dict, worker: str, profile_path: str, profile_sha256: str) -> bool:
+        """Store a calibration job's profile as its airframe's and mark the job done, in one
+        transaction: the job's flights become the airframe's next calibration sessions (one each),
+        after those it already has when the job added sessions (``args.add_to``), else replacing
+        them. False (nothing written) when ``worker`` no longer holds the job."""
+        args = json.loads(job.get("args") or "{}")
+        flights = [int(f) for f in args.get("flights", [])]
+        key = job["airframe"]
+
         def tx():
             ok = self.db.run("UPDATE job SET state = 'done', finished_at = ?, lease_until = NULL WHERE id = ? "
                              "AND state = 'running' AND worker = ?", (utc_now(), job["id"], worker))
             if ok != 1:
                 return False
             self.db.run("UPDATE airframe SET profile_path = ?, profile_sha256 = ? WHERE key = ?",
-                        (profile_path, profile_sha256, job["airframe"]))
+                        (profile_path, profile_sha256, key))
+            if not args.get("add_to"):
+                self.db.run("DELETE FROM calibration_session WHERE airframe = ?", (key,))
+            top = self.db.one("SELECT MAX(session) AS n FROM calibration_session WHERE airframe = ?", (key,))
+            first = int(top["n"] or 0) + 1 if top else 1
+            now = utc_now()
+            for k, fid in enumerate(flights):
+                self.db.run("INSERT INTO calibration_session (airframe, session, flight_id, job_id, profile_path, "
+                            "created_at) VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (airframe, flight_id) DO NOTHING",
+                            (key, first + k, fid, job["id"], profile_path, now))
             return True
 
         return self.db.transaction(tx, "store the calibration")
+
+    def calibration_sessions(self, airframe: str) -> list[dict]:
+        """The airframe's calibration sessions in order: session, flight id, its name, when added."""
+        return self.db.query("SELECT s.session, s.flight_id, f.name, f.sha256, s.job_id, s.created_at "
+                             "FROM calibration_session s JOIN flight f ON f.id = s.flight_id "
+                             "WHERE s.airframe = ? ORDER BY s.session, s.flight_id", (airframe,))
 
     def job(self, jid: int) -> Optional[dict]:
         return self.db.one("SELECT * FROM job WHERE id = ?", (jid,))

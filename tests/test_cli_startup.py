@@ -64,11 +64,11 @@ def test_info_loads_only_the_reader(log):
 
 
 @pytest.mark.parametrize("log", ["px4_healthy.ulg", "ardupilot_healthy.bin"])
-def test_diagnose_loads_no_plotting_training_or_pydantic(log):
+def test_diagnose_loads_no_scipy_plotting_training_or_pydantic(log):
     modules, res = _modules_after("diagnose", str(SAMPLES / log))
     assert res.returncode == 0, res.stderr
     assert "onnxruntime" in modules  # the model ran
-    assert _loaded(modules, NEVER_FOR_A_LOG) == []
+    assert _loaded(modules, NEVER_FOR_A_LOG + ("scipy",)) == []
 
 
 _TYPER_HELP = """

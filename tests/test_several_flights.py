@@ -77,6 +77,7 @@ def test_an_existing_store_gets_its_flight_rows_when_upgraded(tmp_path):
     with sqlite3.connect(db) as c:  # back to what the previous release left
         c.execute("DROP TABLE flight_part")
         c.execute("DROP TABLE IF EXISTS watched_file")  # migration 5
+        c.execute("DROP TABLE calibration_session")  # migration 6
         c.execute("DELETE FROM schema_migrations WHERE version >= 4")
         c.execute("PRAGMA user_version = 3")
     with Store(db) as store:

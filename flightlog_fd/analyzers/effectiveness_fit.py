@@ -78,7 +78,8 @@ from typing import Optional
 import numpy as np
 
 from ..errors import FlightLogError
-from ..filters import LAG_TRUNCATION, lag, lag_coefficient, savgol_at, savgol_coeffs, savgol_edge_matrix, scan_inplace
+from ..filters import (LAG_TRUNCATION, correlate1d_zero_ends, lag, lag_coefficient, savgol_at, savgol_coeffs,
+                       savgol_edge_matrix, scan_inplace)
 from ..flight import Frame
 from ..prepared import PreparedFlight, resample
 from ..streams import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
@@ -329,8 +330,6 @@ class _SegmentLags:
     """
 
     def __init__(self, u: np.ndarray, rate_hz: float, n: int, k: int) -> None:
-        from scipy.ndimage import correlate1d  # loaded by flight.py anyway
-
         self.u = u = np.asarray(u, dtype=np.float64)
         self.rate_hz, self.n, self.k = rate_hz, n, k
         m = u.shape[0]
@@ -344,7 +343,7 @@ class _SegmentLags:
             g1 = self.i1 * k
             pad = np.concatenate([np.repeat(u[:1], 2 * h, axis=0), u[:g1 + h + 1]])
             # s[r] = smoothed u_ext at r - h, r = 0 .. g1 + h (u_ext = u[0] before the start)
-            self.s = correlate1d(pad, c, axis=0, mode="constant")[h:h + g1 + h + 1]
+            self.s = correlate1d_zero_ends(pad, c)[h:h + g1 + h + 1]
             # the k samples before each kept one (after the first), as (k, blocks x C) for one product
             nb, L0 = self.i1 - self.i0, self.i0 * k + h + 1
             self.blocks = self.s[L0:L0 + nb * k].reshape(nb, k, -1).transpose(1, 0, 2).reshape(k, -1)

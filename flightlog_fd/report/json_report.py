@@ -16,7 +16,8 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "frame": "quad_x" | "quad_plus" | "hexa_x" | "octo_x" | ... | null,
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
-      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
+      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null,
+                  "sessions": int} | null,             # its calibration sessions (schema 6)
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
                   "motor": 1-n | null,               # the damaged (stopped) propeller, or the one an
                                                      #   uncertain verdict asks to inspect first
@@ -99,8 +100,9 @@ the whole log's, each flight judged from the log's windows and never worse than 
 flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verdict's ``advice`` (what would
 resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
 settings that let a source decide next time), each source's reliability ``weights`` in
-``motor_evidence.decision``, and ``verdict.motor`` for an ``uncertain`` verdict naming one propeller
-to inspect (it was null for every uncertain verdict).
+``motor_evidence.decision``, ``profile.sessions`` (how many calibration sessions the profile holds),
+and ``verdict.motor`` for an ``uncertain`` verdict naming one propeller to inspect (it was null for
+every uncertain verdict).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -148,9 +150,9 @@ JSON_SCHEMA: dict = {
         "model": {"type": ["object", "null"], "required": ["path", "version", "sha256", "calibrated"],
                   "properties": {"path": _STR_OR_NULL, "version": {"type": "string"},
                                  "sha256": {"type": "string"}, "calibrated": {"type": "boolean"}}},
-        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256"],
+        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256", "sessions"],
                     "properties": {"path": _STR_OR_NULL, "model_path": _STR_OR_NULL,
-                                   "model_sha256": _STR_OR_NULL}},
+                                   "model_sha256": _STR_OR_NULL, "sessions": {"type": "integer", "minimum": 1}}},
         "verdict": {
             "type": "object",
             "required": ["status", "motor", "position", "confidence", "first_seen", "reason", "advice"],
@@ -309,7 +311,7 @@ def to_dict(d: Diagnosis) -> dict:
         "model": None if m is None else {"path": m.path, "version": m.version, "sha256": m.sha256,
                                          "calibrated": m.calibrated},
         "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
-                                           "model_sha256": p.model_sha256},
+                                           "model_sha256": p.model_sha256, "sessions": p.sessions},
         "verdict": v.as_dict(),
         "evidence": None if ev is None or ev.n_windows == 0 else {
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),

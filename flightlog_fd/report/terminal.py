@@ -13,6 +13,7 @@ only words and draws what the verdict says.
 - :func:`motor_panel`: the per-motor table of :mod:`flightlog_fd.report.motor_view`.
 - :func:`window_table` (``--windows``): every window with its times, class, the probabilities of
   healthy and of each motor, phase.
+- :func:`facts_line`: the log's facts, the model and the profile with its calibration sessions.
 - :func:`summary_table`: one row per log when several logs are diagnosed (file names; the full
   path where two logs share a name), and one indented row per flight of a log holding several.
 - :func:`render`: all of the above for one log onto a rich Console.
@@ -158,7 +159,16 @@ def facts_line(diagnosis: Diagnosis) -> str:
     if diagnosis.model is not None:
         m = diagnosis.model
         parts.append(f"model {m.version or '?'}" + (" (calibrated)" if m.calibrated else ""))
+    if diagnosis.profile is not None:
+        parts.append(profile_words(diagnosis.profile))
     return " | ".join(parts)
+
+
+def profile_words(profile) -> str:
+    """The profile used and how many calibration sessions it holds, e.g. "profile quad.json (3 sessions)"."""
+    name = Path(profile.path).name if profile.path else "profile"
+    n = int(getattr(profile, "sessions", 1) or 1)
+    return f"profile {name} ({n} calibration session{'s' if n != 1 else ''})"
 
 
 def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table:

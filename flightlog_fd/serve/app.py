@@ -126,6 +126,16 @@ def fmt_number(x: Any, decimals: int = 3) -> str:
     return f"{x:.{decimals}f}"
 
 
+def _profile_logs(path: str) -> set:
+    """The sha256 of every log a profile file lists (empty when it cannot be read)."""
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    logs = list(d.get("source_logs") or []) + [e for s in (d.get("sessions_") or []) for e in (s.get("logs") or [])]
+    return {e.get("sha256") for e in logs if isinstance(e, dict) and e.get("sha256")}
+
+
 def ingest_file(store: Store, data: DataDir, path, sha256: Optional[str] = None, fmt: Optional[str] = None) -> tuple[int, bool]:
     """Queue a local log file as if uploaded (`fdlog serve LOGS`, `--watch`): copied by content
     hash (``sha256`` / ``fmt`` when already known). Raises FlightLogError for a file that is not a log."""
@@ -527,9 +537,10 @@ def create_app(cfg: ServeConfig):
                 profile = {"error": "the profile file cannot be read"}
         others = [o for o in store.fleet() if o["key"] != key]
         cal_jobs = store.calibration_jobs(key)
+        sessions = store.calibration_sessions(key)
         rule = {"min_flights": MIN_FLIGHTS, "slope": DRIFT_SLOPE_MIN, "z": DRIFT_Z_MIN, "floors": FIGURE_FLOORS}
         return page(request, "airframe.html", a=a, trend=trend, n_motors=n_motors, profile=profile, others=others, rule=rule,
-                    cal_jobs=cal_jobs, adapt=cfg.calibrate_adapt)
+                    cal_jobs=cal_jobs, adapt=cfg.calibrate_adapt, sessions=sessions)
 
     @app.get("/flights/{fid}", response_class=HTMLResponse)
     def flight_page(request: Request, fid: int):
@@ -606,7 +617,15 @@ def create_app(cfg: ServeConfig):
         ids = [int(f["id"]) for f in a["flights"] if f["healthy_mark"] and f["state"] == "done"]
         if not ids:
             raise ApiError(400, "mark at least one diagnosed flight of this airframe as healthy first")
-        store.enqueue_calibration(key, ids, cfg.calibrate_adapt)
+        add_to = a["profile_path"] if str(form.get("mode") or "") == "add" else None
+        if add_to:  # the marked flights the profile does not hold yet become its next sessions
+            held = {int(s["flight_id"]) for s in store.calibration_sessions(key)} | _profile_logs(add_to)
+            by_sha = {int(f["id"]): f["sha256"] for f in a["flights"]}
+            ids = [i for i in ids if i not in held and by_sha.get(i) not in held]
+            if not ids:
+                raise ApiError(400, "every flight marked healthy is already a session of the profile: mark another "
+                                    "healthy flight (another day or battery) first")
+        store.enqueue_calibration(key, ids, cfg.calibrate_adapt and not add_to, add_to=add_to)
         runner.wake()
         return back(key)
 

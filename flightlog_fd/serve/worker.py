@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import socket
 import threading
 import time
@@ -156,13 +157,28 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
             "profile_sha256": prof_sha, "plot": plot_series(flight, d)}
 
 
-def calibrate_task(log_paths: list[str], out_path: str, adapt: bool) -> str:
-    """Calibrate a profile from healthy logs (in a worker process); returns its sha256.
-    ``adapt`` also adapts the model (needs torch, minutes); else only measures (``--no-adapt``)."""
-    from ..calibration import calibrate
+def calibrate_task(log_paths: list[str], out_path: str, adapt: bool, add_to: Optional[str] = None) -> str:
+    """Calibrate a profile from healthy logs, one session each (in a worker process); returns its
+    sha256. ``adapt`` also adapts the model (needs torch, minutes); else only measures
+    (``--no-adapt``). ``add_to``: an existing profile the logs are added to as new sessions
+    (:func:`flightlog_fd.calibration.add_sessions`, its model kept); ``out_path`` is then a copy of
+    it with the sessions added, in the same folder (the earlier file stays as it was)."""
+    from ..calibration import add_sessions, calibrate
     from ..util import file_sha256
 
-    calibrate([Path(p) for p in log_paths], adapt=adapt, output=Path(out_path), overwrite=True)
+    if add_to:
+        src, out = Path(add_to), Path(out_path)
+        if src.resolve().parent != out.resolve().parent:
+            raise ValueError("a profile with sessions added is written beside the one it extends")
+        tmp = out.with_name(out.name + ".part")
+        shutil.copyfile(src, tmp)
+        try:
+            add_sessions(tmp, [Path(p) for p in log_paths], keep_previous=False)
+            os.replace(tmp, out)
+        finally:
+            tmp.unlink(missing_ok=True)
+    else:
+        calibrate([Path(p) for p in log_paths], adapt=adapt, output=Path(out_path), overwrite=True)
     return file_sha256(out_path)
 
 
@@ -402,7 +418,7 @@ class JobRunner:
                     if f is not None:
                         paths.append(str(self.data.log_path(f["sha256"], f["format"])))
                 out = self.data.root / "profiles" / f"profile-{int(job['id'])}.json"
-                fut = self._submit(i, self.calibrate_fn, paths, str(out), bool(args.get("adapt")))
+                fut = self._submit(i, self.calibrate_fn, paths, str(out), bool(args.get("adapt")), args.get("add_to"))
                 sha = fut.result(timeout=max(self.job_timeout_s, CALIBRATE_TIMEOUT_S))
                 self._store(i, lambda: store.complete_calibration(job, self.worker_id, str(out), sha), job)
             else:
