@@ -56,7 +56,7 @@ SIM_ETAS = (0.6, 0.7, 0.8, 0.9)
 #: (severity unknown, mild: a 3 mm cut moves the command share +0.16, eta ~0.86) are checked on, not fitted.
 VOTE_FIT_ETA = 0.8
 #: The seed of the simulated set the model's vote statistics per rate class are measured on
-#: (``collect --sets simfit``; model_votes.RATE_VOTE_STATS), apart from the table's own (SIM_SEED).
+#: (``collect --sets simfit``; model_votes.QUAD_VOTE_SHARE_STATS), apart from the table's own (SIM_SEED).
 SIM_FIT_SEED = 12100
 
 
@@ -578,18 +578,19 @@ def _fit_flight_means(x: np.ndarray, se: np.ndarray) -> tuple[float, float]:
 
 def votes() -> None:
     """The model's window votes without a profile, per rotor count and rate class: the figures
-    behind model_votes' VOTE_DECORRELATION_S, QUAD_VOTE_SHARE_STATS, MODEL_DECORRELATION_BY_RATE,
-    MODEL_WINDOW_SIGMA_BY_RATE and QUAD_RATE_VOTE_STATS. Measured: the decorrelation time of a
-    motor's vote indicator and of its window log ratio, and the log ratio's within-flight spread,
-    on real and simulated flights (the larger of the two is used); then, on the fit sets (simfit,
-    nrotorfit and the real flights; damaged: eta <= VOTE_FIT_ETA), the flight mean's Gaussian
-    levels and the vote share's beta-binomial mixture; then, on the check sets (the table's own
-    simulated flights, seeds 9100+, and the real ones), what each statistic alone says: the
+    behind model_votes' VOTE_DECORRELATION_S and QUAD_VOTE_SHARE_STATS, and the re-measure of the
+    flight mean's levels (QUAD_VOTE_STATS, MODEL_DECORRELATION_S, MODEL_WINDOW_SIGMA) per rate
+    class. Measured: the decorrelation time of a motor's vote indicator and of its window log
+    ratio, and the log ratio's within-flight spread, on real and simulated flights (the larger of
+    the two is used); then, per hypothesis on the real flights where MIN_MEASURED are there, else
+    on the fit sets (simfit, nrotorfit) pooled with them (damaged: eta <= VOTE_FIT_ETA), the flight
+    mean's Gaussian levels and the vote share's beta-binomial; then, on the check sets (the table's
+    own simulated flights, seeds 9100+, and the real ones), what each statistic alone says: the
     healthy flights' leading LLR against the decision's bars, and the damaged motor's LLR
-    (eta <= 0.8 and 0.9 apart) - for the flight mean with the constants before (QUAD_VOTE_STATS
-    at every rate), with the code's and with the fitted levels, and for the vote share with the
-    code's and the fitted figures. Figures only."""
+    (eta <= 0.8 and 0.9 apart) - for the flight mean with the code's levels and the fitted ones,
+    and for the vote share with the code's and the fitted figures. Figures only."""
     from flightlog_fd.analyzers import model_votes as mv
+    from flightlog_fd.analyzers.reliability import MIN_MEASURED
     from flightlog_fd.decision import DAMAGED_LLR, UNCERTAIN_LLR
     from flightlog_fd.timeline import floored
 
@@ -623,20 +624,31 @@ def votes() -> None:
             sd_lr[rate] = max(sd_lr.get(rate, 0), sd)
             line.append(f"{origin} {len(long)} flights: votes {tv:.1f} s, log ratio {tl:.1f} s; window sd {sd:.2f} "
                         f"({len(fl)} flights)")
-        code = (f"code: votes {mv.VOTE_DECORRELATION_S.get(rate, '-')} s, log ratio "
-                f"{mv.MODEL_DECORRELATION_BY_RATE.get(rate, mv.MODEL_DECORRELATION_S)} s, window sd "
-                f"{mv.MODEL_WINDOW_SIGMA_BY_RATE.get(rate, mv.MODEL_WINDOW_SIGMA)}")
+        code = (f"code: votes {mv.VOTE_DECORRELATION_S.get(rate, '-')} s, log ratio {mv.MODEL_DECORRELATION_S} s, "
+                f"window sd {mv.MODEL_WINDOW_SIGMA}")
         print(f"  {rate}: " + "; ".join(line) + f"   ({code})")
 
     def damaged_fit(f):
         return f["truth"] > 0 and f["eta"] is not None and f["eta"] <= VOTE_FIT_ETA + 1e-9
+
+    def real_first(fl, keep):
+        """The flights of one hypothesis: the real ones alone where MIN_MEASURED of them are there
+        (real logs are what the tool is judged on, and the model reads them unlike its own
+        simulated flights), else the real ones pooled with the simulated fit set."""
+        chosen = [f for f in fl if keep(f)]
+        real = [f for f in chosen if f["origin"] == "real"]
+        return (real, "real") if len(real) >= MIN_MEASURED else (chosen, "real + sim")
     means_fitted, shares_fitted = {}, {}
-    print(f"\n== fitted on simfit + real, quads (damaged: eta <= {VOTE_FIT_ETA}; within-flight terms as measured above)")
+    print(f"\n== fitted, quads, per hypothesis on the real flights where {MIN_MEASURED} are there, else on "
+          f"simfit + real (damaged: eta <= {VOTE_FIT_ETA}; within-flight terms as measured above)")
     for rate in rates:
-        fl = [f for f in fit if f["rotors"] == 4 and f["rate"] == rate]
+        every_rate = [f for f in fit if f["rotors"] == 4 and f["rate"] == rate]
+        hf, h_from = real_first(every_rate, lambda f: f["truth"] == 0)
+        df, d_from = real_first(every_rate, damaged_fit)
+        fl = hf + df
         se = {id(f): sd_lr[rate] / np.sqrt(max(f["covered_s"] / dec_lr[rate], 1.0)) for f in fl}
-        h = [(x, se[id(f)]) for f in fl if f["truth"] == 0 for x in mv.mean_log_ratio(f["probs"])]
-        d = [(mv.mean_log_ratio(f["probs"])[f["truth"] - 1], se[id(f)]) for f in fl if damaged_fit(f)]
+        h = [(x, se[id(f)]) for f in hf for x in mv.mean_log_ratio(f["probs"])]
+        d = [(mv.mean_log_ratio(f["probs"])[f["truth"] - 1], se[id(f)]) for f in df]
         n_real = sum(f["origin"] == "real" for f in fl)
         if len(h) < 40 or len(d) < 10:
             print(f"  {rate}: too few ({len(h) // 4} healthy, {len(d)} damaged flights)")
@@ -645,12 +657,12 @@ def votes() -> None:
         dm, ds = _fit_flight_means(*map(np.array, zip(*d)))
         means_fitted[rate] = mv.VoteStats(hm, hs, dm, ds, mv.QUAD_VOTE_STATS.damage_shift, mv.QUAD_VOTE_STATS.shift_sigma)
         neff = {id(f): max(f["covered_s"] / dec_vote[rate], 1.0) for f in fl}
-        hv = np.array([(mv.vote_shares(f["probs"])[k], neff[id(f)]) for f in fl if f["truth"] == 0 for k in range(4)])
-        dv = np.array([(mv.vote_shares(f["probs"])[f["truth"] - 1], neff[id(f)]) for f in fl if damaged_fit(f)])
+        hv = np.array([(mv.vote_shares(f["probs"])[k], neff[id(f)]) for f in hf for k in range(4)])
+        dv = np.array([(mv.vote_shares(f["probs"])[f["truth"] - 1], neff[id(f)]) for f in df])
         ph = _fit_vote_shares(hv[:, 0] * hv[:, 1], hv[:, 1], mixture=True)
         pd = _fit_vote_shares(dv[:, 0] * dv[:, 1], dv[:, 1], mixture=False)
         shares_fitted[rate] = mv.VoteShareStats(ph, pd)
-        print(f"  {rate}: {len(h) // 4} healthy and {len(d)} damaged flights ({n_real} real in all)")
+        print(f"  {rate}: {len(h) // 4} healthy flights ({h_from}) and {len(d)} damaged ({d_from}); {n_real} real in all")
         print(f"      flight mean: healthy {hm:+.3f} +- {hs:.3f}, damaged {dm:+.3f} +- {ds:.3f}")
         print(f"      vote share:  healthy {ph}, damaged {pd}; healthy share >= 0.5: measured "
               f"{np.mean(hv[:, 0] >= 0.5):.3f}, fitted {_share_tail(ph, 0.5):.3f}; >= 0.9: {np.mean(hv[:, 0] >= 0.9):.3f}, "
@@ -658,10 +670,8 @@ def votes() -> None:
 
     def stat_llrs(f, how):
         rate = f["rate"]
-        if how == "mean, before":  # the constants before issue 28 part 3: Erle 10 Hz healthy, SIH damage
-            return mv.model_llr(f["probs"], f["covered_s"], stats=mv.vote_stats(f["rotors"]))
-        if how == "mean, code":
-            return mv.model_llr(f["probs"], f["covered_s"], rate=rate)
+        if how == "mean, code":  # the real flights' levels (Erle healthy, SIH damage) at every rate
+            return mv.model_llr(f["probs"], f["covered_s"])
         if how == "mean, fitted":
             st = means_fitted.get(rate) if f["rotors"] == 4 else None
             if st is None:
@@ -686,7 +696,7 @@ def votes() -> None:
                 if not fl:
                     continue
                 print(f"  {rotors} rotors, {rate}, {origin}:")
-                for how in ("mean, before", "mean, code", "mean, fitted", "share, code", "share, fitted"):
+                for how in ("mean, code", "mean, fitted", "share, code", "share, fitted"):
                     if stat_llrs(fl[0], how) is None:
                         continue
                     hl, dl = [], {"eta<=0.8": [], "eta 0.9": []}

@@ -1,12 +1,11 @@
 """The model's votes weighed by the log's rate class without a profile (issue 28 part 3): the vote
-share at full rate, the flight mean with per-rate levels at low and mid rate, the profile's own
-baseline unchanged."""
+share on a quad at full rate, the flight mean below it and on other frames, the profile's own
+baseline at every rate."""
 from __future__ import annotations
 
 from types import SimpleNamespace
 
 import numpy as np
-import pytest
 from scipy.special import betaln as scipy_betaln
 
 from flightlog_fd import decision as D
@@ -57,18 +56,20 @@ def test_full_rate_weighs_how_consistently_the_windows_name_a_motor():
     assert 0 < short[2] < consistent[2]
 
 
-def test_low_rate_weighs_the_flight_mean_with_its_own_levels():
+def test_below_full_rate_the_flight_mean_is_weighed():
     p = _votes(2, 1.0)
-    low = _model(p, 10.0)
-    st = MV.QUAD_RATE_VOTE_STATS["low rate"]
-    assert np.allclose(low, MV.model_llr(p, 60.0, stats=st, rate="low rate"))
-    assert int(np.argmax(low)) == 1 and low[1] > 0
-    # the window term is the one measured at low rate, not the constants before
-    assert not np.allclose(low, MV.model_llr(p, 60.0, stats=st))
-    # an unknown rate (a synthetic flight) keeps the constants measured before on Erle and SIH
+    for hz in (10.0, 24.0):
+        llr = _model(p, hz)
+        assert np.allclose(llr, MV.model_llr(p, 60.0)) and int(np.argmax(llr)) == 1 and llr[1] > 0
+    # an unknown rate (a synthetic flight) too
     ctx = Context(flight=SimpleNamespace(motors=[1]), frame=None, n_motors=4, probs=p, covered_s=60.0)
     (r,) = run_analyzers(ctx, [MV.ModelVotes()])
     assert np.allclose(r.raw_llr(4), MV.model_llr(p, 60.0))
+    # and on an n-rotor at full rate (its own model, its own statistics)
+    octo = np.full((60, 9), 0.05)
+    octo[:, 3] = 0.6
+    assert np.allclose(_model(octo / octo.sum(1, keepdims=True), 250.0),
+                       MV.model_llr(octo / octo.sum(1, keepdims=True), 60.0))
 
 
 def test_a_profile_keeps_the_airframes_own_baseline_at_every_rate():
@@ -98,7 +99,3 @@ def test_real_full_rate_flights_without_a_profile(shared):
             assert d.verdict.status == "damaged" and d.verdict.motor == motor, d.verdict.reason
 
 
-@pytest.mark.parametrize("rate", ["low rate", "mid rate"])
-def test_per_rate_levels_are_ordered(rate):
-    st = MV.QUAD_RATE_VOTE_STATS[rate]
-    assert st.healthy_mean < 0 < st.damaged_mean and st.healthy_sigma > 0 and st.damaged_sigma > 0
