@@ -78,6 +78,7 @@ class Situation:
     little_manoeuvring: bool = False  # the effectiveness fit said the flight did not manoeuvre enough
     timeline_uncertain: float = 0.0  # share of '?' windows
     positions: dict = field(default_factory=dict)  # motor -> position words
+    cause: Optional[str] = None  # the named rotor's likely cause (flightlog_fd.cause): its motor / ESC first
 
 
 def advice_line(a: Advice) -> str:
@@ -114,7 +115,13 @@ def advise(s: Situation) -> list[Advice]:
     out: list[Advice] = []
     if s.status == "uncertain":
         motors = tuple(int(m) for m in s.inspect)
-        if motors:
+        if len(motors) == 1 and s.cause == "motor_or_esc":
+            k = motors[0]
+            name = f"{k}" + (f" ({s.positions[k]})" if s.positions.get(k) else "")
+            out.append(Advice("inspect", f"inspect motor {name} and its ESC first (bearings, windings, wiring and "
+                                         f"solder joints, the ESC): ESC rpm shows it turning slower for its command; "
+                                         f"then propeller {k}", motors))
+        elif motors:
             names = " and ".join(f"{m}" + (f" ({s.positions[m]})" if s.positions.get(m) else "") for m in motors)
             out.append(Advice("inspect", f"inspect propeller{'s' if len(motors) > 1 else ''} {names} first "
                                          f"(cracks, chips, a loose or bent blade, its motor turning freely)", motors))
@@ -165,4 +172,5 @@ def situation(diagnosis: Any, flight: Any) -> Situation:
         has_esc=getattr(flight, "esc", None) is not None,
         little_manoeuvring=bool(eff is not None and (eff.reason or "").startswith(LITTLE_MANOEUVRING)),
         timeline_uncertain=float(tl.abstained_share) if tl is not None and tl.n_windows else 0.0,
-        positions={k: frame.position(k) for k in range(1, frame.rotor_count + 1)} if frame is not None else {})
+        positions={k: frame.position(k) for k in range(1, frame.rotor_count + 1)} if frame is not None else {},
+        cause=v.cause)

@@ -774,7 +774,10 @@ def simulate(
     frame: Optional[str] = typer.Option(None, help="Fly the preset as quad_x, quad_plus, hexa_x, hexa_plus, octo_x, "
                                                    "octo_plus or octaquad_x."),
     motor: int = typer.Option(0, help="Damaged propeller 1..n (4 on a quad), or 0 for a healthy flight."),
-    eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor)."),
+    eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor), or of the "
+                                        "weak motor with --cause motor (thrust per command)."),
+    cause: str = typer.Option("propeller", help="What lost the thrust of --motor: propeller (damaged) or motor (the "
+                                                "motor or its ESC is weak: it turns slower for its command)."),
     onset: Optional[float] = typer.Option(None, help="Damage starts this many seconds after arming (default: from take-off)."),
     duration: float = typer.Option(60.0, help="Planned flight time, seconds."),
     mission: str = typer.Option("waypoints", help="waypoints, manual (pilot sticks) or hover."),
@@ -796,7 +799,7 @@ def simulate(
     imu_rate: Optional[float] = typer.Option(None, "--imu-rate", help="Also log raw IMU samples at this rate (Hz, "
                                              "100-1000: ArduPilot ACC/GYR, PX4 sensor_accel/sensor_gyro)."),
 ) -> None:
-    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
+    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy, with a damaged propeller or with a weak motor (--cause motor), and write them as ULog or DataFlash logs."""
     rho_list = None
     if rho:
         try:
@@ -812,7 +815,7 @@ def simulate(
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
                                     onset=onset, duration=duration, mission=mission, log_profile=log_profile,
                                     rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id,
-                                    imbalance=imbalance, imu_rate=imu_rate)
+                                    imbalance=imbalance, imu_rate=imu_rate, cause=cause)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -821,7 +824,8 @@ def simulate(
         raise typer.Exit(EXIT_INVALID)
     console = _console()
     for p, t in written:
-        what = "healthy" if not t.get("motor") else f"propeller {t['motor']} damaged (eta {t['eta']:.2f})"
+        what = ("healthy" if not t.get("motor") else f"motor {t['motor']} or its ESC weak (eta {t['eta']:.2f})"
+                if t.get("cause") == "motor" else f"propeller {t['motor']} damaged (eta {t['eta']:.2f})")
         added = (t.get("prop_imbalance") or {})
         unbalanced = [f"{k + 1}: {m * 1e6:g} g·mm" for k, m in enumerate(added.get("added_mass_kgm", [])) if m > 0]
         unbalanced += [f"{k + 1}: aero {a:g}" for k, a in enumerate(added.get("added_aero", [])) if a > 0]

@@ -52,6 +52,10 @@ The verdict names the propellers to inspect (``Verdict.inspect``); what would re
 (``Verdict.advice``) is :mod:`flightlog_fd.advice`'s. A healthy verdict over a mostly uncertain
 timeline (``THIN_TIMELINE_SHARE``) says what it rests on.
 
+Cause (:mod:`flightlog_fd.cause`): a verdict naming one rotor (damaged, or uncertain naming it)
+carries its likely cause from ESC telemetry, the propeller or the motor / ESC, or says the log
+cannot tell; the advice follows it ("inspect motor k and ESC k before the propeller").
+
 Limits: one damaged rotor per flight; the sources are treated as independent (the model sees the
 same commands the command analyzer weighs, which is why each source is capped).
 """
@@ -68,6 +72,7 @@ from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSha
 from .analyzers.reliability import LogKind, cell_of, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
+from .cause import Cause, judge_cause
 from .flight import Frame
 from .timeline import Timeline
 
@@ -166,6 +171,10 @@ class Verdict:
     inspect: tuple = ()
     #: What would resolve it (:class:`flightlog_fd.advice.Advice`), set by the diagnose pipeline.
     advice: list = field(default_factory=list)
+    #: The named rotor's likely cause: "propeller" | "motor_or_esc" | None (unknown, or no rotor named)
+    cause: Optional[str] = None
+    #: What the cause rests on (:meth:`flightlog_fd.cause.Cause.evidence`), None when no rotor is named
+    cause_evidence: Optional[dict] = None
 
     def as_dict(self) -> dict:
         """The verdict fields of the JSON report."""
@@ -177,6 +186,8 @@ class Verdict:
             "first_seen": None if self.first_seen is None else round(float(self.first_seen), 3),
             "reason": self.reason,
             "advice": [a.as_dict() for a in self.advice],
+            "cause": self.cause,
+            "cause_evidence": self.cause_evidence,
         }
 
 
@@ -393,6 +404,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     best = int(order[0])
     second = int(order[1]) if n > 1 else None
     kb = best + 1
+    cause = judge_cause(results, kb)  # what to inspect first when the verdict names motor kb
+    inspect_kb = f"{cause.words}; {cause.advice}"
     lead = float(total[best] - (total[second] if second is not None else -np.inf))
     airframe_changed = _airframe_changed(cmd, thr, n, best)
     notes = [note for r in results for note in r.notes]
@@ -426,9 +439,10 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     vib = _vibration(results)
 
     def done(status: str, motor: Optional[int], confidence: float, reason: str,
-             inspect: Sequence[int] = ()) -> tuple[Verdict, Decision]:
+             inspect: Sequence[int] = (), named: Optional[Cause] = None) -> tuple[Verdict, Decision]:
         raised = _raised_by_vibration(vib, status)
         if raised is not None:
+            named = None  # the vibration's verdict names no rotor
             status, motor = raised, None
             inspect = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted else ()
             confidence = _p_imbalance(vib)
@@ -445,7 +459,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
                        else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
                        first_seen=first_seen if status == "damaged" else None, reason=reason,
-                       inspect=inspect), decision
+                       inspect=inspect, cause=named.cause if named else None,
+                       cause_evidence=named.evidence() if named else None), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -455,8 +470,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but the throttle is "
                     f"{100 * (1 - thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot do "
-                    f"with the same load: the load or the set-up changed since calibration; inspect propeller {kb}, "
-                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}", (kb,))
+                    f"with the same load: the load or the set-up changed since calibration; {inspect_kb}, "
+                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}", (kb,), cause)
     if trim_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
         # commands against another session's calibration alone: at most uncertain
         sev = severity_words(kb)
@@ -465,21 +480,22 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         return done("uncertain", None, w[kb],
                     f"{_words(frame, kb)} needs {rise:.0f} % more command than at calibration"
                     + (f" (if its propeller were the cause, it {sev})" if sev else "")
-                    + f": inspect propeller {kb}; if it is sound, the load moved (battery, payload, centre of mass): "
+                    + f": {inspect_kb}; if nothing is found, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
-                      f"(log-likelihood ratio, nats): {parts}", (kb,))
+                      f"(log-likelihood ratio, nats): {parts}", (kb,), cause)
     if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
                     f"did not rise as a rotor that lost thrust must ({share.value:.3f} against {share.baseline:.3f}); "
-                    f"{evidence_words(kb)}; inspect propeller {kb} and the others", (kb,))
+                    f"{evidence_words(kb)}; {inspect_kb}, and the others", (kb,), cause)
     if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
         since = f" from t={onset.first_seen:.1f} s" if onset is not None else ""
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
-                    + f"; {evidence_words(kb)}; inspect propeller {kb}", (kb,))
+                    + f"; {evidence_words(kb)}; {inspect_kb}", (kb,), cause)
     if total[best] >= UNCERTAIN_LLR:
         named: tuple[int, ...] = (kb,)
+        named_cause: Optional[Cause] = None
         if lead < SEPARATION_LLR and second is not None and total[second] >= UNCERTAIN_LLR:
             k2 = second + 1
             named = (kb, k2)
@@ -492,12 +508,13 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             confidence = w[kb]
             reason = (f"{_words(frame, kb)} may have lost thrust" + (f" (it {sev})" if sev else "")
                       + f", but the evidence is too weak to call ({total[best]:+.1f} nats{discounted_words(kb)}; "
-                        f"damage needs {DAMAGED_LLR:.0f}); {evidence_words(kb)}; inspect propeller {kb}")
+                        f"damage needs {DAMAGED_LLR:.0f}); {evidence_words(kb)}; {inspect_kb}")
+            named_cause = cause
             if cmd is not None and cmd.baseline == "profile":
-                reason += "; if it is sound, the load moved since calibration (battery, payload): re-calibrate"
+                reason += "; if nothing is found, the load moved since calibration (battery, payload): re-calibrate"
         if airframe_changed:
             reason += f"; also {airframe_changed}: after the inspection, re-calibrate"
-        return done("uncertain", None, confidence, reason, named)
+        return done("uncertain", None, confidence, reason, named, named_cause)
     if airframe_changed:
         return done("uncertain", None, w[0],
                     f"no rotor explains the change since calibration ({airframe_changed}): the airframe itself "
@@ -606,4 +623,5 @@ def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     others = "".join(f"; {lab}: {v.status}" + (f" (motor {v.motor})" if v.motor else "")
                      for lab, v in parts if v is not worst)
     return Verdict(status=worst.status, motor=worst.motor, position=worst.position, confidence=worst.confidence,
-                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}", inspect=worst.inspect)
+                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}", inspect=worst.inspect,
+                   cause=worst.cause, cause_evidence=worst.cause_evidence)

@@ -289,8 +289,9 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     if len(parts) == 1:
         return _diagnose_one(flight, model, profile, keep_flight=keep_flight)
     spec = model_for_flight(model, flight).feature_spec
-    if diagnosability(flight, spec).ok:
-        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts)
+    prepared = PreparedFlight(flight)  # the check's segments are the diagnosis's
+    if diagnosability(prepared, spec).ok:
+        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts, prepared=prepared)
     subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight) for p in parts]
     for p, d in zip(parts, subs):
         d.part = p.part
@@ -302,7 +303,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
 
 
 def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool,
-                  parts: Optional[list] = None) -> Diagnosis:
+                  parts: Optional[list] = None, prepared: Optional[PreparedFlight] = None) -> Diagnosis:
     from .model import model_for_flight
 
     model = model_for_flight(model, flight)  # the shipped quad model -> the one for the flight's rotor count
@@ -314,7 +315,9 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
 
     stops = diagnose_stopped(flight)
     n_motors = flight.frame.rotor_count if flight.frame is not None else 4
-    check = diagnosability(flight, model.feature_spec)
+    # built once: the check, the windows, phases and share fit use it
+    prepared = prepared if prepared is not None else PreparedFlight(flight)
+    check = diagnosability(prepared, model.feature_spec)
     facts_kw = dict(stopped=stops, diagnosability_facts=dict(check.facts), **common)
 
     def cannot_judge(reason: str) -> Diagnosis:
@@ -339,7 +342,6 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
             spec = FeatureSpec.from_dict(model.feature_spec)
         except ValueError as e:
             raise ModelError(getattr(model, "path", None), f"bad feature spec in the model: {e}") from None
-        prepared = PreparedFlight(flight)  # built once: the windows, phases and share fit use it
         win = make_windows(prepared, spec)
         if len(win.t_start) == 0:
             return cannot_judge(win.reason or "no complete window of airborne data")

@@ -137,6 +137,16 @@ def _v4(db: Database) -> None:
         _write_parts(db, flight_id, doc)
 
 
+def _v7(db: Database) -> None:
+    """Migration 7: ``flight.cause``, the named rotor's likely cause (propeller | motor_or_esc |
+    NULL), filled from each stored diagnosis's verdict (reports before schema 6 have none)."""
+    db.run("ALTER TABLE flight ADD COLUMN cause TEXT")
+    for flight_id, doc in _stored_diagnoses(db):
+        cause = (doc.get("verdict") or {}).get("cause")
+        if cause:
+            db.run("UPDATE flight SET cause = ? WHERE id = ?", (cause, flight_id))
+
+
 MIGRATIONS: list[tuple[int, str, Any]] = [
     (1, "flights, motor figures, jobs, airframes", """
 CREATE TABLE airframe (
@@ -250,6 +260,7 @@ CREATE TABLE calibration_session (
 );
 CREATE INDEX calibration_session_airframe ON calibration_session (airframe, session)
 """),
+    (7, "the named rotor's likely cause: its propeller or its motor / ESC", _v7),
 ]
 #: The schema version this fdlog writes (its newest migration).
 SCHEMA_VERSION = max(v for v, _, _ in MIGRATIONS)
@@ -482,12 +493,12 @@ class Store:
             profile_path, tool_version = run.profile_path, run.tool_version or tool_version
         self.db.run(
             "UPDATE flight SET state = 'done', airframe = ?, autopilot = ?, firmware = ?, flight_start_utc = ?, "
-            "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, confidence = ?, reason = ?, sentence = ?, "
-            "profile_sha256 = ?, profile_path = ?, model_sha256 = ?, model_version = ?, tool_version = ?, "
+            "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, confidence = ?, reason = ?, cause = ?, "
+            "sentence = ?, profile_sha256 = ?, profile_path = ?, model_sha256 = ?, model_version = ?, tool_version = ?, "
             "exit_code = ?, diagnosis_json = ?, plot_json = ?, error = NULL, diagnosed_at = ? WHERE id = ?",
             (airframe, doc.get("autopilot"), doc.get("firmware"), flight_start_utc, _num(log_t_start_s),
              _num(doc.get("airborne_s")), v.get("status"), v.get("motor"), _num(v.get("confidence")), v.get("reason"),
-             sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
+             v.get("cause"), sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
              json.dumps(doc), None if plot is None else json.dumps(plot), diagnosed_at or utc_now(), fid))
         _write_figures(self.db, fid, doc, command_share)
         _write_parts(self.db, fid, doc)
@@ -733,7 +744,7 @@ class Store:
         db.run("UPDATE job SET state = 'error', error = ?, finished_at = ?, lease_until = NULL WHERE id = ?",
                (reason, utc_now(), job["id"]))
         if job.get("flight_id") is not None:
-            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', reason = ?, "
+            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', cause = NULL, reason = ?, "
                    "diagnosis_json = COALESCE(?, diagnosis_json), diagnosed_at = ? WHERE id = ?",
                    (reason, reason, diagnosis_json, utc_now(), job["flight_id"]))
 
@@ -863,7 +874,7 @@ class Store:
         """Resolved airframe -> its flights in time order (UTC start; flights without it after,
         by name, then upload), each with ``motors``: motor -> figures."""
         flights = self.db.query("SELECT id, sha256, name, state, airframe, healthy_mark, autopilot, firmware, "
-                                "flight_start_utc, airborne_s, status, motor, confidence, reason, uploaded_at, "
+                                "flight_start_utc, airborne_s, status, motor, cause, confidence, reason, uploaded_at, "
                                 "diagnosed_at, error FROM flight WHERE airframe IS NOT NULL")
         figs: dict[int, dict[int, dict]] = {}
         for m in self.db.query(f"SELECT flight_id, motor, {', '.join(MOTOR_COLUMNS)} FROM motor_figure"):
@@ -941,7 +952,7 @@ def holder_is_dead(worker: str) -> bool:
 def _record_of(f: dict, source: str) -> FlightRecord:
     return FlightRecord(id=int(f["id"]), log_path=f["name"], log_sha256=f["sha256"],
                         flight_start_utc=f["flight_start_utc"], airborne_s=f["airborne_s"], status=f["status"] or "",
-                        motor=f["motor"], confidence=f["confidence"], reason=f["reason"] or "",
+                        motor=f["motor"], cause=f.get("cause"), confidence=f["confidence"], reason=f["reason"] or "",
                         diagnosed_at=f["diagnosed_at"] or "", vehicle_source=source,
                         motors={k: dict(v) for k, v in f["motors"].items()}, parts=list(f.get("parts") or []))
 

@@ -23,7 +23,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("prepared",),                                                # one prepared flight per diagnosis
     ("windows", "hover", "phases", "stopped", "timeline", "model"),  # views of a prepared flight, the model
     ("checks", "analyzers"),                                      # per-motor estimation and findings
-    ("decision", "profile", "advice"),                            # the verdict; the calibration profile; advice
+    ("decision", "profile", "advice", "cause"),                   # the verdict (its cause); the calibration profile; advice
     ("diagnose",),                                                # one flight, end to end
     ("training",),                                                # model training and adaptation
     ("calibration", "batch", "store", "database", "drift", "history", "report", "watch"),

@@ -26,6 +26,7 @@ TEST_SETTLE_S = 0.6
 SMALL = ["ardupilot_motor2_damaged.bin", "px4_motor4_damaged.ulg", "ardupilot_plus_motor4_damaged.bin",
          "ardupilot_healthy.bin"]
 LARGE = "px4_octo_motor2_damaged.ulg"  # the longest diagnosis of the samples: the one killed mid-way
+SLOW_DIAGNOSIS = Path(__file__).parent / "slow_diagnosis"
 
 
 def slow_copy(src: Path, dst: Path, chunk: int = 64 * 1024, pause_s: float = 0.05) -> None:
@@ -109,13 +110,17 @@ def _has_watchdog() -> bool:
 class Watcher:
     """`fdlog watch` in a subprocess (its own process group), output in a file."""
 
-    def __init__(self, folder: Path, db: str, out: Path):
+    def __init__(self, folder: Path, db: str, out: Path, slow_name: str | None = None):
         self.out = out
+        env = {**os.environ, "OMP_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1"}
+        if slow_name:  # its diagnosis of that file sleeps first (tests/slow_diagnosis/sitecustomize.py)
+            env["PYTHONPATH"] = os.pathsep.join([str(SLOW_DIAGNOSIS), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+            env["FDLOG_TEST_SLOW_NAME"] = slow_name
         fh = open(out, "ab")
         self.proc = subprocess.Popen([sys.executable, "-c", "from flightlog_fd.cli import main; main()", "watch",
                                       str(folder), "--db", db, "--settle", str(TEST_SETTLE_S), "-v"],
                                      stdout=fh, stderr=fh, start_new_session=True, cwd=str(out.parent),
-                                     env={**os.environ, "OMP_NUM_THREADS": "1", "PYTHONUNBUFFERED": "1"})
+                                     env=env)
         fh.close()
 
     def kill(self) -> None:
@@ -176,7 +181,7 @@ def test_watch_diagnoses_each_log_once_through_copies_renames_duplicates_a_bad_f
     folder.mkdir()
     Store(db).close()
     out = tmp_path / "watch.out"
-    w = Watcher(folder, db, out)
+    w = Watcher(folder, db, out, slow_name="flight_d")  # killed while it diagnoses flight_d
     try:
         slow_copy(SAMPLES / SMALL[0], folder / "flight_a.bin")
         slow_copy(SAMPLES / SMALL[1], folder / "flight_b.ulg.part")

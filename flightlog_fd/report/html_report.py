@@ -38,6 +38,9 @@ from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
 from .terminal import verdict_sentence
 
+#: The likely cause of a named rotor's lost thrust, in words (decision.Verdict.cause).
+CAUSE_WORDS = {"propeller": "the propeller", "motor_or_esc": "the motor or its ESC"}
+
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
 MAX_POINTS_PER_LINE = 1600
 PLOT_WIDTH = 900
@@ -233,6 +236,8 @@ def _facts_table(d: Diagnosis) -> str:
                  f"{'s' if d.profile.sessions != 1 else ''})"))
     v = d.verdict
     rows.append(("reason", v.reason))
+    if v.cause_evidence:
+        rows.append(("likely cause", f"{CAUSE_WORDS.get(v.cause, 'unknown')}: {v.cause_evidence['reason']}"))
     for i, a in enumerate(v.advice):
         rows.append(("to resolve it" if i == 0 else "", advice_line(a)))
     if d.timeline is not None and d.timeline.shortfall is None:
@@ -368,11 +373,13 @@ def vibration_svgs(d: Diagnosis) -> str:
 
 
 def _summary(diagnoses: Sequence[Diagnosis]) -> str:
-    head = "".join(f"<th>{c}</th>" for c in ("log", "verdict", "propeller", "confidence", "first seen", "exit"))
+    head = "".join(f"<th>{c}</th>" for c in ("log", "verdict", "rotor", "confidence", "first seen", "exit"))
     rows = []
     for d in diagnoses:
         v = d.verdict
         prop = f"{v.motor} ({v.position})" if v.motor and v.position else (str(v.motor) if v.motor else "")
+        if prop and v.cause == "motor_or_esc":
+            prop += ": motor or ESC"
         cells = [d.log, v.status, prop, f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "",
                  f"t={v.first_seen:.1f} s" if v.first_seen is not None else "", str(d.exit_code)]
         rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")

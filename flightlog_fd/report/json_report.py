@@ -25,6 +25,11 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
                   "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
+                  "cause": "propeller" | "motor_or_esc" | null,   # the named rotor's likely cause
+                  "cause_evidence": {"motor": 1-n,                # null when no rotor is named
+                                     "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
+                                     "rpm_per_command": % | null, "current_per_rpm2": % | null,
+                                     "reason": str} | null,       # why that cause, or why none
                   "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "logging" |
                                       "esc_telemetry" | "manoeuvre",
                               "text": str,              # what to do, in words
@@ -101,8 +106,10 @@ flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verd
 resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
 settings that let a source decide next time), each source's reliability ``weights`` in
 ``motor_evidence.decision``, ``profile.sessions`` (how many calibration sessions the profile holds),
-and ``verdict.motor`` for an ``uncertain`` verdict naming one propeller to inspect (it was null for
-every uncertain verdict).
+``verdict.motor`` for an ``uncertain`` verdict naming one propeller to inspect (it was null for
+every uncertain verdict), and ``verdict.cause`` and ``verdict.cause_evidence``
+(:mod:`flightlog_fd.cause`: with ESC telemetry, whether the named rotor's propeller or its motor / ESC
+lost the thrust; null and the reason when the log cannot tell).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -155,7 +162,8 @@ JSON_SCHEMA: dict = {
                                    "model_sha256": _STR_OR_NULL, "sessions": {"type": "integer", "minimum": 1}}},
         "verdict": {
             "type": "object",
-            "required": ["status", "motor", "position", "confidence", "first_seen", "reason", "advice"],
+            "required": ["status", "motor", "position", "confidence", "first_seen", "reason", "advice", "cause",
+                         "cause_evidence"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
@@ -163,6 +171,12 @@ JSON_SCHEMA: dict = {
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
+                "cause": {"enum": ["propeller", "motor_or_esc", None]},
+                "cause_evidence": {"type": ["object", "null"],
+                                   "required": ["motor", "llr", "rpm_per_command", "current_per_rpm2", "reason"],
+                                   "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                                  "llr": _NUM_OR_NULL, "rpm_per_command": _NUM_OR_NULL,
+                                                  "current_per_rpm2": _NUM_OR_NULL, "reason": {"type": "string"}}},
                 "advice": {"type": "array", "items": {
                     "type": "object", "required": ["kind", "text", "motors", "command", "setting"],
                     "properties": {"kind": {"enum": list(ADVICE_KINDS)}, "text": {"type": "string"},

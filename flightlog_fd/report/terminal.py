@@ -54,6 +54,9 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         if v.motor is None:
             return f"A propeller is damaged (no rotor named: inspect all), confidence {v.confidence:.2f}{first}"
+        if v.cause == "motor_or_esc":
+            return (f"Motor {_motor_words(v.motor, v.position)} or its ESC is weak (not the propeller), confidence "
+                    f"{v.confidence:.2f}{first}")
         return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
     if v.status == "healthy":
         tl = diagnosis.timeline
