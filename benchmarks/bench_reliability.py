@@ -3,6 +3,7 @@
     python benchmarks/bench_reliability.py collect [--sets real,sim,nrotor,esc] [--sim-airframes 30]
     python benchmarks/bench_reliability.py table [--write results/reliability.md]   # between its markers
     python benchmarks/bench_reliability.py replay            # the decision now, on the cached cases
+    python benchmarks/bench_reliability.py bars              # the uncertain bar per rate class, no profile
 
 ``collect`` diagnoses (in-process, shipped or the profile's model) every case below and caches
 (build/reliability/*.pkl), per case, the log's kind (:class:`flightlog_fd.analyzers.reliability.LogKind`:
@@ -494,6 +495,65 @@ def replay(cases: list[dict], listing: bool = False) -> None:
         print("\n".join(moved))
 
 
+# ------------------------------------------------------------------------------------ bars
+#: The share of a rate class's simulated healthy flights (realistic imbalance) an uncertain bar may
+#: let through: the reliability rule's for a trusted source (reliability.trust_level, 5 %).
+BAR_HEALTHY_SHARE = 0.05
+
+
+def bars(cases: list[dict]) -> None:
+    """The uncertain bar per rate class without a profile (decision.FULL_RATE_UNCERTAIN_LLR,
+    UNCERTAIN_LLR): the decision as the code makes it now on the cached cases; per rotor count,
+    rate class and origin, the healthy flights' leading total LLR (largest over the motors, every
+    source capped as the decision caps it), how many reach each bar from 2.0 to 3.5 nats, and how
+    many damaged flights (simulated: eta <= 0.8; real: every damaged flight whose motor is known)
+    lead with their damaged motor at it; then the lowest bar, in tenths, that at most
+    BAR_HEALTHY_SHARE of the simulated healthy flights and none of the real ones reach. Figures only."""
+    from flightlog_fd.analyzers import REGISTRY
+    from flightlog_fd.analyzers.reliability import rate_class
+    from flightlog_fd.decision import decide, uncertain_bar
+
+    keys = {a.id: tuple(a.reliability_keys) for a in REGISTRY}
+    healthy, damaged, code_bar = defaultdict(list), defaultdict(list), {}
+    for c in cases:
+        if c["replay"] is None or c["profile_kind"] != "none" or c["truth"] < 0:
+            continue
+        n, frame, tl, results, stopped, kind = pickle.loads(c["replay"])
+        if kind is None:
+            continue
+        for r in results:
+            r.reliability_keys = keys.get(r.analyzer, ())
+        _, dec = decide(n, frame, timeline=tl, results=results, stopped=stopped, kind=kind)
+        if dec is None or not dec.motors:
+            continue
+        total = np.array([m.llr for m in dec.motors])
+        key = ("quad" if n == 4 else "n-rotor", rate_class(kind.stream_hz),
+               "sim" if c["set"].startswith("sim") else "real")
+        code_bar[key[:2]] = uncertain_bar(kind)
+        if c["truth"] == 0:
+            healthy[key].append(float(total.max()))
+        elif key[2] == "real" or (c["eta"] is not None and c["eta"] <= VOTE_FIT_ETA + 1e-9):
+            k = c["truth"] - 1
+            damaged[key].append(float(total[k]) if int(np.argmax(total)) == k else -np.inf)
+    grid = np.round(np.arange(2.0, 3.51, 0.1), 1)
+    print(f"healthy flights reaching each bar / damaged flights leading with their motor at it (no profile)")
+    print(f"{'rotors':8s} {'rate':10s} {'origin':6s} {'healthy':>8s} {'max':>6s}  " + " ".join(f"{b:>7.1f}" for b in grid))
+    for key in sorted(set(healthy) | set(damaged)):
+        h, d = np.array(healthy.get(key, [])), np.array(damaged.get(key, []))
+        cells = " ".join(f"{int(np.sum(h >= b)):>3d}/{int(np.sum(d >= b)):<3d}" for b in grid)
+        print(f"{key[0]:8s} {key[1]:10s} {key[2]:6s} {len(h):4d}/{len(d):<3d} {h.max() if len(h) else float('nan'):+6.1f}  {cells}")
+    print(f"\nthe lowest bar (tenths) that <= {100 * BAR_HEALTHY_SHARE:.0f} % of the simulated healthy flights and no real one reach:")
+    for rk in sorted(code_bar):
+        hs, hr = np.array(healthy.get(rk + ("sim",), [])), np.array(healthy.get(rk + ("real",), []))
+        if not len(hs):
+            print(f"  {rk[0]} {rk[1]}: no simulated healthy flights   (code: {code_bar[rk]:g})")
+            continue
+        ok = [b for b in np.round(np.arange(0.0, 10.01, 0.1), 1)
+              if np.sum(hs >= b) <= BAR_HEALTHY_SHARE * len(hs) and not np.sum(hr >= b)]
+        print(f"  {rk[0]} {rk[1]}: {ok[0] if ok else '-'} ({len(hs)} simulated, {len(hr)} real healthy)   "
+              f"(code: {code_bar[rk]:g})")
+
+
 # ------------------------------------------------------------------------------------ votes
 def _vote_flights(cases: list[dict]) -> list[dict]:
     """The flights without a profile whose model context was recorded and whose truth is known:
@@ -762,7 +822,7 @@ def trims(cases: list[dict]) -> None:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=("collect", "table", "replay", "votes", "trims"))
+    ap.add_argument("what", choices=("collect", "table", "replay", "votes", "trims", "bars"))
     ap.add_argument("--list", action="store_true", help="replay: list every verdict that moved")
     ap.add_argument("--sets", default="real,sim,nrotor,esc")
     ap.add_argument("--sim-airframes", type=int, default=12)
@@ -778,6 +838,8 @@ def main(argv=None) -> None:
         replay(load_cases(args.sets.split(",")), args.list)
     elif args.what == "votes":
         votes()
+    elif args.what == "bars":
+        bars(load_cases(args.sets.split(",")))
     else:
         trims(load_cases(("real", "sim"), reweigh=False))
 
