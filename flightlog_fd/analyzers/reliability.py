@@ -61,10 +61,29 @@ LOW_RATE_HZ = 15.0
 #: RATE and IMU at 20-25 Hz).
 FULL_RATE_HZ = 45.0
 
+#: The rate classes, slowest first.
+RATE_CLASSES = ("low rate", "mid rate", "full rate")
+
+
+def rate_class(stream_hz: float) -> str:
+    """The rate class of the slower of the motor-output and rate streams (``LOW_RATE_HZ``,
+    ``FULL_RATE_HZ``)."""
+    return "low rate" if stream_hz < LOW_RATE_HZ else ("mid rate" if stream_hz < FULL_RATE_HZ else "full rate")
+
+
+def flight_rate_class(flight: Any) -> Optional[str]:
+    """:func:`rate_class` of a flight's motor-output and rate streams; None when it has no rate
+    figures for both (a synthetic or partial flight)."""
+    try:
+        hz = [float(getattr(getattr(flight, s, None), "rate_hz")) for s in ("motors", "rates")]
+    except (AttributeError, TypeError, ValueError):
+        return None
+    return rate_class(min(hz)) if all(x > 0 for x in hz) else None
+
+
 #: What each cell property reads from a :class:`LogKind`.
 PROPERTIES = {
-    "rate": lambda k: "low rate" if k.stream_hz < LOW_RATE_HZ else ("mid rate" if k.stream_hz < FULL_RATE_HZ
-                                                                     else "full rate"),
+    "rate": lambda k: rate_class(k.stream_hz),
     "profile": lambda k: "no profile" if k.profile == "none" else "profile",
     # the profile's own adapted model (only the model's evidence depends on it): "" when not
     "adapted": lambda k: "adapted model" if k.profile == "adapted" else "",
