@@ -8,8 +8,11 @@ bias all windows of a flight alike, so the mean's noise is a between-flight spre
 within-flight term that shrinks with the flight's decorrelated length, never 1/sqrt(N windows).
 With a profile, the airframe's own healthy mean per motor is measured on the calibration flights
 with the profile's model (:meth:`ModelVotes.fit_baseline`), and damage is expected
-``MODEL_DAMAGE_SHIFT`` above it; without one, the means measured across real healthy airframes
-are used. The levels and spreads are the shipped model's for the flight's rotor count
+``MODEL_DAMAGE_SHIFT`` above it. An adapted model on a low-rate log is weighed against the level
+and spread its votes take in a session it never saw (:func:`adapted_session_reference`): it
+votes lowest on the flights it was adapted on, and another day's flight of some airframes moves
+its votes by several times a re-flight's spread (Erle boards: up to +4.6). Without a profile, the
+means measured across real healthy airframes are used. The levels and spreads are the shipped model's for the flight's rotor count
 (:data:`NROTOR_VOTE_STATS` for the hexa and octo models, measured on simulated flights).
 Limits: measured with the shipped models (a user's own model is weighed with them too); the
 healthy re-flight spread with a profile is the quads' for every frame.
@@ -144,7 +147,7 @@ def combine_sessions(sessions: list[dict], seen: list[bool] | None = None) -> di
 #: reliability.LOW_RATE_HZ (10 Hz RCOU): another session's healthy flight moves every motor's
 #: flight-mean log ratio against the profile's vote baseline (measured on the sessions the model
 #: was adapted on) by this much on average, with this session-to-session spread. Measured
-#: (build/xs/vote_shift.py, issue 28, results/cross_session.md "Adapted model across sessions"):
+#: (benchmarks/adapted_vote_drift.py; results/cross_session.md "Adapted model across sessions"):
 #: the 16 real healthy cross-session pairs with one-flight adapted profiles (Erle board A 3x2,
 #: board B 2x2, rrc_straight goods 3x2; 64 motor values): mean +0.17, standard deviation 1.17
 #: (Erle 1.46, up to +4.61 on board A 15-10-2014_42 against 09-10-2014_31; rrc goods 0.35). The
