@@ -156,8 +156,12 @@ ADAPTED_LOW_RATE_SESSION_OFFSET = 0.17
 ADAPTED_LOW_RATE_SESSION_SIGMA = 1.17
 #: The population spread above is a prior worth this many sessions when the profile holds sessions
 #: the model never saw (added with ``fdlog calibrate --add``): their votes measure the airframe's own
-#: session-to-session spread (command_shares.DRIFT_PRIOR_FLIGHTS, the same weighting the command
-#: shares' spread gets).
+#: session-to-session spread (the weight command_shares.DRIFT_PRIOR_FLIGHTS gives the shares' prior).
+#: The three airframes' own spreads differ fourfold (RMS about the offset: rrc 0.34, Erle A 1.25,
+#: Erle B 1.69), and their marginal likelihood prefers a prior worth 0.1-0.25 sessions; but this
+#: pools a point estimate, not a heavy-tailed predictive, and at 1 or 0.25 the leave-one-out profile
+#: Erle A 09-10-2014_25 + 31 (two sessions) calls 15-10-2014_42 damaged again (model +4.3 / +5.0,
+#: measured): with two or three sessions the estimate is too noisy to let the airframe speak alone.
 ADAPTED_SESSION_PRIOR_SESSIONS = 3
 
 
