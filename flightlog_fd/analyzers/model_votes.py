@@ -189,8 +189,9 @@ def _adapted_at_low_rate(ctx: Context) -> bool:
     if prof is None or not getattr(prof, "model", None):
         return False
     fl = ctx.flight
+    # the slower of the two streams, as reliability.LogKind.stream_hz reads it (a missing one is 0)
     rates = [float(getattr(getattr(fl, s, None), "rate_hz", 0.0) or 0.0) for s in ("motors", "rates")]
-    return bool(rates[0] > 0 and min(r for r in rates if r > 0) < LOW_RATE_HZ)
+    return min(rates) < LOW_RATE_HZ
 
 
 def adapted_session_reference(base: dict, ctx: Context | None = None) -> SessionReference | None:
