@@ -12,8 +12,9 @@ with the profile's model (:meth:`ModelVotes.fit_baseline`), and damage is expect
 and spread its votes take in a session it never saw (:func:`adapted_session_reference`): it
 votes lowest on the flights it was adapted on, and another day's flight of some airframes moves
 its votes by several times a re-flight's spread (Erle boards: up to +4.6). Without a profile, the
-means measured across real healthy airframes are used. The levels and spreads are the shipped model's for the flight's rotor count
-(:data:`NROTOR_VOTE_STATS` for the hexa and octo models, measured on simulated flights).
+means measured across real healthy airframes are used. The levels and spreads are the shipped
+model's for the flight's rotor count (:data:`NROTOR_VOTE_STATS` for the hexa and octo models,
+measured on simulated flights).
 Limits: measured with the shipped models (a user's own model is weighed with them too); the
 healthy re-flight spread with a profile is the quads' for every frame.
 """
@@ -194,7 +195,7 @@ def _adapted_at_low_rate(ctx: Context) -> bool:
     return min(rates) < LOW_RATE_HZ
 
 
-def adapted_session_reference(base: dict, ctx: Context | None = None) -> SessionReference | None:
+def adapted_session_reference(base: dict) -> SessionReference | None:
     """The adapted model's healthy vote level for a session it never saw, and its spread, from the
     profile's vote baseline (:func:`combine_sessions`): each session the model was adapted on
     (``sessions_seen``; a profile without the flags: every session, as ``fdlog calibrate`` adapts
@@ -266,9 +267,10 @@ class ModelVotes(Analyzer):
         base = ctx.baseline_for(self.id)
         notes = []
         if base and base.get("model_sha256") == ctx.model_sha256 and len(base.get("healthy_mean", [])) == p.shape[1] - 1:
-            reference = adapted_session_reference(base, ctx) if _adapted_at_low_rate(ctx) else None
+            reference = adapted_session_reference(base) if _adapted_at_low_rate(ctx) else None
             if reference is not None:
-                llr = model_llr(p, ctx.covered_s, reference.healthy_mean, reference.sigma, reference.stats(p.shape[1] - 1))
+                llr = model_llr(p, ctx.covered_s, reference.healthy_mean, reference.sigma,
+                                reference.stats(p.shape[1] - 1))
             else:
                 from .command_shares import pooled_sigma
 
