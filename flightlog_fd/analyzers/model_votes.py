@@ -11,7 +11,11 @@ two statistics of the windows, the one that measured better for the kind of log
   spread plus a within-flight term that shrinks with the flight's decorrelated length, never
   1/sqrt(N windows). With a profile, the airframe's own healthy mean per motor is measured on the
   calibration flights with the profile's model (:meth:`ModelVotes.fit_baseline`), and damage is
-  expected ``MODEL_DAMAGE_SHIFT`` above it. Without one: the levels measured on real healthy
+  expected ``MODEL_DAMAGE_SHIFT`` above it. An adapted model on a low-rate log is weighed against
+  the level and spread its votes take in a session it never saw (:func:`adapted_session_reference`):
+  it votes lowest on the flights it was adapted on, and another day's flight of some airframes
+  moves its votes by several times a re-flight's spread (Erle boards: up to +4.6). Without a
+  profile: the levels measured on real healthy
   flights and real damaged ones (:data:`QUAD_VOTE_STATS`; the hexa and octo models have their
   own, :data:`NROTOR_VOTE_STATS`);
 - the **vote share**, how consistently the windows name motor k (the share of windows whose most
@@ -248,6 +252,85 @@ def combine_sessions(sessions: list[dict], seen: list[bool] | None = None) -> di
             "sessions_seen": [bool(seen[i]) if seen is not None else False for i in keep]}
 
 
+#: An adapted model against its own profile on a log whose slower motor/rate stream is below
+#: reliability.LOW_RATE_HZ (10 Hz RCOU): another session's healthy flight moves every motor's
+#: flight-mean log ratio against the profile's vote baseline (measured on the sessions the model
+#: was adapted on) by this much on average, with this session-to-session spread. Measured
+#: (benchmarks/adapted_vote_drift.py; results/cross_session.md "Adapted model across sessions"):
+#: the 16 real healthy cross-session pairs with one-flight adapted profiles (Erle board A 3x2,
+#: board B 2x2, rrc_straight goods 3x2; 64 motor values): mean +0.17, standard deviation 1.17
+#: (Erle 1.46, up to +4.61 on board A 15-10-2014_42 against 09-10-2014_31; rrc goods 0.35). The
+#: decorrelated within-flight term is added on top, as for every profile.
+ADAPTED_LOW_RATE_SESSION_OFFSET = 0.17
+ADAPTED_LOW_RATE_SESSION_SIGMA = 1.17
+#: The population spread above is a prior worth this many sessions when the profile holds sessions
+#: the model never saw (added with ``fdlog calibrate --add``): their votes measure the airframe's own
+#: session-to-session spread (the weight command_shares.DRIFT_PRIOR_FLIGHTS gives the shares' prior).
+#: The three airframes' own spreads differ fourfold (RMS about the offset: rrc 0.34, Erle A 1.25,
+#: Erle B 1.69), and their marginal likelihood prefers a prior worth 0.1-0.25 sessions; but this
+#: pools a point estimate, not a heavy-tailed predictive, and at 1 or 0.25 the leave-one-out profile
+#: Erle A 09-10-2014_25 + 31 (two sessions) calls 15-10-2014_42 damaged again (model +4.3 / +5.0,
+#: measured): with two or three sessions the estimate is too noisy to let the airframe speak alone.
+ADAPTED_SESSION_PRIOR_SESSIONS = 3
+
+
+@dataclass(frozen=True)
+class SessionReference:
+    """The healthy level a new session's votes are weighed against (per motor) and its spread."""
+
+    healthy_mean: np.ndarray
+    sigma: float
+
+    def stats(self, n_motors: int) -> VoteStats:
+        """The model's vote statistics with damage's spread widened by the session spread: a damaged
+        flight of another session moves by the damage AND by the session."""
+        st = vote_stats(n_motors)
+        return VoteStats(st.healthy_mean, self.sigma, st.damaged_mean, st.damaged_sigma, st.damage_shift,
+                         float(np.hypot(st.shift_sigma, self.sigma)))
+
+
+def _adapted_at_low_rate(ctx: Context) -> bool:
+    """The profile's own adapted model judges a log whose slower motor/rate stream is low-rate (the
+    cell where its session drift was measured, ADAPTED_LOW_RATE_SESSION_SIGMA)."""
+    from .reliability import LOW_RATE_HZ
+
+    prof = ctx.profile
+    if prof is None or not getattr(prof, "model", None):
+        return False
+    fl = ctx.flight
+    # the slower of the two streams, as reliability.LogKind.stream_hz reads it (a missing one is 0)
+    rates = [float(getattr(getattr(fl, s, None), "rate_hz", 0.0) or 0.0) for s in ("motors", "rates")]
+    return min(rates) < LOW_RATE_HZ
+
+
+def adapted_session_reference(base: dict) -> SessionReference | None:
+    """The adapted model's healthy vote level for a session it never saw, and its spread, from the
+    profile's vote baseline (:func:`combine_sessions`): each session the model was adapted on
+    (``sessions_seen``; a profile without the flags: every session, as ``fdlog calibrate`` adapts
+    on all of its flights) raised by ADAPTED_LOW_RATE_SESSION_OFFSET, the sessions added later
+    as measured; the spread of those levels across sessions pooled with
+    ADAPTED_LOW_RATE_SESSION_SIGMA (worth ADAPTED_SESSION_PRIOR_SESSIONS sessions). None without
+    a usable baseline. Limits: measured at low rate only (full-rate adapted pairs stayed below
+    +0.7 nats, results/reliability.md item 3)."""
+    rows = base.get("sessions") or [base.get("healthy_mean")]
+    rows = [r for r in rows if r]
+    if not rows:
+        return None
+    m = np.array(rows, float)
+    seen = base.get("sessions_seen")
+    seen = np.array([bool(x) for x in seen], bool) if seen and len(seen) == len(m) else np.ones(len(m), bool)
+    level = m + np.where(seen, ADAPTED_LOW_RATE_SESSION_OFFSET, 0.0)[:, None]
+    prior = ADAPTED_LOW_RATE_SESSION_SIGMA
+    if len(m) >= 2 and not seen.all():
+        own = float(np.sqrt(np.mean(level.std(axis=0, ddof=1) ** 2)))
+        dof = len(m) - 1
+        k = ADAPTED_SESSION_PRIOR_SESSIONS
+        sigma = float(np.sqrt((k * prior ** 2 + dof * own ** 2) / (k + dof)))
+    else:
+        sigma = prior
+    return SessionReference(level.mean(axis=0), max(sigma, MODEL_MIN_HEALTHY_SIGMA))
+
+
 class ModelVotes(Analyzer):
     id = "model"
     description = "the model's window votes (mean probability per motor), weighed as one flight"
@@ -292,11 +375,16 @@ class ModelVotes(Analyzer):
         base = ctx.baseline_for(self.id)
         notes = []
         if base and base.get("model_sha256") == ctx.model_sha256 and len(base.get("healthy_mean", [])) == p.shape[1] - 1:
-            from .command_shares import pooled_sigma
+            reference = adapted_session_reference(base) if _adapted_at_low_rate(ctx) else None
+            if reference is not None:
+                llr = model_llr(p, ctx.covered_s, reference.healthy_mean, reference.sigma,
+                                reference.stats(p.shape[1] - 1))
+            else:
+                from .command_shares import pooled_sigma
 
-            sigma = max(pooled_sigma(base.get("spread"), int(base.get("n_flights", 1)), MODEL_HEALTHY_SIGMA),
-                        MODEL_MIN_HEALTHY_SIGMA)
-            llr = model_llr(p, ctx.covered_s, base["healthy_mean"], sigma)
+                sigma = max(pooled_sigma(base.get("spread"), int(base.get("n_flights", 1)), MODEL_HEALTHY_SIGMA),
+                            MODEL_MIN_HEALTHY_SIGMA)
+                llr = model_llr(p, ctx.covered_s, base["healthy_mean"], sigma)
         else:
             if base:
                 notes.append("the profile's model-vote baseline was measured with another model: not used")
