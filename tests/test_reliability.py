@@ -148,6 +148,8 @@ def test_nothing_to_resolve_on_a_clear_verdict_and_why_on_a_thin_one():
     assert advise(_situation(status="damaged")) == []
     thin = advise(_situation(status="healthy", profile=None, timeline_uncertain=0.9, kind=kind(250.0, "none", 8)))
     assert [a.kind for a in thin] == ["calibrate"] and "could not tell" in thin[0].text
+    # it calibrates on this very flight, which may carry what the model missed: inspect first
+    assert "inspect them, and if they are sound" in thin[0].text
     fast = advise(_situation(kind=kind(250.0, "profile"), little_manoeuvring=True, has_esc=True))
     assert [a.kind for a in fast] == ["inspect", "add_session", "manoeuvre"]
 
