@@ -122,7 +122,11 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
                           base_model=None if base_model is None else Path(base_model), progress=progress)
         profile.extra = {**(profile.extra or {}), "adaptation": res.summary}
         profile.set_model(out_onnx, profile_path=out)
+        if progress:
+            progress("fitting baselines", 0.0)
         profile.fit_analyzers(flights, FaultModel(out_onnx))
+        if progress:
+            progress("fitting baselines", 1.0)
     if part is not None:
         profile.extra = {**(profile.extra or {}), "flight": part}
     if out is not None:
