@@ -7,11 +7,15 @@ Every real airframe in ``../shared`` with two or more healthy flights (the Erle 
 ``real_healthy/manifest.csv`` column ``board_group``, the rrc_straight good flights, the CrazyPAD E9
 normal flights, the px4_sih_dev healthy flights): each flight calibrates a one-flight profile
 (``fdlog calibrate --no-adapt`` and, unless ``--no-adapted``, the default adapted ``fdlog calibrate``)
-that diagnoses every other healthy flight of the airframe (every ordered pair); each two-flight
-profile diagnoses the remaining ones. The damage side on the same footing: every one-flight and
-two-flight profile of an airframe with damaged flights (rrc_straight cuts 5-25 mm, CrazyPAD E9 cuts
-and tape, px4_sih_dev weakened motors) diagnoses all of them. Beside it, without a profile: the
-real healthy flights, the rrc_straight set and the px4_sih_dev set.
+that diagnoses every other healthy flight of the airframe (every ordered pair); and, leaving one
+flight out, a profile of all the airframe's other healthy flights, ONE SESSION EACH, diagnoses the
+flight left out (``--no-adapt``: ``fdlog calibrate A B ...``, each log a session; adapted: the
+first flight's adapted one-flight profile with the others added by ``fdlog calibrate --add``, as a
+pilot adds sessions; ``--via-add`` builds the ``--no-adapt`` ones that way too). With two healthy
+flights the leave-one-out profile is the one-flight one. The damage side on the same footing: every
+one-flight and leave-one-out profile of an airframe with damaged flights (rrc_straight cuts 5-25
+mm, CrazyPAD E9 cuts and tape, px4_sih_dev weakened motors) diagnoses all of them. Beside it,
+without a profile: the real healthy flights, the rrc_straight set and the px4_sih_dev set.
 
 Driven through the CLI only (``fdlog calibrate``, ``fdlog diagnose --json`` with all of a profile's
 logs in one call), so it measures what a pilot gets. Profiles are made once into ``--profiles``
@@ -117,20 +121,29 @@ def no_profile_sets() -> list[tuple[str, list[tuple[Path, int, str]]]]:
 
 
 # ---------------------------------------------------------------------------------------- CLI
-def calibrate(name: str, logs: list[Path], folder: Path, adapt: bool) -> tuple[Path | None, str]:
-    """The profile (made once), or None and the CLI's one-line refusal (also cached)."""
+def calibrate(name: str, logs: list[Path], folder: Path, adapt: bool, base: Path | None = None) -> tuple[Path | None, str]:
+    """The profile (made once), or None and the CLI's one-line refusal (also cached). ``base``: a
+    profile to copy and add ``logs`` to as sessions (``fdlog calibrate --add``) instead."""
     out = folder / f"{name}.json"
     refused = folder / f"{name}.refused"
     if refused.exists():
         return None, refused.read_text().strip()
     if not out.exists():
         t0 = time.perf_counter()
-        cmd = [FDLOG, "calibrate", *([] if adapt else ["--no-adapt"]), *map(str, logs), "-o", str(out)]
+        if base is not None:
+            tmp = folder / f"{name}.partial.json"
+            tmp.write_text(base.read_text())  # its model path stays relative: the same folder
+            cmd = [FDLOG, "calibrate", "--add", str(tmp), *map(str, logs)]
+        else:
+            tmp = None
+            cmd = [FDLOG, "calibrate", *([] if adapt else ["--no-adapt"]), *map(str, logs), "-o", str(out)]
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
             why = ((r.stderr.strip() or r.stdout.strip()).splitlines() or ["(no message)"])[-1][:400]
             refused.write_text(why + "\n")
             return None, why
+        if tmp is not None:
+            tmp.replace(out)
         print(f"  calibrated {name} in {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     return out, ""
 
@@ -179,21 +192,34 @@ def run(args) -> list[dict]:
     folder = Path(args.profiles)
     folder.mkdir(parents=True, exist_ok=True)
     recs: list[dict] = []
-    paths = ["noadapt"] + ([] if args.no_adapted else ["adapted"])
+    paths = ([] if args.adapted_only else ["noadapt"]) + ([] if args.no_adapted else ["adapted"])
     t0 = time.perf_counter()
     for af in airframes():
+        if args.only and af.name not in args.only.split(","):
+            continue
         n = len(af.healthy)
-        cal_sets = [(i,) for i in range(n)] + list(itertools.combinations(range(n), 2))
+        cal_sets = [(i,) for i in range(n)] + ([tuple(j for j in range(n) if j != i) for i in range(n)] if n >= 3 else [])
         for path in paths:
             for cal in cal_sets:
-                if args.quick and len(cal) == 2 and path == "adapted":
-                    continue
                 name = f"{af.name}_{''.join(str(i + 1) for i in cal)}_{path}"
                 rest = [p for i, p in enumerate(af.healthy) if i not in cal]
-                damaged = [] if (args.quick and len(cal) == 2) else af.damaged
+                damaged = [] if (args.quick and len(cal) >= 2) else af.damaged
                 if not rest and not damaged:
                     continue
-                prof, why = calibrate(name, [af.healthy[i] for i in cal], folder, path == "adapted")
+                base, logs = None, [af.healthy[i] for i in cal]
+                if len(cal) >= 2 and (path == "adapted" or args.via_add):
+                    # the first flight that calibrates alone, the others added to it as sessions
+                    for i in cal:
+                        base, why = calibrate(f"{af.name}_{i + 1}_{path}", [af.healthy[i]], folder, path == "adapted")
+                        if base is not None:
+                            logs = [af.healthy[j] for j in cal if j != i]
+                            break
+                    if base is None:
+                        recs.append({"airframe": af.name, "path": path, "profile": name, "n_cal": len(cal),
+                                     "cal": [af.healthy[i].name for i in cal], "kind": "refused", "log": None,
+                                     "reason": f"its first flight's profile was refused: {why}", "status": "refused"})
+                        continue
+                prof, why = calibrate(name, logs, folder, path == "adapted", base=base)
                 meta = {"airframe": af.name, "path": path, "profile": name, "n_cal": len(cal),
                         "cal": [af.healthy[i].name for i in cal]}
                 if args.calibrate_only:
@@ -209,7 +235,7 @@ def run(args) -> list[dict]:
                     recs.append(record(docs[str(p)], **meta, kind="damage", truth=motor, group=group))
                 print(f"{name}: {len(rest)} healthy + {len(damaged)} damaged ({time.perf_counter() - t0:.0f} s)",
                       file=sys.stderr, flush=True)
-    for set_name, items in ([] if args.calibrate_only else no_profile_sets()):
+    for set_name, items in ([] if args.calibrate_only or args.only else no_profile_sets()):
         docs = diagnose([p for p, _, _ in items], None, args.jobs)
         for p, motor, group in items:
             recs.append(record(docs[str(p)], airframe=set_name, path="none", profile="", n_cal=0, cal=[],
@@ -268,7 +294,7 @@ def report(recs: list[dict], verbose: bool = True) -> None:
     pairs = [r for r in recs if r["kind"] == "healthy pair"]
     refused = [r for r in recs if r["kind"] == "refused"]
     print("## Healthy flights against a profile of the same airframe (healthy / uncertain / damaged)\n")
-    print("| airframe | calibrate | one-flight profile (ordered pairs) | two-flight profile (the rest) |")
+    print("| airframe | calibrate | one-flight profile (ordered pairs) | all the other flights, one session each (leave-one-out) |")
     print("|---|---|---|---|")
     for path in ("noadapt", "adapted"):
         rows = [r for r in pairs if r["path"] == path]
@@ -276,12 +302,24 @@ def report(recs: list[dict], verbose: bool = True) -> None:
             continue
         for af in sorted({r["airframe"] for r in rows}):
             one = [r for r in rows if r["airframe"] == af and r["n_cal"] == 1]
-            two = [r for r in rows if r["airframe"] == af and r["n_cal"] == 2]
+            two = [r for r in rows if r["airframe"] == af and r["n_cal"] >= 2]
             print(f"| {af} | {path} | {_count(one)} | {_count(two) if two else '-'} |")
         one = [r for r in rows if r["n_cal"] == 1]
-        two = [r for r in rows if r["n_cal"] == 2]
+        two = [r for r in rows if r["n_cal"] >= 2]
         h1 = sum(r["status"] == "healthy" for r in one)
-        print(f"| **all** | {path} | **{_count(one)}** ({100 * h1 / max(len(one), 1):.0f} % healthy) | **{_count(two)}** |")
+        h2 = sum(r["status"] == "healthy" for r in two)
+        print(f"| **all** | {path} | **{_count(one)}** ({100 * h1 / max(len(one), 1):.0f} % healthy) | "
+              f"**{_count(two)}** ({100 * h2 / max(len(two), 1):.0f} % healthy) |")
+    for path in ("noadapt", "adapted"):
+        loo = [r for r in pairs if r["path"] == path and r["airframe"] != "px4_sih_dev" and r["n_cal"] >= 2]
+        if not loo:
+            continue
+        two_flight = [r for r in pairs if r["path"] == path and r["n_cal"] == 1 and r["airframe"] != "px4_sih_dev"
+                      and len({x["log"] for x in pairs if x["airframe"] == r["airframe"]}) == 2]
+        for label, rs in (("groups of three flights", loo), ("with the two-flight group's pairs", loo + two_flight)):
+            h = sum(r["status"] == "healthy" for r in rs)
+            print(f"\nLeave-one-out on the real airframes ({path}, {label}): {_count(rs)}, "
+                  f"{h}/{len(rs)} healthy ({100 * h / max(len(rs), 1):.0f} %)")
     if refused:
         print("\nRefused calibrations: " + "; ".join(f"{r['profile']} ({_short_reason(r['reason'], 120)})" for r in refused))
     false = [r for r in pairs if r["status"] != "healthy"]
@@ -296,10 +334,10 @@ def report(recs: list[dict], verbose: bool = True) -> None:
     for (af, path, n_cal, group), rs in sorted(_groupby(dmg, ("airframe", "path", "n_cal", "group")).items(),
                                                key=lambda kv: (kv[0][0], kv[0][1], kv[0][2], _group_key(kv[0][3]))):
         print(f"| {af} | {path} | {n_cal} | {group} | {_count(rs)} | {_motors(rs, 'damaged')} | {_motors(rs, 'uncertain')} |")
-    rrc = [r for r in dmg if r["airframe"] == "rrc_straight" and r["n_cal"] == 1]
+    rrc = [r for r in dmg if r["airframe"] == "rrc_straight"]
     if rrc:
-        print("\nrrc_straight, one-flight profiles, per profile flight (25 mm damaged naming motor 1; 20 mm at least "
-              "uncertain naming motor 1):\n")
+        print("\nrrc_straight, per profile (one-flight: 25 mm damaged naming motor 1, 20 mm at least uncertain naming "
+              "motor 1; two good flights, one session each: still flagged):\n")
         for (path, prof), rs in sorted(_groupby(rrc, ("path", "profile")).items()):
             cells = []
             for mm in (5, 10, 20, 25):
@@ -410,7 +448,11 @@ def main() -> None:
     ap.add_argument("--profiles", default=str(ROOT / "build" / "cross_session_profiles"),
                     help="folder of the profiles (made once, reused)")
     ap.add_argument("--no-adapted", action="store_true", help="skip the adapted (default `fdlog calibrate`) profiles")
-    ap.add_argument("--quick", action="store_true", help="two-flight profiles only on the healthy flights, not adapted")
+    ap.add_argument("--quick", action="store_true", help="leave-one-out profiles only on the healthy flights")
+    ap.add_argument("--via-add", action="store_true",
+                    help="make the --no-adapt leave-one-out profiles with `fdlog calibrate --add` too")
+    ap.add_argument("--adapted-only", action="store_true", help="only the adapted (default `fdlog calibrate`) profiles")
+    ap.add_argument("--only", help="only these airframes (comma-separated names, e.g. rrc_straight,erle_A)")
     ap.add_argument("--calibrate-only", action="store_true", help="only make the profiles (for a later run)")
     ap.add_argument("--jobs", type=int, default=1, help="fdlog diagnose --jobs")
     ap.add_argument("--out", help="write the records (JSON) here")

@@ -22,7 +22,18 @@ the same damaged and healthy flights, with their ESC telemetry and without it: w
 read, all analyzers together (results/no_profile_simulated_healthy.md: ``--verdicts --seed 4242
 --per-cell 10 --verdict-healthy 100``).
 
+``--causes`` (instead of the above) measures how well the cause of a rotor's lost thrust is told
+apart (:mod:`flightlog_fd.cause`): damaged propellers (η_torque = η^k as above) and weak motors /
+ESCs (sim/damage.py cause "motor") at η 0.6-0.9, ESC telemetry at 10, 50 and 100 Hz (the logging
+profiles ardupilot, px4_default and ardupilot: RCOU 10 Hz with ESC at 100 Hz is ArduCopter's with
+ESC telemetry), random airframes 30 g-5 kg with realistic imbalance and KV spread; per cell the ESC
+analyzer's cause LLR on the true rotor (right / wrong / undecided at cause.CAUSE_LLR) and the fused
+verdict (diagnose_flight, shipped model, no profile): right rotor named, with the right cause /
+the wrong one / none; the same flights without ESC telemetry (the cause must stay unknown); healthy
+flights (no cause may be given); and a sweep of the cause threshold.
+
     python benchmarks/bench_esc.py [--per-cell N] [--seed S] [--measure] [--verdicts [--verdict-healthy N]]
+    python benchmarks/bench_esc.py --causes [--per-cell N] [--seed S]
 """
 from __future__ import annotations
 
@@ -201,6 +212,18 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict
               f"d / torque loss median {np.median(d[:, 1] / loss):.3f}")
         print(f"  largest healthy llr {max(healthy_llr + trim_llr):.2f} nats; p99 "
               f"{np.percentile(healthy_llr + trim_llr, 99):.2f}")
+        mo = []
+        for eta in ETAS:
+            for rate in RATES:
+                for f in cause_set("motor", eta, rate, max(2, per_cell // 2), seed + 7):
+                    m, _ = measure_esc(f)
+                    if m is not None:
+                        k = f.truth["motor"]
+                        mo.append(m.r[k - 1] / -np.log(eta))
+        mo = np.array(mo)
+        print(f"  weak motor / ESC (MOTOR_DIRECTION): a / loss median {np.median(mo[:, 0]):.3f} "
+              f"(10-90 % {np.percentile(mo[:, 0], 10):.3f}..{np.percentile(mo[:, 0], 90):.3f}), d / loss median "
+              f"{np.nanmedian(mo[:, 1]):.3f}, {len(mo)} flights")
     if verdicts:
         fused_verdicts(per_cell, seed, verdict_healthy or 2 * per_cell)
     print(f"({time.time() - t0:.0f} s)")
@@ -239,6 +262,102 @@ def fused_verdicts(per_cell: int, seed: int, healthy_per_rate: int) -> None:
               f"/ healthy {c[w]['healthy']}")
 
 
+#: ESC telemetry rate (Hz) -> logging profile, for --causes.
+CAUSE_RATES = {10.0: "ardupilot", 50.0: "px4_default", 100.0: "ardupilot"}
+
+
+def cause_set(cause: str, eta: float, rate: float, n: int, seed: int, profile: str | None = None):
+    """n flights of random airframes that fly ``eta``, rotor k's thrust lost to ``cause``
+    ("propeller": η_torque = η^k, k ~ TORQUE_EXPONENT_RANGE; "motor": a weak motor or ESC)."""
+    rng = np.random.default_rng([seed, int(eta * 100), int(rate), 0 if cause == "propeller" else 1])
+    afs = airframes_for(n, eta, rng)
+    imbs = random_imbalances(afs, rng)
+    escs = [random_esc_params(af, rng, rate) for af in afs]
+    dmg = [Damage(int(rng.integers(1, 5)), eta, None,
+                  float(eta ** rng.uniform(*TORQUE_EXPONENT_RANGE)) if cause == "propeller" else None, cause=cause)
+           for _ in afs]
+    return simulate_flights(n, airframes=afs, damages=dmg, duration_s=DURATION_S,
+                            profile=profile or CAUSE_RATES.get(rate, "ardupilot"),
+                            seed=seed + int(eta * 100) + int(rate) + (0 if cause == "propeller" else 500),
+                            esc=escs, imbalance=imbs, healthy_fraction=0.0)
+
+
+def run_causes(per_cell: int, seed: int) -> None:
+    """--causes: how well the cause of a rotor's lost thrust is told apart (module docstring)."""
+    from collections import Counter
+
+    from flightlog_fd.cause import CAUSE_LLR
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+
+    t0 = time.time()
+    model = resolve_model()
+    truth_word = {"propeller": "propeller", "motor": "motor_or_esc"}
+    print(f"Cause of a rotor's lost thrust (propeller or motor / ESC), simulated {DURATION_S:.0f} s flights, "
+          f"random airframes, {per_cell} per cell, seed {seed}; cause stated at |LLR| >= {CAUSE_LLR:g} nats")
+    print(f"{'cause':>10} {'eta':>5} {'ESC Hz':>6} | {'ESC alone: right':>16} {'wrong':>5} {'none':>4} | "
+          f"{'verdict: rotor named':>20} {'right cause':>11} {'wrong':>5} {'none':>4} | {'no ESC: cause':>13}")
+    llrs: dict[str, list[float]] = {"propeller": [], "motor": []}
+    totals = Counter()
+    for cause in ("propeller", "motor"):
+        for eta in ETAS:
+            for rate in CAUSE_RATES:
+                c = Counter()
+                for f in cause_set(cause, eta, rate, per_cell, seed):
+                    k, want = f.truth["motor"], truth_word[cause]
+                    a = analyze_esc(f)
+                    llr = a.cause_llr.get(k) if not a.abstain else None
+                    if llr is not None:
+                        llrs[cause].append(llr if cause == "motor" else -llr)  # positive: toward the truth
+                        said = "motor_or_esc" if llr >= CAUSE_LLR else "propeller" if llr <= -CAUSE_LLR else None
+                        c["esc " + ("right" if said == want else "none" if said is None else "wrong")] += 1
+                    else:
+                        c["esc none"] += 1
+                    v = diagnose_flight(f, model, keep_flight=False).verdict
+                    named = v.cause_evidence is not None and v.cause_evidence["motor"] == k
+                    c["named"] += named
+                    if named:
+                        c["v " + ("right" if v.cause == want else "none" if v.cause is None else "wrong")] += 1
+                    nv = diagnose_flight(replace(f, esc=None), model, keep_flight=False).verdict
+                    c["no esc cause"] += nv.cause is not None
+                totals.update({f"{cause} {key}": val for key, val in c.items()})
+                totals[f"{cause} n"] += per_cell
+                print(f"{cause:>10} {eta:5.2f} {rate:6.0f} | {c['esc right']:16d} {c['esc wrong']:5d} {c['esc none']:4d} | "
+                      f"{c['named']:20d} {c['v right']:11d} {c['v wrong']:5d} {c['v none']:4d} | "
+                      f"{c['no esc cause']:13d}", flush=True)
+    for cause in ("propeller", "motor"):
+        n = totals[f"{cause} n"]
+        print(f"{cause}: ESC alone right {totals[cause + ' esc right']}/{n}, wrong {totals[cause + ' esc wrong']}; "
+              f"verdict named the rotor {totals[cause + ' named']}/{n}, right cause {totals[cause + ' v right']}, "
+              f"wrong {totals[cause + ' v wrong']}, none {totals[cause + ' v none']}; without ESC a cause was given "
+              f"{totals[cause + ' no esc cause']} times")
+    h = Counter()
+    for rate in CAUSE_RATES:
+        for f in fly_healthy(rate, 2 * per_cell, seed):
+            v = diagnose_flight(f, model, keep_flight=False).verdict
+            h[v.status] += 1
+            h["cause"] += v.cause is not None
+    print(f"healthy flights: {dict((k, v) for k, v in h.items() if k != 'cause')}, a cause given on {h['cause']}")
+    print("\ncause threshold sweep (ESC alone, true rotor): right / wrong, per cause")
+    for th in (1.0, 2.0, 3.0, 4.0, 6.0, 10.0):
+        cells = []
+        for cause in ("propeller", "motor"):
+            x = np.array(llrs[cause])
+            cells.append(f"{cause} {np.mean(x >= th):5.0%} / {int(np.sum(x <= -th))}")
+        print(f"  |llr| >= {th:4.1f}: " + "   ".join(cells))
+    worst = {c: (min(v) if v else float("nan")) for c, v in llrs.items()}
+    print(f"lowest cause LLR toward the truth: propeller {worst['propeller']:+.1f}, motor {worst['motor']:+.1f} nats")
+    print(f"({time.time() - t0:.0f} s)")
+
+
+def fly_healthy(rate: float, n: int, seed: int):
+    """n healthy flights of random airframes with ESC telemetry at ``rate`` (CAUSE_RATES' profile)."""
+    rng = np.random.default_rng([seed, 3, int(rate)])
+    afs = random_airframes(n, rng)
+    return simulate_flights(n, airframes=afs, damages=[Damage()] * n, duration_s=DURATION_S,
+                            profile=CAUSE_RATES[rate], seed=seed + 3 + int(rate), esc=rate, imbalance="random",
+                            healthy_fraction=0.0)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-cell", type=int, default=12)
@@ -247,8 +366,12 @@ def main() -> None:
     ap.add_argument("--verdicts", action="store_true", help="also the fused verdicts of diagnose_flight")
     ap.add_argument("--verdict-healthy", type=int, default=0,
                     help="healthy flights per ESC rate for --verdicts (default 2 x --per-cell)")
+    ap.add_argument("--causes", action="store_true", help="how well the cause (propeller or motor / ESC) is told apart")
     args = ap.parse_args()
-    run(args.per_cell, args.seed, args.measure, args.verdicts, args.verdict_healthy)
+    if args.causes:
+        run_causes(args.per_cell, args.seed)
+    else:
+        run(args.per_cell, args.seed, args.measure, args.verdicts, args.verdict_healthy)
 
 
 if __name__ == "__main__":

@@ -5,7 +5,9 @@
 Uses the seeded mutations of ``tests/test_fuzz.py`` (truncations, single bit flips, zeroed and
 duplicated blocks, and high-bit flips in data-message timestamps of a log cut in flight) on the
 given logs, default every ``sample_logs/*.ulg`` / ``*.bin`` and the logs in
-``../shared/real_logs`` (skipped when absent). Runs ``diagnose_path`` in-process with the shipped
+``../shared/real_logs`` (skipped when absent); then the test's "valid start + random bytes"
+files (a ULog header or cut definitions, a DataFlash FMT message or cut FMT table, each with
+``RANDOM_TAIL_SEEDS`` x ``RANDOM_TAIL_SIZES`` tails), where only exit 2 (not_diagnosable) is right. Runs ``diagnose_path`` in-process with the shipped
 model loaded once (and one clean diagnosis first, so no case pays for imports); prints, per file,
 the number of cases, the outcomes, the mean and the worst time with its case. Prints figures
 only; the machine is shared, so read them as orders of magnitude.
@@ -75,6 +77,28 @@ def main() -> None:
             worst_all = max(worst_all, worst)
             summary = ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items()))
             print(f"{src.name}: {len(cases)} cases ({summary}); mean {sum(times) / len(times):.3f} s, "
+                  f"worst {worst[0]:.2f} s ({worst[1]})", flush=True)
+        print("valid start + random bytes (tests/test_fuzz.py shapes; seeds x sizes):")
+        for shape in fuzz.RANDOM_TAIL_SHAPES:
+            outcomes = Counter()
+            times = []
+            worst = (0.0, "")
+            for seed in fuzz.RANDOM_TAIL_SEEDS:
+                for size in fuzz.RANDOM_TAIL_SIZES:
+                    data, suffix = fuzz.random_tail_file(shape, seed, size)
+                    damaged = Path(tmp) / f"random_tail{suffix}"
+                    damaged.write_bytes(data)
+                    outcome, seconds = fuzz.run_case(damaged, model)
+                    outcomes[outcome] += 1
+                    if outcome != "not_diagnosable":  # exit 2 is the only right answer here
+                        failed += 1
+                        print(f"  FAILED {shape} seed {seed} size {size}: {outcome}")
+                    times.append(seconds)
+                    worst = max(worst, (seconds, f"seed {seed} size {size}"))
+            total_cases += len(times)
+            worst_all = max(worst_all, (worst[0], f"{shape} {worst[1]}"))
+            summary = ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items()))
+            print(f"{shape}: {len(times)} files ({summary}); mean {sum(times) / len(times):.3f} s, "
                   f"worst {worst[0]:.2f} s ({worst[1]})", flush=True)
     print(f"all: {total_cases} cases, {failed} failed, worst {worst_all[0]:.2f} s ({worst_all[1]})")
 

@@ -106,6 +106,9 @@ def real_part(args) -> None:
         normals = [lg for lg in cp if lg.healthy]
         cases.append(("crazypad_e9, profile normal logs 00-02 (measured drift)", "cp012", [lg.path for lg in normals],
                       [(lg.name, f"motor {lg.truth['motor']}", lg.path, lg.truth["motor"]) for lg in cp if not lg.healthy]))
+        cases.append(("crazypad_e9, no profile", None, [],
+                      [(lg.name, "healthy" if lg.healthy else f"motor {lg.truth['motor']}", lg.path, lg.truth["motor"])
+                       for lg in cp]))
     if (SHARED / "real_healthy").is_dir():
         cases.append(("real healthy (+Erle), no profile", None, [],
                       [(lg.name, "healthy", lg.path, 0) for lg in real_healthy_logs(SHARED)]))
@@ -121,6 +124,7 @@ def real_part(args) -> None:
                       [(lg.name, grp(lg), lg.path, lg.truth["motor"]) for lg in sih]))
 
     model_stats: dict[str, list] = defaultdict(list)
+    summary = []  # (set, damaged n, verdict named, uncertain naming it, model named, healthy n, FA verdict, FA model)
     print("\n== real flights: cells = healthy / uncertain / damaged (motors named) per group ==")
     for label, pname, cal_paths, flights in cases:
         profile = _profile(pname, cal_paths, args.profiles, tmp) if pname else None
@@ -129,6 +133,7 @@ def real_part(args) -> None:
         rows: dict[str, dict[str, list]] = {"model alone": defaultdict(list), "fused verdict": defaultdict(list),
                                             "motor-balance rule": defaultdict(list)}
         right = Counter()
+        side = Counter()
         detail = []
         for name, group, path, truth in flights:
             fl = load_flight(path)
@@ -141,6 +146,12 @@ def real_part(args) -> None:
             if truth:
                 right["model alone"] += alone == ("damaged", truth)
                 right["fused verdict"] += (v.status, v.motor) == ("damaged", truth)
+                side["damaged"] += 1
+                side["uncertain naming it"] += v.status == "uncertain" and truth in v.inspect
+            elif group in ("healthy", "good"):
+                side["healthy"] += 1
+                side["verdict FA"] += v.status == "damaged"
+                side["model FA"] += alone[0] == "damaged"
             eta = ""
             if d.decision is not None and v.motor:
                 m = d.decision.motors[v.motor - 1]
@@ -161,6 +172,14 @@ def real_part(args) -> None:
             print("  " + f"{row:20s}" + "".join(f"{_cell(cells[g]):>30s}" for g in groups) + extra)
         if args.verbose:
             print("\n".join(detail))
+        summary.append((label, side["damaged"], right["fused verdict"], side["uncertain naming it"],
+                        right["model alone"], side["healthy"], side["verdict FA"], side["model FA"]))
+    print("\n== side by side: the verdict and the model's window majority alone ==")
+    print(f"  {'set':58s} {'damaged: verdict names it (+uncertain naming it) / model alone':>62s}   "
+          f"{'healthy called damaged: verdict / model':>40s}")
+    for label, nd, vr, vu, mr, nh, vfa, mfa in summary:
+        dmg = f"{vr} (+{vu}) / {mr} of {nd}" if nd else "-"
+        print(f"  {label:58s} {dmg:>62s}   {f'{vfa} / {mfa} of {nh}' if nh else '-':>40s}")
     print("\n== the shipped model's flight-mean window log ratios (decision.MODEL_* constants) ==")
     for label, rows in model_stats.items():
         if label.startswith("real healthy"):

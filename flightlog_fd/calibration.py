@@ -12,6 +12,14 @@ command-share baseline, the healthy windows' statistics), then
   needs torch, quadrotors only), stores it beside the profile and fits the analyzers' baselines
   with it.
 
+Sessions: each log is one calibration session (``one_session`` groups them), a ``sessions_`` entry
+(:func:`session_entry`: its shares, throttle, pinning); with two or more the command-share baseline
+is their mean (:func:`baseline_of_sessions`) and the diagnosis weighs the commands against the
+airframe's own session drift (:mod:`flightlog_fd.analyzers.session_drift`). Each session is first
+diagnosed against the others (:func:`check_sessions`) and one that looks damaged is refused.
+:func:`add_sessions` (``fdlog calibrate --add``, the web page's "add" job) adds sessions to an
+existing profile, keeping the previous file.
+
 Logs without per-motor outputs (e.g. ArduPilot logs without RCOU) give a profile of what they
 support: the vibration baseline, with ``lacks_`` naming the rest (no imbalance, command shares,
 throttle, model statistics or adapted model), with and without ``adapt``.
@@ -46,7 +54,7 @@ from typing import Callable, Iterable, Optional, Sequence, Union
 
 import numpy as np
 
-from .analyzers.share_fit import airborne_thrust, estimate_baseline
+from .analyzers.share_fit import airborne_thrust, estimate_baseline, pin_spread, shares_of
 from .checks import trained_layout
 from .errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
 from .flight import Flight
@@ -73,7 +81,8 @@ PathLike = Union[str, os.PathLike]
 def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: bool = False,
               output: Optional[PathLike] = None, overwrite: bool = False, settings=None,
               base_model: Optional[PathLike] = None,
-              progress: Optional[Callable[[str, float], None]] = None, flight: Optional[int] = None) -> Profile:
+              progress: Optional[Callable[[str, float], None]] = None, flight: Optional[int] = None,
+              one_session: bool = False) -> Profile:
     """The calibration profile of one airframe from HEALTHY flights (paths or Flights).
 
     ``output``: the profile file to write (needed with ``adapt``: the adapted model goes beside it,
@@ -81,8 +90,10 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
     (:class:`flightlog_fd.training.adapt.AdaptSettings`), ``base_model`` and ``progress``
     (``progress(stage, fraction)``) are for ``adapt``. ``flight``: calibrate on that take-off to
     landing (1-based, :func:`flightlog_fd.flights.split_flights`) of the one log given (the profile's
-    ``extra["flight"]`` names it). Raises FlightLogError subclasses for bad input (one line each);
-    ImportError when ``adapt`` is asked without torch.
+    ``extra["flight"]`` names it). Each log is one calibration session unless ``one_session``
+    groups them all into one; with two or more sessions each is first diagnosed against the others
+    (:func:`check_sessions`: one that looks damaged is refused). Raises FlightLogError subclasses
+    for bad input (one line each); ImportError when ``adapt`` is asked without torch.
     """
     from . import load_flight
     from .model import FaultModel, default_model_path, model_for_flight
@@ -98,12 +109,15 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
     part = None
     if flight is not None:
         flights, part = _one_flight(flights, flight)
+    groups = [list(range(len(flights)))] if (one_session or part is not None) else [[i] for i in range(len(flights))]
     if flights and all(fl.motors is None for fl in flights):
         profile = _motorless(flights, adapt)
     elif not adapt:
-        profile = calibrate_profile(flights)
+        profile = calibrate_profile(flights, sessions=groups)
         if flights:
-            profile.fit_analyzers(flights, model_for_flight(FaultModel(default_model_path()), flights[0]))
+            check_sessions(flights, groups)
+            profile.fit_analyzers(flights, model_for_flight(FaultModel(default_model_path()), flights[0]),
+                                  sessions=groups)
     else:
         from .training.adapt import AdaptSettings, adapt_model, base_model_files
 
@@ -116,7 +130,9 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
             progress("measuring hover", 0.0)
         base_onnx, _ = base_model_files(None if base_model is None else Path(base_model))
         spec = FeatureSpec.from_dict(FaultModel(base_onnx).feature_spec)
-        profile = calibrate_profile(flights, spec=FeatureSpec.from_dict({**spec.to_dict(), "mean": None, "std": None}))
+        profile = calibrate_profile(flights, spec=FeatureSpec.from_dict({**spec.to_dict(), "mean": None, "std": None}),
+                                    sessions=groups)
+        check_sessions(flights, groups)
         out_onnx = out.with_suffix(".onnx")
         res = adapt_model(profile, flights, out_onnx, settings=settings or AdaptSettings(),
                           base_model=None if base_model is None else Path(base_model), progress=progress)
@@ -124,7 +140,7 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
         profile.set_model(out_onnx, profile_path=out)
         if progress:
             progress("fitting baselines", 0.0)
-        profile.fit_analyzers(flights, FaultModel(out_onnx))
+        profile.fit_analyzers(flights, FaultModel(out_onnx), sessions=groups, adapted_on=True)
         if progress:
             progress("fitting baselines", 1.0)
     if part is not None:
@@ -251,8 +267,11 @@ def _check_not_labelled_damaged(fl: Flight) -> None:
 
 
 def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec: Optional[FeatureSpec] = None,
-                      min_hover_s: float = MIN_HOVER_S) -> Profile:
+                      min_hover_s: float = MIN_HOVER_S, sessions: Optional[Sequence[Sequence[int]]] = None) -> Profile:
     """A :class:`Profile` from HEALTHY flights of one airframe (paths are read with load_flight).
+
+    ``sessions``: the flights' indices grouped into calibration sessions (default: each flight is
+    one); with two or more the command-share baseline is their mean (:func:`baseline_of_sessions`).
 
     Raises UnsupportedVehicleError for a frame no shipped model is for (quad, hexa-X/+,
     octo-X/+/octaquad-X), ProfileError when the logs mix autopilots or
@@ -290,16 +309,111 @@ def calibrate_profile(paths_or_flights: Iterable[Union[PathLike, Flight]], spec:
         raise NotDiagnosableError(first.path if len(flights) == 1 else None,
                                   "the calibration logs yield no input window (too little airborne time without gaps)")
     fitted = unfitted.fit(X)
+    groups = [list(g) for g in sessions] if sessions is not None else [[i] for i in range(len(flights))]
+    entries = [session_entry([flights[i] for i in g], [per_flight[i] for i in g]) for g in groups]
+    baseline = baseline_of_sessions(estimate_baseline(flights, thrust_blocks, per_flight), entries)
 
     return Profile(
         autopilot=first.autopilot, frame=first.frame.name, rotor_count=first.frame.rotor_count,
         firmware=first.firmware, vehicle_id=first.vehicle_id,
         rho_=imbalance.rho, rho_spread_=imbalance.rho_spread, hover_throttle_=imbalance.hover_throttle,
-        rho_source_=imbalance.source, baseline_=estimate_baseline(flights, thrust_blocks, per_flight),
+        rho_source_=imbalance.source, baseline_=baseline,
         hover_s_=imbalance.hover_s, n_hover_segments_=imbalance.n_segments, n_windows_=int(len(X)),
         stream_rates=_stream_rates(flights),
         feature_spec=fitted.to_dict(), source_logs=[_source_entry(fl) for fl in flights],
-        created=datetime.now(timezone.utc).isoformat(timespec="seconds"), tool_version=__version__)
+        created=datetime.now(timezone.utc).isoformat(timespec="seconds"), tool_version=__version__,
+        sessions_=entries)
+
+
+# ----------------------------------------------------------------------------- sessions
+
+#: Least airborne time (s) of a calibration session: its shares' pinning is measured from its
+#: thirds (share_fit.pin_spread needs 3 s); a shorter flight joins a session with others.
+MIN_SESSION_S = 3.0
+
+
+def session_entry(flights: Sequence[Flight], blocks: Optional[Sequence[Sequence[np.ndarray]]] = None) -> dict:
+    """One calibration session (``Profile.sessions_`` entry) from its HEALTHY flights: their logs,
+    airborne-mean command shares (mean 1), mean thrust command, pinning (:func:`pin_spread`) and
+    airborne seconds. ``blocks``: each flight's :func:`airborne_thrust` when the caller has it.
+    ProfileError when the flights hold less than ``MIN_SESSION_S`` of airborne commands."""
+    per_flight = list(blocks) if blocks is not None else [airborne_thrust([fl]) for fl in flights]
+    u = [b for pf in per_flight for b in pf]
+    seconds = sum(len(b) for b in u) / DEFAULT_RATE_HZ
+    share, throttle = shares_of(u)
+    if seconds < MIN_SESSION_S or not np.all(np.isfinite(share)) or not throttle > 0:
+        names = ", ".join(Path(f.path).name if f.path else "<in-memory flight>" for f in flights)
+        raise ProfileError(flights[0].path if len(flights) == 1 else None,
+                           f"{names}: {seconds:.1f} s of airborne motor commands, a calibration session needs "
+                           f"{MIN_SESSION_S:g} s: group it with other flights of the same day (--one-session)")
+    pin = pin_spread(u)
+    return {"logs": [_source_entry(fl) for fl in flights], "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "seconds": round(float(seconds), 1), "share": [float(x) for x in share], "throttle": float(throttle),
+            "pin": None if pin is None else [float(x) for x in pin]}
+
+
+def baseline_of_sessions(base: dict, sessions: Sequence[dict]) -> dict:
+    """The command-share baseline (``baseline_``) of a profile holding ``sessions``: with one, ``base``
+    as measured on its flights; with two or more, their equal-weight mean shares and geometric-mean
+    throttle (each session one draw of the airframe's session drift), the session-to-session
+    spreads, the mean's pinning (root-mean-square of the sessions' over sqrt(S)) and the throttle
+    range widened to the sessions'; ``base``'s slope is kept."""
+    if len(sessions) < 2:
+        # flights grouped as one session: their spread is within a session, not between sessions
+        grouped = {"spread": None, "throttle_spread": None} if sessions and len(sessions[0].get("logs") or []) > 1 else {}
+        return dict(base, n_sessions=max(len(sessions), 1), **grouped)
+    shares = np.array([s["share"] for s in sessions], float)
+    share = shares.mean(axis=0)
+    share = share / share.mean()
+    log_thr = np.log([s["throttle"] for s in sessions])
+    thr = float(np.exp(log_thr.mean()))
+    pins = [s["pin"] for s in sessions if s.get("pin") is not None]
+    pin = (np.sqrt(np.mean(np.square(pins), axis=0)) / np.sqrt(len(sessions))) if pins else None
+    lo, hi = base.get("throttle_range") or (thr, thr)
+    return {**base, "share": [float(x) for x in share], "throttle_ref": thr,
+            "throttle_range": [float(min(lo, np.exp(log_thr.min()))), float(max(hi, np.exp(log_thr.max())))],
+            "seconds": round(float(sum(s.get("seconds", 0.0) for s in sessions)), 1),
+            "source": f"mean of {len(sessions)} calibration sessions' airborne-mean thrust-command shares",
+            "n_flights": int(sum(len(s.get("logs") or [None]) for s in sessions)), "n_sessions": len(sessions),
+            "spread": [float(x) for x in shares.std(axis=0, ddof=1)],
+            "throttle_spread": float(np.std(log_thr, ddof=1)),
+            "pin": None if pin is None else [float(x) for x in pin]}
+
+
+def check_sessions(flights: Sequence[Flight], groups: Sequence[Sequence[int]]) -> None:
+    """Diagnose each calibration session against a ``--no-adapt`` profile of the others (two or more
+    sessions); ProfileError (one line) for the first that looks damaged or stopped against them, so
+    damage is never calibrated away. A session whose others cannot make a profile is not checked."""
+    from .errors import FlightLogError
+    from .model import FaultModel, default_model_path, model_for_flight
+
+    if len(groups) < 2:
+        return
+    model = model_for_flight(FaultModel(default_model_path()), flights[0])
+    for j, g in enumerate(groups):
+        others = [i for k, h in enumerate(groups) if k != j for i in h]
+        regroup = [[others.index(i) for i in h] for k, h in enumerate(groups) if k != j]
+        try:
+            ref = calibrate_profile([flights[i] for i in others], sessions=regroup)
+        except FlightLogError:
+            continue
+        ref.fit_analyzers([flights[i] for i in others], model, sessions=regroup)
+        _refuse_if_damaged([flights[i] for i in g], ref, model,
+                           f"the other {len(groups) - 1} calibration session{'s' if len(groups) > 2 else ''}")
+
+
+def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, against: str,
+                       outcome: str = "not calibrated on") -> None:
+    """ProfileError when one of ``flights`` is diagnosed damaged or stopped against ``profile``
+    with ``model``."""
+    from .diagnose import diagnose_flight
+
+    for fl in flights:
+        v = diagnose_flight(fl, model, profile, keep_flight=False).verdict
+        if v.status in ("damaged", "stopped"):
+            what = (f"motor {v.motor} " + ("stopped" if v.status == "stopped" else "lost thrust")) if v.motor else "damaged"
+            raise ProfileError(fl.path, f"looks damaged against {against}: {what} (confidence {v.confidence:.2f}); "
+                                        f"{outcome}: inspect the propellers, and calibrate only on healthy flights")
 
 
 #: What a profile from logs without motor outputs cannot hold (its ``lacks_``).
@@ -335,3 +449,148 @@ def motorless_profile(flights: list[Flight], analyzers: dict) -> Profile:
                    source_logs=[_source_entry(fl) for fl in flights], analyzers=dict(analyzers),
                    lacks_=[MOTORLESS_LACKS], created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
                    tool_version=__version__)
+
+
+# ----------------------------------------------------------------------------- adding sessions
+
+@dataclass
+class AddedSessions:
+    """What :func:`add_sessions` did: the new profile, where it was written, where the previous one
+    was kept, and what changed in plain words (one line each)."""
+
+    profile: Profile
+    path: Path
+    previous: Optional[Path]
+    changes: list[str]
+
+
+def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLike, Flight]], *,
+                 one_session: bool = False, keep_previous: bool = True) -> AddedSessions:
+    """Add HEALTHY flights to a profile as new calibration sessions (each log one session unless
+    ``one_session``), in place: the previous file is kept beside it (``<stem>.sessions-<N>.json``,
+    N its session count, never overwritten; ``keep_previous=False`` when the caller keeps it) and
+    the new one replaces it atomically.
+
+    Each new session is first diagnosed against the profile with its own model; one that looks
+    damaged (or a stopped motor) is refused (ProfileError, one line) and nothing is written, so
+    damage is never calibrated away. Updated: ``sessions_``, the command-share baseline
+    (:func:`baseline_of_sessions`; its slope kept), the model-vote baseline (the new sessions'
+    means with the profile's model), ``source_logs``. Kept from the earlier sessions: the imbalance
+    (rho), the window statistics, the adapted model and the other analyzers' baselines.
+    Limits: a profile with motor figures (not one from logs without motor outputs); a profile
+    older than schema 6 counts as one session (its flights were pooled)."""
+    from . import load_flight
+    from .analyzers.model_votes import ModelVotes, combine_sessions
+    from .model import FaultModel, default_model_path, model_for_flight
+
+    src = Path(profile_path)
+    profile = Profile.load(src)
+    if not profile.measures_motors:
+        raise ProfileError(src, "holds no command-share baseline (calibrated on logs without motor outputs): "
+                                "sessions can only be added to a profile with motor figures; calibrate anew")
+    if profile.baseline_ is None:
+        raise ProfileError(src, "is a schema-1 profile without a recorded command-share baseline: calibrate anew")
+    flights = [x if isinstance(x, Flight) else load_flight(x) for x in flights_or_paths]
+    if not flights:
+        raise ProfileError(src, "no log to add")
+    known = {e.get("sha256") for e in profile.source_logs if e.get("sha256")}
+    for fl in flights:
+        _check_not_labelled_damaged(fl)
+        profile.check_compatible(fl)
+        if fl.motors is None:
+            raise ProfileError(fl.path, "has no per-motor outputs: it cannot be a command-share session")
+        entry = _source_entry(fl)
+        if entry["sha256"] and entry["sha256"] in known:
+            raise ProfileError(fl.path, f"is already one of {src.name}'s calibration logs")
+    model = (FaultModel(profile.model_path(verify=True)) if profile.model
+             else model_for_flight(FaultModel(default_model_path()), flights[0]))
+    n_before = profile.n_sessions
+    _refuse_if_damaged(flights, profile, model, f"the {n_before} session{'s' if n_before != 1 else ''} of {src.name}",
+                       "not added, the profile is unchanged")
+
+    groups = [flights] if one_session else [[fl] for fl in flights]
+    new = [session_entry(g) for g in groups]
+    old_sessions = list(profile.sessions_) or [_implicit_session(profile)]
+    old_base = dict(profile.baseline_)
+    sessions = old_sessions + new
+    profile.sessions_ = sessions
+    profile.baseline_ = baseline_of_sessions(old_base, sessions)
+    profile.source_logs = list(profile.source_logs) + [e for s in new for e in s["logs"]]
+    votes = profile.analyzers.get("model")
+    sha = str(getattr(model, "sha256", ""))
+    if votes and votes.get("model_sha256") == sha:
+        earlier = [{"model_sha256": sha, "healthy_mean": m} for m in (votes.get("sessions") or [votes["healthy_mean"]])]
+        seen = list(votes.get("sessions_seen") or [bool(profile.model)] * len(earlier))
+        added = [ModelVotes().fit_baseline(g, model) for g in groups]
+        profile.analyzers = {**profile.analyzers, "model": combine_sessions(earlier + added,
+                                                                            seen + [False] * len(added))}
+    changes = _session_changes(old_base, profile.baseline_, new, votes, profile.analyzers.get("model"), sessions,
+                               n_before)
+    previous = _keep_previous(src, n_before) if keep_previous else None
+    profile.save(src, overwrite=True)
+    if previous is not None:
+        changes.append(f"the previous profile is kept as {previous.name}")
+    return AddedSessions(profile=profile, path=src, previous=previous, changes=changes)
+
+
+def _implicit_session(profile: Profile) -> dict:
+    """The one session of a profile older than schema 6: its pooled baseline and logs."""
+    b = profile.baseline_
+    return {"logs": list(profile.source_logs), "created": profile.created, "seconds": float(b.get("seconds", 0.0)),
+            "share": [float(x) for x in b["share"]], "throttle": float(b["throttle_ref"]),
+            "pin": None if b.get("pin") is None else [float(x) for x in b["pin"]]}
+
+
+def _keep_previous(src: Path, n_sessions: int) -> Path:
+    """Copy the profile file as it is to ``<stem>.sessions-<N>.json`` beside it (a free name: never
+    replaces a file), so the profile before the change stays recoverable."""
+    import shutil
+
+    for k in range(1, 1000):
+        dst = src.with_name(f"{src.stem}.sessions-{n_sessions}{'' if k == 1 else f'-{k}'}.json")
+        if not dst.exists():
+            try:
+                shutil.copy2(src, dst)
+            except OSError as e:
+                raise ProfileError(dst, f"cannot keep the previous profile: {e.strerror or e}") from None
+            return dst
+    raise ProfileError(src, "cannot find a free name to keep the previous profile")
+
+
+def _session_changes(old: dict, new: dict, added: list[dict], votes_old: Optional[dict], votes_new: Optional[dict],
+                     sessions: Sequence[dict], n_before: int) -> list[str]:
+    """What adding sessions changed, in plain words."""
+    n_after = len(sessions)
+    lines = [f"added session {n_before + i + 1}: {', '.join(e['name'] for e in s['logs'])} ({s['seconds']:.0f} s "
+             f"airborne, throttle {s['throttle']:.3f})" for i, s in enumerate(added)]
+    lines.append(f"the profile now holds {n_after} calibration sessions (was {n_before})")
+    lines.append("command-share baseline: " + ", ".join(
+        f"motor {k + 1} {a:.3f} -> {b:.3f}" for k, (a, b) in enumerate(zip(old["share"], new["share"])))
+        + f"; throttle {old['throttle_ref']:.3f} -> {new['throttle_ref']:.3f}")
+    lines.append(session_drift_words(sessions))
+    if votes_old and votes_new and votes_new is not votes_old:
+        lines.append("model-vote baseline (mean log ratio per motor): " + ", ".join(
+            f"motor {k + 1} {a:+.2f} -> {b:+.2f}" for k, (a, b) in
+            enumerate(zip(votes_old["healthy_mean"], votes_new["healthy_mean"]))))
+    elif votes_old:
+        lines.append("model-vote baseline kept: it was measured with another model than the profile's")
+    lines.append("kept from the earlier sessions: the imbalance (rho), the window statistics, the model and the "
+                 "other analyzers' baselines")
+    return lines
+
+
+def session_drift_words(sessions: Sequence[dict]) -> str:
+    """How far the airframe's sessions move, in plain words (two or more sessions)."""
+    from .analyzers.command_shares import DEFAULT_DRIFT_SIGMA, THROTTLE_DRIFT_SIGMA
+    from .analyzers.session_drift import SessionDrift, SessionFigures
+
+    if len(sessions) < 2:
+        return "one session cannot show how the airframe's trim moves between sessions"
+    n = len(sessions[0]["share"])
+    figs = SessionFigures(shares=[s["share"] for s in sessions], throttles=[s["throttle"] for s in sessions],
+                          pins=[s["pin"] if s.get("pin") is not None else [float("nan")] * n for s in sessions])
+    drift = SessionDrift.fit(figs, DEFAULT_DRIFT_SIGMA, THROTTLE_DRIFT_SIGMA)
+    tau = drift.tau_median()
+    return (f"session-to-session drift of this airframe: {tau * DEFAULT_DRIFT_SIGMA:.3f} share per motor and "
+            f"{100 * tau * THROTTLE_DRIFT_SIGMA:.1f} % throttle ({tau:.2f} x the population drift, from "
+            f"{len(sessions)} sessions)")

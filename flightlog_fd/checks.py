@@ -13,13 +13,18 @@ Rules (each failing rule adds one reason, in the order a pilot would fix them):
 - per-motor commands for every motor and body angular rates are present;
 - the rate streams are fast enough: angular rates >= ``MIN_RATES_HZ`` (the angular acceleration is a
   derivative of them), motor commands >= ``MIN_MOTORS_HZ`` (PX4's default 10 Hz logging passes);
-- the log has at least ``MIN_AIRBORNE_S`` of airborne time and enough for ``MIN_WINDOWS`` windows.
+- the log has at least ``MIN_AIRBORNE_S`` of airborne time and enough for ``MIN_WINDOWS`` windows;
+- its airborne stretches between data gaps (:mod:`flightlog_fd.streams`, the very segments the
+  diagnosis cuts its windows from) hold a window and enough windows to judge
+  (``timeline.shortfall``): so `fdlog info` and `fdlog diagnose` agree on every log.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from .errors import FlightLogError
 from .flight import Flight
+from .prepared import PreparedFlight, segment_times
 from .stopped import diagnose_stopped
 
 #: Below this the derivative of the gyro no longer resolves a quad's attitude dynamics (a few Hz).
@@ -108,8 +113,31 @@ def _n_rotor_reason(frame, spec_n) -> str:
     return ""
 
 
-def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
-    """Check everything the diagnosis needs; never raises for a loaded Flight."""
+def _stretch_reason(prep: PreparedFlight, spec: dict | None, n_motors: int) -> str | None:
+    """Why the flight's gap-free airborne stretches (the diagnosis's own segments for ``spec``)
+    hold too few windows to judge, or None."""
+    from .timeline import covered_seconds, shortfall
+    from .windows import FeatureSpec, no_window_reason, window_spans
+
+    try:
+        fs = FeatureSpec.from_dict(spec) if spec else FeatureSpec(n_motors=n_motors)
+        times = segment_times(prep, fs.rate_hz, fs.max_gap_s, fs.trim_s, fs.savgol_window_s,
+                              need_attitude=fs.features == "cf", speed_source=fs.speed_source, n_motors=fs.n_motors)
+    except FlightLogError as e:
+        return e.message
+    except ValueError:  # a malformed spec is the model's problem, reported where the model is read
+        return None
+    t0, t1 = window_spans(times, fs)
+    if t0.size == 0:
+        return no_window_reason(prep.flight, times, fs)
+    return shortfall(int(t0.size), covered_seconds(t0, t1))
+
+
+def diagnosability(flight, spec: dict | None = None) -> Diagnosability:
+    """Check everything the diagnosis needs; never raises for a loaded Flight (or a
+    :class:`~flightlog_fd.prepared.PreparedFlight`, whose segments the diagnosis then reuses)."""
+    prep = PreparedFlight.of(flight)
+    flight = prep.flight
     spec_n = int(spec.get("n_motors", 4)) if spec else None
     spec = spec or {}
     rate_hz = float(spec.get("rate_hz", DEFAULT_RATE_HZ))
@@ -153,6 +181,10 @@ def diagnosability(flight: Flight, spec: dict | None = None) -> Diagnosability:
         reasons.append("the vehicle never flew in this log (no airborne time)")
     elif airborne < need_s:
         reasons.append(f"only {airborne:.1f} s airborne, need at least {need_s:.0f} s")
+    if not reasons:
+        why = _stretch_reason(prep, spec, need_motors)
+        if why:
+            reasons.append(why)
     facts = {
         "vehicle": describe_vehicle(flight),
         "airborne_s": round(airborne, 2),

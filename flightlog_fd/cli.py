@@ -7,16 +7,151 @@ simulator) happen inside the commands that need them, so `fdlog diagnose` runs w
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 from typing import List, Optional
 
 import typer
 from rich.console import Console
+from typer.core import TyperGroup
 
 from .errors import FlightLogError, NotALogError
 
+#: typer.rich_utils imports these at its top but uses them only for markdown help text and
+#: pretty tracebacks, neither of which fdlog uses; with pygments and markdown_it they were 0.05 s
+#: of the 0.17 s CPU of `fdlog --help` (python -X importtime and process CPU, 2026-11-26).
+_TYPER_HELP_UNUSED = (("rich.markdown", "Markdown"), ("rich.traceback", "Traceback"))
+#: The command-line values typer would hand to pydantic that Python's own int()/float() read to
+#: the same number (pydantic is 0.1 s CPU of every command's start); anything else goes to typer.
+_PLAIN_INT = re.compile(r"-?(0|[1-9][0-9]*)")
+_PLAIN_FLOAT = re.compile(r"-?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][-+]?[0-9]+)?")
+_NOT_PLAIN = object()
+
+
+def _deferred_class(module: str, name: str) -> type:
+    """A stand-in for class ``module.name`` that imports the real module when it is called or
+    an attribute of it is read, and returns the real class's objects."""
+    import importlib
+
+    def real():
+        return getattr(importlib.import_module(module), name)
+
+    class _Deferred(type):
+        def __getattr__(cls, attr):
+            return getattr(real(), attr)
+
+    return _Deferred(name, (), {"__new__": lambda cls, *a, **k: real()(*a, **k)})
+
+
+def _import_typer_help() -> None:
+    """Import typer's help renderer (typer.rich_utils) without the modules it does not use for
+    fdlog's help (:data:`_TYPER_HELP_UNUSED`): while it imports, those are stand-in modules whose
+    classes load the real ones on first use; they leave ``sys.modules`` right after, so a later
+    ``import rich.traceback`` gets the real module. A typer that needs more from them is imported
+    whole."""
+    import types
+
+    if "typer.rich_utils" in sys.modules:
+        return
+    placed = {}
+    for module, name in _TYPER_HELP_UNUSED:
+        if module not in sys.modules:
+            stand_in = types.ModuleType(module)
+            setattr(stand_in, name, _deferred_class(module, name))
+            sys.modules[module] = placed[module] = stand_in
+    try:
+        import typer.rich_utils  # noqa: F401
+    except ImportError:
+        sys.modules.pop("typer.rich_utils", None)
+    finally:
+        for module, stand_in in placed.items():
+            if sys.modules.get(module) is stand_in:
+                del sys.modules[module]
+    import typer.rich_utils  # noqa: F401,F811  (a no-op unless the import above failed)
+
+
+def _plain_value(annotation, info, value, param, ctx):
+    """``value`` coerced as typer would for the plain types fdlog's options use (str, int, float,
+    Path, lists of them), or :data:`_NOT_PLAIN` for anything else (typer then does it, with its
+    own messages)."""
+    if getattr(annotation, "__origin__", None) is list and isinstance(value, (list, tuple)):
+        (item,) = annotation.__args__
+        out = [_plain_value(item, info, v, param, ctx) for v in value]
+        return _NOT_PLAIN if any(v is _NOT_PLAIN for v in out) else out
+    if info.parser is not None or getattr(info, "clamp", False):
+        return _NOT_PLAIN
+    if annotation in (str, bool):
+        return value if type(value) is annotation else _NOT_PLAIN
+    if annotation is Path and info.path_type is None:
+        if not isinstance(value, (str, Path)) or value == "":
+            return _NOT_PLAIN
+        from typer._param_types import coerce_cli_path
+
+        return coerce_cli_path(Path(value), info, path_type=Path, param=param, ctx=ctx)
+    if annotation in (int, float):
+        if isinstance(value, str):
+            if not (_PLAIN_INT if annotation is int else _PLAIN_FLOAT).fullmatch(value):
+                return _NOT_PLAIN
+            number = annotation(value)
+        elif isinstance(value, (int, float)) and not isinstance(value, bool) and (annotation is float or isinstance(value, int)):
+            number = annotation(value)
+        else:
+            return _NOT_PLAIN
+        if (info.min is not None and number < info.min) or (info.max is not None and number > info.max):
+            return _NOT_PLAIN  # out of range: typer says so
+        return number
+    return _NOT_PLAIN
+
+
+def _use_plain_coercion(params) -> None:
+    """Give each of a command's ``params`` a coercion that reads plain values without importing
+    pydantic (typer >= 0.2x builds a pydantic TypeAdapter for every parameter of the command that
+    runs); any other value is passed to typer's own coercion, so results and messages are
+    typer's. Does nothing on a typer without this machinery."""
+    try:
+        from dataclasses import dataclass
+
+        from typer._coercion import RuntimeParam, build_runtime_param
+    except ImportError:  # pragma: no cover - another typer
+        return
+
+    @dataclass(frozen=True)
+    class PlainRuntimeParam(RuntimeParam):
+        descriptor: object = None
+
+        def _coerce_value(self, value, param, ctx):
+            out = _plain_value(self.annotation, self.parameter_info, value, param, ctx)
+            if out is _NOT_PLAIN:
+                out = build_runtime_param(self.descriptor)._coerce_value(value, param=param, ctx=ctx)
+            return out
+
+    for p in params:
+        descriptor = getattr(p, "type_descriptor", None)
+        if descriptor is not None and getattr(p, "_runtime_param", 0) is None and descriptor.file_annotation is None:
+            p._runtime_param = PlainRuntimeParam(parameter_info=descriptor.parameter_info,
+                                                 annotation=descriptor.annotation, descriptor=descriptor)
+
+
+class _FdlogGroup(TyperGroup):
+    """typer's group, starting faster: help without typer's unused imports, commands without
+    pydantic (see :func:`_import_typer_help`, :func:`_use_plain_coercion`)."""
+
+    def parse_args(self, ctx, args):
+        if not args or set(args) & set(ctx.help_option_names):
+            _import_typer_help()
+        _use_plain_coercion(self.get_params(ctx))
+        return super().parse_args(ctx, args)
+
+    def resolve_command(self, ctx, args):
+        name, command, rest = super().resolve_command(ctx, args)
+        if command is not None:
+            _use_plain_coercion(command.get_params(ctx))
+        return name, command, rest
+
+
 app = typer.Typer(
+    cls=_FdlogGroup,
     help="Offline propeller-fault diagnosis for multirotor flight logs (PX4 ULog, ArduPilot DataFlash).",
     no_args_is_help=True,
     add_completion=False,
@@ -102,7 +237,7 @@ def diagnose(
     html_out: Optional[Path] = typer.Option(None, "--html", help="Write a self-contained HTML report to this file."),
     windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
     jobs: Optional[int] = typer.Option(None, "--jobs", "-j", min=1, help="Diagnose several logs in parallel processes (with --scheduler local: the number of Dask workers, default one per core)."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd[fleet])."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd\\[fleet])."),
     db: Optional[str] = typer.Option(None, "--db", help="Write every diagnosis to this store: a SQLite file or a postgresql:// URL (see `fdlog history`, `fdlog serve --db`)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
 ) -> None:
@@ -110,11 +245,6 @@ def diagnose(
 
     Exit code: 0 every log healthy, 1 damage found or uncertain, 2 invalid input or not diagnosable.
     """
-    from .batch import run_batch
-    from .diagnose import resolve_model
-    from .profile import Profile
-    from .report import terminal
-
     for out in (csv_out, html_out):
         if out is not None and out.exists() and not force:
             _fail(f"{out}: already exists (use --force to overwrite)")
@@ -128,19 +258,35 @@ def diagnose(
         if not errors:
             _fail("no log files found in " + ", ".join(str(p) for p in logs))
         raise typer.Exit(EXIT_INVALID)
+    raise typer.Exit(_diagnose_files(files, bool(errors), profile=profile, model=model, as_json=as_json,
+                                     csv_out=csv_out, html_out=html_out, windows=windows, jobs=jobs,
+                                     scheduler=scheduler, db=db))
+
+
+def _diagnose_files(files: list, had_errors: bool, *, profile: Optional[Path], model: Optional[Path] = None,
+                    as_json: bool = False, csv_out: Optional[Path] = None, html_out: Optional[Path] = None,
+                    windows: bool = False, jobs: Optional[int] = None, scheduler: Optional[str] = None,
+                    db: Optional[str] = None) -> int:
+    """Diagnose ``files`` and print / write the reports: `fdlog diagnose`'s work after it found the
+    logs, shared with `fdlog pull`. Returns the exit code (``had_errors``: some input already failed)."""
+    from .batch import run_batch
+    from .diagnose import resolve_model
+    from .profile import Profile
+    from .report import terminal
+
     try:
         prof = Profile.load(profile) if profile is not None else None
         fault_model = resolve_model(model, prof)
     except FlightLogError as e:
         _fail(e)
-        raise typer.Exit(EXIT_INVALID)
+        return EXIT_INVALID
 
     if scheduler is not None:
         try:
             import dask.distributed  # noqa: F401
         except ImportError:
             _fail("--scheduler needs Dask: pip install 'flightlog-fd[fleet]'")
-            raise typer.Exit(EXIT_INVALID)
+            return EXIT_INVALID
     store = run_info = None
     if db is not None:
         from .store import RunInfo, Store
@@ -149,7 +295,7 @@ def diagnose(
             store = Store(db)
         except FlightLogError as e:
             _fail(e)
-            raise typer.Exit(EXIT_INVALID)
+            return EXIT_INVALID
         run_info = RunInfo.for_batch(fault_model, prof)
 
     console = _console()
@@ -173,7 +319,7 @@ def diagnose(
                               on_result=on_result)
         except FlightLogError as e:
             _fail(e)
-            raise typer.Exit(EXIT_INVALID)
+            return EXIT_INVALID
         finally:
             if store is not None:
                 store.close()
@@ -203,7 +349,127 @@ def diagnose(
 
         write_html(results if len(results) > 1 else results[0], html_out)
     codes = [d.exit_code for d in results]
-    raise typer.Exit(EXIT_INVALID if errors or store_errors or EXIT_INVALID in codes else max(codes))
+    return EXIT_INVALID if had_errors or store_errors or EXIT_INVALID in codes else max(codes)
+
+
+
+@app.command()
+def pull(
+    connection: Optional[str] = typer.Argument(None, help="The autopilot's link as mavutil spells it: udp:HOST:PORT (listen), udpin:, udpout:, tcp:HOST:PORT, tcpin:, or a serial DEVICE[,BAUD]. Default: the one autopilot plugged in over USB."),
+    output: Path = typer.Option(Path("fdlog-logs"), "--output", "-o", help="Folder for pulled logs: one subfolder per vehicle (autopilot and board id)."),
+    log_id: Optional[int] = typer.Option(None, "--id", min=0, help="Pull this log (its id in --list) instead of the newest."),
+    since: Optional[str] = typer.Option(None, "--since", metavar="LAST", help="'last': pull every log not yet pulled from this vehicle into --output."),
+    all_logs: bool = typer.Option(False, "--all", help="Pull every log on the vehicle (those already here are not downloaded again)."),
+    list_only: bool = typer.Option(False, "--list", help="Only list the logs on the vehicle (id, size, time) and exit."),
+    no_diagnose: bool = typer.Option(False, "--no-diagnose", help="Only download; do not diagnose."),
+    profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate`, as in `fdlog diagnose`."),
+    db: Optional[str] = typer.Option(None, "--db", help="Also write the diagnoses to this store (SQLite file or postgresql:// URL), as in `fdlog diagnose`."),
+    as_json: bool = typer.Option(False, "--json", help="Print the diagnosis as `fdlog diagnose --json` does (pull messages go to stderr)."),
+    windows: bool = typer.Option(False, "--windows", help="Also print the table of windows."),
+    erase: bool = typer.Option(False, "--erase", help="After pulling with --all or --since last, erase every log on the vehicle (asks to confirm; only when each one is in --output)."),
+    timeout: float = typer.Option(10.0, "--timeout", min=0.5, help="Seconds without data from the vehicle before giving up (a lost link)."),
+) -> None:
+    """Pull logs from the aircraft over MAVLink (PX4 or ArduPilot), then diagnose them.
+
+    Downloads the newest log (or --id N, --since last, --all) with the MAVLink log protocol into OUTPUT/<vehicle>/, skipping logs pulled before, and prints the same verdict as `fdlog diagnose`. A partial download never stays behind. Logs on the vehicle are never erased without --erase and a confirmation.
+
+    Exit code: as `fdlog diagnose` (0 healthy, 1 damage found or uncertain), 2 when the link fails or nothing could be pulled or diagnosed.
+    """
+    from .errors import VehicleLinkError
+    from .vehicle.link import CONNECT_TIMEOUT_S, VehicleLink
+    from .vehicle.ports import parse_connection
+    from .vehicle.pull import erase_all, pull_logs
+
+    chosen = [name for name, on in (("--id", log_id is not None), ("--since", since is not None),
+                                    ("--all", all_logs)) if on]
+    if len(chosen) > 1:
+        _fail(f"{' and '.join(chosen)} cannot be combined: choose one")
+        raise typer.Exit(EXIT_INVALID)
+    if since is not None and since.strip().lower() != "last":
+        _fail(f"--since takes 'last' (the logs not yet pulled from this vehicle), got {since!r}")
+        raise typer.Exit(EXIT_INVALID)
+    if erase and not (all_logs or since is not None):
+        _fail("--erase needs --all or --since last, so that every log on the vehicle is pulled before it is erased")
+        raise typer.Exit(EXIT_INVALID)
+    mode = "id" if log_id is not None else "since_last" if since is not None else "all" if all_logs else "newest"
+    err = _console(stderr=True)
+    try:
+        conn = parse_connection(connection)
+        with VehicleLink(conn, connect_timeout=min(CONNECT_TIMEOUT_S, timeout)) as link:
+            err.print(f"vehicle: {link.describe()}", markup=False)
+            if list_only:
+                from .vehicle.transfer import list_logs
+
+                entries = list_logs(link)
+                link.send_log_request_end()
+                _print_log_list(entries)
+                raise typer.Exit(EXIT_OK)
+            with _download_bar(err) as bar:
+                def on_start(entry):
+                    task = bar.add_task(f"log {entry.id}", total=entry.size)
+                    return lambda done, total: bar.update(task, completed=done)
+
+                def on_log(p):
+                    what = "pulled" if p.downloaded else "already pulled"
+                    figures = (f" ({_size(p.entry.size)} in {p.stats.seconds:.1f} s, {_size(p.stats.rate)}/s, "
+                               f"{p.stats.re_requests} re-requests)" if p.stats else "")
+                    bar.console.print(f"{what} log {p.entry.id}: {p.path}{figures}", markup=False)
+
+                report = pull_logs(link, output, mode=mode, log_id=log_id, stall_timeout=timeout,
+                                   on_start=on_start, on_log=on_log)
+            for e in report.empty:
+                err.print(f"log {e.id} is empty on the vehicle (0 bytes): skipped", markup=False)
+            if not report.entries:
+                err.print("no logs on the vehicle", markup=False)
+            elif mode == "since_last" and not report.downloaded:
+                err.print(f"no new logs: all {len(report.entries)} on the vehicle are in {report.folder}", markup=False)
+            if erase:
+                if not report.every_log_here:
+                    _fail("not erasing: not every log on the vehicle is pulled")
+                    raise typer.Exit(EXIT_INVALID)
+                if typer.confirm(f"Erase all {len(report.entries)} logs on the vehicle? Each one is in "
+                                 f"{report.folder}", default=False, err=True):
+                    erase_all(link)
+                    err.print("erased every log on the vehicle", markup=False)
+                else:
+                    err.print("not erased", markup=False)
+    except VehicleLinkError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    files = [p.path for p in report.logs]
+    if no_diagnose:
+        raise typer.Exit(EXIT_OK)
+    if not files:
+        raise typer.Exit(EXIT_OK if mode == "since_last" and report.entries else EXIT_INVALID)
+    raise typer.Exit(_diagnose_files(files, False, profile=profile, as_json=as_json, windows=windows, db=db))
+
+
+def _size(n: float) -> str:
+    """Bytes as B / kB / MB (decimal units, as transfer rates are quoted)."""
+    for unit, scale in (("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n:.0f} B"
+
+
+def _download_bar(console: Console):
+    """A rich progress bar per download on stderr: bytes, rate, time left (only on a terminal)."""
+    from rich.progress import (BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn,
+                               TransferSpeedColumn)
+
+    return Progress(TextColumn("{task.description}"), BarColumn(), DownloadColumn(), TransferSpeedColumn(),
+                    TimeRemainingColumn(), console=console, transient=True, disable=not console.is_terminal)
+
+
+def _print_log_list(entries) -> None:
+    from .vehicle.folder import stamp
+
+    console = _console()
+    if not entries:
+        console.print("no logs on the vehicle", markup=False)
+    for e in entries:
+        when = stamp(e).replace("_", " ", 1) if stamp(e) != "nodate" else "no date"
+        console.print(f"{e.id:>5}  {_size(e.size):>10}  {when}", markup=False)
 
 
 @app.command()
@@ -248,8 +514,10 @@ def history(
 
 @app.command()
 def calibrate(
-    logs: List[Path] = typer.Argument(..., help="One or more logs of HEALTHY flights of one airframe."),
-    output: Path = typer.Option(..., "--output", "-o", help="Profile to write (JSON); the adapted model goes beside it (.onnx)."),
+    logs: List[Path] = typer.Argument(..., help="One or more logs of HEALTHY flights of one airframe (each log is one calibration session)."),
+    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Profile to write (JSON); the adapted model goes beside it (.onnx)."),
+    add: Optional[Path] = typer.Option(None, "--add", help="Add the logs as new sessions to this existing profile (in place; the previous file is kept beside it)."),
+    one_session: bool = typer.Option(False, "--one-session", help="The logs given are one calibration session (e.g. several short flights on one battery)."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing profile and model."),
     no_adapt: bool = typer.Option(False, "--no-adapt", help="Only measure the imbalance and statistics; keep the shipped model."),
     flights: Optional[int] = typer.Option(None, min=1, help="Airframes to simulate (those that fly like this one are adapted on); default: the calibration's own."),
@@ -259,7 +527,11 @@ def calibrate(
 ) -> None:
     """Calibrate one airframe from healthy flights: motor imbalance from hover, then adapt the model to it.
 
-    Needs the training extra (torch): pip install 'flightlog-fd[train]'.
+    Each log is one calibration session; from the second session on, the diagnosis weighs the
+    commands against the airframe's own session-to-session drift. `--add PROFILE LOG` adds a
+    healthy flight of another day or battery to an existing profile (no torch needed); a session
+    that looks damaged against the others is refused. Adapting needs the training extra (torch):
+    pip install 'flightlog-fd\\[train]'.
     """
     from .logs import collect_logs
 
@@ -269,6 +541,15 @@ def calibrate(
     if errors or not files:
         if not files and not errors:
             _fail("no log files found")
+        raise typer.Exit(EXIT_INVALID)
+    if add is not None:
+        if output is not None or flight is not None:
+            _fail("--add updates the profile in place: give no --output or --flight with it")
+            raise typer.Exit(EXIT_INVALID)
+        _add_sessions(add, files, one_session)
+        return
+    if output is None:
+        _fail("give the profile to write (--output PROFILE.json), or --add PROFILE.json to add sessions to one")
         raise typer.Exit(EXIT_INVALID)
     if not no_adapt:
         try:
@@ -284,7 +565,7 @@ def calibrate(
     err_console = _console(stderr=True)
     try:
         if no_adapt:
-            profile = run_calibration(files, output=output, overwrite=force, flight=flight)
+            profile = run_calibration(files, output=output, overwrite=force, flight=flight, one_session=one_session)
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -300,7 +581,7 @@ def calibrate(
                 given = {"n_flights": flights, "max_epochs": epochs}
                 settings = AdaptSettings(seed=seed, **{k: v for k, v in given.items() if v is not None})
                 profile = run_calibration(files, adapt=True, output=output, overwrite=force, settings=settings,
-                                          progress=progress, flight=flight)
+                                          progress=progress, flight=flight, one_session=one_session)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -315,6 +596,11 @@ def calibrate(
         console.print(f"wrote {output}: {profile.autopilot} {profile.frame}{level}", markup=False)
     if (profile.extra or {}).get("flight"):
         console.print(f"calibrated on {profile.extra['flight']} of {files[0]}", markup=False)
+    if profile.measures_motors:
+        from .calibration import session_drift_words
+
+        console.print(f"{profile.n_sessions} calibration session{'s' if profile.n_sessions != 1 else ''}: "
+                      f"{session_drift_words(profile.sessions_)}", markup=False)
     for lack in profile.lacks_:
         console.print(f"note: {lack}", markup=False)
     if profile.model:
@@ -322,6 +608,21 @@ def calibrate(
         console.print(f"adapted model: {output.with_suffix('.onnx')} ({ad.get('epochs', '?')} epochs, "
                       f"{ad.get('total_seconds', '?')} s)", markup=False)
     console.print(f"use it with: fdlog diagnose --profile {output} LOG", markup=False)
+
+
+def _add_sessions(profile: Path, files: list, one_session: bool) -> None:
+    """`fdlog calibrate --add`: add the logs as sessions, print what changed (exit 2 on refusal)."""
+    from .calibration import add_sessions
+
+    try:
+        res = add_sessions(profile, files, one_session=one_session)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    console = _console()
+    console.print(f"updated {res.path}:", markup=False)
+    for line in res.changes:
+        console.print(f"  {line}", markup=False)
 
 
 @app.command()
@@ -337,6 +638,7 @@ def serve(
     workers: int = typer.Option(1, "--workers", "-j", min=0, help="Logs diagnosed at once (worker processes; 0: only queue)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run jobs on Dask: 'local' or tcp://HOST:8786 (workers must see --data)."),
     adapt: bool = typer.Option(False, "--adapt/--no-adapt", help="Calibration jobs also adapt the model (needs torch, minutes); default: measure only."),
+    watch: Optional[List[Path]] = typer.Option(None, "--watch", help="Also queue every log that appears in this folder (repeatable), once each, as `fdlog watch` does."),
 ) -> None:
     """Serve the fleet's web page: upload logs, background diagnosis, per-airframe history and drift, calibration.
 
@@ -369,7 +671,7 @@ def serve(
             made = secrets.token_urlsafe(24)
             tokens = TokenSet([made])
         cfg = ServeConfig(data_dir=data, tokens=tokens, db=db, view=view, max_upload_bytes=int(max_upload_mb * 1024 * 1024),
-                          workers=workers, scheduler=scheduler, calibrate_adapt=adapt)
+                          workers=workers, scheduler=scheduler, calibrate_adapt=adapt, watch=list(watch or []))
         web = create_app(cfg)
         if token_file is None:
             err.print(f"fdlog serve: upload token (shown once, not stored; use --token-file to choose your own): {made}",
@@ -395,6 +697,77 @@ def serve(
 
 
 @app.command()
+def watch(
+    folders: List[Path] = typer.Argument(..., help="Folders to watch, with their subfolders: a ground station's download folder, a fleet share."),
+    db: str = typer.Option(..., "--db", help="The store to write: a SQLite file or a postgresql:// URL (the one `fdlog history` and `fdlog serve --db` read)."),
+    profile: Optional[Path] = typer.Option(None, "--profile", "-p", help="Calibration profile from `fdlog calibrate` (its adapted model is used)."),
+    model: Optional[Path] = typer.Option(None, "--model", "-m", help="ONNX model to use instead of the profile's or the shipped one."),
+    settle: Optional[float] = typer.Option(None, "--settle", min=0.05, help="Seconds a file must stay unchanged before it is read (default 5): longer than the longest pause of whatever writes the folder."),
+    poll: Optional[float] = typer.Option(None, "--poll", min=0.05, help="Look every this many seconds instead of using filesystem events (network shares are always polled, every 2 s by default)."),
+    once: bool = typer.Option(False, "--once", help="Diagnose what is in the folders now, then exit (exit code as `fdlog diagnose`)."),
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Also list the files already in the store."),
+) -> None:
+    """Diagnose every log that appears in folders, once each (by content), into the store; runs until Ctrl-C.
+
+    A file is read once its size stops changing; a log copied twice, renamed or found again after a
+    restart is one flight; a bad file is one row saying why, and the watch goes on.
+    """
+    import signal
+
+    from .diagnose import resolve_model
+    from .profile import Profile
+    from .store import Store
+    from .watch import SETTLE_S, DiagnoseSink, FolderWatch
+
+    err = _console(stderr=True)
+    out = _console()
+    try:
+        prof = Profile.load(profile) if profile is not None else None
+        fault_model = resolve_model(model, prof)
+        store = Store(db)
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+
+    def report(kind: str, path: str, text: str) -> None:
+        if kind == "known" and not verbose:
+            return
+        line = f"{path}: {text}" if path else text
+        if kind in ("bad", "skip"):
+            _fail(line)
+        elif kind in ("info", "waiting", "busy", "known"):
+            err.print(f"fdlog watch: {line}", markup=False)
+        else:
+            out.print(line, markup=False)
+
+    sink = watcher = None
+    try:
+        sink = DiagnoseSink(store, fault_model, prof)
+        watcher = FolderWatch(folders, store, sink, settle_s=settle if settle is not None else SETTLE_S,
+                              poll_s=poll, report=report)
+        sink.stop = watcher.stopping
+        signal.signal(signal.SIGTERM, lambda *_: watcher.stop())
+        watcher.run(once=once)
+    except KeyboardInterrupt:
+        pass
+    except FlightLogError as e:
+        _fail(e)
+        raise typer.Exit(EXIT_INVALID)
+    finally:
+        if watcher is not None:
+            watcher.stop()
+        if sink is not None:
+            sink.close()
+        store.close()
+    if watcher is not None:
+        c = watcher.counts
+        err.print(f"fdlog watch: {c['diagnosed']} diagnosed, {c['bad']} not diagnosable, {c['known']} already in the store",
+                  markup=False)
+    codes = sink.exit_codes if sink is not None else []
+    raise typer.Exit(max(codes) if once and codes else EXIT_OK)
+
+
+@app.command()
 def simulate(
     out: Path = typer.Option(..., "--output", "-o", help="Output log file (or folder when --count > 1)."),
     fmt: str = typer.Option("ulog", "--format", "-f", help="ulog (PX4) or dataflash (ArduPilot)."),
@@ -402,7 +775,10 @@ def simulate(
     frame: Optional[str] = typer.Option(None, help="Fly the preset as quad_x, quad_plus, hexa_x, hexa_plus, octo_x, "
                                                    "octo_plus or octaquad_x."),
     motor: int = typer.Option(0, help="Damaged propeller 1..n (4 on a quad), or 0 for a healthy flight."),
-    eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor)."),
+    eta: float = typer.Option(0.8, help="Efficiency of the damaged propeller (thrust and torque factor), or of the "
+                                        "weak motor with --cause motor (thrust per command)."),
+    cause: str = typer.Option("propeller", help="What lost the thrust of --motor: propeller (damaged) or motor (the "
+                                                "motor or its ESC is weak: it turns slower for its command)."),
     onset: Optional[float] = typer.Option(None, help="Damage starts this many seconds after arming (default: from take-off)."),
     duration: float = typer.Option(60.0, help="Planned flight time, seconds."),
     mission: str = typer.Option("waypoints", help="waypoints, manual (pilot sticks) or hover."),
@@ -424,7 +800,7 @@ def simulate(
     imu_rate: Optional[float] = typer.Option(None, "--imu-rate", help="Also log raw IMU samples at this rate (Hz, "
                                              "100-1000: ArduPilot ACC/GYR, PX4 sensor_accel/sensor_gyro)."),
 ) -> None:
-    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy or with a damaged propeller, and write them as ULog or DataFlash logs."""
+    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy, with a damaged propeller or with a weak motor (--cause motor), and write them as ULog or DataFlash logs."""
     rho_list = None
     if rho:
         try:
@@ -440,7 +816,7 @@ def simulate(
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor, eta=eta,
                                     onset=onset, duration=duration, mission=mission, log_profile=log_profile,
                                     rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id,
-                                    imbalance=imbalance, imu_rate=imu_rate)
+                                    imbalance=imbalance, imu_rate=imu_rate, cause=cause)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -449,7 +825,8 @@ def simulate(
         raise typer.Exit(EXIT_INVALID)
     console = _console()
     for p, t in written:
-        what = "healthy" if not t.get("motor") else f"propeller {t['motor']} damaged (eta {t['eta']:.2f})"
+        what = ("healthy" if not t.get("motor") else f"motor {t['motor']} or its ESC weak (eta {t['eta']:.2f})"
+                if t.get("cause") == "motor" else f"propeller {t['motor']} damaged (eta {t['eta']:.2f})")
         added = (t.get("prop_imbalance") or {})
         unbalanced = [f"{k + 1}: {m * 1e6:g} g·mm" for k, m in enumerate(added.get("added_mass_kgm", [])) if m > 0]
         unbalanced += [f"{k + 1}: aero {a:g}" for k, a in enumerate(added.get("added_aero", [])) if a > 0]

@@ -8,14 +8,17 @@ little flight in the :class:`~flightlog_fd.timeline.Timeline`); then the evidenc
 The evidence: for each motor k, "rotor k lost thrust" against "healthy, with this airframe's
 normal trim drift". The log-likelihood ratios (LLR, nats) of the registered analyzers'
 (:mod:`flightlog_fd.analyzers`) findings are summed per motor, each analyzer's total clipped to
-its ``llr_cap`` (``analyzers.base.SOURCE_LLR_CAP`` unless the analyzer says otherwise; the command
-shares are capped keeping their order, so a weak rotor stays apart from its coaxial partner).
+what its measured reliability on this kind of log allows (:func:`source_weight`: the trust level
+of its cell in :mod:`flightlog_fd.analyzers.reliability`'s table, ``TRUST_CAPS``; the analyzer's
+own ``llr_cap`` where the table has no cell; the command shares are capped keeping their order, so
+a weak rotor stays apart from its coaxial partner). A discounted source counts toward "uncertain"
+only.
 The sources: the model's window votes, the command shares (mixer-physics fit, which also gives
 each rotor's thrust eta-hat), the throttle against calibration, the effectiveness fit when it is
 informative, and ESC telemetry where the log has it. Their noise figures are measured and written
 beside their constants in their own modules.
 
-``damaged`` when the best motor's total LLR reaches ``DAMAGED_LLR``, beats the runner-up by
+``damaged`` when the best motor's total LLR (without the discounted sources) reaches ``DAMAGED_LLR``, beats the runner-up by
 ``SEPARATION_LLR`` and its command share rose against its baseline (a weak rotor must need more);
 ``uncertain`` from ``UNCERTAIN_LLR`` (the reason names the motor to inspect, or the two it cannot
 tell apart); ``healthy`` below. "Airframe changed" (re-calibrate) is said only when the shares
@@ -45,6 +48,14 @@ ESC rpm; a tie by commanded speed alone is named as a hint only in an uncertain 
 pipeline cannot judge (no motor outputs, no damage model for its frame) is judged from vibration
 alone when its result is given, the reason saying what the log lacks.
 
+The verdict names the propellers to inspect (``Verdict.inspect``); what would resolve it
+(``Verdict.advice``) is :mod:`flightlog_fd.advice`'s. A healthy verdict over a mostly uncertain
+timeline (``THIN_TIMELINE_SHARE``) says what it rests on.
+
+Cause (:mod:`flightlog_fd.cause`): a verdict naming one rotor (damaged, or uncertain naming it)
+carries its likely cause from ESC telemetry, the propeller or the motor / ESC, or says the log
+cannot tell; the advice follows it ("inspect motor k and ESC k before the propeller").
+
 Limits: one damaged rotor per flight; the sources are treated as independent (the model sees the
 same commands the command analyzer weighs, which is why each source is capped).
 """
@@ -56,9 +67,12 @@ from typing import Optional, Sequence
 import numpy as np
 
 from .analyzers import AnalyzerResult
+from .analyzers.base import SOURCE_LLR_CAP
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
+from .analyzers.reliability import LogKind, cell_of, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
+from .cause import Cause, judge_cause
 from .flight import Frame
 from .timeline import Timeline
 
@@ -123,6 +137,17 @@ MILD_DAMAGE_LLR_FLOOR = float(np.log(np.mean(ETA_GRID >= UNSEEN_ETA - 1e-9)))
 #: Measured: healthy re-flights 0.97-1.03 (rrc, SIH, CrazyPAD), damaged ones 1.00-1.18 (rrc cuts,
 #: SIH); Erle board A across sessions 0.62-1.61.
 THROTTLE_FELL_SIGMAS = 2.0
+#: The most nats a source may give at each trust level of the reliability table
+#: (:data:`~flightlog_fd.analyzers.reliability.RELIABILITY`, measured by
+#: benchmarks/bench_reliability.py): "trusted" up to its own cap (at least SOURCE_LLR_CAP, 8), so
+#: it may make a damaged verdict alone; "corroborating" one nat below DAMAGED_LLR, so another
+#: source must add at least a nat; "discounted" one nat below UNCERTAIN_LLR, so alone it cannot even
+#: make the flight uncertain.
+TRUST_CAPS = {"trusted": SOURCE_LLR_CAP, "corroborating": DAMAGED_LLR - 1.0, "discounted": UNCERTAIN_LLR - 1.0}
+#: A verdict over a timeline with at least this share of uncertain ('?') windows says what it rests
+#: on instead (the model could not tell the propellers apart: the shipped octo model on its own
+#: damaged sample, 92 %).
+THIN_TIMELINE_SHARE = 0.5
 #: When the trim sources are held, their joint part of the stated probabilities is at most this
 #: many nats for any motor: once a moved load explains the pattern as well as a weak rotor does,
 #: the commands add little to the prior odds (e ~ 2.7 to 1).
@@ -140,6 +165,14 @@ class Verdict:
     confidence: float = 0.0  # the probability of the verdict as stated (module docstring)
     first_seen: Optional[float] = None
     reason: str = ""
+    #: The propellers the verdict sends the pilot to first (() = all of them, or nothing to inspect).
+    inspect: tuple = ()
+    #: What would resolve it (:class:`flightlog_fd.advice.Advice`), set by the diagnose pipeline.
+    advice: list = field(default_factory=list)
+    #: The named rotor's likely cause: "propeller" | "motor_or_esc" | None (unknown, or no rotor named)
+    cause: Optional[str] = None
+    #: What the cause rests on (:meth:`flightlog_fd.cause.Cause.evidence`), None when no rotor is named
+    cause_evidence: Optional[dict] = None
 
     def as_dict(self) -> dict:
         """The verdict fields of the JSON report."""
@@ -150,6 +183,9 @@ class Verdict:
             "confidence": round(float(self.confidence), 4),
             "first_seen": None if self.first_seen is None else round(float(self.first_seen), 3),
             "reason": self.reason,
+            "advice": [a.as_dict() for a in self.advice],
+            "cause": self.cause,
+            "cause_evidence": self.cause_evidence,
         }
 
 
@@ -188,6 +224,20 @@ class Decision:
     share_sigma: Optional[float] = None
     sources: list[str] = field(default_factory=list)  # the analyzers that weighed in
     results: list[AnalyzerResult] = field(default_factory=list)
+    weights: dict = field(default_factory=dict)  # analyzer id -> SourceWeight (how much it could give)
+
+
+@dataclass(frozen=True)
+class SourceWeight:
+    """How much one source could give on this log: its reliability-table cell, the trust level
+    measured there (None: no cell, the analyzer's own cap) and the cap in nats."""
+
+    cell: str
+    trust: Optional[str]
+    cap: float
+
+    def as_dict(self) -> dict:
+        return {"cell": self.cell, "trust": self.trust, "cap": round(float(self.cap), 3)}
 
 
 def posterior(total_llr: np.ndarray) -> np.ndarray:
@@ -247,11 +297,15 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
 
 
 def _one_flight_note(cmd: Optional[CommandSharesResult]) -> Optional[str]:
-    """The note that a one-flight profile cannot show the trim's session-to-session move, or None."""
-    if cmd is None or cmd.abstained or cmd.baseline != "profile" or (cmd.n_flights or 1) > 1:
+    """The note that a one-session profile cannot show the trim's session-to-session move, or None."""
+    if cmd is None or cmd.abstained or cmd.baseline != "profile":
         return None
-    return ("the profile comes from one flight, which cannot show how this airframe's trim moves between "
-            "sessions: calibrating on two or more healthy flights makes it stronger")
+    sessions = cmd.n_sessions or 0  # 0: a profile older than schema 6, its flights pooled
+    if sessions >= 2 or (sessions == 0 and (cmd.n_flights or 1) > 1):
+        return None
+    return ("the profile holds one calibration session, which cannot show how this airframe's trim moves "
+            "between sessions: adding healthy flights of other days or batteries as sessions "
+            "(fdlog calibrate --add PROFILE LOG) makes it stronger")
 
 
 def _stopped(stops: Sequence, frame: Optional[Frame], underneath: Optional[Verdict]) -> Verdict:
@@ -272,7 +326,8 @@ def _stopped(stops: Sequence, frame: Optional[Frame], underneath: Optional[Verdi
 
 def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[Timeline] = None,
            results: Sequence[AnalyzerResult] = (), stopped: Sequence = (),
-           not_diagnosable_reason: Optional[str] = None) -> tuple[Verdict, Optional[Decision]]:
+           not_diagnosable_reason: Optional[str] = None, kind: Optional[LogKind] = None
+           ) -> tuple[Verdict, Optional[Decision]]:
     """The flight's verdict and, when the evidence was weighed, its :class:`Decision` (module
     docstring). ``timeline``: the model's windows (None when none were judged); ``results``: the
     analyzers'; ``stopped``: :class:`~flightlog_fd.stopped.StoppedMotor` s, earliest first;
@@ -286,18 +341,38 @@ def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[T
     elif reason is not None:
         verdict, decision = not_diagnosable(reason), None
     else:
-        verdict, decision = _weigh(results, n_motors, frame, timeline)
+        verdict, decision = _weigh(results, n_motors, frame, timeline, kind)
     if stopped:  # a motor that stopped in the air outranks any propeller verdict
         verdict = _stopped(stopped, frame, verdict if timeline is not None else None)
     return verdict, decision
 
 
+def source_weight(r: AnalyzerResult, kind: Optional[LogKind]) -> SourceWeight:
+    """How much source ``r`` may give on this kind of log: the trust level of its cell in the
+    measured reliability table (:func:`~flightlog_fd.analyzers.reliability.trust_of`) and the cap
+    that level sets (``TRUST_CAPS``); the analyzer's own ``llr_cap`` where the table has no cell
+    for it (or the kind of log is not known)."""
+    if kind is None or not r.reliability_keys:
+        return SourceWeight("", None, r.llr_cap)
+    cell = cell_of(r.reliability_keys, kind)
+    trust = trust_of(r.analyzer, cell)
+    if trust is None:
+        return SourceWeight(cell, None, r.llr_cap)
+    cap = TRUST_CAPS[trust]
+    return SourceWeight(cell, trust, max(cap, r.llr_cap) if trust == "trusted" else min(cap, r.llr_cap))
+
+
 def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
-           timeline: Timeline) -> tuple[Verdict, Decision]:
+           timeline: Timeline, kind: Optional[LogKind] = None) -> tuple[Verdict, Decision]:
     """The verdict from the analyzers' evidence (module docstring)."""
-    sources = {r.analyzer: r.llr(n) for r in results}
+    weights = {r.analyzer: source_weight(r, kind) for r in results}
+    sources = {r.analyzer: r.llr(n, weights[r.analyzer].cap) for r in results}
     sources = {k: v for k, v in sources.items() if v is not None}
+    weights = {k: w for k, w in weights.items() if k in sources}
     total = np.sum(list(sources.values()), axis=0) if sources else np.zeros(n)
+    # a discounted source (frequent false alarms on this kind of log) counts toward "uncertain" only
+    discounted = [v for s_, v in sources.items() if weights[s_].trust == "discounted"]
+    decisive = total - np.sum(discounted, axis=0) if discounted else total
     cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
     thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
     trim_held = _trim_held(cmd, sources, int(np.argmax(total)), n)
@@ -319,13 +394,15 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     best = int(order[0])
     second = int(order[1]) if n > 1 else None
     kb = best + 1
+    cause = judge_cause(results, kb)  # what to inspect first when the verdict names motor kb
+    inspect_kb = f"{cause.words}; {cause.advice}"
     lead = float(total[best] - (total[second] if second is not None else -np.inf))
     airframe_changed = _airframe_changed(cmd, thr, n, best)
     notes = [note for r in results for note in r.notes]
     decision = Decision(motors=motors, airframe_changed=airframe_changed,
                         healthy_chi2=None if cmd is None else cmd.healthy_chi2,
                         share_sigma=None if cmd is None else cmd.share_sigma,
-                        sources=list(sources), results=list(results))
+                        sources=list(sources), results=list(results), weights=weights)
     onset = timeline.onset
     first_seen = onset.first_seen if onset is not None else timeline.t_first
 
@@ -343,12 +420,21 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         cite = f"it {cmd.words[k - 1]}; " if cmd is not None and cmd.analyzer in sources and cmd.words else ""
         return cite + "evidence for it (log-likelihood ratio, nats): " + ", ".join(parts)
 
+    def discounted_words(k: int) -> str:
+        """", +2.4 of them from commands, discounted on this kind of log" ("" when none gave any)."""
+        low = [s_ for s_, wt in weights.items() if wt.trust == "discounted" and sources[s_][k - 1] > 0]
+        part = float(sum(sources[s_][k - 1] for s_ in low))
+        return f", {part:+.1f} of them from {', '.join(low)}, discounted on this kind of log" if low else ""
+
     vib = _vibration(results)
 
-    def done(status: str, motor: Optional[int], confidence: float, reason: str) -> tuple[Verdict, Decision]:
+    def done(status: str, motor: Optional[int], confidence: float, reason: str,
+             inspect: Sequence[int] = (), named: Optional[Cause] = None) -> tuple[Verdict, Decision]:
         raised = _raised_by_vibration(vib, status)
         if raised is not None:
+            named = None  # the vibration's verdict names no rotor
             status, motor = raised, None
+            inspect = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted else ()
             confidence = _p_imbalance(vib)
             reason = (f"a propeller is {'likely damaged' if status == 'damaged' else 'possibly out of balance'}: "
                       f"{vib.level_words}; {_vibration_advice(vib, status, frame)}; "
@@ -360,19 +446,22 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             reason += f"; {one}"
         return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
                        else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
-                       first_seen=first_seen if status == "damaged" else None, reason=reason), decision
+                       first_seen=first_seen if status == "damaged" else None, reason=reason,
+                       inspect=tuple(inspect) if status != "healthy" else (),
+                       cause=named.cause if named else None,
+                       cause_evidence=named.evidence() if named else None), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
     thr_sigma = (cmd.throttle_sigma if cmd is not None else None) or THROTTLE_DRIFT_SIGMA
     if (thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma
-            and total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported):
+            and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported):
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but the throttle is "
                     f"{100 * (1 - thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot do "
-                    f"with the same load: the load or the set-up changed since calibration; inspect propeller {kb}, "
-                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}")
-    if trim_held is not None and total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
+                    f"with the same load: the load or the set-up changed since calibration; {inspect_kb}, "
+                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}", (kb,), cause)
+    if trim_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
         # commands against another session's calibration alone: at most uncertain
         sev = severity_words(kb)
         rise = 100 * (share.value / share.baseline - 1) if share is not None and share.baseline else float("nan")
@@ -380,22 +469,25 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         return done("uncertain", None, w[kb],
                     f"{_words(frame, kb)} needs {rise:.0f} % more command than at calibration"
                     + (f" (if its propeller were the cause, it {sev})" if sev else "")
-                    + f": inspect propeller {kb}; if it is sound, the load moved (battery, payload, centre of mass): "
+                    + f": {inspect_kb}; if nothing is found, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
-                      f"(log-likelihood ratio, nats): {parts}")
-    if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
+                      f"(log-likelihood ratio, nats): {parts}", (kb,), cause)
+    if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
                     f"did not rise as a rotor that lost thrust must ({share.value:.3f} against {share.baseline:.3f}); "
-                    f"{evidence_words(kb)}; inspect propeller {kb} and the others")
-    if total[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
+                    f"{evidence_words(kb)}; {inspect_kb}, and the others", (kb,), cause)
+    if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
         since = f" from t={onset.first_seen:.1f} s" if onset is not None else ""
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
-                    + f"; {evidence_words(kb)}; inspect propeller {kb}")
+                    + f"; {evidence_words(kb)}; {inspect_kb}", (kb,), cause)
     if total[best] >= UNCERTAIN_LLR:
+        named: tuple[int, ...] = (kb,)
+        named_cause: Optional[Cause] = None
         if lead < SEPARATION_LLR and second is not None and total[second] >= UNCERTAIN_LLR:
             k2 = second + 1
+            named = (kb, k2)
             confidence = w[kb] + w[k2]
             reason = (f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats) or "
                       f"{_words(frame, k2)} ({total[second]:+.1f}) and cannot tell them apart; "
@@ -404,20 +496,39 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             sev = severity_words(kb)
             confidence = w[kb]
             reason = (f"{_words(frame, kb)} may have lost thrust" + (f" (it {sev})" if sev else "")
-                      + f", but the evidence is too weak to call ({total[best]:+.1f} nats, damage needs "
-                      f"{DAMAGED_LLR:.0f}); {evidence_words(kb)}; inspect propeller {kb}")
+                      + f", but the evidence is too weak to call ({total[best]:+.1f} nats{discounted_words(kb)}; "
+                        f"damage needs {DAMAGED_LLR:.0f}); {evidence_words(kb)}; {inspect_kb}")
+            named_cause = cause
             if cmd is not None and cmd.baseline == "profile":
-                reason += "; if it is sound, the load moved since calibration (battery, payload): re-calibrate"
+                reason += "; if nothing is found, the load moved since calibration (battery, payload): re-calibrate"
         if airframe_changed:
             reason += f"; also {airframe_changed}: after the inspection, re-calibrate"
-        return done("uncertain", None, confidence, reason)
+        return done("uncertain", None, confidence, reason, named, named_cause)
     if airframe_changed:
         return done("uncertain", None, w[0],
                     f"no rotor explains the change since calibration ({airframe_changed}): the airframe itself "
                     f"changed (payload, battery, a re-trim); check the propellers, then re-calibrate on a "
                     f"healthy flight")
     return done("healthy", None, w[0], f"no rotor lost thrust: the strongest case is {_words(frame, kb)} at "
-                                       f"{total[best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})")
+                                       f"{total[best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})"
+                + _thin_timeline_words(timeline, weights, cmd))
+
+
+def _thin_timeline_words(timeline: Timeline, weights: dict, cmd: Optional[CommandSharesResult]) -> str:
+    """Why a healthy verdict stands over a mostly uncertain timeline ("" when the timeline is not):
+    what it rests on instead (and how far those sources are trusted on this kind of log), and what
+    would let more of them weigh in."""
+    share = timeline.abstained_share if timeline.n_windows else 0.0
+    if share < THIN_TIMELINE_SHARE:
+        return ""
+    others = [f"{s} ({w.trust})" if w.trust and w.trust != "trusted" else s
+              for s, w in weights.items() if s != "model"]
+    text = (f"; {100 * share:.0f} % of the model's windows are uncertain ('?'): it could not tell this flight's "
+            f"propellers apart, so the verdict rests on " + (", ".join(others) if others else "the model's weak "
+                                                               "leaning alone"))
+    if cmd is not None and cmd.baseline != "profile":
+        text += "; calibrating on a healthy flight of this airframe lets its command pattern weigh in fully"
+    return text
 
 
 #: Severity order of verdicts when one log holds several flights (the log's verdict is its worst).
@@ -483,7 +594,8 @@ def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason
     p = _p_imbalance(vib)
     sources = [vib.analyzer] if vib.llr(n) is not None else []
     decision = Decision(sources=sources, results=[vib])
-    return Verdict(status=status, confidence=p if status != "healthy" else 1.0 - p, reason=text), decision
+    tied = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted and status != "healthy" else ()
+    return Verdict(status=status, confidence=p if status != "healthy" else 1.0 - p, reason=text, inspect=tied), decision
 
 
 def worst_flight(verdicts: Sequence[Verdict]) -> int:
@@ -498,4 +610,5 @@ def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     others = "".join(f"; {lab}: {v.status}" + (f" (motor {v.motor})" if v.motor else "")
                      for lab, v in parts if v is not worst)
     return Verdict(status=worst.status, motor=worst.motor, position=worst.position, confidence=worst.confidence,
-                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}")
+                   first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}", inspect=worst.inspect,
+                   cause=worst.cause, cause_evidence=worst.cause_evidence)

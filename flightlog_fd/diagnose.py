@@ -37,8 +37,10 @@ from typing import Any, Optional
 
 import numpy as np
 
+from .advice import advise, situation
 from .analyzers import REGISTRY, Context, run_analyzers
 from .analyzers.effectiveness_fit import estimate_effectiveness
+from .analyzers.reliability import log_kind
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
@@ -119,6 +121,7 @@ class ProfileInfo:
     path: Optional[str]
     model_path: Optional[str]
     model_sha256: Optional[str]
+    sessions: int = 1  # calibration sessions the profile holds
 
 
 @dataclass
@@ -161,6 +164,9 @@ class Diagnosis:
     #: Each take-off to landing of a log holding several, diagnosed on its own (the log's verdict
     #: is the worst of theirs); [] for a log with one flight.
     flights: list = field(default_factory=list)
+    #: What kind of log the sources were weighed for (:class:`flightlog_fd.analyzers.reliability.LogKind`);
+    #: None when the analyzers did not run.
+    log_kind: Any = None
 
     @property
     def motors(self) -> list:
@@ -192,7 +198,7 @@ def profile_info(profile: Any) -> Optional[ProfileInfo]:
     if model_path and pfile is not None and not Path(model_path).is_absolute():
         model_path = str(pfile.parent / model_path)
     return ProfileInfo(path=str(pfile) if pfile else None, model_path=model_path,
-                       model_sha256=ref.get("sha256"))
+                       model_sha256=ref.get("sha256"), sessions=int(getattr(profile, "n_sessions", 1) or 1))
 
 
 def model_info(model: Any, profile: Any = None) -> ModelInfo:
@@ -251,7 +257,10 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
     send back from a worker process when many logs are diagnosed in parallel).
     Runs with at most ``DIAGNOSE_BLAS_THREADS`` BLAS threads."""
     with blas_threads(DIAGNOSE_BLAS_THREADS):
-        return _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
+        d = _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
+    for x in [d, *d.flights]:  # what would resolve each verdict (the flight's streams decide the settings)
+        x.verdict.advice = advise(situation(x, flight))
+    return d
 
 
 #: A log with motor outputs holding several flights is judged once as a whole (its verdict is the
@@ -280,8 +289,9 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     if len(parts) == 1:
         return _diagnose_one(flight, model, profile, keep_flight=keep_flight)
     spec = model_for_flight(model, flight).feature_spec
-    if diagnosability(flight, spec).ok:
-        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts)
+    prepared = PreparedFlight(flight)  # the check's segments are the diagnosis's
+    if diagnosability(prepared, spec).ok:
+        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts, prepared=prepared)
     subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight) for p in parts]
     for p, d in zip(parts, subs):
         d.part = p.part
@@ -293,7 +303,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
 
 
 def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool,
-                  parts: Optional[list] = None) -> Diagnosis:
+                  parts: Optional[list] = None, prepared: Optional[PreparedFlight] = None) -> Diagnosis:
     from .model import model_for_flight
 
     model = model_for_flight(model, flight)  # the shipped quad model -> the one for the flight's rotor count
@@ -305,7 +315,9 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
 
     stops = diagnose_stopped(flight)
     n_motors = flight.frame.rotor_count if flight.frame is not None else 4
-    check = diagnosability(flight, model.feature_spec)
+    # built once: the check, the windows, phases and share fit use it
+    prepared = prepared if prepared is not None else PreparedFlight(flight)
+    check = diagnosability(prepared, model.feature_spec)
     facts_kw = dict(stopped=stops, diagnosability_facts=dict(check.facts), **common)
 
     def cannot_judge(reason: str) -> Diagnosis:
@@ -330,7 +342,6 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
             spec = FeatureSpec.from_dict(model.feature_spec)
         except ValueError as e:
             raise ModelError(getattr(model, "path", None), f"bad feature spec in the model: {e}") from None
-        prepared = PreparedFlight(flight)  # built once: the windows, phases and share fit use it
         win = make_windows(prepared, spec)
         if len(win.t_start) == 0:
             return cannot_judge(win.reason or "no complete window of airborne data")
@@ -354,11 +365,14 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     baseline = profile.baseline() if profile is not None else None
     share_fit = fit_shares(win.segments, probs, flight.frame, eff, baseline, since=onset.t_start if onset else None)
     results = []
+    kind = None
     if timeline.shortfall is None:
         ctx = _analyzer_context(flight, t_start, t_end, probs, onset, share_fit, profile, win.segments,
                                 str(getattr(model, "sha256", "") or ""))
         results = run_analyzers(ctx)
-    verdict, decision = decide(probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops)
+        kind = log_kind(flight, phases, ctx.covered_s, profile, common["model"].calibrated, probs.shape[1] - 1)
+    verdict, decision = decide(probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops,
+                               kind=kind)
     order = np.argsort(t_start, kind="stable")
     # one conversion to Python numbers per array (not per window: 740 windows of a 600 s flight)
     starts, ends, probs_l = t_start[order].tolist(), t_end[order].tolist(), probs[order].tolist()
@@ -370,7 +384,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
         warnings.append(f"{100 * manoeuvre_share:.0f} % of windows are manoeuvres: the model is most "
                         f"reliable in steady flight, so treat this verdict with care")
     whole = Diagnosis(log=log, verdict=verdict, windows=windows, share_fit=share_fit, decision=decision,
-                      timeline=timeline, **facts_kw)
+                      timeline=timeline, log_kind=kind, **facts_kw)
     if parts:
         whole = _per_flight(whole, parts, prepared, win, probs, timeline, profile, model, keep_flight)
     return whole
@@ -412,10 +426,12 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
                         since=here.t_start if here else None)
         pm = probs[m]
         ctx = _analyzer_context(part, t_start[m], t_end[m], pm, here, ev, profile, segs, sha)
-        v, dec = decide(pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops)
+        kind = replace(whole.log_kind, covered_s=ctx.covered_s) if whole.log_kind is not None else None
+        v, dec = decide(pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops,
+                        kind=kind)
         sub_windows = [w for w in whole.windows if a - 1e-6 <= w.t_start and w.t_end <= b + 1e-6]
         subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, share_fit=ev, decision=dec,
-                              timeline=tl, part=part.part, **facts_kw))
+                              timeline=tl, part=part.part, log_kind=kind, **facts_kw))
     for d in subs:
         d.verdict = capped_by_log(d.verdict, whole.verdict, whole.decision)
     listing = ", ".join(p.part.split(", ", 1)[1] for p in parts)
@@ -448,7 +464,8 @@ def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> V
     if own.motor and decision is not None and len(decision.motors) >= own.motor:
         whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"
     return Verdict(status=status, motor=None, position=None, confidence=log.confidence if status == log.status
-                   else own.confidence, first_seen=None,
+                   else own.confidence, first_seen=None, inspect=(own.inspect or ((own.motor,) if own.motor else ()))
+                   if status != "healthy" else (),
                    reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
                           f"confirm it ({log.status}{whole}), so this flight is {status}")
 

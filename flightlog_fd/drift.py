@@ -46,6 +46,8 @@ class FlightRecord:
     diagnosed_at: str
     vehicle_source: str
     motors: dict[int, dict] = field(default_factory=dict)
+    #: The named rotor's likely cause (propeller | motor_or_esc), None when unknown or none named.
+    cause: Optional[str] = None
     #: Each take-off to landing of a log holding several (``store.PART_COLUMNS`` and ``part``).
     parts: list[dict] = field(default_factory=list)
 

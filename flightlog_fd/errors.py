@@ -16,6 +16,9 @@ class FlightLogError(Exception):
         self.message = message
         super().__init__(f"{self.path}: {message}" if self.path else message)
 
+    def __reduce__(self):  # picklable as raised (a worker process hands it back to the server)
+        return (self.__class__, (self.path, self.message))
+
 
 class NotALogError(FlightLogError):
     """The file is neither a ULog nor a DataFlash log (or it is empty)."""
@@ -44,3 +47,8 @@ class ProfileError(FlightLogError):
 
 class ModelError(FlightLogError):
     """A model file is missing, unreadable, or lacks the metadata needed to build its input."""
+
+
+class VehicleLinkError(FlightLogError):
+    """The link to a vehicle (`fdlog pull`) failed: no autopilot found or answering, a stalled
+    transfer, a log that does not match its listing. Named by the connection, not a file."""

@@ -33,14 +33,15 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
             "vehicle": vehicle,
             "vehicle_source": latest.vehicle_source if latest else None,
             "flights": [{"log": f.log_path, "log_sha256": f.log_sha256, "flight_start_utc": f.flight_start_utc,
-                         "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor,
+                         "airborne_s": f.airborne_s, "status": f.status, "motor": f.motor, "cause": f.cause,
                          "confidence": f.confidence, "reason": f.reason, "diagnosed_at": f.diagnosed_at,
                          "motors": [{"motor": k, **f.motors[k]} for k in sorted(f.motors)],
                          "parts": [dict(p) for p in f.parts]} for f in flights],
             "drift": [{"motor": d.motor, "figure": d.figure, "slope_z_per_flight": d.slope,
                        "latest_z": d.latest_z, "n_flights": d.n_flights, "text": d.describe()} for d in drifts],
             "latest_damaged": bool(latest and latest.status == "damaged"),
-            "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor},
+            "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor,
+                                                   "cause": latest.cause},
         })
     flagged = any(v["drift"] or v["latest_damaged"] for v in vehicles)
     return {"schema": 1, "rule": {"min_flights": MIN_FLIGHTS, "drift_slope_min": DRIFT_SLOPE_MIN,
@@ -51,6 +52,18 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
 # ----------------------------------------------------------------------------- html
 
 MOTOR_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf")
+
+
+def _cause_words(f: dict) -> str:
+    """", motor or ESC" after a motor number whose verdict blames its motor / ESC, else ""."""
+    return ", motor or ESC" if f.get("cause") == "motor_or_esc" else ""
+
+
+def _damaged_words(f: dict) -> str:
+    """What the latest damaged flight says: "propeller 2 damaged" or "motor 2 or its ESC weak"."""
+    if f.get("cause") == "motor_or_esc":
+        return f"motor {f['motor']} or its ESC weak"
+    return f"propeller {f['motor']} damaged"
 
 
 def _motor_numbers(flights: list[dict]) -> list[int]:
@@ -119,11 +132,11 @@ def render_html(summary: dict) -> str:
             out.append(f"<p class='flag'>{e(d['text'])}</p>")
         if v["latest_damaged"]:
             f = v["latest"]
-            out.append(f"<p class='flag'>latest flight: propeller {f['motor']} damaged ({e(f['log'])})</p>")
+            out.append(f"<p class='flag'>latest flight: {e(_damaged_words(f))} ({e(f['log'])})</p>")
         out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
                    + "".join(f"<th>{html.escape(summary_header(k))}</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
         for i, f in enumerate(v["flights"], 1):
-            verdict = f["status"] + (f" (motor {f['motor']})" if f["motor"] else "")
+            verdict = f["status"] + (f" (motor {f['motor']}{_cause_words(f)})" if f["motor"] else "")
             cells = []
             by_motor = {m["motor"]: m for m in f["motors"]}
             for k in _motor_numbers(v["flights"]):
@@ -166,7 +179,7 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
         yield f"  {'#':>3} {'start (UTC)':<24} {'verdict':<18} {'conf':>5}  " + "  ".join(
             summary_header(k).replace(" / ", "/") for k in _motor_numbers(v["flights"])) + "  log"
         for i, f in enumerate(v["flights"], 1):
-            verdict = f["status"] + (f" m{f['motor']}" if f["motor"] else "")
+            verdict = f["status"] + (f" m{f['motor']}{_cause_words(f)}" if f["motor"] else "")
             by_motor = {m["motor"]: m for m in f["motors"]}
             figs = "  ".join(_cell(by_motor.get(k, {}), "/") for k in _motor_numbers(v["flights"]))
             yield (f"  {i:>3} {(f['flight_start_utc'] or '-'):<24} {verdict:<18} {_fmt(f['confidence']):>5}  "
@@ -177,7 +190,7 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
             yield f"  FLAG: {d['text']}"
         if v["latest_damaged"]:
             f = v["latest"]
-            yield f"  FLAG: latest flight has propeller {f['motor']} damaged ({Path(f['log']).name})"
+            yield f"  FLAG: latest flight has {_damaged_words(f)} ({Path(f['log']).name})"
         yield ""
 
 

@@ -40,8 +40,8 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
+from .filters import moving_mean_nearest
 from .prepared import resample
 
 from .streams import DEFAULT_MAX_GAP_S, DEFAULT_SAVGOL_WINDOW_S, DEFAULT_TRIM_S, flight_thrust_proxy
@@ -83,7 +83,7 @@ class HoverSegment:
 
 
 def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
-    return uniform_filter1d(x, size=n, axis=0, mode="nearest")
+    return moving_mean_nearest(x, n)
 
 
 def _steady_mask(flight, t: np.ndarray, rates: np.ndarray, ang_acc: np.ndarray, w_sq: np.ndarray,

@@ -31,8 +31,8 @@ from typing import Any, Callable, Hashable, Optional, Union
 import numpy as np
 
 from .flight import Flight
-from .streams import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, DEFAULT_TRIM_S, Segment, Stream,
-                      clean_stream, gyro_cutoff_hz, resample_streams, speed_stream)
+from .streams import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, DEFAULT_TRIM_S, GridRuns, Segment,
+                      Stream, clean_stream, grid_runs, gyro_cutoff_hz, resample_streams, speed_stream)
 
 
 class PreparedFlight:
@@ -82,6 +82,14 @@ class PreparedFlight:
                          lambda: speed_stream(self.flight, speed_source, rate_hz, max_gap_s, n_motors))
 
     # ------------------------------------------------------------------ grids
+    def grid_runs(self, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
+                  need_attitude: bool = False, speed_source: str = "command", n_motors: int = 4) -> GridRuns:
+        """:func:`streams.grid_runs` with these settings (where the segments lie), computed once."""
+        key = ("grid_runs", float(rate_hz), float(max_gap_s), float(trim_s), float(savgol_window_s),
+               bool(need_attitude), speed_source, int(n_motors))
+        return self.memo(key, lambda: grid_runs(self, float(rate_hz), max_gap_s, trim_s, savgol_window_s,
+                                                need_attitude, speed_source, n_motors))
+
     def segments(self, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
                  need_attitude: bool = False, speed_source: str = "command", n_motors: int = 4) -> list:
         """:func:`resample` with these settings, computed once (shared list: do not modify)."""
@@ -95,6 +103,16 @@ class PreparedFlight:
         """The autopilot's gyro low-pass cutoff (Hz) from the log's parameters, or None."""
         return self.memo("gyro_cutoff_hz", lambda: gyro_cutoff_hz(self.flight))
 
+
+
+def segment_times(flight: Union[Flight, PreparedFlight], rate_hz: float = DEFAULT_RATE_HZ,
+                  max_gap_s: float = DEFAULT_MAX_GAP_S, trim_s: float = DEFAULT_TRIM_S,
+                  savgol_window_s: float = DEFAULT_SAVGOL_WINDOW_S, need_attitude: bool = False,
+                  speed_source: str = "command", n_motors: int = 4) -> list[np.ndarray]:
+    """The times of the segments :func:`resample` makes with these settings, without resampling
+    or filtering anything (the same runs, shared through a PreparedFlight); raises as it does."""
+    return PreparedFlight.of(flight).grid_runs(rate_hz, max_gap_s, trim_s, savgol_window_s, need_attitude,
+                                               speed_source, n_motors).times()
 
 
 def resample(flight: Union[Flight, PreparedFlight], rate_hz: float = DEFAULT_RATE_HZ,

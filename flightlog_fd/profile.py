@@ -3,7 +3,8 @@
 :class:`Profile` is a versioned JSON file (``"schema"``: ``PROFILE_SCHEMA``): airframe identity
 (autopilot, frame name, firmware, vehicle_id, rotor count), the learned values (trailing
 underscore: ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
-``n_windows_``, ``rho_source_``, the command-share baseline ``baseline_``), each analyzer's
+``n_windows_``, ``rho_source_``, the command-share baseline ``baseline_``, the calibration
+sessions ``sessions_``), each analyzer's
 healthy baseline (``analyzers``), the streams' rates, the
 :class:`~flightlog_fd.windows.FeatureSpec` with the per-channel statistics of the healthy
 windows, the source logs (file name + sha256), creation time (UTC), tool version and an optional
@@ -42,9 +43,10 @@ from .windows import FeatureSpec
 #: ``lacks_`` and lets a profile from logs without motor outputs leave ``rho_``, ``rho_spread_``,
 #: ``hover_throttle_`` and ``feature_spec`` null: it holds only the analyzers' baselines the logs
 #: support, e.g. vibration; schema 5 adds ``baseline_.pin``: how well the calibration flights pin
-#: each share, without it the diagnosed flight's own figure stands in).
-PROFILE_SCHEMA = 5
-READABLE_SCHEMAS = (1, 2, 3, 4, 5)
+#: each share, without it the diagnosed flight's own figure stands in; schema 6 adds ``sessions_``:
+#: one entry per calibration session, without it the profile's flights are one session).
+PROFILE_SCHEMA = 6
+READABLE_SCHEMAS = (1, 2, 3, 4, 5, 6)
 AUTOPILOTS = ("px4", "ardupilot", "sim")
 #: Rotor counts a profile may describe: the quad and the frames with a shipped n-rotor model
 #: (flightlog_fd.models.MODEL_FILES); an n-rotor frame must be laid out like a trained table
@@ -57,7 +59,7 @@ _REQUIRED_KEYS = ("schema", "autopilot", "frame", "rotor_count", "rho_", "rho_sp
                   "feature_spec")
 _OPTIONAL_KEYS = ("firmware", "vehicle_id", "hover_s_", "n_hover_segments_", "n_windows_", "stream_rates",
                   "source_logs", "created", "tool_version", "model", "extra", "rho_source_", "baseline_",
-                  "analyzers", "lacks_")
+                  "analyzers", "lacks_", "sessions_")
 
 PathLike = Union[str, os.PathLike]
 
@@ -90,6 +92,10 @@ class Profile:
     analyzers: dict = field(default_factory=dict)
     #: What the calibration logs could not give, in plain words ([] for a full profile).
     lacks_: list = field(default_factory=list)
+    #: One entry per calibration session (one flight, or flights the user grouped): its logs, its
+    #: airborne-mean command shares, throttle, pinning and seconds (:func:`session_entry` in
+    #: calibration). [] in a profile older than schema 6: its flights are one session.
+    sessions_: list = field(default_factory=list)
     schema: int = PROFILE_SCHEMA
     path: Optional[str] = field(default=None, repr=False, compare=False)  # where it was loaded/saved
 
@@ -135,14 +141,42 @@ class Profile:
             "baseline_": self.baseline_,
             "analyzers": self.analyzers,
             "lacks_": list(self.lacks_),
+            "sessions_": list(self.sessions_),
         }
 
-    def fit_analyzers(self, flights, model) -> None:
+    def fit_analyzers(self, flights, model, sessions=None, adapted_on: bool = False) -> None:
         """Fit every registered analyzer's healthy baseline on the calibration ``flights`` with
-        the profile's ``model`` (the adapted one, or the shipped one with --no-adapt)."""
-        from .analyzers import fit_baselines
+        the profile's ``model`` (the adapted one, or the shipped one with --no-adapt); the model
+        votes' per session (``sessions``: the flights' indices grouped as ``sessions_``; default
+        one per flight; ``adapted_on``: the model was adapted on these flights)."""
+        from .analyzers import REGISTRY, fit_baselines
+        from .analyzers.model_votes import ModelVotes, combine_sessions
 
-        self.analyzers = fit_baselines(flights, model)
+        votes = [a for a in REGISTRY if isinstance(a, ModelVotes)]
+        self.analyzers = fit_baselines(flights, model, [a for a in REGISTRY if not isinstance(a, ModelVotes)])
+        groups = sessions if sessions is not None else [[i] for i in range(len(flights))]
+        for a in votes:
+            each = [a.fit_baseline([flights[i] for i in g], model) for g in groups]
+            combined = combine_sessions(each, [adapted_on] * len(each))
+            if combined is not None:
+                self.analyzers = {a.id: combined, **self.analyzers}
+
+    @property
+    def n_sessions(self) -> int:
+        """Calibration sessions the profile holds (a profile older than schema 6 is one)."""
+        return max(len(self.sessions_), 1)
+
+    def session_figures(self):
+        """The sessions' figures (:class:`~flightlog_fd.analyzers.session_drift.SessionFigures`) the
+        airframe's own drift is learned from, or None with fewer than two sessions."""
+        from .analyzers.session_drift import SessionFigures
+
+        if len(self.sessions_) < 2:
+            return None
+        n = self.rotor_count
+        pins = [s.get("pin") if s.get("pin") is not None else [float("nan")] * n for s in self.sessions_]
+        return SessionFigures(shares=[s["share"] for s in self.sessions_],
+                              throttles=[s["throttle"] for s in self.sessions_], pins=pins)
 
     def baseline(self):
         """The healthy command-share baseline (:class:`~flightlog_fd.analyzers.share_fit.Baseline`); a
@@ -160,7 +194,8 @@ class Profile:
                             spread=None if spread is None else np.asarray(spread, float),
                             throttle_spread=b.get("throttle_spread"), n_flights=int(b.get("n_flights", 1)),
                             pin=None if b.get("pin") is None else np.asarray(b["pin"], float),
-                            throttle_range=_range(b.get("throttle_range")))
+                            throttle_range=_range(b.get("throttle_range")),
+                            sessions=self.session_figures(), n_sessions=len(self.sessions_))
         share = self.rho_ ** 2
         return Baseline(share=share / share.mean(), slope=np.zeros(len(share)), throttle_ref=float(self.hover_throttle_),
                         source="from rho_ (schema 1 profile)")
@@ -255,11 +290,14 @@ class Profile:
             ts = base.get("throttle_spread")
             if ts is not None and (not _is_number(ts) or ts < 0):
                 raise bad("baseline_.throttle_spread must be null or a number >= 0")
+        _check_sessions(d.get("sessions_"), n, bad)
         if "rho_source_" in d and d["rho_source_"] not in ("hover", "steady flight", "airborne mean"):
             raise bad(f"rho_source_ must be hover, steady flight or airborne mean, not {d['rho_source_']!r}")
         kw = {k: d[k] for k in _REQUIRED_KEYS + _OPTIONAL_KEYS if k in d}
         kw["schema"] = PROFILE_SCHEMA
         kw["hover_throttle_"] = float(thr)
+        if kw.get("sessions_") is None:
+            kw["sessions_"] = []
         for k in ("hover_s_",):
             if k in kw and not _is_number(kw[k]):
                 raise bad(f"{k} must be a number")
@@ -282,7 +320,9 @@ class Profile:
             raise bad("a profile without motor figures needs at least one analyzer baseline")
         kw = {k: d[k] for k in _REQUIRED_KEYS + _OPTIONAL_KEYS if k in d}
         kw["schema"] = PROFILE_SCHEMA
-        for k, empty in (("extra", {}), ("stream_rates", {}), ("source_logs", [])):
+        if d.get("sessions_"):
+            raise bad("a profile without motor figures has no command-share sessions (sessions_ must be [] or null)")
+        for k, empty in (("extra", {}), ("stream_rates", {}), ("source_logs", []), ("sessions_", [])):
             if kw.get(k) is None:
                 kw[k] = empty
         return cls(**kw, path=str(path) if path is not None else None)
@@ -378,3 +418,28 @@ def _number_list(v, n: int, name: str, bad) -> list[float]:
     if not isinstance(v, list) or len(v) != n or not all(_is_number(x) for x in v):
         raise bad(f"{name} must be a list of {n} finite numbers")
     return [float(x) for x in v]
+
+
+def _check_sessions(v, n: int, bad) -> None:
+    """Validate ``sessions_`` (null, or a list of session objects for an n-rotor profile)."""
+    if v is None:
+        return
+    if not isinstance(v, list):
+        raise bad("sessions_ must be a list of session objects")
+    for i, sess in enumerate(v, 1):
+        where = f"sessions_[{i}]"
+        if not isinstance(sess, dict):
+            raise bad(f"{where} must be an object")
+        share = _number_list(sess.get("share"), n, f"{where}.share", bad)
+        if not all(0.0 < x < 4.0 for x in share):
+            raise bad(f"{where}.share values must be within 0..4, got {share}")
+        thr = sess.get("throttle")
+        if not _is_number(thr) or not 0.0 < thr <= 1.5:
+            raise bad(f"{where}.throttle must be a number in (0, 1.5]")
+        if sess.get("pin") is not None and any(x < 0 for x in _number_list(sess["pin"], n, f"{where}.pin", bad)):
+            raise bad(f"{where}.pin values must be >= 0")
+        if not _is_number(sess.get("seconds", 0.0)) or sess.get("seconds", 0.0) < 0:
+            raise bad(f"{where}.seconds must be a number >= 0")
+        logs = sess.get("logs", [])
+        if not isinstance(logs, list) or not all(isinstance(x, dict) and isinstance(x.get("name"), str) for x in logs):
+            raise bad(f'{where}.logs must be a list of {{"name": ..., "sha256": ...}}')

@@ -18,7 +18,13 @@ Tables (migrations 3 and 4 give them their present columns):
 - ``flight_part`` (flight, part): each take-off to landing of a log holding several, with its own
   verdict (:data:`PART_COLUMNS`, :func:`part_rows`: the JSON report's ``flights``); none for a log
   with one flight. Migration 4 fills it from the stored diagnoses, so an older store upgrades in place.
-- ``job``: the server's diagnose / calibrate queue.
+- ``job``: the server's diagnose / calibrate queue, and the ``watch`` jobs of `fdlog watch` (a log
+  found in a watched folder, diagnosed by the watcher that found it; ``args`` holds its path).
+- ``watched_file`` (host, path): the size, modification time and sha256 of each file a watcher has
+  taken, so a restarted watcher does not read every file again to hash it.
+- ``calibration_session`` (airframe, flight): which flights the airframe's profile holds, as which
+  calibration session (one flight, one session; a later calibration job adds sessions, a new one
+  from scratch replaces them).
 
 Airframe of a log without an id: ``fdlog diagnose --db`` files it under the profile's name
 (``profile:NAME``) or ``unknown`` (:func:`vehicle_identity`; history does not treat ``unknown`` as
@@ -45,13 +51,14 @@ import json
 import math
 import os
 import re
+import socket
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from .database import Database, DatabaseError, is_postgres_url, open_database, utc_now
+from .database import Database, DatabaseError, StoreUnavailable, is_postgres_url, open_database, utc_now
 from .drift import FlightRecord, find_drift
 
 #: Seconds a claimed job's lease lasts; the server renews it every LEASE_S / 3 while it runs.
@@ -128,6 +135,16 @@ def _v4(db: Database) -> None:
 )""")
     for flight_id, doc in _stored_diagnoses(db):
         _write_parts(db, flight_id, doc)
+
+
+def _v7(db: Database) -> None:
+    """Migration 7: ``flight.cause``, the named rotor's likely cause (propeller | motor_or_esc |
+    NULL), filled from each stored diagnosis's verdict (reports before schema 6 have none)."""
+    db.run("ALTER TABLE flight ADD COLUMN cause TEXT")
+    for flight_id, doc in _stored_diagnoses(db):
+        cause = (doc.get("verdict") or {}).get("cause")
+        if cause:
+            db.run("UPDATE flight SET cause = ? WHERE id = ?", (cause, flight_id))
 
 
 MIGRATIONS: list[tuple[int, str, Any]] = [
@@ -220,6 +237,30 @@ CREATE INDEX finding_flight ON finding (flight_id)
     # down | ''); flight: model_sha256, model_version, profile_path, tool_version, exit_code.
     (3, "one store: the JSON report's per-motor names, the model and profile of each diagnosis", _v3),
     (4, "each flight of a log holding several, with its verdict", _v4),
+    (5, "files seen by fdlog watch", """
+CREATE TABLE watched_file (
+    host        TEXT NOT NULL,     -- the machine whose folder it is (paths differ between machines)
+    path        TEXT NOT NULL,     -- absolute path as the watcher saw it
+    size_bytes  BIGINT NOT NULL,
+    mtime_ns    BIGINT NOT NULL,   -- with the size: the file is unchanged since it was hashed
+    sha256      TEXT NOT NULL,     -- flight.sha256 of its content
+    seen_at     TEXT NOT NULL,
+    PRIMARY KEY (host, path)
+)
+"""),
+    (6, "each airframe's calibration sessions", """
+CREATE TABLE calibration_session (
+    airframe     TEXT NOT NULL,         -- airframe.key (the resolved one when it was calibrated)
+    session      INTEGER NOT NULL,      -- 1..n in the order they were added (the profile's sessions_)
+    flight_id    BIGINT NOT NULL REFERENCES flight(id) ON DELETE CASCADE,
+    job_id       BIGINT,                -- the calibration job that added it
+    profile_path TEXT NOT NULL,         -- the profile file it was first part of
+    created_at   TEXT NOT NULL,
+    PRIMARY KEY (airframe, flight_id)
+);
+CREATE INDEX calibration_session_airframe ON calibration_session (airframe, session)
+"""),
+    (7, "the named rotor's likely cause: its propeller or its motor / ESC", _v7),
 ]
 #: The schema version this fdlog writes (its newest migration).
 SCHEMA_VERSION = max(v for v, _, _ in MIGRATIONS)
@@ -452,12 +493,12 @@ class Store:
             profile_path, tool_version = run.profile_path, run.tool_version or tool_version
         self.db.run(
             "UPDATE flight SET state = 'done', airframe = ?, autopilot = ?, firmware = ?, flight_start_utc = ?, "
-            "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, confidence = ?, reason = ?, sentence = ?, "
-            "profile_sha256 = ?, profile_path = ?, model_sha256 = ?, model_version = ?, tool_version = ?, "
+            "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, confidence = ?, reason = ?, cause = ?, "
+            "sentence = ?, profile_sha256 = ?, profile_path = ?, model_sha256 = ?, model_version = ?, tool_version = ?, "
             "exit_code = ?, diagnosis_json = ?, plot_json = ?, error = NULL, diagnosed_at = ? WHERE id = ?",
             (airframe, doc.get("autopilot"), doc.get("firmware"), flight_start_utc, _num(log_t_start_s),
              _num(doc.get("airborne_s")), v.get("status"), v.get("motor"), _num(v.get("confidence")), v.get("reason"),
-             sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
+             v.get("cause"), sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
              json.dumps(doc), None if plot is None else json.dumps(plot), diagnosed_at or utc_now(), fid))
         _write_figures(self.db, fid, doc, command_share)
         _write_parts(self.db, fid, doc)
@@ -466,34 +507,105 @@ class Store:
         self.db.run("INSERT INTO airframe (key, source, created_at) VALUES (?, ?, ?) ON CONFLICT (key) DO NOTHING",
                     (key, source, utc_now()))
 
+    def _record_result(self, fid: int, result: Any, run: RunInfo, when: str) -> None:
+        """Write a :class:`~flightlog_fd.batch.LogResult` as flight ``fid``'s diagnosis (inside a
+        transaction), its airframe as ``fdlog diagnose --db`` names it (:func:`vehicle_identity`)."""
+        from .report.json_report import to_dict
+
+        doc = to_dict(result.diagnosis)
+        vehicle, vsource = vehicle_identity(result.vehicle_id, result.vehicle_id_source, run)
+        facts = result.diagnosis.facts
+        self._airframe(vehicle, vsource)
+        self._record(fid, doc, airframe=vehicle, flight_start_utc=utc_iso(result.utc_start),
+                     log_t_start_s=facts.t_start if facts else None, profile_sha256=run.profile_sha256,
+                     command_share=result.command_share, diagnosed_at=when, run=run)
+
     def add_result(self, result: Any, run: RunInfo, diagnosed_at: Optional[str] = None) -> Optional[int]:
         """Write one :class:`~flightlog_fd.batch.LogResult` of ``fdlog diagnose --db`` (one
         transaction); returns its flight id, or None for a file that could not even be read (no
         sha256 to key it on). The same bytes again replace that flight's diagnosis."""
-        from .report.json_report import to_dict
-
         if not result.log_sha256:
             return None
-        d = result.diagnosis
-        doc = to_dict(d)
-        vehicle, vsource = vehicle_identity(result.vehicle_id, result.vehicle_id_source, run)
         when = diagnosed_at or utc_now()
-        facts = d.facts
-        fmt = _AUTOPILOT_FORMAT.get(getattr(facts, "autopilot", None) or "", "")
+        fmt = _AUTOPILOT_FORMAT.get(getattr(result.diagnosis.facts, "autopilot", None) or "", "")
         db = self.db
 
         def tx() -> int:
-            self._airframe(vehicle, vsource)
             fid = int(db.one("INSERT INTO flight (sha256, name, size_bytes, format, uploaded_at, state) "
                              "VALUES (?, ?, ?, ?, ?, 'done') ON CONFLICT (sha256) DO UPDATE SET name = excluded.name "
                              "RETURNING id", (result.log_sha256, str(result.path), _file_size(str(result.path)), fmt,
                                               when))["id"])
-            self._record(fid, doc, airframe=vehicle, flight_start_utc=utc_iso(result.utc_start),
-                         log_t_start_s=facts.t_start if facts else None, profile_sha256=run.profile_sha256,
-                         command_share=result.command_share, diagnosed_at=when, run=run)
+            self._record_result(fid, result, run, when)
             return fid
 
         return db.transaction(tx, f"write the diagnosis of {result.path}")
+
+    # ------------------------------------------------------------------ fdlog watch
+
+    def claim_watched(self, sha256: str, path: str, size: int, fmt: str, worker: str) -> tuple[str, Optional[dict]]:
+        """Take a log `fdlog watch` found, in one transaction: ("claimed", job) when ``worker``
+        is to diagnose it (a new flight with a ``watch`` job held by ``worker``, or such a job of
+        these bytes back in the queue after its watcher stopped); ("stored", None) when these
+        bytes are already a flight (diagnosed, uploaded, or queued on a server); ("busy", None)
+        while another watcher holds them (look again later: it may stop)."""
+        db = self.db
+
+        def tx():
+            now = utc_now()
+            row = db.one("SELECT id FROM flight WHERE sha256 = ?", (sha256,))
+            if row is None:
+                fid = db.one("INSERT INTO flight (sha256, name, size_bytes, format, uploaded_at, state) "
+                             "VALUES (?, ?, ?, ?, ?, 'running') ON CONFLICT (sha256) DO NOTHING RETURNING id",
+                             (sha256, path, size, fmt, now))
+                if fid is None:  # another watcher inserted it between our SELECT and INSERT (PostgreSQL)
+                    return "busy", None
+                job = db.one("INSERT INTO job (kind, flight_id, args, state, attempts, worker, lease_until, created_at, "
+                             "started_at) VALUES ('watch', ?, ?, 'running', 1, ?, ?, ?, ?) RETURNING *",
+                             (fid["id"], json.dumps({"path": path}), worker, time.time() + LEASE_S, now, now))
+                return "claimed", job
+            jobs = db.query("SELECT id, state FROM job WHERE flight_id = ? AND kind = 'watch' ORDER BY id", (row["id"],))
+            queued = [j for j in jobs if j["state"] == "queued"]
+            if queued:
+                job = db.one("UPDATE job SET state = 'running', worker = ?, attempts = attempts + 1, lease_until = ?, "
+                             "started_at = ?, args = ? WHERE id = ? AND state = 'queued' RETURNING *",
+                             (worker, time.time() + LEASE_S, now, json.dumps({"path": path}), queued[0]["id"]))
+                if job:
+                    db.run("UPDATE flight SET state = 'running' WHERE id = ?", (row["id"],))
+                    return "claimed", job
+            if any(j["state"] in ("queued", "running") for j in jobs):
+                return "busy", None
+            return "stored", None
+
+        return db.transaction(tx, "claim a watched log")
+
+    def complete_watched(self, job: dict, worker: str, result: Any, run: RunInfo) -> bool:
+        """Store a watched log's diagnosis (a LogResult) and mark its job done, in one transaction;
+        False (nothing written) when ``worker`` no longer holds the job."""
+        db = self.db
+
+        def tx():
+            when = utc_now()
+            ok = db.run("UPDATE job SET state = 'done', finished_at = ?, lease_until = NULL WHERE id = ? "
+                        "AND state = 'running' AND worker = ?", (when, job["id"], worker))
+            if ok != 1:
+                return False
+            self._record_result(int(job["flight_id"]), result, run, when)
+            return True
+
+        return db.transaction(tx, f"store the diagnosis of {result.path}")
+
+    def watched_sha(self, host: str, path: str, size: int, mtime_ns: int) -> Optional[str]:
+        """The sha256 a watcher recorded for this file, if it is unchanged since (size, mtime)."""
+        row = self.db.one("SELECT sha256 FROM watched_file WHERE host = ? AND path = ? AND size_bytes = ? "
+                          "AND mtime_ns = ?", (host, path, size, mtime_ns))
+        return row["sha256"] if row else None
+
+    def remember_watched(self, host: str, path: str, size: int, mtime_ns: int, sha256: str) -> None:
+        self.db.transaction(lambda: self.db.run(
+            "INSERT INTO watched_file (host, path, size_bytes, mtime_ns, sha256, seen_at) VALUES (?, ?, ?, ?, ?, ?) "
+            "ON CONFLICT (host, path) DO UPDATE SET size_bytes = excluded.size_bytes, mtime_ns = excluded.mtime_ns, "
+            "sha256 = excluded.sha256, seen_at = excluded.seen_at", (host, path, size, mtime_ns, sha256, utc_now())),
+            "remember a watched file")
 
     def findings(self, flight_id: int) -> list[dict]:
         """A flight's findings as stored (:data:`FINDING_COLUMNS`), in the report's order."""
@@ -544,11 +656,16 @@ class Store:
 
     # ------------------------------------------------------------------ jobs
 
-    def enqueue_calibration(self, airframe: str, flight_ids: list[int], adapt: bool) -> int:
+    def enqueue_calibration(self, airframe: str, flight_ids: list[int], adapt: bool,
+                            add_to: Optional[str] = None) -> int:
+        """Queue a calibration of ``airframe`` from ``flight_ids`` (one session each); ``add_to``:
+        the profile they are added to as new sessions (None: a new profile)."""
+        args = {"flights": flight_ids, "adapt": adapt, **({"add_to": add_to} if add_to else {})}
+
         def tx():
             row = self.db.one("INSERT INTO job (kind, airframe, args, state, created_at) VALUES "
                               "('calibrate', ?, ?, 'queued', ?) RETURNING id",
-                              (airframe, json.dumps({"flights": flight_ids, "adapt": adapt}), utc_now()))
+                              (airframe, json.dumps(args), utc_now()))
             return int(row["id"])
 
         return self.db.transaction(tx, "queue the calibration")
@@ -627,7 +744,7 @@ class Store:
         db.run("UPDATE job SET state = 'error', error = ?, finished_at = ?, lease_until = NULL WHERE id = ?",
                (reason, utc_now(), job["id"]))
         if job.get("flight_id") is not None:
-            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', reason = ?, "
+            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', cause = NULL, reason = ?, "
                    "diagnosis_json = COALESCE(?, diagnosis_json), diagnosed_at = ? WHERE id = ?",
                    (reason, reason, diagnosis_json, utc_now(), job["flight_id"]))
 
@@ -666,16 +783,39 @@ class Store:
         return db.transaction(tx, "store the diagnosis")
 
     def complete_calibration(self, job: dict, worker: str, profile_path: str, profile_sha256: str) -> bool:
+        """Store a calibration job's profile as its airframe's and mark the job done, in one
+        transaction: the job's flights become the airframe's next calibration sessions (one each),
+        after those it already has when the job added sessions (``args.add_to``), else replacing
+        them. False (nothing written) when ``worker`` no longer holds the job."""
+        args = json.loads(job.get("args") or "{}")
+        flights = [int(f) for f in args.get("flights", [])]
+        key = job["airframe"]
+
         def tx():
             ok = self.db.run("UPDATE job SET state = 'done', finished_at = ?, lease_until = NULL WHERE id = ? "
                              "AND state = 'running' AND worker = ?", (utc_now(), job["id"], worker))
             if ok != 1:
                 return False
             self.db.run("UPDATE airframe SET profile_path = ?, profile_sha256 = ? WHERE key = ?",
-                        (profile_path, profile_sha256, job["airframe"]))
+                        (profile_path, profile_sha256, key))
+            if not args.get("add_to"):
+                self.db.run("DELETE FROM calibration_session WHERE airframe = ?", (key,))
+            top = self.db.one("SELECT MAX(session) AS n FROM calibration_session WHERE airframe = ?", (key,))
+            first = int(top["n"] or 0) + 1 if top else 1
+            now = utc_now()
+            for k, fid in enumerate(flights):
+                self.db.run("INSERT INTO calibration_session (airframe, session, flight_id, job_id, profile_path, "
+                            "created_at) VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (airframe, flight_id) DO NOTHING",
+                            (key, first + k, fid, job["id"], profile_path, now))
             return True
 
         return self.db.transaction(tx, "store the calibration")
+
+    def calibration_sessions(self, airframe: str) -> list[dict]:
+        """The airframe's calibration sessions in order: session, flight id, its name, when added."""
+        return self.db.query("SELECT s.session, s.flight_id, f.name, f.sha256, s.job_id, s.created_at "
+                             "FROM calibration_session s JOIN flight f ON f.id = s.flight_id "
+                             "WHERE s.airframe = ? ORDER BY s.session, s.flight_id", (airframe,))
 
     def job(self, jid: int) -> Optional[dict]:
         return self.db.one("SELECT * FROM job WHERE id = ?", (jid,))
@@ -734,7 +874,7 @@ class Store:
         """Resolved airframe -> its flights in time order (UTC start; flights without it after,
         by name, then upload), each with ``motors``: motor -> figures."""
         flights = self.db.query("SELECT id, sha256, name, state, airframe, healthy_mark, autopilot, firmware, "
-                                "flight_start_utc, airborne_s, status, motor, confidence, reason, uploaded_at, "
+                                "flight_start_utc, airborne_s, status, motor, cause, confidence, reason, uploaded_at, "
                                 "diagnosed_at, error FROM flight WHERE airframe IS NOT NULL")
         figs: dict[int, dict[int, dict]] = {}
         for m in self.db.query(f"SELECT flight_id, motor, {', '.join(MOTOR_COLUMNS)} FROM motor_figure"):
@@ -792,10 +932,27 @@ class Store:
         return {r["sha256"]: int(r["n"]) for r in rows}
 
 
+def holder_is_dead(worker: str) -> bool:
+    """True when ``worker`` (``host:pid:random``, the job holder's id) ran on this machine and
+    its process is gone: its jobs need not wait for their lease. A reused pid only makes us wait
+    for the lease, never take a live holder's job."""
+    host, _, rest = worker.partition(":")
+    pid = rest.partition(":")[0]
+    if host != socket.gethostname() or not pid.isdigit():
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists, owned by someone else
+        return False
+    return False
+
+
 def _record_of(f: dict, source: str) -> FlightRecord:
     return FlightRecord(id=int(f["id"]), log_path=f["name"], log_sha256=f["sha256"],
                         flight_start_utc=f["flight_start_utc"], airborne_s=f["airborne_s"], status=f["status"] or "",
-                        motor=f["motor"], confidence=f["confidence"], reason=f["reason"] or "",
+                        motor=f["motor"], cause=f.get("cause"), confidence=f["confidence"], reason=f["reason"] or "",
                         diagnosed_at=f["diagnosed_at"] or "", vehicle_source=source,
                         motors={k: dict(v) for k, v in f["motors"].items()}, parts=list(f.get("parts") or []))
 
@@ -894,4 +1051,5 @@ def _adopt_results_store(db: Database, tables: set) -> Optional[Callable[[], Non
 
 __all__ = ["Store", "StoreError", "RunInfo", "FlightRecord", "MIGRATIONS", "SCHEMA_VERSION", "LEASE_S",
            "MAX_ATTEMPTS", "MOTOR_COLUMNS", "FINDING_COLUMNS", "PART_COLUMNS", "part_rows", "TREND_FIGURES", "UNKNOWN_VEHICLE",
-           "load_history", "motor_rows", "finding_rows", "own_airframe_key", "vehicle_identity", "utc_iso", "drift_of"]
+           "load_history", "motor_rows", "finding_rows", "own_airframe_key", "vehicle_identity", "utc_iso", "drift_of",
+           "holder_is_dead", "StoreUnavailable"]

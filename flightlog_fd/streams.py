@@ -12,7 +12,9 @@ Pipeline (every step documented where it is implemented):
    touchdown transients are not what the model was trained on). Grid points are integer
    multiples of ``1 / rate_hz`` on the log's clock, so the same log always gives the same grid.
    - **Gaps**: a stream has a gap between two consecutive samples when they are further apart
-     than ``min(max_gap_s, GAP_FACTOR x its median sample interval)``. No value is ever
+     than ``min(max_gap_s, GAP_FACTOR x the longer of its median sample interval and the grid's
+     interval)`` (:func:`grid_gap_s`: a stream logged faster than the grid that misses a few
+     samples between two grid points still gives the grid all it keeps). No value is ever
      interpolated across a gap in ANY needed stream: the airborne interval is split there into
      separate :class:`Segment` s, and no window crosses a segment boundary. NaN samples count as
      missing (they create gaps), and so do samples beyond ``MAX_ABS_SAMPLE`` (a flipped exponent
@@ -249,6 +251,28 @@ def clean_stream(series: Series, max_gap_s: float, columns: int) -> Stream:
     return Stream(t, v, 0.0)
 
 
+def grid_gap_s(stream: Stream, rate_hz: float, max_gap_s: float) -> float:
+    """The gap threshold of ``stream`` put on a grid at ``rate_hz``: ``GAP_FACTOR`` times the
+    longer of its own median sample interval and the grid's interval, at most ``max_gap_s``.
+
+    Why the grid's interval: a hole no longer than a few grid steps loses nothing the grid keeps
+    that a stream logged at the grid's rate would have given (a 10 Hz motor stream is bridged over
+    350 ms). A logger that drops messages under load (ArduPilot fast logging, ``DSF.Dp``) leaves
+    holes of 2-16 samples in its 400 Hz streams; judged by its own interval (8.75 ms), ArduCopter
+    4.7 SITL ``healthy_fastlog.BIN`` (126,941 dropped messages, 1,569 IMU intervals over 8.75 ms,
+    the longest 40 ms) was cut into stretches of at most 1.3 s and refused."""
+    own = GAP_FACTOR * float(stream.median_dt if stream.median_dt is not None else
+                             (np.median(np.diff(stream.t)) if len(stream.t) > 1 else 0.0))
+    return min(max_gap_s, max(own, GAP_FACTOR / rate_hz))
+
+
+def at_grid_rate(stream: Stream, rate_hz: float, max_gap_s: float) -> Stream:
+    """``stream`` (same arrays) with the gap threshold :func:`grid_gap_s` for a grid at ``rate_hz``."""
+    if len(stream.t) < 2:
+        return stream
+    return Stream(stream.t, stream.v, grid_gap_s(stream, rate_hz, max_gap_s), stream.median_dt)
+
+
 def _intersect_sorted(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> list[tuple[float, float]]:
     """Overlaps of two time-ordered lists of disjoint closed intervals (one linear merge)."""
     out, i, j = [], 0, 0
@@ -392,18 +416,42 @@ def _check_n_rotor_frame(flight: Flight, n_motors: int) -> None:
                                                    f"{frame.name} with {frame.rotor_count} rotors")
 
 
-def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
-                     need_attitude: bool, speed_source: str, n_motors: int) -> list[Segment]:
-    """Gap-free airborne segments on the grid (module docstring) from ``prep``'s cleaned streams
+@dataclass
+class GridRuns:
+    """Where the airborne grid has gap-free data (module docstring), before any value is
+    interpolated or filtered: the streams on the grid, the fine-grid factor ``k`` (fine rate
+    ``fine_hz``), the Savitzky-Golay length ``n_sg`` and, per future segment, its fine-grid times
+    and indices (``runs``)."""
+
+    rates: Stream
+    speed: Stream
+    source: str
+    motors: Stream
+    attitude: Optional[Stream]
+    k: int
+    fine_hz: float
+    n_sg: int
+    runs: list[tuple[np.ndarray, np.ndarray]]
+
+    def times(self) -> list[np.ndarray]:
+        """Each segment's model-grid times (what :func:`resample_streams` gives as ``Segment.t``)."""
+        return [j[(j % self.k) == 0] / self.fine_hz for _, j in self.runs]
+
+
+def grid_runs(prep, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
+              need_attitude: bool, speed_source: str, n_motors: int) -> GridRuns:
+    """The gap-free airborne runs of the grid (:class:`GridRuns`) from ``prep``'s cleaned streams
     (a :class:`~flightlog_fd.prepared.PreparedFlight`: ``flight``, ``clean``, ``speed_stream``,
-    ``attitude``); :func:`flightlog_fd.prepared.resample` calls it once per setting."""
+    ``attitude``): what decides the segments, without the filters (`fdlog info` needs no more)."""
     flight = prep.flight
     _check_streams(flight, need_attitude, n_motors)
-    rates = prep.clean("rates", max_gap_s, 3)
+    rates = at_grid_rate(prep.clean("rates", max_gap_s, 3), rate_hz, max_gap_s)
     speed, source = prep.speed_stream(speed_source, rate_hz, max_gap_s, n_motors)
-    motors = prep.clean("motors", max_gap_s, n_motors)
+    speed = at_grid_rate(speed, rate_hz, max_gap_s)
+    motors = at_grid_rate(prep.clean("motors", max_gap_s, n_motors), rate_hz, max_gap_s)
     # Unwrapped (after NaNs are gone) so interpolation between +179 and -179 deg avoids 0.
     attitude = prep.attitude(max_gap_s)
+    attitude = at_grid_rate(attitude, rate_hz, max_gap_s) if attitude is not None else None
     needed = [rates, speed, motors] + ([attitude] if need_attitude else [])
 
     # Fine grid for the derivative: an integer multiple of the model rate, so that every model
@@ -421,7 +469,7 @@ def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savg
         raise NotDiagnosableError(flight.path, f"the streams cover {covered_s / 3600:.0f} h: no flight log spans "
                                                f"more than {MAX_GRID_S / 3600:.0f} h (damaged timestamps?)")
 
-    segments: list[Segment] = []
+    runs = []
     for a, b in sorted(flight.airborne):
         t0, t1 = a + trim_s, b - trim_s
         if t1 <= t0:
@@ -435,21 +483,33 @@ def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savg
         for lo, hi in _split_at_jumps(_runs(ok), j):
             if hi - lo < n_sg:
                 continue
-            tf_run, j_run = tf[lo:hi], j[lo:hi]
-            on_grid = (j_run % k) == 0
-            if np.count_nonzero(on_grid) < 2:
+            if np.count_nonzero((j[lo:hi] % k) == 0) < 2:
                 continue
-            w_fine = rates.interp(tf_run)
-            dt = 1.0 / fine_hz
-            # the filters' values at the grid samples only (the fine samples between are dropped)
-            keep = np.flatnonzero(on_grid)
-            smooth = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=0)
-            dwdt = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=1, delta=dt)
-            tg = j_run[on_grid] / fine_hz
-            att = (attitude.interp(tg) if attitude is not None else np.full((tg.size, 2), np.nan))
-            att = (att + np.pi) % (2 * np.pi) - np.pi
-            segments.append(Segment(t=tg, rates=smooth, attitude=att, motors=motors.interp(tg),
-                                    w_sq=speed.interp(tg), ang_acc=dwdt, speed_source=source))
+            runs.append((tf[lo:hi], j[lo:hi]))
+    return GridRuns(rates, speed, source, motors, attitude, k, fine_hz, n_sg, runs)
+
+
+def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savgol_window_s: float,
+                     need_attitude: bool, speed_source: str, n_motors: int) -> list[Segment]:
+    """Gap-free airborne segments on the grid (module docstring) from ``prep``'s
+    :func:`grid_runs`; :func:`flightlog_fd.prepared.resample` calls it once per setting."""
+    g = prep.grid_runs(rate_hz, max_gap_s, trim_s, savgol_window_s, need_attitude, speed_source, n_motors)
+    rates, speed, source, motors, attitude = g.rates, g.speed, g.source, g.motors, g.attitude
+    k, fine_hz, n_sg = g.k, g.fine_hz, g.n_sg
+    segments: list[Segment] = []
+    for tf_run, j_run in g.runs:
+        on_grid = (j_run % k) == 0
+        w_fine = rates.interp(tf_run)
+        dt = 1.0 / fine_hz
+        # the filters' values at the grid samples only (the fine samples between are dropped)
+        keep = np.flatnonzero(on_grid)
+        smooth = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=0)
+        dwdt = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=1, delta=dt)
+        tg = j_run[on_grid] / fine_hz
+        att = (attitude.interp(tg) if attitude is not None else np.full((tg.size, 2), np.nan))
+        att = (att + np.pi) % (2 * np.pi) - np.pi
+        segments.append(Segment(t=tg, rates=smooth, attitude=att, motors=motors.interp(tg),
+                                w_sq=speed.interp(tg), ang_acc=dwdt, speed_source=source))
     return segments
 
 

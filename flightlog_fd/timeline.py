@@ -182,16 +182,23 @@ def _best_run(llr: np.ndarray) -> tuple[int, float]:
     return (j, float(suffix[j])) if j < n else (n, 0.0)
 
 
+def shortfall(n: int, covered: float) -> Optional[str]:
+    """Why ``n`` windows covering ``covered`` seconds are too little flight to judge, or None."""
+    if n < MIN_WINDOWS or covered < MIN_COVERED_S:
+        return (f"only {n} window{'s' if n != 1 else ''} covering {covered:.1f} s of flight "
+                f"(need at least {MIN_WINDOWS} windows and {MIN_COVERED_S:.0f} s)")
+    return None
+
+
 def build(t_start, t_end, probs) -> Timeline:
     """The :class:`Timeline` of a flight's windows (module docstring)."""
     ts, te, p = _check_inputs(t_start, t_end, probs)
     n = p.shape[0]
     covered = covered_seconds(ts, te)
     t_first = float(ts.min()) if n else None
-    if n < MIN_WINDOWS or covered < MIN_COVERED_S:
-        return Timeline(n, covered, t_first, labels=[UNCERTAIN_LABEL] * n, shortfall=(
-            f"only {n} window{'s' if n != 1 else ''} covering {covered:.1f} s of flight "
-            f"(need at least {MIN_WINDOWS} windows and {MIN_COVERED_S:.0f} s)"))
+    short = shortfall(n, covered)
+    if short is not None:
+        return Timeline(n, covered, t_first, labels=[UNCERTAIN_LABEL] * n, shortfall=short)
 
     order = np.argsort(ts, kind="stable")
     ts_o, te_o = ts[order], te[order]

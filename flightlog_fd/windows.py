@@ -256,6 +256,29 @@ def _empty_windows(spec: FeatureSpec, source: str, reason: str, n_segments: int 
                    n_segments=n_segments, segment_s=segment_s, reason=reason)
 
 
+def window_spans(times: list[np.ndarray], spec: FeatureSpec) -> tuple[np.ndarray, np.ndarray]:
+    """(t_start, t_end) of the windows :func:`make_windows` cuts from segments with these
+    ``times`` (``Segment.t``, or :func:`~flightlog_fd.prepared.segment_times`), without the
+    windows themselves (what `fdlog info` needs to tell whether a log can be judged)."""
+    t0, t1 = [], []
+    for t in times:
+        if len(t) >= spec.window:
+            starts = np.arange(0, len(t) - spec.window + 1, spec.stride)
+            t0.append(t[starts])
+            t1.append(t[starts + spec.window - 1])
+    return (np.concatenate(t0), np.concatenate(t1)) if t0 else (np.zeros(0), np.zeros(0))
+
+
+def no_window_reason(flight: Flight, times: list[np.ndarray], spec: FeatureSpec) -> str:
+    """Why segments with these ``times`` (of ``flight``) hold no window of ``spec``."""
+    if not flight.airborne:
+        return "the vehicle is never airborne in this log"
+    longest = max((len(t) / spec.rate_hz for t in times), default=0.0)
+    return (f"airborne {flight.airborne_s:.1f} s in all; after trimming {spec.trim_s:g} s at take-off and "
+            f"landing and splitting at data gaps, the longest usable stretch is {longest:.1f} s and a "
+            f"window needs {spec.window / spec.rate_hz:.1f} s")
+
+
 def make_windows(flight, spec: Optional[FeatureSpec] = None, strict: bool = False) -> Windows:
     """Windows (before standardisation) of one flight (a Flight or a
     :class:`~flightlog_fd.prepared.PreparedFlight`, whose segments it then shares), following ``spec``.
@@ -274,13 +297,7 @@ def make_windows(flight, spec: Optional[FeatureSpec] = None, strict: bool = Fals
     seg_s = float(sum(len(s) for s in segments) / spec.rate_hz)
     usable = [i for i, s in enumerate(segments) if len(s) >= spec.window]
     if not usable:
-        if not flight.airborne:
-            reason = "the vehicle is never airborne in this log"
-        else:
-            longest = max((len(s) / spec.rate_hz for s in segments), default=0.0)
-            reason = (f"airborne {flight.airborne_s:.1f} s in all; after trimming {spec.trim_s:g} s at take-off and "
-                      f"landing and splitting at data gaps, the longest usable stretch is {longest:.1f} s and a "
-                      f"window needs {spec.window / spec.rate_hz:.1f} s")
+        reason = no_window_reason(flight, [s.t for s in segments], spec)
         if strict:
             raise NotDiagnosableError(flight.path, reason)
         out = _empty_windows(spec, source, reason, len(segments), seg_s)

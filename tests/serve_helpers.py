@@ -158,3 +158,15 @@ def sleeping_diagnose(log_path, sha256, name, reports_dir, profiles):
     if "hang" in name:
         time.sleep(600)
     return counting_diagnose(log_path, sha256, name, reports_dir, profiles)
+
+
+def pg_halt(pg: "Postgres") -> None:
+    """Stop the PostgreSQL server, keeping its data (``pg_ctl stop -m fast``: clients are cut off)."""
+    pg._run(["pg_ctl", "-D", str(pg.dir / "data"), "-m", "fast", "-w", "stop"])
+
+
+def pg_resume(pg: "Postgres") -> None:
+    """Start a server stopped by :func:`pg_halt` again, on the same port."""
+    pg._run(["pg_ctl", "-D", str(pg.dir / "data"), "-l", str(pg.dir / "log"), "-w", "-t", "60", "-o",
+             f"-p {pg.port} -k {pg.dir} -c listen_addresses=127.0.0.1 -c fsync=off "
+             f"-c synchronous_commit=off -c full_page_writes=off", "start"])

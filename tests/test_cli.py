@@ -115,7 +115,7 @@ def test_calibrate_no_adapt_writes_profile_and_refuses_overwrite(sim_logs, tmp_p
     res = runner.invoke(app, ["calibrate", "--no-adapt", str(ulg), "-o", str(out)])
     assert res.exit_code == 0, res.output
     prof = json.loads(out.read_text())
-    assert prof["schema"] == 5 and prof["autopilot"] == "px4"
+    assert prof["schema"] == 6 and prof["autopilot"] == "px4"
     assert prof["rho_"] == pytest.approx([1, 1, 1, 1], abs=0.02)  # the simulated f450 is balanced
     res = runner.invoke(app, ["calibrate", "--no-adapt", str(ulg), "-o", str(out)])
     assert res.exit_code == 2 and "already exists" in res.output
@@ -168,7 +168,7 @@ def test_diagnose_json_has_per_motor_evidence_valid_against_schema():
     res = runner.invoke(app, ["diagnose", "--json", str(SAMPLES / "px4_motor2_damaged.ulg")])
     assert res.exit_code == 1, res.output
     doc = json.loads(res.stdout)
-    assert validate(doc) == [] and doc["schema"] == 5
+    assert validate(doc) == [] and doc["schema"] == 6
     motors = doc["motors"]
     assert [m["motor"] for m in motors] == [1, 2, 3, 4]
     assert motors[1]["position"] == "rear-left"
@@ -191,7 +191,7 @@ def test_diagnose_with_profile_compares_against_calibration_and_html_panel(tmp_p
     assert res.exit_code == 0, res.output
     assert "airborne mean" in res.output or "steady flight" in res.output or "hover" in res.output
     p = json.loads(prof.read_text())
-    assert p["schema"] == 5 and p["baseline_"]["seconds"] > 20 and len(p["baseline_"]["share"]) == 4
+    assert p["schema"] == 6 and p["baseline_"]["seconds"] > 20 and len(p["baseline_"]["share"]) == 4
     html = tmp_path / "r.html"
     res = runner.invoke(app, ["diagnose", "--profile", str(prof), "--json", "--html", str(html),
                               str(SAMPLES / "px4_motor1_damaged.ulg")])
@@ -214,3 +214,18 @@ def test_calibrate_sample_logs_without_hover(tmp_path):
         res = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / name), "-o", str(out)])
         assert res.exit_code == 0, res.output
         assert json.loads(out.read_text())["rho_source_"] in ("hover", "steady flight", "airborne mean")
+
+
+def test_help_keeps_square_brackets():
+    """typer renders help as rich markup: an unescaped "[train]" would vanish from the install hint."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    fdlog = str(Path(sys.executable).with_name("fdlog"))
+    env = {**os.environ, "COLUMNS": "250"}
+    calibrate = subprocess.run([fdlog, "calibrate", "--help"], capture_output=True, text=True, env=env).stdout
+    diagnose = subprocess.run([fdlog, "diagnose", "--help"], capture_output=True, text=True, env=env).stdout
+    assert "flightlog-fd[train]" in calibrate
+    assert "flightlog-fd[fleet]" in diagnose

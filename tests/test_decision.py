@@ -242,7 +242,7 @@ def test_commands_alone_against_a_profile_reach_at_most_uncertain_with_advice():
     assert d.status == "uncertain" and d.motor is None, d.reason
     assert "motor 4 (rear-right) needs" in d.reason and "more command than at calibration" in d.reason
     assert "inspect propeller 4" in d.reason and "the load moved" in d.reason and "re-calibrate" in d.reason
-    assert "the profile comes from one flight" in d.reason
+    assert "the profile holds one calibration session" in d.reason and "fdlog calibrate --add" in d.reason
     assert d.confidence < 0.9  # the moved-load explanation keeps the stated probability modest
     # the same pattern with the model's windows agreeing is damage
     assert decide(window_probs(4, 0.7), s, ratio=thr).status == "damaged"

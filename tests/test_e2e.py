@@ -66,7 +66,7 @@ def test_octo_calibrated_on_its_healthy_twin_names_the_damaged_propeller(tmp_pat
     """What `make demo` shows: a profile from the healthy octo sample (--no-adapt: no torch), then
     the damaged octo sample names propeller 2 with eta-hat around its true 0.70 (uncertain: only
     the commands point at it, and a one-flight profile cannot tell a weak rotor from a moved load,
-    so the reason says to inspect propeller 2 and re-calibrate if it is sound), and the healthy
+    so the reason says to inspect propeller 2 and re-calibrate if nothing is found), and the healthy
     sample itself stays healthy with that profile."""
     profile = tmp_path / "octo.json"
     res = runner.invoke(app, ["calibrate", "--no-adapt", str(SAMPLES / "px4_octo_healthy.ulg"), "-o", str(profile)])
@@ -75,7 +75,7 @@ def test_octo_calibrated_on_its_healthy_twin_names_the_damaged_propeller(tmp_pat
     assert res.exit_code == 1, res.output
     d = json.loads(res.stdout)
     reason = d["verdict"]["reason"]
-    assert d["verdict"]["status"] == "uncertain" and "inspect propeller 2;" in reason, reason
+    assert d["verdict"]["status"] == "uncertain" and "inspect propeller 2, then motor 2 and its ESC;" in reason, reason
     assert "the load moved" in reason and "re-calibrate" in reason
     assert not any("made on vehicle" in w for w in d["warnings"]), d["warnings"]  # one vehicle id (--vehicle-id)
     m2 = next(m for m in d["motors"] if m["motor"] == 2)
@@ -98,7 +98,7 @@ def test_sample_log_verdict(sample_reports, name):
         assert v["motor"] == truth
         assert v["position"] in v["reason"]
     assert validate(d) == []
-    assert d["schema"] == 5 and len(d["windows"]) >= 8
+    assert d["schema"] == 6 and len(d["windows"]) >= 8
     w = d["windows"][0]
     assert w["t_end"] > w["t_start"] and len(w["probabilities"]) == 5
     assert sum(w["probabilities"]) == pytest.approx(1.0, abs=1e-3)

@@ -12,6 +12,12 @@ parameters), where one flipped bit does the most damage. Every failure names the
 The checks are reader-agnostic: only ``flightlog_fd.load_flight`` / ``diagnose_path`` and the CLI
 are called, so whatever reader ``read_ulog`` switches on is exercised too.
 
+A valid start of a log followed by random bytes (a ULog file header or part of its definitions,
+a DataFlash FMT message or part of its FMT table; several seeds and sizes) goes through the real
+`fdlog diagnose` in a subprocess with a timeout: every file must end in one error line, exit 2.
+A differential test holds :func:`~flightlog_fd.logs.ulog.pyulog_definitions_stall` to pyulog's
+own behaviour on such files (it used to spin for ever on most ULog ones).
+
 Two regression cases are built deterministically from sample logs: a flipped high bit in a
 DataFlash ``TimeUS`` (which made `fdlog diagnose` ask for petabytes and die with a traceback) and
 a flipped bit in a ULog header timestamp of a log that ends airborne (which took minutes).
@@ -341,3 +347,205 @@ def test_sanitise_flight_drops_spikes_and_clips_intervals():
     assert flight.airborne == [(1.0, pytest.approx(t[-1]))]
     assert any(w.startswith("rates (r): dropped 1 sample") for w in flight.warnings), flight.warnings
     assert any("log end time" in w for w in flight.warnings), flight.warnings
+
+
+def test_running_median_is_scipys_median_filter():
+    """The timestamp check's NumPy running median gives scipy.ndimage.median_filter's numbers
+    (mode "mirror"), so the samples it drops are the same; short lines go to scipy itself."""
+    from scipy.ndimage import median_filter
+
+    from flightlog_fd.flight import TIME_SPIKE_NEIGHBOURS, _running_median
+
+    rng = np.random.default_rng(7)
+    for n in list(range(2, 60)) + [257, 4000]:
+        for _ in range(20):
+            t = np.cumsum(rng.random(n))
+            t[rng.integers(n)] += 1e3 * rng.random()  # a spike
+            if rng.random() < 0.3:
+                t = np.round(t, 1)  # ties
+            want = median_filter(t, size=TIME_SPIKE_NEIGHBOURS, mode="mirror")
+            assert np.array_equal(_running_median(t, TIME_SPIKE_NEIGHBOURS), want), n
+
+
+def test_short_streams_skip_the_median_only_where_it_cannot_matter():
+    """A stream of fewer samples than the median's neighbourhood is judged without the median
+    when its span is within the end limit; the result is the full check's."""
+    from flightlog_fd import flight as F
+
+    rng = np.random.default_rng(3)
+    for n in range(2, F.TIME_SPIKE_NEIGHBOURS):
+        for span in (5.0, 500.0, 5000.0):
+            t = np.sort(rng.random(n)) * span
+            t[rng.integers(n)] += rng.choice([0.0, 30.0, 2.0 ** 31 / 1e6])
+            fast = F.implausible_times(t)
+            thr = F._spike_threshold(t[np.isfinite(t)])
+            med = F._running_median(t, F.TIME_SPIKE_NEIGHBOURS)
+            spike = np.abs(t - med) > max(thr, F.MAX_SAMPLE_GAP_S)
+            kept = t[~spike]
+            back = kept < np.maximum.accumulate(kept) - thr
+            keep = ~spike
+            keep[np.flatnonzero(keep)[back]] = False
+            if np.diff(t).min() >= -thr and np.diff(t).max() <= thr:
+                keep[:] = True
+            assert np.array_equal(fast, ~keep), (n, span, t)
+
+
+# ----------------------------------------------------------------------------- header + random bytes
+
+#: Random tails after a valid header (bytes), every one with each seed: below and above pyulog's
+#: corrupt-message size (10000 B) and the largest message (65535 B), up to a 1 MB "log".
+RANDOM_TAIL_SIZES = (100, 3_000, 30_000, 300_000, 1_000_000)
+RANDOM_TAIL_SEEDS = (1, 2, 3)
+#: One `fdlog diagnose` of all the files of one shape must end within this (a subprocess, so that
+#: a reader spinning in a loop no signal reaches fails the test instead of stalling the suite).
+#: Each file took < 1 s (60 files, load 7); before the definitions check pyulog spun for ever on
+#: most of the ULog ones.
+RANDOM_TAIL_TIMEOUT_S = 60
+
+
+def _ulog_definitions_end(data: bytes) -> int:
+    """Offset of the first subscription/logging message: where a ULog's definitions end."""
+    pos = 16
+    while pos + 3 <= len(data):
+        size, kind = struct.unpack_from("<HB", data, pos)
+        if kind in b"ALC":
+            return pos
+        pos += 3 + size
+    return pos
+
+
+def _dataflash_fmt_end(data: bytes) -> int:
+    """Offset after the leading run of FMT messages (89 bytes each) of a DataFlash log."""
+    pos = 0
+    while data[pos:pos + 3] == b"\xa3\x95\x80":
+        pos += 89
+    return pos
+
+
+RANDOM_TAIL_SHAPES = ("ulog_header", "ulog_definitions", "dataflash_fmt", "dataflash_fmt_table")
+
+
+def random_tail_file(shape: str, seed: int, size: int) -> tuple[bytes, str]:
+    """(file bytes, suffix): the valid start of a sample log followed by ``size`` seeded random
+    bytes. Shapes: ``ulog_header`` (the 16-byte ULog file header), ``ulog_definitions`` (the ULog
+    cut at a seeded byte of its definitions), ``dataflash_fmt`` (the first FMT message),
+    ``dataflash_fmt_table`` (the DataFlash log cut at a seeded byte of its FMT table)."""
+    rng = random.Random(f"{SEED}:{shape}:{seed}:{size}")
+    if shape.startswith("ulog"):
+        data = (SAMPLES / "px4_motor2_damaged.ulg").read_bytes()
+        head = data[:16] if shape == "ulog_header" else data[:rng.randrange(16, _ulog_definitions_end(data))]
+        return head + rng.randbytes(size), ".ulg"
+    data = (SAMPLES / "ardupilot_healthy.bin").read_bytes()
+    head = data[:89] if shape == "dataflash_fmt" else data[:rng.randrange(3, _dataflash_fmt_end(data))]
+    return head + rng.randbytes(size), ".bin"
+
+
+@pytest.mark.parametrize("shape", RANDOM_TAIL_SHAPES)
+def test_header_then_random_bytes_is_one_line_and_exit_2(shape, tmp_path):
+    """A valid start followed by random bytes, several seeds and sizes, through the real `fdlog`
+    in a subprocess: every file ends in one ``fdlog: <file>: ...`` line (exit 2), no traceback,
+    within ``RANDOM_TAIL_TIMEOUT_S`` for them all. A ULog header + random bytes used to make
+    pyulog's definitions walk spin for ever (the watcher and the server killed it after 10 min)."""
+    import os
+    import subprocess
+    import sys
+
+    files = []
+    for seed in RANDOM_TAIL_SEEDS:
+        for size in RANDOM_TAIL_SIZES:
+            data, suffix = random_tail_file(shape, seed, size)
+            path = tmp_path / f"{shape}_seed{seed}_{size}{suffix}"
+            path.write_bytes(data)
+            files.append(path)
+    cmd = [sys.executable, "-c", "from flightlog_fd.cli import main; main()", "diagnose", *map(str, files)]
+    t0 = time.perf_counter()
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=RANDOM_TAIL_TIMEOUT_S, cwd=ROOT,
+                             env={**os.environ, "PYTHONUNBUFFERED": "1"})  # what finished shows on a timeout
+    except subprocess.TimeoutExpired as e:
+        out = e.stdout.decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
+        pytest.fail(f"{shape}: still running after {RANDOM_TAIL_TIMEOUT_S} s; output so far:\n{out[-2000:]}")
+    seconds = time.perf_counter() - t0
+    assert res.returncode == 2, f"{shape}: exit code {res.returncode}\n{res.stdout}\n{res.stderr}"
+    assert "Traceback" not in res.stdout + res.stderr, res.stderr
+    errors = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    for f in files:
+        named = [ln for ln in errors if ln.startswith(f"fdlog: {f}: ")]
+        assert len(named) == 1, f"{f.name}: expected one error line naming it, got {named}\n{res.stderr}"
+    assert len(errors) == len(files), res.stderr
+    print(f"{shape}: {len(files)} files in {seconds:.1f} s")
+
+
+def test_pyulog_definitions_stall_finds_the_backward_step():
+    """The message whose declared size runs past the end of the file is found; a complete
+    definitions section, a cut one, and one that ends at a subscription pass."""
+    from flightlog_fd.logs.ulog import pyulog_definitions_stall
+
+    header = (SAMPLES / "px4_motor2_damaged.ulg").read_bytes()[:16]
+    bogus = struct.pack("<HB", 20_000, 0xAB) + bytes(100)  # unknown type, > 10000 bytes, cut
+    assert pyulog_definitions_stall(header + bogus) == (16, 0xAB, 20_000)
+    fmt = b"x:uint64_t timestamp;"
+    ok = struct.pack("<HB", len(fmt), ord("F")) + fmt
+    assert pyulog_definitions_stall(header + ok + bogus) == (16 + 3 + len(fmt), 0xAB, 20_000)
+    # a complete corrupt message is stepped over one byte at a time, as pyulog does
+    assert pyulog_definitions_stall(header + struct.pack("<HB", 12_000, 0) + bytes(12_000)) is None
+    # zero-filled bytes are jumped over to 2 bytes before the next non-zero one, as pyulog steps:
+    # there [0, 0, "F"] is a format of size 0 (skipped whole), so the bogus message after it is hit
+    assert pyulog_definitions_stall(header + bytes(50) + b"F" + bogus) == (16 + 50 + 1, 0xAB, 20_000)
+    # a subscription ends the section before the bogus message is reached
+    assert pyulog_definitions_stall(header + ok + struct.pack("<HB", 0, ord("A")) + bogus) is None
+    for log in sorted(SAMPLES.glob("*.ulg")):
+        data = log.read_bytes()
+        assert pyulog_definitions_stall(data) is None, log.name
+        assert pyulog_definitions_stall(data[:_ulog_definitions_end(data) // 2]) is None, log.name
+
+
+def test_pyulog_definitions_stall_agrees_with_pyulog():
+    """Differential check against pyulog itself (its reads counted, so a spin ends the run): on
+    seeded ULog header + random byte files shorter than the magic read as a message, a file is
+    flagged exactly when pyulog spins on it. (In longer files a backward step can lead pyulog on
+    to an end after re-reading bytes it already walked; the check refuses those too.)"""
+    import contextlib
+    import io
+
+    from pyulog import ULog
+
+    from flightlog_fd.logs.ulog import pyulog_definitions_stall
+
+    class _Spinning(Exception):
+        pass
+
+    class CountedReads(io.BytesIO):
+        def __init__(self, data: bytes):
+            super().__init__(data)
+            self.reads_left = 3 * len(data) + 1000  # a walk that advances reads each byte at most ~once
+
+        def read(self, size=-1):
+            self.reads_left -= 1
+            if self.reads_left < 0:
+                raise _Spinning()
+            return super().read(size)
+
+    header = (SAMPLES / "px4_motor2_damaged.ulg").read_bytes()[:16]
+    spins = 0
+    for seed in range(100):
+        rng = random.Random(f"{SEED}:pyulog-stall:{seed}")
+        data = header + rng.randbytes(rng.choice((10, 300, 3_000, 8_000)))
+        if seed % 2:  # a zero-filled block inside (the check jumps over zero runs)
+            at = rng.randrange(16, len(data))
+            data = data[:at] + bytes(rng.choice((3, 50, 1_000))) + data[at:]
+        stall = pyulog_definitions_stall(data)
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                ULog(CountedReads(data), disable_str_exceptions=True)
+        except _Spinning:
+            spun = True
+        except Exception:
+            spun = False  # pyulog's own error (e.g. unknown incompatible flags): one line from the CLI
+        else:
+            spun = False
+        # below 19544 bytes every backward step lands on byte 0, where the magic's "UL" + "o" read
+        # as a corrupt message of 19541 bytes that runs past the end again: flagged <=> spins
+        assert spun == (stall is not None), f"seed {seed}: pyulog spins {spun}, check says {stall}"
+        spins += spun
+    assert spins > 0, "no file made pyulog spin: the test checks nothing"

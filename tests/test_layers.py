@@ -18,15 +18,15 @@ PACKAGE = "flightlog_fd"
 #: entry fails the test: place it.
 LAYERS: list[tuple[str, ...]] = [
     ("errors", "util", "filters", "flight", "frames", "flights"),  # the Flight and its helpers (flights: one per take-off)
-    ("logs", "sim", ""),                                          # what makes a Flight ("": the package's __init__)
+    ("logs", "sim", "", "vehicle"),                               # what makes a Flight ("": the package's __init__); vehicle: logs pulled over MAVLink
     ("streams",),                                                 # cleaned streams, thrust proxy, airborne grid
     ("prepared",),                                                # one prepared flight per diagnosis
     ("windows", "hover", "phases", "stopped", "timeline", "model"),  # views of a prepared flight, the model
     ("checks", "analyzers"),                                      # per-motor estimation and findings
-    ("decision", "profile"),                                      # the verdict; the calibration profile
+    ("decision", "profile", "advice", "cause"),                   # the verdict (its cause); the calibration profile; advice
     ("diagnose",),                                                # one flight, end to end
     ("training",),                                                # model training and adaptation
-    ("calibration", "batch", "store", "database", "drift", "history", "report"),
+    ("calibration", "batch", "store", "database", "drift", "history", "report", "watch"),
     ("serve", "cli", "training.experiment", "training.build_default"),  # entry points
 ]
 

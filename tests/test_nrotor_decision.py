@@ -64,7 +64,7 @@ def test_octaquad_weak_rotor_is_told_from_its_coaxial_partner(motor):
     partner = COAX_PARTNER[motor]
     assert raw[motor - 1] - raw[partner - 1] > 2 * D.SEPARATION_LLR
     # the commands alone against a profile: at most uncertain, naming the weak rotor, not its partner
-    assert d.status == "uncertain" and f"inspect propeller {motor};" in d.reason, d.reason
+    assert d.status == "uncertain" and f"inspect propeller {motor}, then motor {motor} and its ESC;" in d.reason, d.reason
     assert d.motors[motor - 1].llr - d.motors[partner - 1].llr >= D.SEPARATION_LLR
     # with the model's windows agreeing, damage on the right rotor
     lean = np.full((50, 9), 0.03)

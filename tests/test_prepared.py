@@ -31,6 +31,46 @@ def test_savgol_at_is_scipy_bit_for_bit(n, deriv, delta):
             assert np.array_equal(F.savgol_at(x, n, 2, idx, deriv, delta), ref[idx])
 
 
+def test_numpy_lstsq_is_scipys_on_every_savgol_shape():
+    """The filters solve their small least squares with NumPy: the same bits as scipy.linalg's."""
+    from math import factorial
+
+    from scipy.linalg import lstsq
+
+    rng = np.random.default_rng(0)
+    for n in range(3, 82, 2):
+        for deriv, delta in ((0, 1.0), (1, 1 / 250), (1, 1 / 400), (1, 1 / 3200), (1, 0.02)):
+            x = np.flip(np.arange(-(n // 2), n - n // 2, dtype=np.float64))
+            A = x ** np.arange(3, dtype=np.float64).reshape(-1, 1)
+            y = np.zeros(3)
+            y[deriv] = float(factorial(deriv)) / delta ** deriv
+            cond = np.finfo(np.float64).eps * max(A.shape)
+            assert np.array_equal(F._lstsq(A, y, cond)[0], lstsq(A, y, cond=cond)[0])
+        xs = np.arange(n, dtype=np.float64)
+        lhs = xs[:, None] ** np.flip(np.arange(3, dtype=np.float64))[None, :]
+        lhs /= np.sqrt(np.sum(lhs * lhs, axis=0))
+        xe = rng.normal(size=(n, 4))
+        assert np.array_equal(F._lstsq(lhs, xe, n * np.finfo(float).eps)[0], lstsq(lhs, xe, n * np.finfo(float).eps)[0])
+
+
+def test_correlate_and_moving_mean_are_scipy_ndimage_bit_for_bit():
+    from scipy.ndimage import correlate1d, uniform_filter1d
+
+    rng = np.random.default_rng(1)
+    for n in (3, 5, 9, 21, 41):
+        for w in (F.savgol_coeffs(n, 2)[::-1], F.savgol_coeffs(n, 2, 1, 0.004)[::-1], rng.normal(size=n),
+                  rng.normal(size=n + 1)):
+            for shape in ((50,), (997, 4), (n + 1, 2)):
+                x = rng.normal(size=shape) * 10.0 ** rng.integers(-3, 4)
+                assert np.array_equal(F.correlate1d_zero_ends(x, w), correlate1d(x, w, axis=0, mode="constant"))
+    for _ in range(200):
+        size, m = int(rng.integers(1, 300)), int(rng.integers(1, 2000))
+        x = rng.normal(size=(m, int(rng.integers(1, 4)))) * 10.0 ** rng.integers(-6, 6) + rng.normal() * 1e3
+        if rng.random() < 0.5:
+            x = x[:, 0]
+        assert np.array_equal(F.moving_mean_nearest(x, size), uniform_filter1d(x, size=size, axis=0, mode="nearest"))
+
+
 @pytest.mark.parametrize("tau, rate", [(0.002, 400), (0.158, 400), (0.05, 50), (0.0053, 250)])
 def test_lag_matches_lfilter(tau, rate):
     from scipy.signal import lfilter

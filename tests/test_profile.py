@@ -119,11 +119,18 @@ def test_model_entry(tmp_path):
 
 
 _BASE = {"share": [1.0, 1.0, 1.0, 1.0], "slope": [0.0] * 4, "throttle_ref": 0.5, "throttle_range": [0.45, 0.55]}
+_SESSION = {"logs": [{"name": "a.ulg", "sha256": None}], "created": "2026-01-01T00:00:00+00:00", "seconds": 60.0,
+            "share": [1.02, 0.98, 1.01, 0.99], "throttle": 0.5, "pin": [0.01, 0.01, 0.01, 0.01]}
 
 
 @pytest.mark.parametrize("mutate, message", [
     (lambda d: d.pop("schema"), 'no "schema" key'),
-    (lambda d: d.update(schema=6), "schema 6 is not supported"),
+    (lambda d: d.update(schema=7), "schema 7 is not supported"),
+    (lambda d: d.update(sessions_={"share": [1.0] * 4}), "sessions_ must be a list"),
+    (lambda d: d.update(sessions_=[_SESSION | {"share": [1.0] * 3}]), r"sessions_\[1\].share must be a list of 4"),
+    (lambda d: d.update(sessions_=[_SESSION, _SESSION | {"throttle": 0}]), r"sessions_\[2\].throttle"),
+    (lambda d: d.update(sessions_=[_SESSION | {"pin": [0.01, -0.01, 0.0, 0.0]}]), r"sessions_\[1\].pin values"),
+    (lambda d: d.update(sessions_=[_SESSION | {"logs": ["a.ulg"]}]), r"sessions_\[1\].logs"),
     (lambda d: d.update(baseline_=_BASE | {"pin": [0.01, -0.01, 0.0, 0.0]}), "baseline_.pin values must be >= 0"),
     (lambda d: d.update(baseline_=_BASE | {"pin": [0.01, 0.01]}), "baseline_.pin"),
     (lambda d: d.pop("rho_"), "missing key"),
@@ -223,3 +230,26 @@ def test_baseline_pin_and_range_read_back_and_older_schemas_load(tmp_path):
     d["baseline_"] = dict(_BASE)
     path.write_text(json.dumps(d))
     assert Profile.load(path).baseline().pin is None
+
+
+def test_schema_6_sessions_read_back_and_schemas_5_and_4_are_one_session(tmp_path):
+    """Schema 6's ``sessions_``: two or more give the Baseline the sessions' figures (the airframe's
+    own drift is weighed); a schema-5 or -4 profile (no ``sessions_``) loads as one session."""
+    d = _profile(tmp_path).to_dict()
+    assert d["schema"] == PROFILE_SCHEMA == 6 and len(d["sessions_"]) == 1
+    two = [_SESSION, _SESSION | {"share": [0.98, 1.02, 0.99, 1.01], "throttle": 0.52, "pin": None}]
+    d["sessions_"] = two
+    path = tmp_path / "p6.json"
+    path.write_text(json.dumps(d))
+    p = Profile.load(path)
+    assert p.n_sessions == 2 and p.to_dict()["sessions_"] == two
+    figs = p.baseline().sessions
+    assert figs.n_sessions == 2 and np.allclose(figs.throttles, [0.5, 0.52]) and np.isnan(figs.pins[1]).all()
+    assert p.baseline().n_sessions == 2
+    for schema in (5, 4):
+        old = {k: v for k, v in d.items() if k != "sessions_"} | {"schema": schema}
+        path.write_text(json.dumps(old))
+        q = Profile.load(path)
+        assert q.n_sessions == 1 and q.sessions_ == [] and q.baseline().sessions is None
+        assert q.baseline().n_sessions == 0  # pooled flights, not sessions
+        assert q.to_dict()["schema"] == 6  # read as the current schema, written back as it

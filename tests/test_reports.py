@@ -61,7 +61,7 @@ def test_json_validates_and_holds_the_verdict():
     d = make_diagnosis()
     doc = json.loads(render_json(d))
     assert validate(doc) == []
-    assert doc["schema"] == 5 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["schema"] == 6 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
     assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
     assert doc["verdict"]["position"] == "front-left"
     assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
@@ -91,7 +91,7 @@ def test_validator_catches_schema_violations():
     assert any("verdict.status" in e for e in errors)
     assert any("windows[0].probabilities" in e for e in errors)
     assert any("missing 'warnings'" in e for e in errors)
-    assert JSON_SCHEMA["properties"]["schema"]["const"] == 5
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 6
 
 
 # ---------------------------------------------------------------- CSV
@@ -196,3 +196,31 @@ def test_terminal_words_timeline_and_summary():
     assert "warning: no calibration profile" in out
     assert "Windows" in out and "hover" in out
     assert "not_diagnosable" in out and "3 (front-left)" in out
+
+
+def test_decimate_keeps_each_buckets_first_minimum_and_maximum():
+    """decimate (all buckets at once) against its definition, one bucket at a time: NaN ignored,
+    infinities kept as values, buckets without a finite value dropped, the first of ties."""
+    rng = np.random.default_rng(5)
+
+    def one_at_a_time(t, y, max_points):
+        if t.shape[0] <= max_points:
+            return t, y
+        edges = np.linspace(0, t.shape[0], max_points // 2 + 1).astype(int)
+        keep = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            seg = y[a:b]
+            if b > a and np.isfinite(seg).any():
+                keep.extend(sorted({a + int(np.nanargmin(seg)), a + int(np.nanargmax(seg))}))
+        idx = np.asarray(keep, dtype=int)
+        return t[idx], y[idx]
+
+    for _ in range(500):
+        n, max_points = int(rng.integers(1, 3000)), int(rng.integers(2, 300))
+        y = np.round(rng.normal(size=n), int(rng.integers(0, 3)))
+        y[rng.random(n) < rng.random() * 0.5] = np.nan
+        y[rng.random(n) < 0.02] = np.inf
+        y[rng.random(n) < 0.02] = -np.inf
+        t = np.arange(n) * 0.01
+        got, want = decimate(t, y, max_points), one_at_a_time(t, y, max_points)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1], equal_nan=True)

@@ -175,6 +175,56 @@ def test_calibration_job_gives_later_flights_the_profile(tmp_path):
         assert 'id="profile"' in page and "rho (motor imbalance)" in page and "measured only" in page
 
 
+def test_calibration_jobs_keep_the_airframes_sessions(tmp_path):
+    """A first calibration job makes one session per marked flight; "add" makes the newly marked
+    flights the next sessions of a new profile file (the earlier one kept) and the store keeps
+    which flight is which session; a flight that looks damaged against the sessions is refused
+    (the job's error, one line) and the profile stays."""
+    from flightlog_fd import load_flight
+    from flightlog_fd.logs.ulog_writer import write_ulog
+
+    def again(name, key, dst):  # the same flight data under this airframe's id, as other bytes
+        f = load_flight(SAMPLES / name)
+        f.vehicle_id = key
+        write_ulog(f, dst)
+        return dst
+
+    with serve_client(tmp_path / "data", workers=1) as c:
+        store = c.app_.state.store
+        first = upload(c, SAMPLES / "px4_healthy.ulg").json()["id"]
+        key = wait_done(c, first)["airframe"]
+
+        def calibrate(fid, mode):
+            c.post(f"/flights/{fid}/healthy", headers=AUTH, data={"healthy": "1"}, follow_redirects=False)
+            r = c.post("/airframe/calibrate", headers=AUTH, data={"key": key, "mode": mode}, follow_redirects=False)
+            assert r.status_code == 303, r.text
+            assert wait_idle(store, 180)
+            return store.db.one("SELECT * FROM job WHERE kind = 'calibrate' ORDER BY id DESC LIMIT 1")
+
+        job = calibrate(first, "new")
+        assert job["state"] == "done", job["error"]
+        p1 = store.airframes()[key]["profile_path"]
+        assert [(s["session"], s["flight_id"]) for s in store.calibration_sessions(key)] == [(1, first)]
+        second = wait_done(c, upload(c, again("px4_healthy.ulg", key, tmp_path / "h2.ulg")).json()["id"])["id"]
+        job = calibrate(second, "add")
+        assert job["state"] == "done", job["error"]
+        assert json.loads(job["args"]) == {"flights": [second], "adapt": False, "add_to": p1}
+        p2 = store.airframes()[key]["profile_path"]
+        assert p2 != p1 and json.loads(open(p1).read())["schema"] == 6  # the earlier profile stays
+        assert len(json.loads(open(p2).read())["sessions_"]) == 2
+        assert [(s["session"], s["flight_id"]) for s in store.calibration_sessions(key)] == [(1, first), (2, second)]
+        page = c.get("/airframe", params={"key": key}).text
+        assert 'id="sessions">2' in page and 'id="session-flights"' in page and "h2.ulg" in page
+        # nothing new to add: one line, no job
+        r = c.post("/airframe/calibrate", headers=AUTH, data={"key": key, "mode": "add"})
+        assert r.status_code == 400 and "already a session" in r.text
+        bad = wait_done(c, upload(c, again("px4_motor1_damaged.ulg", key, tmp_path / "m1.ulg")).json()["id"])["id"]
+        assert "airframe profile, 2 calibration sessions" in c.get(f"/flights/{bad}").text  # diagnosed with it
+        job = calibrate(bad, "add")
+        assert job["state"] == "error" and "looks damaged against the 2 sessions" in job["error"], job["error"]
+        assert store.airframes()[key]["profile_path"] == p2 and len(store.calibration_sessions(key)) == 2
+
+
 def test_operator_names_and_merges_airframes(tmp_path):
     with serve_client(tmp_path / "data", workers=1) as c:
         ids = [upload(c, SAMPLES / n).json()["id"] for n in ("ardupilot_healthy.bin", "ardupilot_motor3_damaged.bin")]

@@ -276,3 +276,25 @@ def test_paper_speed_gain_divides_each_vehicle_by_its_own_speed_scale():
         w = np.tile(omega_max / 2, (4, 1))  # every rotor at half its vehicle's scale
         gain = paper_speed_gain(rho[:, :n], w, omega_max)
         np.testing.assert_allclose(gain, rho[:, :n] / 2)
+
+
+def test_weak_motor_turns_slower_for_its_command_with_its_propeller_intact():
+    """sim/damage.py cause "motor": the rotor turns at sqrt(eta) of its commanded speed, so it is
+    commanded 1/eta as a damaged propeller is, but turns slower per command (the propeller
+    turns as fast as commanded) and gives its share of thrust at a lower speed per command."""
+    damages = [Damage(2, 0.8, cause="motor"), Damage(2, 0.8)]
+    b = simulate_batch(2, airframes=[preset("f450")] * 2, damages=damages, mission="hover", duration_s=34.0,
+                       profile="training", realism=False, seed=11, extra_streams={"pos": 4, "w": 4, "motors": 4})
+    res = b.result
+    speed_per_command = []
+    for j in range(2):
+        m = _steady_hover_mask(b, j)
+        u = res.data["motors"][m, j].astype(np.float64)
+        w = res.data["w"][m, j].astype(np.float64).mean(axis=0)
+        assert u.mean(axis=0)[1] / np.delete(u.mean(axis=0), 1).mean() == pytest.approx(1.0 / 0.8, rel=0.02)
+        per = w / np.sqrt(u).mean(axis=0)
+        speed_per_command.append(per[1] / np.delete(per, 1).mean())
+    assert speed_per_command[0] == pytest.approx(np.sqrt(0.8), rel=0.01)  # weak motor: slower per command
+    assert speed_per_command[1] == pytest.approx(1.0, rel=0.01)  # damaged propeller: as commanded
+    with pytest.raises(ValueError, match="cause"):
+        Damage(1, 0.8, cause="esc")

@@ -17,7 +17,8 @@ from flightlog_fd.store import MOTOR_COLUMNS, SCHEMA_VERSION, RunInfo, Store, lo
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = ROOT / "sample_logs"
 DATA = Path(__file__).resolve().parent / "data"
-TABLES = {"schema_migrations", "airframe", "flight", "motor_figure", "finding", "job", "flight_part"}
+TABLES = {"schema_migrations", "airframe", "flight", "motor_figure", "finding", "job", "flight_part", "watched_file",
+          "calibration_session"}
 runner = CliRunner()
 
 

@@ -184,7 +184,7 @@ def test_calibrate_and_diagnose_through_the_cli_without_motor_outputs(tmp_path):
                                   str(OCTO / "air_octo_10.BIN"), str(OCTO / "air_octo_14.BIN")])
         assert res.exit_code == 1, res.output
         d03, d10, d14 = json.loads(res.output)
-        assert all(validate(d) == [] for d in (d03, d10, d14)) and d03["schema"] == 5
+        assert all(validate(d) == [] for d in (d03, d10, d14)) and d03["schema"] == 6
         assert [f["part"].split(",")[0] for f in d03["flights"]] == ["flight 1 of 2", "flight 2 of 2"]
         assert [f["verdict"]["status"] for f in d03["flights"]] == ["healthy", "damaged"]
         assert d03["verdict"]["status"] == d10["verdict"]["status"] == "damaged"
@@ -219,3 +219,23 @@ def test_healthy_pair_with_slow_raw_accel_is_not_damaged_by_vibration(shared):
     a = analyze_vibration(other, fit_vibration_baseline([cal]))
     assert a.against == "healthy airframes"
     assert a.flight_llr is not None and a.flight_llr < 3.5
+
+
+def test_batched_periodograms_are_one_window_at_a_time():
+    """_psds (one FFT call per batch of windows) gives each window's periodogram bit for bit."""
+    import numpy as np
+
+    from flightlog_fd.analyzers.vibration import PSD_BATCH, _psds
+
+    rng = np.random.default_rng(4)
+    x = np.cumsum(rng.normal(size=(5000, 2)), axis=0)
+    for nper, pad in ((400, 400), (100, 800), (16, 16)):
+        starts = np.arange(0, x.shape[0] - nper + 1, nper // 2)[:PSD_BATCH + 7]
+        w = np.hanning(nper)
+        for i, s in enumerate(starts):
+            seg = x[s:s + nper] - x[s:s + nper].mean(axis=0)
+            one = (np.abs(np.fft.rfft(seg * w[:, None], n=pad, axis=0)) ** 2).sum(axis=1)
+            assert np.array_equal(_psds(x, nper, pad, starts)[i], one) if i % 50 == 0 else True
+        batch = _psds(x, nper, pad, starts)
+        assert batch.shape == (starts.size, pad // 2 + 1)
+        assert np.array_equal(batch[-1], _psds(x, nper, pad, starts[-1:])[0])

@@ -63,6 +63,7 @@ def run_analyzers(ctx: Context, analyzers: Sequence[Analyzer] | None = None) -> 
             r = AnalyzerResult(a.id, abstained=f"failed: {e}")
         r.llr_cap = a.llr_cap
         r.cap_keeps_order = a.cap_keeps_order
+        r.reliability_keys = tuple(a.reliability_keys)
         out.append(r)
     return out
 

@@ -63,27 +63,35 @@ class AnalyzerResult:
     notes: list[str] = field(default_factory=list)
     llr_cap: float = SOURCE_LLR_CAP  # set from the analyzer by run_analyzers
     cap_keeps_order: bool = False  # likewise
+    reliability_keys: tuple[str, ...] = ()  # likewise
 
     def finding(self, name: str, motor: int) -> Optional[Finding]:
         """Its finding ``name`` about ``motor`` (1-based), or None."""
         return next((f for f in self.findings if f.name == name and f.motor == motor), None)
 
-    def llr(self, n_motors: int) -> Optional[np.ndarray]:
-        """(n,) summed LLR of this analyzer's weighed findings, clipped to +-``llr_cap``; None if it
-        weighs nothing. With ``cap_keeps_order`` (the analyzer's :attr:`Analyzer.cap_keeps_order`)
-        all motors are first lowered by the top one's excess over the cap, so the cap bounds the
-        evidence against healthy but keeps what the source says between motors."""
+    def raw_llr(self, n_motors: int) -> Optional[np.ndarray]:
+        """(n,) summed LLR of this analyzer's weighed findings as it computed them (no cap); None if
+        it weighs nothing."""
         out = np.zeros(n_motors)
         weighed = False
         for f in self.findings:
             if f.llr is not None and np.isfinite(f.llr) and 1 <= f.motor <= n_motors:
                 out[f.motor - 1] += f.llr
                 weighed = True
-        if not weighed:
+        return out if weighed else None
+
+    def llr(self, n_motors: int, cap: Optional[float] = None) -> Optional[np.ndarray]:
+        """(n,) :meth:`raw_llr` clipped to +-``cap`` (default ``llr_cap``); None if it weighs
+        nothing. With ``cap_keeps_order`` (the analyzer's :attr:`Analyzer.cap_keeps_order`) all
+        motors are first lowered by the top one's excess over the cap, so the cap bounds the
+        evidence against healthy but keeps what the source says between motors."""
+        out = self.raw_llr(n_motors)
+        if out is None:
             return None
+        cap = self.llr_cap if cap is None else cap
         if self.cap_keeps_order:
-            out = out - max(float(out.max()) - self.llr_cap, 0.0)
-        return np.clip(out, -self.llr_cap, self.llr_cap)
+            out = out - max(float(out.max()) - cap, 0.0)
+        return np.clip(out, -cap, cap)
 
     def as_dict(self) -> dict:
         return {"analyzer": self.analyzer, "abstained": self.abstained, "notes": list(self.notes),
@@ -126,8 +134,16 @@ class Analyzer(ABC):
     description: str = ""
     #: Flight streams it needs (attribute names of Flight); it abstains when one is missing.
     requires: tuple[str, ...] = ()
-    #: Its LLR per motor is clipped to +- this before the decision sums the sources.
+    #: Its LLR per motor is clipped to +- this before the decision sums the sources: the most it may
+    #: give where the reliability table trusts it, and all it gives where the table has no cell.
     llr_cap: float = SOURCE_LLR_CAP
+    #: The log properties its evidence depends on (:data:`.reliability.PROPERTIES`: "rate",
+    #: "profile", "rotors"): the cell of the measured reliability table the decision weighs it by
+    #: (:data:`.reliability.RELIABILITY`); () = weighed by ``llr_cap`` alone.
+    reliability_keys: tuple[str, ...] = ()
+    #: True when its evidence comes from a model trained on simulated flights: simulated flights then
+    #: measure its reliability in-sample, so the table trusts it only where real flights showed it quiet.
+    learned: bool = False
     #: True: the cap lowers every motor by the top one's excess before clipping (the differences
     #: between motors survive); False: each motor is clipped alone (motors above the cap tie).
     #: For a source whose motor-to-motor differences are physics, not a classifier's leaning.

@@ -17,8 +17,8 @@ range (:func:`predicted_commands`), which also tells a coaxial octaquad rotor fr
 (same arm, opposite spin: only the yaw pattern differs); the pattern cannot separate damage from
 an equal and opposite trim change (against a profile the healthy noise includes a moved load,
 ``SESSION_MOVE_*``, and the decision holds the commands alone to "uncertain"); after a mid-flight onset a
-steady rise (a drift: motor, ESC, mount) is not weighed; without a profile it abstains on
-n-rotor frames (below).
+steady rise (a drift: motor, ESC, mount) is not weighed; without a profile an n-rotor's healthy
+spread is measured on simulated airframes only (``NROTOR_NEIGHBOUR_SHARE_SIGMA``).
 """
 from __future__ import annotations
 
@@ -29,6 +29,7 @@ import numpy as np
 
 from ..flight import Frame
 from .base import Analyzer, AnalyzerResult, Context, Finding
+from .session_drift import SessionDrift
 
 #: Thrust-efficiency grid of the damage hypothesis (uniform prior). 0.4: below it a quad cannot
 #: hold yaw and the flight ends; 0.99: damage too small to matter is still "damage" here but
@@ -45,11 +46,16 @@ M_GRID = np.array([0.25, 0.5, 0.75, 1.0, 1.25, 1.6])
 #: Without a profile the healthy pattern is unknown: healthy airframes' airborne-mean command
 #: shares scatter around an even split with this per-motor standard deviation. Measured:
 #: 18 real healthy ArduCopter flights (../shared/real_healthy + Erle), RMS share deviation from 1
-#: over all motors = 0.12 (benchmarks/bench_real_damage.py prints it). Quads only: there is no
-#: real hexa or octo log to measure their spread on, and simulated healthy hexas with the
-#: realistic imbalance reach a 0.25 opposite-pair split (bench_nrotor.py: 5 of 39 flights called
-#: damaged with this sigma), so without a profile the command analyzer abstains on them.
+#: over all motors = 0.12 (benchmarks/bench_real_damage.py prints it). Quads only: with more
+#: rotors a trim is shared by more motors (below).
 NEIGHBOUR_SHARE_SIGMA = 0.12
+#: The same spread for hexa and octo frames, which have no real log to measure it on: simulated
+#: healthy airframes with the realistic imbalance (benchmarks/bench_reliability.py collect --sets
+#: nrotor: 30 hexa-X and 30 octo-X flights, seeds 10100/11100, PX4 high-rate, ArduPilot and PX4
+#: default logging): RMS share deviation from 1 over all motors 0.092 (hexa; per flight 0.02-0.27)
+#: and 0.070 (octo; 0.01-0.19). The reliability table weighs the n-rotor command pattern without a
+#: profile by these simulated flights alone, so it never decides alone.
+NROTOR_NEIGHBOUR_SHARE_SIGMA = {6: 0.092, 8: 0.070}
 #: Against the same flight before a mid-flight onset: a healthy airframe's share wander within
 #: one flight. Measured: the 18 real healthy flights, rrc goods and CrazyPAD normals, shares of
 #: the last two thirds against the first third: RMS 0.064 (robust 0.032; Erle 6-3-2014_6 and
@@ -97,6 +103,7 @@ class CommandSharesResult(AnalyzerResult):
     pin: Optional[list[float]] = None  # (n,) how well calibration and this flight pin each share (profile only)
     n_flights: Optional[int] = None  # the profile's calibration flights (None without a profile)
     throttle_sigma: Optional[float] = None  # the relative throttle drift against the baseline
+    n_sessions: Optional[int] = None  # the profile's calibration sessions (0: older than schema 6; None: no profile)
 
 
 def _mixer_rows(frame: Optional[Frame], n: int) -> np.ndarray:
@@ -178,13 +185,18 @@ def _gauss_ll(d, sigma):
 
 def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
                  throttle_ratio: Optional[float] = None,
-                 throttle_sigma: float = THROTTLE_DRIFT_SIGMA, move: bool = False) -> tuple[float, list[SeverityFit]]:
+                 throttle_sigma: float = THROTTLE_DRIFT_SIGMA, move: bool = False,
+                 sessions: Optional[SessionDrift] = None,
+                 flight_pin: Optional[Sequence[float]] = None) -> tuple[float, list[SeverityFit]]:
     """Fit each motor's damage to the observed shares (mean 1) against the healthy ``base_share``.
 
     ``sigma`` (n,): each share's noise; ``throttle_ratio``: the flight's mean command over the
     baseline's (None without a profile); ``move``: the healthy noise includes a moved load
     (SESSION_MOVE_*, THROTTLE_MOVE_RANGE: against a calibration from another session; also
-    around the damage hypothesis). Returns the healthy chi-square (small drift) and one
+    around the damage hypothesis). ``sessions``: against a profile of two or more sessions, the
+    airframe's own drift (:class:`~flightlog_fd.analyzers.session_drift.SessionDrift`, with this
+    flight's pinning ``flight_pin``) replaces ``sigma``, ``throttle_sigma`` and ``move``, and the
+    chi-squares are its equivalents. Returns the healthy chi-square (small drift) and one
     :class:`SeverityFit` per motor (LLR = log Bayes factor over the eta/m prior grid)."""
     s = np.asarray(share, float)
     b = np.asarray(base_share, float)
@@ -195,6 +207,8 @@ def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, f
     with_thr = throttle_ratio is not None and np.isfinite(throttle_ratio)
     sig_big = np.sqrt(sig ** 2 + SESSION_MOVE_SIGMA ** 2)
     log_u = -np.log(2 * THROTTLE_MOVE_RANGE)  # a moved load's throttle density
+    if sessions is not None:
+        return _session_severity_fit(s, b, rows, throttle_ratio if with_thr else None, sessions, flight_pin)
 
     def loglik(resid, thr_resid):  # resid (..., n), thr_resid (...) or None -> (...)
         small = _gauss_ll(resid, sig)
@@ -239,6 +253,48 @@ def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, f
     return chi_h, fits
 
 
+def _session_severity_fit(s: np.ndarray, b: np.ndarray, rows: np.ndarray, throttle_ratio: Optional[float],
+                          drift: SessionDrift, flight_pin) -> tuple[float, list[SeverityFit]]:
+    """:func:`severity_fit` against an airframe's own session drift: the healthy and the damaged
+    shares (and the log throttle) weighed with its posterior mixture over the session scale."""
+    n = len(s)
+    log_thr = None if throttle_ratio is None else float(np.log(max(throttle_ratio, 1e-9)))
+
+    def loglik(resid, thr_resid):
+        return drift.loglik(resid, thr_resid, flight_pin)
+
+    ll_h = float(loglik(s - b, log_thr))
+    chi_h = drift.chi2_equivalent(s - b, log_thr, flight_pin)
+    fits = []
+    for k in range(1, n + 1):
+        u = _pred_table(b, rows, k)  # (E, M, n)
+        mean_u = u.mean(axis=2)
+        pred = u / mean_u[..., None]
+        thr_resid = None if log_thr is None else log_thr - np.log(np.clip(mean_u, 1e-9, None))
+        ll = loglik(s - pred, thr_resid)
+        fits.append(_fit_from_grid(ll, ll_h, lambda a, bm: drift.chi2_equivalent(
+            s - pred[a, bm], None if thr_resid is None else thr_resid[a, bm], flight_pin)))
+    return chi_h, fits
+
+
+def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
+    """One motor's :class:`SeverityFit` from its log-likelihood over the eta/m grid (``ll`` (E, M))
+    and the healthy one; ``chi_at(a, bm)``: the chi-square at the best grid point."""
+    top = ll.max()
+    llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+    post_eta = np.exp(ll - top).sum(axis=1)
+    cdf = np.cumsum(post_eta / post_eta.sum())
+    ia = min(int(np.searchsorted(cdf, 0.05)), len(ETA_GRID) - 1)
+    ib = min(int(np.searchsorted(cdf, 0.95)), len(ETA_GRID) - 1)
+    lo = 0.0 if ia == 0 else float(ETA_GRID[max(ia - (ia == ib), 0)])
+    hi = float(ETA_GRID[min(ib + (ia == ib), len(ETA_GRID) - 1)])
+    a, bm = np.unravel_index(int(np.argmax(ll)), ll.shape)
+    eta_hat = float(ETA_GRID[a])
+    if eta_hat >= ETA_GRID[-1]:
+        eta_hat, hi = 1.0, 1.0
+    return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)))
+
+
 def pooled_sigma(measured: Optional[float], n_flights: int, prior: float) -> float:
     """A spread measured on ``n_flights`` flights pooled with ``prior`` (worth
     ``DRIFT_PRIOR_FLIGHTS`` flights); ``prior`` alone when nothing was measured."""
@@ -255,7 +311,7 @@ def share_sigma(baseline_kind: str, spread: Optional[Sequence[float]], n: int, n
     added in quadrature to how well the calibration and this flight pin their shares (``pins``:
     per-motor :func:`flightlog_fd.analyzers.share_fit.pin_spread` figures, None where unknown)."""
     if baseline_kind == "neighbours":
-        return np.full(n, NEIGHBOUR_SHARE_SIGMA)
+        return np.full(n, NEIGHBOUR_SHARE_SIGMA if n == 4 else NROTOR_NEIGHBOUR_SHARE_SIGMA.get(n, NEIGHBOUR_SHARE_SIGMA))
     if baseline_kind == "before onset":
         return np.full(n, ONSET_BASELINE_SIGMA)
     if spread is not None and len(spread) == n and np.all(np.isfinite(spread)):
@@ -296,8 +352,21 @@ def _fits(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[Sever
     sig = share_sigma(share_fit.baseline, None if b is None else b.spread, n, n_flights, pins)
     ratio = share_fit.throttle_ratio if with_throttle else None
     thr_sig = pooled_sigma(None if b is None else b.throttle_spread, n_flights, THROTTLE_DRIFT_SIGMA)
-    chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile)
+    drift = session_drift(share_fit) if profile else None
+    if drift is not None:
+        sig = drift.share_sigma(share_fit.pin)
+    chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile, sessions=drift,
+                               flight_pin=share_fit.pin)
     return chi_h, fits, sig
+
+
+def session_drift(share_fit) -> Optional[SessionDrift]:
+    """The airframe's own session drift when the profile holds two or more sessions, else None."""
+    b = share_fit.baseline_
+    figs = None if b is None else b.sessions
+    if figs is None or figs.n_sessions < 2 or figs.shares.shape[1] != len(share_fit.motors):
+        return None
+    return SessionDrift.fit(figs, DEFAULT_DRIFT_SIGMA, THROTTLE_DRIFT_SIGMA)
 
 
 class CommandShares(Analyzer):
@@ -309,16 +378,15 @@ class CommandShares(Analyzer):
     #: coaxial partner, same roll/pitch levers and the opposite spin, 1-24; both at 8, the decision
     #: could not choose in 13 of 46 damaged flights; benchmarks/bench_nrotor.py).
     cap_keeps_order = True
+    #: Means only (any rate serves); the healthy spread it is weighed against depends on the profile
+    #: and, without one, on the rotor count.
+    reliability_keys = ("profile", "rotors")
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
         share_fit = ctx.share_fit
         why = self.missing(ctx.flight)
         if why or share_fit is None:
             return CommandSharesResult(self.id, abstained=why or "no command shares")
-        if share_fit.baseline == "neighbours" and len(share_fit.motors) != 4:
-            return CommandSharesResult(self.id, abstained=(
-                f"without a profile the healthy spread of {len(share_fit.motors)}-rotor command patterns is not measured "
-                f"on real airframes (NEIGHBOUR_SHARE_SIGMA is from real quads); calibrate on a healthy flight"))
         drifting = share_fit.drifting() if share_fit.baseline == "before onset" else None
         if drifting is not None:
             return CommandSharesResult(self.id, abstained=f"motor {drifting}'s command rose steadily after the onset",
@@ -346,11 +414,16 @@ class CommandShares(Analyzer):
                                    healthy_chi2_shares=chi_h, fit_chi2_shares=[f.chi2 for f in fits],
                                    pin=_combined_pin(share_fit),
                                    n_flights=None if share_fit.baseline_ is None else share_fit.baseline_.n_flights,
+                                   n_sessions=None if share_fit.baseline_ is None else share_fit.baseline_.n_sessions,
                                    throttle_sigma=_throttle_sigma(share_fit))
 
 
 def _throttle_sigma(share_fit) -> float:
-    """The relative throttle drift against the baseline (measured spread pooled with the default)."""
+    """The relative throttle drift against the baseline (measured spread pooled with the default;
+    the airframe's own session drift against a profile of two or more sessions)."""
+    drift = session_drift(share_fit) if share_fit.baseline == "profile" else None
+    if drift is not None:
+        return drift.throttle_sigma()
     b = share_fit.baseline_
     return pooled_sigma(None if b is None else b.throttle_spread, 1 if b is None else b.n_flights,
                         THROTTLE_DRIFT_SIGMA)

@@ -49,6 +49,8 @@ class Effectiveness(Analyzer):
     id = "effectiveness"
     description = "angular acceleration per unit command, relative to the other motors (when the flight manoeuvred)"
     requires = ("rates", "motors")
+    #: Angular acceleration is a derivative of the rate stream: its reliability follows the rates.
+    reliability_keys = ("rate",)
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
         eff = None if ctx.share_fit is None else ctx.share_fit.effectiveness

@@ -78,12 +78,15 @@ from typing import Optional
 import numpy as np
 
 from ..errors import FlightLogError
-from ..filters import LAG_TRUNCATION, lag, lag_coefficient, savgol_at, savgol_coeffs, savgol_edge_matrix, scan_inplace
+from ..filters import (LAG_TRUNCATION, correlate1d_zero_ends, lag, lag_coefficient, savgol_at, savgol_coeffs,
+                       savgol_edge_matrix, scan_inplace)
 from ..flight import Frame
 from ..prepared import PreparedFlight, resample
 from ..streams import (DEFAULT_MAX_GAP_S, DEFAULT_RATE_HZ, DEFAULT_SAVGOL_WINDOW_S, MAX_FINE_FACTOR, SAVGOL_POLYORDER,
                        Segment, odd_window)
 
+#: The start of the reason an informative-enough fit was not reached (the advice reads it).
+LITTLE_MANOEUVRING = "too little manoeuvring"
 #: Centred moving-average length (s) removed from both sides before the fit (0.3-0.5 s gave the
 #: smallest error on simulated flights with known η: rmse 0.05 against 0.08 at 1 s and 0.10 at 2 s,
 #: px4_high, 16 flights): longer than a
@@ -327,8 +330,6 @@ class _SegmentLags:
     """
 
     def __init__(self, u: np.ndarray, rate_hz: float, n: int, k: int) -> None:
-        from scipy.ndimage import correlate1d  # loaded by flight.py anyway
-
         self.u = u = np.asarray(u, dtype=np.float64)
         self.rate_hz, self.n, self.k = rate_hz, n, k
         m = u.shape[0]
@@ -342,7 +343,7 @@ class _SegmentLags:
             g1 = self.i1 * k
             pad = np.concatenate([np.repeat(u[:1], 2 * h, axis=0), u[:g1 + h + 1]])
             # s[r] = smoothed u_ext at r - h, r = 0 .. g1 + h (u_ext = u[0] before the start)
-            self.s = correlate1d(pad, c, axis=0, mode="constant")[h:h + g1 + h + 1]
+            self.s = correlate1d_zero_ends(pad, c)[h:h + g1 + h + 1]
             # the k samples before each kept one (after the first), as (k, blocks x C) for one product
             nb, L0 = self.i1 - self.i0, self.i0 * k + h + 1
             self.blocks = self.s[L0:L0 + nb * k].reshape(nb, k, -1).transpose(1, 0, 2).reshape(k, -1)
@@ -708,7 +709,7 @@ def estimate_effectiveness(flight, *, rate_hz: float = DEFAULT_RATE_HZ,
     if not np.all(np.isfinite(point)):
         reason = "the fit failed (no roll/pitch response to the motor commands)"
     elif not informative:
-        reason = (f"too little manoeuvring to estimate it: the widest interval is ±{np.nanmax(widths) / 2:.2f} "
+        reason = (f"{LITTLE_MANOEUVRING} to estimate it: the widest interval is ±{np.nanmax(widths) / 2:.2f} "
                   f"(needs ±{MAX_CI_WIDTH / 2:.2f}); a flight with more roll/pitch changes would do")
     else:
         reason = f"from {seconds:.0f} s of airborne data"

@@ -11,12 +11,19 @@ time, two relations, each as the motor's offset against the other motors of the 
 - **current per rpm²** ``d_k``: ``log mean current = e_k + γ·log mean rpm²`` (γ fitted, prior 1:
   drag torque ∝ rpm², current ∝ torque). The lost blade area loses drag torque: ``d_k`` goes **down**.
 
+A weak motor or ESC (a failing ESC or a resistive joint delivers less voltage; a tired motor or a
+bad bearing droops more) does the opposite to rpm: the rotor turns **slower** for its command, so
+``a_k`` goes **down**, while ``d_k`` stays (the same propeller's torque per rpm²; a bearing's
+friction raises it). Both lose the rotor thrust per command, so the command shares cannot tell
+them apart; these relations can (``cause_llr``).
+
 A trim change (centre of mass off the middle, motor tilt / yaw trim) only moves each motor along
 its own curves, so neither offset moves; command shares cannot tell the two apart with four
 motors. Both relations are fitted on 1 s bin means of the airborne time (``BIN_S``; each ESC on
 its own samples, never interpolated; a bin in which any motor's ESC is silent is skipped), per
-motor against the mean of the other motors, so everything common to all motors (battery
-voltage, air density, throttle) cancels.
+motor against a robust (Huber) level of the other motors (one rotor far off does not move the
+others' reference), so everything common to all motors (battery voltage, air density, throttle)
+cancels.
 
 Score: ``r_k = (a_k, d_k)`` is Gaussian around 0 for a healthy motor with covariance ``Σ`` =
 motor-to-motor spread (``HEALTHY_SPREAD_COV``, without a profile; with one, the profile's own
@@ -25,10 +32,15 @@ flight-to-flight spread) + the measurement's own uncertainty (from ``N_BLOCKS`` 
 ``llr`` is the generalised log-likelihood ratio (nats) of that against healthy, maximised over
 ℓ ≥ 0: ``(μᵀΣ⁻¹r)² / (2 μᵀΣ⁻¹μ)`` when ``μᵀΣ⁻¹r > 0``, else 0; it names a motor
 (:meth:`EscAnalysis.motor_named`). The decision model sums another figure, ``decision_llr``: the
-log Bayes factor with ℓ averaged over the same damage prior as the command-share analyzer (η
-0.40-0.99, torque η^m), which is negative for a motor whose relations sit where a healthy one's
-do, so ESC telemetry can also clear a motor that other sources suspect. Without current
-telemetry only ``a_k`` is used.
+log Bayes factor of "rotor k lost thrust" against healthy, the loss being its propeller's (ℓ
+averaged over the same damage prior as the command-share analyzer: η 0.40-0.99, torque η^m,
+along ``DAMAGE_DIRECTION``) or its motor's / ESC's (η on the same grid, ℓ = -log η along
+``MOTOR_DIRECTION``), weighed by ``MOTOR_CAUSE_PRIOR``. It is negative for a motor whose
+relations sit where a healthy one's do, so ESC telemetry can also clear a motor that other
+sources suspect. ``cause_llr`` per motor is the log Bayes factor of the motor / ESC against the
+propeller (positive: the motor or its ESC). Without current telemetry only ``a_k`` is used, and
+a current that never changes (a simulator's placeholder, an ESC without current sense that
+reports a fixed value) is no current telemetry.
 
 Inputs: a :class:`~flightlog_fd.flight.Flight` with ``esc`` (rpm for every motor; current
 optional), ``motors`` and ``airborne``; optionally an :class:`EscBaseline` from healthy flights
@@ -56,6 +68,8 @@ from ..flight import Flight
 from .base import Analyzer, AnalyzerResult, Context, Finding
 
 ANALYZER_ID = "esc"
+#: The abstention of a log without ESC telemetry.
+NO_ESC = "no ESC telemetry in this log"
 #: Bin length (s) of the means the relations are fitted on: ESC latency (up to one report
 #: interval, 10-100 ms) and motor lag (15-80 ms) stay small against it.
 BIN_S = 1.0
@@ -86,10 +100,19 @@ RPM_SLOPE_FIXED = True
 #: flights (128 motors; random airframes 30 g-5 kg, realistic imbalance, 10 and 50 Hz ESC):
 #: std a 1.19 %, d 3.30 %, correlation +0.31 (a KV spread moves both up; a light healthy
 #: propeller moves them apart like damage, and is the floor of what a flight alone can tell).
+#: Against the robust level of the others (ROBUST_LEVEL_K) the same run gives std a 1.20 %, d
+#: 3.34 %, +0.32; trim change 0.38 % / 0.59 %; damage direction +0.074 / -0.973; largest healthy
+#: llr 4.4 (p99 4.0): every constant here holds within its last digit.
 HEALTHY_SPREAD_STD = (0.0119, 0.0330)
 HEALTHY_SPREAD_CORR = 0.31
 HEALTHY_SPREAD_COV = ((HEALTHY_SPREAD_STD[0] ** 2, HEALTHY_SPREAD_CORR * HEALTHY_SPREAD_STD[0] * HEALTHY_SPREAD_STD[1]),
                       (HEALTHY_SPREAD_CORR * HEALTHY_SPREAD_STD[0] * HEALTHY_SPREAD_STD[1], HEALTHY_SPREAD_STD[1] ** 2))
+#: Each motor's offsets are taken against a robust level of the other motors (_against_others):
+#: Huber's location with this tuning constant, in healthy spreads (HEALTHY_SPREAD_STD): 1.345
+#: keeps 95 % of the mean's efficiency on Gaussian data (Huber 1964), and a motor far off weighs
+#: as if it were 1.345 spreads away.
+ROBUST_LEVEL_K = 1.345
+ROBUST_LEVEL_ITERATIONS = 50
 #: A profile's flight-to-flight spread is never taken below this std (a, d). Measured (same
 #: `--measure` run): 16 airframes flown twice with the same motors and ESCs, the second time
 #: with the CoG moved 4-10 % of the arm or the yaw trim changed by 0.5-1 deg of motor tilt:
@@ -104,6 +127,21 @@ DAMAGE_DIRECTION = (0.073, -0.968)
 #: spread were Gaussian). The `--measure` run's largest healthy llr: 4.5 nats (48 healthy and
 #: trim-changed flights, no profile; p99 4.0).
 DECISION_LLR = 6.0
+#: Offset per unit of lost thrust per command ℓ = -log η of a weak motor or ESC, (a, d). Physics:
+#: a drive that delivers sqrt(η) of the speed gives a = ½ log η (-0.5 per unit ℓ), less the load
+#: droop the slower rotor no longer suffers; its propeller's torque per rpm² is unchanged (d 0).
+#: Measured (`bench_esc.py --measure --per-cell 8 --seed 99`, sim/damage.py cause "motor", η
+#: 0.6-0.9, 10 and 50 Hz ESC, 32 flights): median a/ℓ -0.459 (10-90 % -0.549..-0.378), d/ℓ -0.025;
+#: 48 more flights at 10/50/100 Hz (seed 99, another draw): -0.455 and +0.025, so d is 0 within
+#: the run-to-run spread. ArduCopter 4.7 SITL, SIM_ENGINE_MUL=0.75 (motor1_weak_esc.BIN): a =
+#: -0.285 at ℓ = 0.575, -0.50 per unit.
+MOTOR_DIRECTION = (-0.46, 0.0)
+#: Prior probability that a rotor which lost thrust lost it to its motor or ESC rather than to its
+#: propeller: even odds. No measured base rate exists (propellers are the commoner wear part on a
+#: crashed or hard-landed airframe; ESC and motor faults follow heat and age), and where the loss
+#: is visible the relations tell the two apart by far more than the prior (bench_esc.py
+#: --causes); where the evidence is weak the verdict states no cause.
+MOTOR_CAUSE_PRIOR = 0.5
 
 
 @dataclass(frozen=True)
@@ -166,10 +204,14 @@ class EscAnalysis:
     against: str = "other motors"
     bins: int = 0
     slopes: dict = field(default_factory=dict)
-    #: Per motor, the log Bayes factor (nats) of "lost torque, ℓ from the damage prior" against
-    #: healthy (:func:`_log_bayes_factor`): what the decision model sums. Unlike ``llr`` it goes
-    #: negative when the motor's relations sit where a healthy motor's do.
+    #: Per motor, the log Bayes factor (nats) of "lost thrust to its propeller or to its motor /
+    #: ESC" against healthy (:func:`_log_bayes_factor`, weighed by MOTOR_CAUSE_PRIOR): what the
+    #: decision model sums. Unlike ``llr`` it goes negative when the motor's relations sit where a
+    #: healthy motor's do.
     decision_llr: dict[int, float] = field(default_factory=dict)
+    #: Per motor, the log Bayes factor (nats) of "its motor or ESC lost the thrust" against "its
+    #: propeller did", each loss averaged over its prior (positive: the motor / ESC).
+    cause_llr: dict[int, float] = field(default_factory=dict)
 
     def motor_named(self, threshold: float = DECISION_LLR) -> Optional[int]:
         """The motor whose llr is largest and above ``threshold`` (None: nothing named)."""
@@ -181,7 +223,7 @@ class EscAnalysis:
 
 @dataclass
 class _Measurement:
-    r: np.ndarray  # (M, 2) offsets a, d against the mean of the other motors (d NaN without current)
+    r: np.ndarray  # (M, 2) offsets a, d against the others' robust level (d NaN without current)
     cov: np.ndarray  # (M, 2, 2) measurement covariance of r
     has_current: bool
     bins: int
@@ -214,6 +256,20 @@ def _bin_means(t: np.ndarray, v: np.ndarray, edges_list: list[np.ndarray]) -> tu
     return np.concatenate(means), np.concatenate(counts)
 
 
+def _constant(x: np.ndarray) -> bool:
+    """True when every finite sample of ``x`` has one value (or there is none)."""
+    x = x[np.isfinite(x)]
+    return x.size == 0 or bool(np.all(x == x[0]))
+
+
+def _airborne(t: np.ndarray, airborne: list[tuple[float, float]]) -> np.ndarray:
+    """Mask of the times inside the airborne intervals."""
+    out = np.zeros(t.shape, dtype=bool)
+    for a, b in airborne:
+        out |= (t >= a) & (t <= b)
+    return out
+
+
 def _fe_fit(y: np.ndarray, x: np.ndarray, prior: float, fixed: bool = False) -> tuple[float, np.ndarray, np.ndarray]:
     """Pooled slope (or the prior when ``fixed``) with per-motor intercepts on (B, M) bin means,
     both taken against the mean of all motors per bin. Returns (slope, intercepts (M,), residuals)."""
@@ -227,17 +283,43 @@ def _fe_fit(y: np.ndarray, x: np.ndarray, prior: float, fixed: bool = False) -> 
     return slope, inter, yd - slope * xd - inter
 
 
-def _against_others(c: np.ndarray) -> np.ndarray:
-    """Offsets against the mean of the other motors from intercepts that sum to zero."""
+def _robust_level(x: np.ndarray, scale: float) -> np.ndarray:
+    """Huber's location of each row of ``x`` (rows of the other motors' intercepts) with the
+    healthy spread ``scale``: the mean while the values sit within ``ROBUST_LEVEL_K`` spreads of
+    each other, a value beyond counting as if it were that far (start: the median)."""
+    mu = np.median(x, axis=-1)
+    for _ in range(ROBUST_LEVEL_ITERATIONS):
+        step = np.clip(x - mu[..., None], -ROBUST_LEVEL_K * scale, ROBUST_LEVEL_K * scale).mean(axis=-1)
+        mu = mu + step
+        if np.all(np.abs(step) < 1e-6 * scale):
+            break
+    return mu
+
+
+def _against_others(c: np.ndarray, scale: float) -> np.ndarray:
+    """Offsets (M,) against a robust level of the other motors (:func:`_robust_level`), from
+    per-motor intercepts; ``scale``: the healthy motor-to-motor spread of this relation.
+
+    Robust, not the mean: one motor far off (a weak motor turning 25 % slower per command) would
+    move the mean of every other motor's reference by a third of that on a quad, and a healthy
+    motor would then read as turning 10 % faster per command, a propeller's sign (ArduCopter SITL
+    motor1_weak_esc.BIN, rpm only: +9.8 to +10.2 % on motors 2-4 against the mean, +0.7 to +1.1 %
+    against the robust level). Not the median of the others: on Gaussian motors it is noisier, and it named
+    the damaged motor at eta 0.9 in 18 of 24 simulated flights where the mean and this level named
+    21 (bench_esc.py's eta 0.9 cells at seed 1700; largest healthy llr 5.5 mean, 5.6 this level,
+    24 healthy flights)."""
     m = c.shape[-1]
-    return c * m / (m - 1)
+    if not np.all(np.isfinite(c)):
+        return np.full(c.shape, np.nan)
+    others = np.array([np.delete(c, k) for k in range(m)])
+    return c - _robust_level(others, scale)
 
 
 def measure_esc(flight: Flight) -> tuple[Optional[_Measurement], Optional[str]]:
     """The per-motor offsets and their measurement covariance, or (None, why it abstains)."""
     esc, motors = flight.esc, flight.motors
     if esc is None or not esc.channels:
-        return None, "no ESC telemetry in this log"
+        return None, NO_ESC
     if motors is None or len(motors) < 2:
         return None, "no motor commands"
     n = motors.values.shape[1]
@@ -259,7 +341,12 @@ def measure_esc(flight: Flight) -> tuple[Optional[_Measurement], Optional[str]]:
     w_cmd = np.sqrt(np.clip(flight_thrust_proxy(flight), 0.0, None))
     lu = np.column_stack([_bin_means(motors.t, w_cmd[:, k], edges)[0] for k in range(n)])
     lrpm, lcur, lrpm2 = [], [], []
-    has_current = all(esc.channel(k).current is not None for k in range(1, n + 1))
+    chans = [esc.channel(k) for k in range(1, n + 1)]
+    if not any(np.any(_airborne(c.t, flight.airborne) & c.fresh() & (c.rpm > 0)) for c in chans):
+        return None, "the ESCs report no rpm in flight (0 throughout): no rpm telemetry"
+    has_current = all(c.current is not None for c in chans)
+    if has_current and all(_constant(c.current[c.fresh()]) for c in chans):
+        has_current = False  # a value that never changes is no measurement (a simulator's placeholder)
     for k in range(1, n + 1):
         c = esc.channel(k)
         m = c.fresh() & (c.rpm > 0)
@@ -287,24 +374,24 @@ def measure_esc(flight: Flight) -> tuple[Optional[_Measurement], Optional[str]]:
     beta, ca, _ = _fe_fit(lrpm, lu, RPM_SLOPE_PRIOR, RPM_SLOPE_FIXED)
     slopes = {"log_rpm_per_log_sqrt_command": beta}
     r = np.full((n, 2), np.nan)
-    r[:, 0] = _against_others(ca)
+    r[:, 0] = _against_others(ca, HEALTHY_SPREAD_STD[0])
     if has_current:
         lcur = np.log(lcur[ok])
         lrpm2 = np.log(lrpm2[ok])
         gamma, cd, _ = _fe_fit(lcur, lrpm2, CURRENT_SLOPE_PRIOR)
         slopes["log_current_per_log_rpm2"] = gamma
-        r[:, 1] = _against_others(cd)
+        r[:, 1] = _against_others(cd, HEALTHY_SPREAD_STD[1])
     # measurement covariance from contiguous time blocks (slopes held at the whole-flight values)
     blocks = np.array_split(np.arange(lu.shape[0]), N_BLOCKS)
     est = []
     for b in blocks:
         xa = lu[b] - lu[b].mean(axis=1, keepdims=True)
         ya = lrpm[b] - lrpm[b].mean(axis=1, keepdims=True)
-        ra = _against_others((ya - beta * xa).mean(axis=0))
+        ra = _against_others((ya - beta * xa).mean(axis=0), HEALTHY_SPREAD_STD[0])
         if has_current:
             xd = lrpm2[b] - lrpm2[b].mean(axis=1, keepdims=True)
             yd = lcur[b] - lcur[b].mean(axis=1, keepdims=True)
-            rd = _against_others((yd - slopes["log_current_per_log_rpm2"] * xd).mean(axis=0))
+            rd = _against_others((yd - slopes["log_current_per_log_rpm2"] * xd).mean(axis=0), HEALTHY_SPREAD_STD[1])
         else:
             rd = np.zeros(n)
         est.append(np.column_stack([ra, rd]))
@@ -351,6 +438,20 @@ def _log_bayes_factor(r: np.ndarray, cov: np.ndarray, mu: np.ndarray, losses: np
     return top + float(np.log(np.mean(np.exp(terms - top))))
 
 
+def motor_prior_losses() -> np.ndarray:
+    """Losses ℓ = -log η of the motor / ESC hypothesis, η on the command-share analyzer's grid
+    (command_shares.ETA_GRID: thrust per command, uniform): the propeller's severity prior."""
+    from .command_shares import ETA_GRID
+
+    return -np.log(ETA_GRID)
+
+
+def _mixture(log_bf: Sequence[float], weights: Sequence[float]) -> float:
+    """log of sum_i weights_i · exp(log_bf_i), computed stably."""
+    top = max(log_bf)
+    return top + float(np.log(sum(w * np.exp(b - top) for b, w in zip(log_bf, weights))))
+
+
 def _pct(x: float) -> float:
     return float(100.0 * np.expm1(x))
 
@@ -381,15 +482,19 @@ def analyze_esc(flight: Flight, baseline: Optional[EscBaseline] = None) -> EscAn
         spread = np.array(HEALTHY_SPREAD_COV)
         against = "other motors"
     mu = np.array(DAMAGE_DIRECTION)[dims]
-    losses = damage_prior_losses()
-    findings, llr, decision_llr = [], {}, {}
+    mu_motor = np.array(MOTOR_DIRECTION)[dims]
+    losses, motor_losses = damage_prior_losses(), motor_prior_losses()
+    findings, llr, decision_llr, cause_llr = [], {}, {}, {}
     for k in range(meas.r.shape[0]):
         motor = k + 1
         x = (meas.r[k] - base[k])[dims]
         cov = (spread + meas.cov[k])[np.ix_(dims, dims)]
         score, loss = _glr(x, cov, mu)
         llr[motor] = score
-        decision_llr[motor] = _log_bayes_factor(x, cov, mu, losses)
+        bf_prop = _log_bayes_factor(x, cov, mu, losses)
+        bf_motor = _log_bayes_factor(x, cov, mu_motor, motor_losses)
+        decision_llr[motor] = _mixture([bf_prop, bf_motor], [1.0 - MOTOR_CAUSE_PRIOR, MOTOR_CAUSE_PRIOR])
+        cause_llr[motor] = bf_motor - bf_prop
         for j, (name, direction) in enumerate((("rpm_per_command", "up"), ("current_per_rpm2", "down"))):
             if j not in dims:
                 findings.append(EscFigure(ANALYZER_ID, motor, name, float("nan"), "%", (float("nan"),) * 2, None,
@@ -404,7 +509,7 @@ def analyze_esc(flight: Flight, baseline: Optional[EscBaseline] = None) -> EscAn
                                     direction, one))
         findings.append(EscFigure(ANALYZER_ID, motor, "esc_damage", 100.0 * loss, "% torque",
                                 (float("nan"), float("nan")), 0.0, "up", score))
-    return EscAnalysis(findings, llr, None, against, meas.bins, meas.slopes, decision_llr)
+    return EscAnalysis(findings, llr, None, against, meas.bins, meas.slopes, decision_llr, cause_llr)
 
 
 def fit_esc_baseline(flights: Sequence[Flight], names: Optional[Sequence[str]] = None) -> EscBaseline:
@@ -430,6 +535,15 @@ def fit_esc_baseline(flights: Sequence[Flight], names: Optional[Sequence[str]] =
     return EscBaseline([tuple(map(float, o)) for o in offsets], cov.tolist(), used, has_current)
 
 
+@dataclass
+class EscResult(AnalyzerResult):
+    """The ESC analyzer's result: its findings and, per motor, the log Bayes factor of "its motor
+    or ESC lost the thrust" against "its propeller did" (:attr:`EscAnalysis.cause_llr`), which
+    :mod:`flightlog_fd.cause` reads for the rotor a verdict names."""
+
+    cause_llr: dict = field(default_factory=dict)
+
+
 class Esc(Analyzer):
     """The registry's ESC analyzer: :func:`analyze_esc` against the profile's ESC baseline when it
     has one. Per motor: ``rpm_per_command`` and ``current_per_rpm2`` (shown) and ``esc_damage``
@@ -447,6 +561,7 @@ class Esc(Analyzer):
     #: profile the fused verdict said damaged on 6 (10 when it got the GLR), and eta 0.6-0.8
     #: stayed 60/60 right (bench_esc.py --verdicts, seed 4242, 2026-11-24).
     llr_cap = 12.0
+    reliability_keys = ("profile",)
 
     def fit_baseline(self, flights, model=None):
         try:
@@ -457,14 +572,14 @@ class Esc(Analyzer):
     def analyze(self, ctx: Context) -> AnalyzerResult:
         flight = ctx.flight
         if flight is None or getattr(flight, "esc", None) is None:
-            return AnalyzerResult(self.id, abstained="no ESC telemetry in this log")
+            return EscResult(self.id, abstained=NO_ESC)
         b = ctx.baseline_for(self.id)
         baseline = EscBaseline.from_dict(b) if b else None
         if baseline is not None and len(baseline.offsets) != ctx.n_motors:
             baseline = None
         a = analyze_esc(flight, baseline)
         if a.abstain:
-            return AnalyzerResult(self.id, abstained=a.abstain)
+            return EscResult(self.id, abstained=a.abstain)
         out = []
         for f in a.findings:
             if f.abstain or not np.isfinite(f.value):
@@ -476,8 +591,8 @@ class Esc(Analyzer):
             out.append(Finding(self.id, f.motor, f.name, f.value, f.unit, interval, f.baseline, f.direction,
                                a.decision_llr[f.motor] if weighed else None,
                                text if f.name != "esc_damage" else f"{f.value:.0f}%"))
-        return AnalyzerResult(self.id, out)
+        return EscResult(self.id, out, cause_llr=dict(a.cause_llr))
 
 
-__all__ = ["ANALYZER_ID", "EscFigure", "Esc", "EscAnalysis", "EscBaseline", "analyze_esc", "measure_esc",
-           "fit_esc_baseline", "DECISION_LLR"]
+__all__ = ["ANALYZER_ID", "NO_ESC", "EscFigure", "Esc", "EscAnalysis", "EscBaseline", "EscResult", "analyze_esc",
+           "measure_esc", "fit_esc_baseline", "DECISION_LLR", "MOTOR_DIRECTION"]

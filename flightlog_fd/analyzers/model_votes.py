@@ -123,16 +123,39 @@ def model_llr(probs: np.ndarray, covered_s: float, healthy_mean=None, healthy_si
     return np.array([_gauss_logpdf(x, mu_d[k], sd_d) - _gauss_logpdf(x, mu_h[k], sd_h) for k, x in enumerate(mean)])
 
 
+def combine_sessions(sessions: list[dict], seen: list[bool] | None = None) -> dict | None:
+    """One model-vote baseline from each calibration session's (:meth:`ModelVotes.fit_baseline` of
+    its flights, all with the same model): the mean of the sessions' healthy means, their
+    session-to-session spread (``n_flights``: the sessions it rests on), each session's means
+    (``sessions``), so a session added later is weighed in the same way, and whether the model was
+    adapted on each (``sessions_seen``; an adapted model votes lower on its own flights than on a
+    session it never saw). None without any."""
+    keep = [i for i, s in enumerate(sessions) if s and s.get("healthy_mean")]
+    if not keep:
+        return None
+    m = np.array([sessions[i]["healthy_mean"] for i in keep], float)
+    spread = float(np.sqrt(np.mean(m.std(axis=0, ddof=1) ** 2))) if len(m) > 1 else None
+    return {"model_sha256": sessions[keep[0]].get("model_sha256", ""), "healthy_mean": [float(x) for x in m.mean(axis=0)],
+            "spread": spread, "n_flights": len(m), "sessions": [[float(x) for x in row] for row in m],
+            "sessions_seen": [bool(seen[i]) if seen is not None else False for i in keep]}
+
+
 class ModelVotes(Analyzer):
     id = "model"
     description = "the model's window votes (mean probability per motor), weighed as one flight"
     requires = ()
-    #: The model alone never makes a damaged verdict (decision.DAMAGED_LLR 6): it was trained on
-    #: simulated airframes, and on a real one a session's trim can look like damage to it
-    #: (CrazyPAD E9 cut_propeller_M3_2mm logs 04-05: a calibrated model 6 sigma sure of motor 1,
-    #: whose command rose only 4 %, while the label says motor 2). Another source must add at least
-    #: a nat.
+    #: Where the reliability table has no cell for the log (or the kind of log is unknown) the model
+    #: alone never makes a damaged verdict (decision.DAMAGED_LLR 6): it was trained on simulated
+    #: airframes, and on a real one a session's trim can look like damage to it (CrazyPAD E9
+    #: cut_propeller_M3_2mm logs 04-05: a calibrated model 6 sigma sure of motor 1, whose command
+    #: rose only 4 %, while the label says motor 2). Another source must add at least a nat. Where
+    #: the table trusts it (measured quiet on real flights of that kind) it may give up to
+    #: SOURCE_LLR_CAP.
     llr_cap = 5.0
+    #: Its reliability depends on how well the streams fill its windows, on the profile (an adapted
+    #: model, or the airframe's own vote baseline) and on the rotor count (another shipped model).
+    reliability_keys = ("rate", "profile", "adapted", "rotors")
+    learned = True
 
     def fit_baseline(self, flights, model=None):
         """Each motor's flight-mean window log ratio on the calibration flights with ``model``

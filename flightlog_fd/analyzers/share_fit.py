@@ -76,6 +76,12 @@ class Baseline:
     pin: Optional[np.ndarray] = None
     #: (lo, hi) throttle the calibration flights spanned: the slope is not extrapolated beyond it
     throttle_range: Optional[tuple[float, float]] = None
+    #: the profile's calibration sessions (:class:`~flightlog_fd.analyzers.session_drift.SessionFigures`)
+    #: when it holds two or more: the airframe's own session-to-session drift is weighed then
+    sessions: Optional[object] = None
+    #: calibration sessions the profile holds (one flight is one session unless grouped); 0 for a
+    #: profile older than schema 6, whose flights were pooled
+    n_sessions: int = 0
 
     def share_at(self, throttle: float) -> np.ndarray:
         if self.throttle_range is not None:

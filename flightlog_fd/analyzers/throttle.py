@@ -30,6 +30,7 @@ class Throttle(Analyzer):
     id = "throttle"
     description = "the throttle against calibration (a weak rotor's lost thrust is made up)"
     requires = ("motors",)
+    reliability_keys = ("profile",)
 
     def analyze(self, ctx: Context) -> AnalyzerResult:
         share_fit = ctx.share_fit

@@ -79,7 +79,8 @@ pyulog's values (5-8x faster than pyulog's full parse on a 67 MB log); what it r
 why the fast one refused.
 
 Errors: a file pyulog cannot parse at all (bad header, unknown incompatible flags, no
-definitions) raises :class:`CorruptLogError`; a file that is not a ULog raises
+definitions, definitions on which pyulog's walk would step backwards and spin for ever: see
+:func:`pyulog_definitions_stall`) raises :class:`CorruptLogError`; a file that is not a ULog raises
 :class:`NotALogError`. A log cut short loads what was read, with a warning; logging dropouts and
 skipped corrupt messages are warnings too. A log without motor topics loads with ``motors=None``.
 """
@@ -220,6 +221,54 @@ def _ends_cut(data: bytes) -> bool:
     return pos != n
 
 
+#: pyulog (``core.py`` ``_check_packet_corruption``, 1.3.0) calls a message of unknown type corrupt
+#: when its type is 0, its size 0 or above this many bytes, and then steps one byte past its start.
+PYULOG_CORRUPT_MSG_SIZE = 10000
+#: Message types pyulog parses in the definitions section (flag bits, format, info, info multiple,
+#: parameter, default parameter); subscription, logging and tagged logging end the section.
+_PYULOG_DEFINITION_TYPES = frozenset(b"BFIMPQ")
+_PYULOG_SECTION_END_TYPES = frozenset(b"ALC")
+_FLAG_BITS_BYTES = 40  # compat (8) + incompat (8) + 3 appended-data offsets (8 each)
+_NON_ZERO_BYTE = re.compile(rb"[^\x00]")
+
+
+def pyulog_definitions_stall(data: bytes) -> Optional[tuple[int, int, int]]:
+    """Where pyulog's walk of the definitions section would stop advancing: (byte offset, message
+    type, declared size) of the first such message, or None when the walk reaches its end.
+
+    pyulog 1.3.0 (``ULog._read_file_definitions``) reads a corrupt message's payload, then seeks
+    back ``2 + size`` bytes to step one byte past the message start. When the declared size runs
+    past the end of the file the read comes back short and that seek lands *before* the message:
+    on the in-memory file it is given the position is clamped to 0 and the walk re-reads the file
+    header as a message, for ever (a ULog header followed by random bytes: over 60 s, until
+    killed). This walks the same (size, type) headers with the same rules and no decoding: it
+    ends where pyulog ends the section (a subscription/logging message, unknown incompatible flag
+    bits it raises on, the end of the file) and otherwise advances exactly as pyulog does; the
+    data section after it cannot stall (pyulog stops at a short read there).
+    """
+    pos, n = ULOG_HEADER_BYTES, len(data)
+    unpack = _MSG_HEADER.unpack_from
+    while pos + 3 <= n:
+        size, kind = unpack(data, pos)
+        if kind in _PYULOG_SECTION_END_TYPES:
+            return None
+        if kind == ord("B") and size >= _FLAG_BITS_BYTES and pos + 3 + _FLAG_BITS_BYTES <= n:
+            incompat = data[pos + 3 + 8:pos + 3 + 16]
+            if incompat[0] & ~1 or any(incompat[1:]):
+                return None  # pyulog raises: unknown incompatible flags
+        if kind not in _PYULOG_DEFINITION_TYPES and (kind == 0 or size == 0 or size > PYULOG_CORRUPT_MSG_SIZE):
+            if pos + 3 + size > n:
+                return pos, kind, size
+            if kind == 0 and size == 0:  # zero-filled bytes: pyulog steps to 2 bytes before the next non-zero one
+                nonzero = _NON_ZERO_BYTE.search(data, pos)
+                pos = max(pos + 1, (nonzero.start() if nonzero else n) - 2)
+            else:
+                pos += 1
+            continue
+        pos += 3 + size
+    return None
+
+
 #: ``Flight.reader`` of a log decoded by :mod:`flightlog_fd.logs.ulog_fast`.
 READER_FAST = "fast numpy ULog reader"
 #: Values of ``read_ulog(reader=...)``: "auto" (fast, pyulog when it refuses), "pyulog" (always).
@@ -257,11 +306,23 @@ def _parse(path: Path, reader: str = "auto"):
     return ulog, _ends_cut(data), printed, f"pyulog (fallback: {why})" if reader == "auto" else "pyulog"
 
 
+def _refuse_stalling_definitions(path, data: bytes) -> None:
+    """CorruptLogError (one line, exit 2) for a file on which pyulog's definitions walk would
+    step backwards (:func:`pyulog_definitions_stall`): every pyulog call goes through here."""
+    stall = pyulog_definitions_stall(data)
+    if stall is not None:
+        at, kind, size = stall
+        raise CorruptLogError(path, f"not a readable ULog: corrupt definitions at byte {at} (a message of "
+                                    f"unknown type {kind} claims {size} bytes, past the end of the file "
+                                    f"at byte {len(data)})")
+
+
 def _parse_pyulog(path: Path, data: bytes):
     """Run pyulog on the file's bytes; returns (ULog, pyulog's printed messages)."""
     from pyulog import ULog
     from pyulog.exceptions import ULogException
 
+    _refuse_stalling_definitions(path, data)
     printed = io.StringIO()
     try:
         with contextlib.redirect_stdout(printed):
@@ -957,7 +1018,8 @@ def read_ulog(path, reader: str = "auto") -> Flight:
         raise CorruptLogError(path, "ULog magic bytes damaged or unknown ULog variant")
     ulog, truncated, printed, reader_used = _parse(p, reader)
     if not ulog.message_formats:
-        raise CorruptLogError(path, "ULog header only: no message definitions (file cut right after the header?)")
+        raise CorruptLogError(path, "not a readable ULog: no message format definitions after the header "
+                                    "(file cut right after it, or damaged)")
     if truncated and not ulog.data_list:
         raise CorruptLogError(path, "ULog is truncated before any flight data (cut in its definitions "
                                     "or first data messages)")
@@ -1056,8 +1118,13 @@ def read_ulog_truth(path) -> Optional[dict]:
     from pyulog.exceptions import ULogException
 
     try:
+        data = Path(path).read_bytes()
+    except OSError as e:
+        raise NotALogError(path, f"cannot read: {e.strerror or e}") from None
+    _refuse_stalling_definitions(path, data)
+    try:
         with contextlib.redirect_stdout(io.StringIO()):
-            ulog = ULog(str(path), message_name_filter_list=[], parse_header_only=True)
+            ulog = ULog(io.BytesIO(data), message_name_filter_list=[], parse_header_only=True)
     except (ULogException, OSError, ValueError) as e:
         raise CorruptLogError(path, f"not a readable ULog: {e}") from None
     raw = ulog.msg_info_dict.get(TRUTH_INFO_KEY)

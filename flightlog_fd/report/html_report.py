@@ -31,11 +31,15 @@ from typing import Optional, Sequence, Union
 import numpy as np
 
 from .. import __version__
+from ..advice import advice_line
 from ..diagnose import Diagnosis
 from ..flight import Series
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
 from .terminal import verdict_sentence
+
+#: The likely cause of a named rotor's lost thrust, in words (decision.Verdict.cause).
+CAUSE_WORDS = {"propeller": "the propeller", "motor_or_esc": "the motor or its ESC"}
 
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
 MAX_POINTS_PER_LINE = 1600
@@ -84,24 +88,30 @@ def nice_ticks(lo: float, hi: float, target: int = 6) -> list[float]:
 
 
 def decimate(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS_PER_LINE) -> tuple[np.ndarray, np.ndarray]:
-    """At most ``max_points`` points: each bucket keeps its minimum and maximum, in time order."""
+    """At most ``max_points`` points: each bucket keeps its minimum and maximum, in time order (the
+    first of equal ones; NaN ignored; a bucket without a finite value is dropped). All buckets at
+    once: one Python loop per bucket was 80 % of a `fdlog serve` job (0.3 s of a 300 s log)."""
     n = t.shape[0]
     if n <= max_points:
         return t, y
     buckets = max_points // 2
     edges = np.linspace(0, n, buckets + 1).astype(int)
-    keep = []
-    for a, b in zip(edges[:-1], edges[1:]):
-        if b <= a:
-            continue
-        seg = y[a:b]
-        finite = np.isfinite(seg)
-        if not finite.any():
-            continue
-        i_min = a + int(np.nanargmin(seg))
-        i_max = a + int(np.nanargmax(seg))
-        keep.extend(sorted({i_min, i_max}))
-    idx = np.asarray(keep, dtype=int)
+    starts = edges[:-1][edges[1:] > edges[:-1]]
+    y = np.asarray(y)
+    bucket = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, n]))
+    nan = np.isnan(y)
+    low = np.where(nan, np.inf, y)
+    high = np.where(nan, -np.inf, y)
+    has_finite = np.logical_or.reduceat(np.isfinite(y), starts)
+
+    def first(hit: np.ndarray) -> np.ndarray:  # each bucket's first index where ``hit``
+        idx = np.flatnonzero(hit)
+        _, at = np.unique(bucket[idx], return_index=True)
+        return idx[at]
+    i_min = first(low == np.minimum.reduceat(low, starts)[bucket])
+    i_max = first(high == np.maximum.reduceat(high, starts)[bucket])
+    keep = has_finite[bucket[i_min]]  # both lists hold one index per bucket, in bucket order
+    idx = np.unique(np.concatenate([i_min[keep], i_max[has_finite[bucket[i_max]]]]))
     return t[idx], y[idx]
 
 
@@ -221,9 +231,15 @@ def _facts_table(d: Diagnosis) -> str:
         rows += [("model", f"{m.path or '-'} version {m.version or '-'}"),
                  ("model sha256", m.sha256 or "-"),
                  ("calibrated", "yes (profile's own model)" if m.calibrated else "no")]
-    rows.append(("profile", d.profile.path if d.profile is not None and d.profile.path else "none"))
+    rows.append(("profile", "none" if d.profile is None else
+                 f"{d.profile.path or 'in memory'} ({d.profile.sessions} calibration session"
+                 f"{'s' if d.profile.sessions != 1 else ''})"))
     v = d.verdict
     rows.append(("reason", v.reason))
+    if v.cause_evidence:
+        rows.append(("likely cause", f"{CAUSE_WORDS.get(v.cause, 'unknown')}: {v.cause_evidence['reason']}"))
+    for i, a in enumerate(v.advice):
+        rows.append(("to resolve it" if i == 0 else "", advice_line(a)))
     if d.timeline is not None and d.timeline.shortfall is None:
         ev = d.timeline
         names = class_names(len(ev.smoothed_share) - 1)
@@ -357,11 +373,13 @@ def vibration_svgs(d: Diagnosis) -> str:
 
 
 def _summary(diagnoses: Sequence[Diagnosis]) -> str:
-    head = "".join(f"<th>{c}</th>" for c in ("log", "verdict", "propeller", "confidence", "first seen", "exit"))
+    head = "".join(f"<th>{c}</th>" for c in ("log", "verdict", "rotor", "confidence", "first seen", "exit"))
     rows = []
     for d in diagnoses:
         v = d.verdict
         prop = f"{v.motor} ({v.position})" if v.motor and v.position else (str(v.motor) if v.motor else "")
+        if prop and v.cause == "motor_or_esc":
+            prop += ": motor or ESC"
         cells = [d.log, v.status, prop, f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "",
                  f"t={v.first_seen:.1f} s" if v.first_seen is not None else "", str(d.exit_code)]
         rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")

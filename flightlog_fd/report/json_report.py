@@ -1,4 +1,4 @@
-"""JSON report, schema version 5 (``fdlog diagnose --json``).
+"""JSON report, schema version 6 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals; n is the
@@ -7,7 +7,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
 .. code-block:: text
 
     {
-      "schema": 5,
+      "schema": 6,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -16,13 +16,25 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "frame": "quad_x" | "quad_plus" | "hexa_x" | "octo_x" | ... | null,
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
-      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null} | null,
+      "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null,
+                  "sessions": int} | null,             # its calibration sessions (schema 6)
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
                   "motor": 1-n | null,
                   "position": "front-right" | ... | null,
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
-                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ..."},
+                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
+                  "cause": "propeller" | "motor_or_esc" | null,   # the named rotor's likely cause
+                  "cause_evidence": {"motor": 1-n,                # null when no rotor is named
+                                     "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
+                                     "rpm_per_command": % | null, "current_per_rpm2": % | null,
+                                     "reason": str} | null,       # why that cause, or why none
+                  "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "logging" |
+                                      "esc_telemetry" | "manoeuvre",
+                              "text": str,              # what to do, in words
+                              "motors": [1-n],          # inspect: the propellers, first first
+                              "command": str | null,    # add_session / calibrate: the fdlog command
+                              "setting": str | null}]}, # logging / esc_telemetry: the autopilot parameter
       "evidence": {"n_windows": int, "covered_s": float,
                    "share": [healthy, m1, ..., mn],   # smoothed votes, 0..1
                    "abstained": 0-1} | null,
@@ -50,7 +62,10 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                                            "motor_lag_s": float, "r2": [roll, pitch, yaw]} | null,
                          "airframe_changed": str | null,
                          "decision": {"sources": [str], "healthy_chi2": float|null,
-                                      "share_sigma": float|null} | null} | null,
+                                      "share_sigma": float|null,
+                                      "weights": {analyzer id: {"cell": str,   # its reliability-table cell
+                                                  "trust": "trusted" | "corroborating" | "discounted" | null,
+                                                  "cap": float}}} | null} | null,   # the most nats it could give
       "windows": [{"t_start": s, "t_end": s,
                    "class": 0-n,                  # the model's most probable class
                    "probabilities": [p0, p1, ..., pn],   # healthy, then motor 1..n
@@ -86,7 +101,12 @@ analyzers' results carry the notes) and makes ``confidence`` and ``weight`` the 
 what they state; schema 5 adds ``part`` and ``flights`` (each take-off to landing of a log with its
 own verdict: judged from vibration alone, the log's verdict is its worst flight's; with motor outputs,
 the whole log's, each flight judged from the log's windows and never worse than it) and
-flight-level findings (``motor`` 0: the vibration level).
+flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verdict's ``advice`` (what would
+resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
+settings that let a source decide next time), each source's reliability ``weights`` in
+``motor_evidence.decision``, and ``profile.sessions`` (how many calibration sessions the profile holds). Schema 6 also adds ``verdict.cause`` and
+``verdict.cause_evidence`` (:mod:`flightlog_fd.cause`: with ESC telemetry, whether the named rotor's
+propeller or its motor / ESC lost the thrust; null and the reason when the log cannot tell).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -97,10 +117,11 @@ from typing import Any, Optional, Sequence, Union
 import numpy as np
 
 from .. import __version__
+from ..advice import ADVICE_KINDS
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -133,12 +154,13 @@ JSON_SCHEMA: dict = {
         "model": {"type": ["object", "null"], "required": ["path", "version", "sha256", "calibrated"],
                   "properties": {"path": _STR_OR_NULL, "version": {"type": "string"},
                                  "sha256": {"type": "string"}, "calibrated": {"type": "boolean"}}},
-        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256"],
+        "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256", "sessions"],
                     "properties": {"path": _STR_OR_NULL, "model_path": _STR_OR_NULL,
-                                   "model_sha256": _STR_OR_NULL}},
+                                   "model_sha256": _STR_OR_NULL, "sessions": {"type": "integer", "minimum": 1}}},
         "verdict": {
             "type": "object",
-            "required": ["status", "motor", "position", "confidence", "first_seen", "reason"],
+            "required": ["status", "motor", "position", "confidence", "first_seen", "reason", "advice", "cause",
+                         "cause_evidence"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
@@ -146,6 +168,18 @@ JSON_SCHEMA: dict = {
                 "confidence": _PROB,
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
+                "cause": {"enum": ["propeller", "motor_or_esc", None]},
+                "cause_evidence": {"type": ["object", "null"],
+                                   "required": ["motor", "llr", "rpm_per_command", "current_per_rpm2", "reason"],
+                                   "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                                  "llr": _NUM_OR_NULL, "rpm_per_command": _NUM_OR_NULL,
+                                                  "current_per_rpm2": _NUM_OR_NULL, "reason": {"type": "string"}}},
+                "advice": {"type": "array", "items": {
+                    "type": "object", "required": ["kind", "text", "motors", "command", "setting"],
+                    "properties": {"kind": {"enum": list(ADVICE_KINDS)}, "text": {"type": "string"},
+                                   "motors": {"type": "array", "items": {"type": "integer", "minimum": 1,
+                                                                         "maximum": MAX_ROTORS}},
+                                   "command": _STR_OR_NULL, "setting": _STR_OR_NULL}}},
             },
         },
         "evidence": {"type": ["object", "null"], "required": ["n_windows", "covered_s", "share", "abstained"],
@@ -201,9 +235,10 @@ JSON_SCHEMA: dict = {
                                                  "r2": {"type": "array", "items": _NUM, "minItems": 3, "maxItems": 3}}},
                 "airframe_changed": _STR_OR_NULL,
                 "decision": {"type": ["object", "null"],
-                             "required": ["sources", "healthy_chi2", "share_sigma"],
+                             "required": ["sources", "healthy_chi2", "share_sigma", "weights"],
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
-                                            "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL}},
+                                            "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL,
+                                            "weights": {"type": "object"}}},
             },
         },
         "windows": {
@@ -266,11 +301,12 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
             "decision": None if d.decision is None else {
                 "sources": list(d.decision.sources),
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
-                "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4)}}
+                "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4),
+                "weights": {k: w.as_dict() for k, w in d.decision.weights.items()}}}
 
 
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-5 object for one diagnosis (and, in ``flights``, each flight of its log)."""
+    """The schema-6 object for one diagnosis (and, in ``flights``, each flight of its log)."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
     ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {
@@ -286,7 +322,7 @@ def to_dict(d: Diagnosis) -> dict:
         "model": None if m is None else {"path": m.path, "version": m.version, "sha256": m.sha256,
                                          "calibrated": m.calibrated},
         "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
-                                           "model_sha256": p.model_sha256},
+                                           "model_sha256": p.model_sha256, "sessions": p.sessions},
         "verdict": v.as_dict(),
         "evidence": None if ev is None or ev.n_windows == 0 else {
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),

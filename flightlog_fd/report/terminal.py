@@ -13,6 +13,7 @@ only words and draws what the verdict says.
 - :func:`motor_panel`: the per-motor table of :mod:`flightlog_fd.report.motor_view`.
 - :func:`window_table` (``--windows``): every window with its times, class, the probabilities of
   healthy and of each motor, phase.
+- :func:`facts_line`: the log's facts, the model and the profile with its calibration sessions.
 - :func:`summary_table`: one row per log when several logs are diagnosed (file names; the full
   path where two logs share a name), and one indented row per flight of a log holding several.
 - :func:`render`: all of the above for one log onto a rich Console.
@@ -27,6 +28,8 @@ from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
 
+from ..advice import advice_line
+from ..decision import THIN_TIMELINE_SHARE
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
@@ -51,12 +54,17 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         if v.motor is None:
             return f"A propeller is damaged (no rotor named: inspect all), confidence {v.confidence:.2f}{first}"
+        if v.cause == "motor_or_esc":
+            return (f"Motor {_motor_words(v.motor, v.position)} or its ESC is weak (not the propeller), confidence "
+                    f"{v.confidence:.2f}{first}")
         return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
     if v.status == "healthy":
         tl = diagnosis.timeline
         n = tl.n_windows if tl else len(diagnosis.windows)
         covered = f", {tl.covered_s:.0f} s of flight" if tl else ""
         basis = f"{n} windows{covered}" if n else "vibration only"
+        if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
+            basis += f"; {100 * tl.abstained_share:.0f} % of them uncertain: see why below"
         return f"No propeller damage found, confidence {v.confidence:.2f} ({basis})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
@@ -154,7 +162,16 @@ def facts_line(diagnosis: Diagnosis) -> str:
     if diagnosis.model is not None:
         m = diagnosis.model
         parts.append(f"model {m.version or '?'}" + (" (calibrated)" if m.calibrated else ""))
+    if diagnosis.profile is not None:
+        parts.append(profile_words(diagnosis.profile))
     return " | ".join(parts)
+
+
+def profile_words(profile) -> str:
+    """The profile used and how many calibration sessions it holds, e.g. "profile quad.json (3 sessions)"."""
+    name = Path(profile.path).name if profile.path else "profile"
+    n = int(getattr(profile, "sessions", 1) or 1)
+    return f"profile {name} ({n} calibration session{'s' if n != 1 else ''})"
 
 
 def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table:
@@ -178,6 +195,10 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
                    Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
     if v.status in ("damaged", "healthy", "uncertain", "stopped") and v.reason:
         parts.append(Text(f"  {v.reason}", style="dim"))
+    if v.advice:
+        parts.append(Text("  to resolve it:", style="bold"))
+        for a in v.advice:
+            parts.append(Text(f"  - {advice_line(a)}"))
     line = facts_line(diagnosis)
     if line:
         parts.append(Text(f"  {line}", style="dim"))

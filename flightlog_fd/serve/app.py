@@ -14,6 +14,9 @@ same bytes twice are one flight. Routes take integer ids or a key as a query val
 so no request reaches outside the data folder. Jinja2 autoescapes every value on every page; JSON
 inlined in a page goes through ``tojson`` (which escapes ``<``, ``>``, ``&``, ``'``). Errors are
 one line: JSON ``{"error": ...}`` under ``/api/``, a small page elsewhere, never a traceback.
+While the store is unreachable every route that needs it answers 503 with one line saying so
+(and ``Retry-After``); the error page and ``/api/health`` still show the workers' state, and the
+server uses the store again as soon as it is back (:mod:`flightlog_fd.database`), no restart.
 """
 from __future__ import annotations
 
@@ -37,6 +40,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from .. import __version__
 from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS
+from ..database import StoreUnavailable
 from ..errors import FlightLogError
 from ..report.motor_view import MotorView, summary_cell, summary_header
 from ..store import TREND_FIGURES, Store
@@ -58,6 +62,9 @@ MAX_LISTED = 50
 MAX_JOBS_LISTED = 10
 #: Fields a form may carry (ours carry at most five; more is not a browser of ours).
 MAX_FORM_FIELDS = 20
+#: Seconds a client is asked to wait before trying again while the store is unavailable (the
+#: workers' first retries come as soon: database.STORE_RETRY_MIN_S doubling to STORE_RETRY_MAX_S).
+RETRY_AFTER_S = 5
 #: "attention" sort order of a latest verdict: what needs a look first.
 STATUS_ORDER = {"damaged": 0, "stopped": 0, "uncertain": 1, "not_diagnosable": 2, "healthy": 3, None: 4}
 SORTS = ("attention", "name", "flights", "latest")
@@ -89,6 +96,9 @@ class ServeConfig:
     diagnose_fn: Callable = diagnose_task
     job_timeout_s: Optional[float] = None
     secure_cookies: bool = False  # set the cookie's Secure flag (behind HTTPS)
+    watch: list = field(default_factory=list)  # folders whose new logs are queued (`--watch`)
+    watch_settle_s: Optional[float] = None  # None: flightlog_fd.watch.SETTLE_S
+    watch_poll_s: Optional[float] = None  # None: events where delivered
     extra: dict = field(default_factory=dict)
 
 
@@ -116,17 +126,27 @@ def fmt_number(x: Any, decimals: int = 3) -> str:
     return f"{x:.{decimals}f}"
 
 
-def ingest_file(store: Store, data: DataDir, path) -> tuple[int, bool]:
-    """Queue a local log file as if uploaded (`fdlog serve LOGS`): copied by content hash.
-    Raises FlightLogError for a file that is not a log."""
+def _profile_logs(path: str) -> set:
+    """The sha256 of every log a profile file lists (empty when it cannot be read)."""
+    try:
+        d = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    logs = list(d.get("source_logs") or []) + [e for s in (d.get("sessions_") or []) for e in (s.get("logs") or [])]
+    return {e.get("sha256") for e in logs if isinstance(e, dict) and e.get("sha256")}
+
+
+def ingest_file(store: Store, data: DataDir, path, sha256: Optional[str] = None, fmt: Optional[str] = None) -> tuple[int, bool]:
+    """Queue a local log file as if uploaded (`fdlog serve LOGS`, `--watch`): copied by content
+    hash (``sha256`` / ``fmt`` when already known). Raises FlightLogError for a file that is not a log."""
     import shutil
 
     from ..logs import sniff_format
     from ..util import file_sha256
 
     p = Path(path)
-    fmt = sniff_format(p)
-    sha = file_sha256(p)
+    fmt = fmt or sniff_format(p)
+    sha = sha256 or file_sha256(p)
     dest = data.log_path(sha, fmt)
     if not dest.exists():
         dest.parent.mkdir(parents=True, exist_ok=True)
@@ -134,6 +154,21 @@ def ingest_file(store: Store, data: DataDir, path) -> tuple[int, bool]:
         shutil.copyfile(p, tmp)
         os.replace(tmp, dest)
     return store.add_upload(sha, clean_name(p.name), p.stat().st_size, fmt)
+
+
+def queue_sink(store: Store, data: DataDir, runner: JobRunner) -> Callable:
+    """The sink of `fdlog serve --watch` (:class:`flightlog_fd.watch.FolderWatch`): each log found
+    becomes an upload on the job queue (the same bytes twice are one flight)."""
+    def sink(found) -> tuple[str, str]:
+        if found.problem is not None:  # refused alike when uploaded: no flight row
+            return "bad", f"not a flight log: {found.problem}"
+        fid, created = ingest_file(store, data, found.path, sha256=found.sha256, fmt=found.fmt)
+        if created:
+            runner.wake()
+            return "diagnosed", f"queued as flight {fid}"
+        return "known", f"already flight {fid}"
+
+    return sink
 
 
 def create_app(cfg: ServeConfig):
@@ -148,18 +183,43 @@ def create_app(cfg: ServeConfig):
     env.filters["q"] = lambda s: quote(str(s), safe="")
     env.globals.update(summary_header=summary_header, summary_cell=summary_cell)  # the per-motor summary names
 
+    watcher = None
+    if cfg.watch:
+        import logging
+
+        from ..watch import SETTLE_S, FolderWatch
+
+        log = logging.getLogger("uvicorn.error")
+
+        def report(kind: str, path: str, text: str) -> None:
+            if kind != "known":
+                log.warning("fdlog serve --watch: %s", f"{path}: {text}" if path else text)
+
+        watcher = FolderWatch(cfg.watch, store, queue_sink(store, data, runner), report=report, poll_s=cfg.watch_poll_s,
+                              settle_s=cfg.watch_settle_s if cfg.watch_settle_s is not None else SETTLE_S)
+
     @asynccontextmanager
     async def lifespan(app):
+        import threading
+
         runner.start()
+        thread = None
+        if watcher is not None:
+            thread = threading.Thread(target=watcher.run, name="fdlog-watch", daemon=True)
+            thread.start()
         try:
             yield
         finally:
+            if watcher is not None:
+                watcher.stop()
+                thread.join(10)
             runner.stop()
             store.close()
 
     app = FastAPI(title="fdlog serve", version=__version__, lifespan=lifespan, docs_url=None, redoc_url=None,
                   openapi_url=None)
     app.state.store, app.state.runner, app.state.data, app.state.config = store, runner, data, cfg
+    app.state.watcher = watcher
     app.mount("/static", StaticFiles(directory=str(HERE / "static")), name="static")
 
     @app.middleware("http")
@@ -197,8 +257,14 @@ def create_app(cfg: ServeConfig):
 
     def page(request: Request, template: str, http_status: int = 200, **ctx) -> HTMLResponse:
         sid = session_id(request)
+        try:
+            counts = store.job_counts()
+        except StoreUnavailable:
+            if http_status < 500:
+                raise
+            counts = None  # the error page of an outage: no counts to show
         ctx.update(signed_in=sid is not None, csrf=sessions.csrf(sid) if sid else "", version=__version__,
-                   view=cfg.view, counts=store.job_counts())
+                   view=cfg.view, counts=counts, workers=runner.status(), outage=store.db.outage())
         return HTMLResponse(env.get_template(template).render(**ctx), status_code=http_status)
 
     # ------------------------------------------------------------------ errors: one line
@@ -225,6 +291,16 @@ def create_app(cfg: ServeConfig):
         first = errs[0] if errs else {}
         where = ".".join(str(x) for x in first.get("loc", ()) if x not in ("body", "query", "path"))
         return error_response(request, 400, f"bad request: {where or 'input'}: {first.get('msg', 'invalid')}")
+
+    @app.exception_handler(StoreUnavailable)
+    async def _store_down(request: Request, exc: StoreUnavailable):
+        message = f"{exc.message} ({store.db.where}); the server reconnects by itself: try again in a few seconds"
+        try:
+            resp = error_response(request, 503, message)
+        except Exception:
+            resp = PlainTextResponse(message, status_code=503)
+        resp.headers["Retry-After"] = str(RETRY_AFTER_S)
+        return resp
 
     @app.exception_handler(FlightLogError)
     async def _store_error(request: Request, exc: FlightLogError):
@@ -369,8 +445,16 @@ def create_app(cfg: ServeConfig):
 
     @app.get("/api/health")
     def api_health():
-        return JSONResponse({"ok": True, "version": __version__, "jobs": store.job_counts(),
-                             "database": store.dialect})
+        """200 with the job counts while the store answers; 503 with the outage while it does not;
+        both with each worker slot's state."""
+        try:
+            jobs = store.job_counts()
+        except StoreUnavailable as e:
+            return JSONResponse({"ok": False, "version": __version__, "database": store.dialect,
+                                 "error": e.message, "outage": store.db.outage(), "workers": runner.status()},
+                                status_code=503, headers={"Retry-After": str(RETRY_AFTER_S)})
+        return JSONResponse({"ok": True, "version": __version__, "jobs": jobs, "database": store.dialect,
+                             "workers": runner.status()})
 
     # ------------------------------------------------------------------ sign-in
 
@@ -453,9 +537,10 @@ def create_app(cfg: ServeConfig):
                 profile = {"error": "the profile file cannot be read"}
         others = [o for o in store.fleet() if o["key"] != key]
         cal_jobs = store.calibration_jobs(key)
+        sessions = store.calibration_sessions(key)
         rule = {"min_flights": MIN_FLIGHTS, "slope": DRIFT_SLOPE_MIN, "z": DRIFT_Z_MIN, "floors": FIGURE_FLOORS}
         return page(request, "airframe.html", a=a, trend=trend, n_motors=n_motors, profile=profile, others=others, rule=rule,
-                    cal_jobs=cal_jobs, adapt=cfg.calibrate_adapt)
+                    cal_jobs=cal_jobs, adapt=cfg.calibrate_adapt, sessions=sessions)
 
     @app.get("/flights/{fid}", response_class=HTMLResponse)
     def flight_page(request: Request, fid: int):
@@ -532,7 +617,15 @@ def create_app(cfg: ServeConfig):
         ids = [int(f["id"]) for f in a["flights"] if f["healthy_mark"] and f["state"] == "done"]
         if not ids:
             raise ApiError(400, "mark at least one diagnosed flight of this airframe as healthy first")
-        store.enqueue_calibration(key, ids, cfg.calibrate_adapt)
+        add_to = a["profile_path"] if str(form.get("mode") or "") == "add" else None
+        if add_to:  # the marked flights the profile does not hold yet become its next sessions
+            held = {int(s["flight_id"]) for s in store.calibration_sessions(key)} | _profile_logs(add_to)
+            by_sha = {int(f["id"]): f["sha256"] for f in a["flights"]}
+            ids = [i for i in ids if i not in held and by_sha.get(i) not in held]
+            if not ids:
+                raise ApiError(400, "every flight marked healthy is already a session of the profile: mark another "
+                                    "healthy flight (another day or battery) first")
+        store.enqueue_calibration(key, ids, cfg.calibrate_adapt and not add_to, add_to=add_to)
         runner.wake()
         return back(key)
 

@@ -17,11 +17,19 @@ corrupt files) has its process killed and becomes an error row. Leases are renew
 ``LEASE_S / 3`` and expired ones recovered (:meth:`~flightlog_fd.store.Store.recover`), so a server that stops
 leaves no stuck job for the next one; a server on this machine whose process is gone has its jobs
 requeued at once (:func:`holder_is_dead`), without waiting for the lease.
+
+The store going away (PostgreSQL restarted, the SQLite file unreachable) is not the log's fault:
+a slot that meets :class:`~flightlog_fd.database.StoreUnavailable` waits with a bounded backoff
+(:func:`~flightlog_fd.database.retry_while_unavailable`) and goes on where it was: a diagnosis
+already made is kept in memory and written when the store is back, and no job is marked failed
+for an outage. :meth:`JobRunner.status` tells each slot's state (idle, running a job, waiting for
+the store since when and why) for the web page.
 """
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import socket
 import threading
 import time
@@ -32,7 +40,8 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-from ..store import LEASE_S, Store
+from ..database import StoreUnavailable, retry_while_unavailable
+from ..store import LEASE_S, Store, holder_is_dead
 
 #: Seconds between queue polls of an idle slot (a new upload also wakes the slots at once).
 POLL_S = 1.0
@@ -148,13 +157,28 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
             "profile_sha256": prof_sha, "plot": plot_series(flight, d)}
 
 
-def calibrate_task(log_paths: list[str], out_path: str, adapt: bool) -> str:
-    """Calibrate a profile from healthy logs (in a worker process); returns its sha256.
-    ``adapt`` also adapts the model (needs torch, minutes); else only measures (``--no-adapt``)."""
-    from ..calibration import calibrate
+def calibrate_task(log_paths: list[str], out_path: str, adapt: bool, add_to: Optional[str] = None) -> str:
+    """Calibrate a profile from healthy logs, one session each (in a worker process); returns its
+    sha256. ``adapt`` also adapts the model (needs torch, minutes); else only measures
+    (``--no-adapt``). ``add_to``: an existing profile the logs are added to as new sessions
+    (:func:`flightlog_fd.calibration.add_sessions`, its model kept); ``out_path`` is then a copy of
+    it with the sessions added, in the same folder (the earlier file stays as it was)."""
+    from ..calibration import add_sessions, calibrate
     from ..util import file_sha256
 
-    calibrate([Path(p) for p in log_paths], adapt=adapt, output=Path(out_path), overwrite=True)
+    if add_to:
+        src, out = Path(add_to), Path(out_path)
+        if src.resolve().parent != out.resolve().parent:
+            raise ValueError("a profile with sessions added is written beside the one it extends")
+        tmp = out.with_name(out.name + ".part")
+        shutil.copyfile(src, tmp)
+        try:
+            add_sessions(tmp, [Path(p) for p in log_paths], keep_previous=False)
+            os.replace(tmp, out)
+        finally:
+            tmp.unlink(missing_ok=True)
+    else:
+        calibrate([Path(p) for p in log_paths], adapt=adapt, output=Path(out_path), overwrite=True)
     return file_sha256(out_path)
 
 
@@ -222,6 +246,38 @@ class JobRunner:
         self._lock = threading.Lock()
         self._pools: dict[int, Optional[ProcessPoolExecutor]] = {}
         self._client = self._cluster = None
+        self._states: dict[int, dict] = {}
+
+    # ------------------------------------------------------------------ state
+
+    def _set_state(self, i: int, state: str, **kw) -> None:
+        with self._lock:
+            self._states[i] = {"slot": i, "state": state, "since": time.time(), **kw}
+
+    def status(self) -> list[dict]:
+        """Each slot's state now: ``state`` idle | running | waiting for the store | stopped, with
+        ``job`` / ``name`` while running, ``reason`` and ``retry_s`` while waiting, ``for_s``."""
+        now = time.time()
+        with self._lock:
+            out = [dict(v) for _, v in sorted(self._states.items())]
+        for v in out:
+            v["for_s"] = round(now - v.pop("since"), 1)
+        return out
+
+    def _store(self, i: int, fn: Callable[[], Any], job: Optional[dict] = None) -> Any:
+        """``fn()`` (a store call), waiting while the store is unavailable; the slot's state says
+        so meanwhile. Raises StoreUnavailable only when the runner is stopping."""
+        held = self._states.get(i)
+
+        def waiting(e: StoreUnavailable, delay: float) -> None:
+            extra = {"job": int(job["id"])} if job else {}
+            self._set_state(i, "waiting for the store", reason=e.message, retry_s=delay, **extra)
+
+        out = retry_while_unavailable(fn, self._stop, waiting)
+        if held is not None and self._states.get(i, {}).get("state") == "waiting for the store":
+            with self._lock:
+                self._states[i] = held
+        return out
 
     # ------------------------------------------------------------------ control
 
@@ -233,6 +289,7 @@ class JobRunner:
             self._client, self._cluster = _dask_client(self.scheduler, self.workers if self.scheduler == "local" else None,
                                                        True)
         for i in range(self.workers):
+            self._set_state(i, "idle")
             t = threading.Thread(target=self._slot, args=(i,), name=f"fdlog-job-{i}", daemon=True)
             t.start()
             self._threads.append(t)
@@ -289,22 +346,29 @@ class JobRunner:
     def _slot(self, i: int) -> None:
         while not self._stop.is_set():
             try:
-                job = self.store.claim_job(self.worker_id)
+                job = self._store(i, lambda: self.store.claim_job(self.worker_id))
+            except StoreUnavailable:
+                break  # stopping while the store is away
             except Exception:
                 job = None
             if job is None:
+                self._set_state(i, "idle")
                 self._wake.wait(self.poll_s)
                 self._wake.clear()
                 continue
             with self._lock:
                 self._running.add(int(job["id"]))
                 self._busy_slots.add(i)
+            self._set_state(i, "running", job=int(job["id"]), kind=job["kind"])
             try:
                 self._run(i, job)
+            except StoreUnavailable:
+                pass  # stopping while the store is away: the job's lease runs out, another server takes it
             finally:
                 with self._lock:
                     self._running.discard(int(job["id"]))
                     self._busy_slots.discard(i)
+        self._set_state(i, "stopped")
 
     def _submit(self, i: int, fn: Callable, *args):
         if self._client is not None:
@@ -325,66 +389,59 @@ class JobRunner:
         return pool.submit(fn, *args)
 
     def _run(self, i: int, job: dict) -> None:
+        """Run one claimed job. Every store call waits out an outage (:meth:`_store`): a result
+        is never thrown away and a job never failed because the store was away."""
         if self._stop.is_set():
             return
         kind = job["kind"]
         name = f"job {job['id']}"
+        store = self.store
+
+        def fail(reason: str, doc: Optional[str] = None) -> None:
+            self._store(i, lambda: store.fail_job(job, self.worker_id, reason, doc), job)
+
         try:
             if kind == "diagnose":
-                f = self.store.flight(int(job["flight_id"]))
+                f = self._store(i, lambda: store.flight(int(job["flight_id"])), job)
+                profiles = self._store(i, store.profiles, job)
                 name = f["name"]
+                self._set_state(i, "running", job=int(job["id"]), kind=kind, name=name)
                 fut = self._submit(i, self.diagnose_fn, str(self.data.log_path(f["sha256"], f["format"])),
-                                   f["sha256"], f["name"], str(self.data.root / "reports"), self.store.profiles())
+                                   f["sha256"], f["name"], str(self.data.root / "reports"), profiles)
                 res = fut.result(timeout=self.job_timeout_s)
-                self.store.complete_diagnosis(job, self.worker_id, res)
+                self._store(i, lambda: store.complete_diagnosis(job, self.worker_id, res), job)
             elif kind == "calibrate":
                 args = json.loads(job["args"] or "{}")
                 paths = []
                 for fid in args.get("flights", []):
-                    f = self.store.flight(int(fid))
+                    f = self._store(i, lambda: store.flight(int(fid)), job)
                     if f is not None:
                         paths.append(str(self.data.log_path(f["sha256"], f["format"])))
                 out = self.data.root / "profiles" / f"profile-{int(job['id'])}.json"
-                fut = self._submit(i, self.calibrate_fn, paths, str(out), bool(args.get("adapt")))
+                fut = self._submit(i, self.calibrate_fn, paths, str(out), bool(args.get("adapt")), args.get("add_to"))
                 sha = fut.result(timeout=max(self.job_timeout_s, CALIBRATE_TIMEOUT_S))
-                self.store.complete_calibration(job, self.worker_id, str(out), sha)
+                self._store(i, lambda: store.complete_calibration(job, self.worker_id, str(out), sha), job)
             else:
-                self.store.fail_job(job, self.worker_id, f"unknown job kind {kind!r}")
+                fail(f"unknown job kind {kind!r}")
+        except StoreUnavailable:
+            raise
         except BrokenProcessPool:
             self._pools[i] = None
             if not self._stop.is_set():  # stopping kills the processes: those jobs go back to the queue
-                self.store.fail_job(job, self.worker_id, "the worker process died while working on this log",
-                                    _error_doc(name, "the worker process died while diagnosing this log")
-                                    if kind == "diagnose" else None)
+                fail("the worker process died while working on this log",
+                     _error_doc(name, "the worker process died while diagnosing this log") if kind == "diagnose" else None)
         except FutureTimeout:
             pool = self._pools.pop(i, None)
             if pool is not None:
                 _kill(pool)
             reason = f"took longer than {self.job_timeout_s:.0f} s: the worker was stopped"
-            self.store.fail_job(job, self.worker_id, reason, _error_doc(name, reason) if kind == "diagnose" else None)
+            fail(reason, _error_doc(name, reason) if kind == "diagnose" else None)
         except Exception as e:
             if self._stop.is_set():
                 return
             first = (str(e).strip().splitlines() or [""])[0][:200]
             reason = f"{'calibration' if kind == 'calibrate' else 'diagnosis'} failed: {type(e).__name__}: {first}"
-            self.store.fail_job(job, self.worker_id, reason, _error_doc(name, reason) if kind == "diagnose" else None)
-
-
-def holder_is_dead(worker: str) -> bool:
-    """True when ``worker`` (``host:pid:random``, :attr:`JobRunner.worker_id`) ran on this
-    machine and its process is gone: its jobs need not wait for their lease. A reused pid only
-    makes us wait for the lease, never take a live server's job."""
-    host, _, rest = worker.partition(":")
-    pid = rest.partition(":")[0]
-    if host != socket.gethostname() or not pid.isdigit():
-        return False
-    try:
-        os.kill(int(pid), 0)
-    except ProcessLookupError:
-        return True
-    except OSError:  # exists, owned by someone else
-        return False
-    return False
+            fail(reason, _error_doc(name, reason) if kind == "diagnose" else None)
 
 
 def _kill(pool: ProcessPoolExecutor) -> None:

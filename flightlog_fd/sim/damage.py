@@ -14,6 +14,15 @@ changes pitch and drag more than lift. :func:`random_damages` therefore draws
 ``η_torque = η^k`` with ``k ~ U(TORQUE_EXPONENT_RANGE)`` = U(1.0, 1.6) (the CrazyPAD cuts of
 0.5-3 mm on a 46 mm prop are the R⁴/R⁵ case; k up to 1.6 covers the draggier tapes and chips).
 
+Cause: ``cause="propeller"`` (the default, everything above) or ``"motor"``: the propeller is
+sound and the motor or its ESC is weak (a failing ESC or a resistive joint delivers less voltage;
+ArduPilot SITL's ``SIM_ENGINE_MUL`` scales the motor's command the same way): the rotor turns at
+``sqrt(η)`` of the speed its command asks for, so it gives η of its thrust per unit of command
+and the controller commands it ``1/η`` times as a damaged propeller's (the commands alone cannot
+tell the two apart), but it turns *slower* per command where a lighter propeller turns faster,
+and its current per rpm² stays that of its propeller (the same drag torque). It adds no
+vibration (the propeller's balance is unchanged).
+
 Onset: ``onset_s`` is seconds after arming (= after the log's first sample) or ``None`` for a
 propeller damaged from take-off; :class:`Damage` with ``motor = 0`` is a healthy vehicle.
 ``Flight.truth["onset_s"]`` reports the onset on the log's own clock.
@@ -53,6 +62,8 @@ MILD_FRACTION = 0.0
 #: η_torque = η_thrust ** k, k uniform in this range (see module docstring).
 TORQUE_EXPONENT_RANGE = (1.0, 1.6)
 MAX_DAMAGED_COMMAND = 0.72
+#: What lost the thrust (see module docstring).
+CAUSES = ("propeller", "motor")
 #: Largest attitude error the damage torque may cause before the rate integrator catches up
 #: (P-only equilibrium α_damage / (kp · att_p)); beyond it lift-off with the damage tips over.
 MAX_STATIC_TILT_DEG = 15.0
@@ -75,8 +86,13 @@ class Damage:
     onset_s: Optional[float] = None  # s after arming; None = damaged from take-off
     eta_torque: Optional[float] = None  # drag-torque efficiency; None = same as eta
     rotors: int = 4
+    cause: str = "propeller"  # "propeller" or "motor" (the motor / ESC, module docstring)
 
     def __post_init__(self) -> None:
+        if self.cause not in CAUSES:
+            raise ValueError(f"cause must be one of {', '.join(CAUSES)}, got {self.cause!r}")
+        if self.cause == "motor" and self.eta_torque is not None:
+            raise ValueError("a weak motor keeps its propeller's torque: eta_torque is for a damaged propeller")
         if self.eta_torque is not None and not 0.0 < self.eta_torque <= 1.0:
             raise ValueError(f"eta_torque must be in (0, 1], got {self.eta_torque}")
         if self.motor == 0 and self.eta_torque not in (None, 1.0):
@@ -90,8 +106,20 @@ class Damage:
 
     @property
     def torque_eta(self) -> float:
-        """Drag-torque efficiency of the damaged propeller (``eta`` when not given)."""
+        """Drag-torque efficiency of the damaged propeller (``eta`` when not given; 1 for a weak motor)."""
+        if self.cause == "motor":
+            return 1.0
         return self.eta if self.eta_torque is None else float(self.eta_torque)
+
+    @property
+    def propeller_eta(self) -> float:
+        """Thrust efficiency of the propeller itself (1 when the motor is the cause)."""
+        return 1.0 if self.cause == "motor" else self.eta
+
+    @property
+    def drive(self) -> float:
+        """Fraction of the commanded speed the motor and ESC deliver (sqrt(eta) for a weak motor, else 1)."""
+        return float(np.sqrt(self.eta)) if self.cause == "motor" else 1.0
 
     @property
     def label(self) -> int:
@@ -154,6 +182,9 @@ class DamageArrays:
     onset: np.ndarray  # (N,) s after arming (0 = from the start)
     imbalance_base: np.ndarray  # (N, R) residual imbalance of each propeller
     eta_torque: Optional[np.ndarray] = None  # (N, R) drag-torque efficiency once damaged (None: = eta)
+    #: (N, R) fraction of the commanded speed each motor delivers once damaged (None: all 1;
+    #: a weak motor or ESC, :attr:`Damage.drive`)
+    drive: Optional[np.ndarray] = None
 
     @classmethod
     def build(cls, damages: Sequence[Damage], rng: np.random.Generator, n_rotors: int = 4) -> "DamageArrays":
@@ -163,14 +194,17 @@ class DamageArrays:
             raise ValueError(f"damaged motor {bad[0]} on a {n_rotors}-rotor vehicle")
         eta = np.ones((n, n_rotors))
         eta_torque = np.ones((n, n_rotors))
+        drive = np.ones((n, n_rotors))
         onset = np.zeros(n)
         for i, d in enumerate(damages):
             if d.motor:
-                eta[i, d.motor - 1] = d.eta
+                eta[i, d.motor - 1] = d.propeller_eta
                 eta_torque[i, d.motor - 1] = d.torque_eta
+                drive[i, d.motor - 1] = d.drive
                 onset[i] = d.onset_s if d.onset_s is not None else 0.0
         return cls(eta=eta, onset=onset, imbalance_base=rng.uniform(*BASE_IMBALANCE_RANGE, size=(n, n_rotors)),
-                   eta_torque=None if np.array_equal(eta_torque, eta) else eta_torque)
+                   eta_torque=None if np.array_equal(eta_torque, eta) else eta_torque,
+                   drive=None if np.all(drive == 1.0) else drive)
 
     def eta_at(self, t: float) -> np.ndarray:
         """(N, 4) rotor efficiencies at time ``t`` (s after arming)."""

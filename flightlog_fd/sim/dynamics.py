@@ -228,20 +228,23 @@ class QuadDynamics:
 
     def step(self, s: RigidBodyState, w_com: np.ndarray, effectiveness: np.ndarray, wind: np.ndarray,
              ang_acc_dist: np.ndarray, speed_gain: Optional[np.ndarray] = None,
-             drag_ratio: Optional[np.ndarray] = None) -> np.ndarray:
+             drag_ratio: Optional[np.ndarray] = None, drive: Optional[np.ndarray] = None) -> np.ndarray:
         """Advance ``s`` in place by one step; returns the (4, N) rotor thrusts of this step.
 
         ``w_com`` (4, N) commanded rotor speeds rad/s; ``effectiveness`` (4, N) thrust/torque scale;
         ``wind`` (3, N) NED m/s; ``ang_acc_dist`` (3, N) rad/s²; ``speed_gain`` (4, N) optional
         multiplier on the rotor speed seen by the air (the paper's adjusted model); ``drag_ratio``
         (4, N) optional drag-torque efficiency / thrust efficiency of each rotor (a damaged
-        propeller loses torque and thrust in different proportions, damage.py).
+        propeller loses torque and thrust in different proportions, damage.py); ``drive`` (4, N)
+        optional fraction of the commanded speed each motor delivers (a weak motor or ESC, damage.py).
         """
         dt = self.dt
         w = s.w
         if self.motor_a0 is not None:
             load = self.torque_rel * effectiveness * (1.0 if drag_ratio is None else drag_ratio)
-            w_com = loaded_speed(w_com, load, self.motor_a0, self.motor_kv)
+            w_com = loaded_speed(w_com, load, self.motor_a0, self.motor_kv, drive)
+        elif drive is not None:
+            w_com = w_com * drive
         w += self.motor_alpha * (w_com - w)
         np.minimum(w, self.omega_max, out=w)
         np.maximum(w, 0.0, out=w)

@@ -8,7 +8,8 @@ per-vehicle loop). Time is seconds since arming (t = 0 is the first logged insta
 2. gyro (filtered, noisy, vibrating) and delayed attitude estimate;
 3. attitude + rate loops + mixer → thrust setpoints u (0..1), ``w_com = omega_max·sqrt(u)``;
 4. rotor effectiveness = damage η (after its onset) × unbalance (``"physical"`` ρ mode), or the
-   paper's speed gain (``"paper"`` mode), plus the damaged rotor's separate drag-torque loss;
+   paper's speed gain (``"paper"`` mode), plus the damaged rotor's separate drag-torque loss and a
+   weak motor's lost speed (damage.py cause "motor");
    rigid-body step with the airframe as built (imbalance.py: CoG offset, motor tilt, per-rotor
    coefficient and lag spread), while the controller's mixer uses the nominal airframe;
 5. recording: stream ``s`` stores its quantities every ``decimation[s]`` steps.
@@ -94,6 +95,9 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     # Drag-torque efficiency relative to the thrust efficiency of each damaged rotor (None: equal).
     drag_full = None if damage.eta_torque is None else (damage.eta_torque / damage.eta).T.copy()
     drag_ratio = None
+    # Fraction of the commanded speed each motor delivers (a weak motor or ESC; None: all 1).
+    drive_full = None if damage.drive is None else damage.drive.T.copy()
+    drive = None
     imbalance_base = damage.imbalance_base.T.copy()
     omega_max = vp.omega_max
 
@@ -118,6 +122,8 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
             eff = eta * unbalance
             if drag_full is not None:
                 drag_ratio = np.where(t >= damage.onset, drag_full, 1.0)
+            if drive_full is not None:
+                drive = np.where(t >= damage.onset, drive_full, 1.0)
             pos_est, vel_est, wind = sens.nav(state.pos, state.vel, state.w, imbalance_base + (1.0 - eta))
             sp = runner.update(t, ctrl.dt_outer, pos_est.T, quat_yaw(state.quat), state.landed)
             mode = sp.mode
@@ -165,7 +171,7 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
             rec[name][c] = v.T
             rec_t[name][c] = t
             count[name] = c + 1
-        thrust = dyn.step(state, w_com, eff, wind, disturbance, gain, drag_ratio)
+        thrust = dyn.step(state, w_com, eff, wind, disturbance, gain, drag_ratio, drive)
         if t_all_done is not None and t >= t_all_done + tail_s:
             break
     data = {k: v[:count[k]] for k, v in rec.items()}

@@ -11,7 +11,9 @@ propeller's load costs at full command (``DROOP_FULL_RANGE``: hobby multirotor m
 with torque coefficient ``L·q0`` (L: damage η_torque, the airframe's torque spread, the
 unbalance) and a motor of ``kv`` times the nominal Kv turns at the root of
 ``a0·L·kv²·w² + w = kv·w_nl``: a lighter (cut, chipped) propeller spins faster at the same
-command, a trim change (CoG offset, motor tilt) only moves the motor along its own curve.
+command, a trim change (CoG offset, motor tilt) only moves the motor along its own curve. A weak
+motor or ESC (sim/damage.py, cause "motor") delivers a fraction of the no-load speed: it turns
+slower at the same command, with its propeller's current per rpm².
 Battery sag is left to the autopilot's voltage compensation (ArduPilot ``MOT_BAT_VOLT_*``, PX4
 ``THR_MDL_FAC`` with battery scaling): the pack voltage is reported, not fed back.
 
@@ -152,10 +154,15 @@ class MotorArrays:
         return cls(a0=a0, kv_scale=np.array([p.kv_scale for p in params], dtype=np.float64).T.copy())
 
 
-def loaded_speed(w_com: np.ndarray, load: np.ndarray, a0: np.ndarray, kv: np.ndarray) -> np.ndarray:
+def loaded_speed(w_com: np.ndarray, load: np.ndarray, a0: np.ndarray, kv: np.ndarray,
+                 drive: Optional[np.ndarray] = None) -> np.ndarray:
     """Steady rotor speed (R, N) for commanded speeds ``w_com`` of the nominal motor, relative
-    torque coefficients ``load`` and KV scales ``kv`` (see module docstring)."""
+    torque coefficients ``load`` and KV scales ``kv`` (see module docstring); ``drive`` (R, N) the
+    fraction of its no-load speed a weak motor or ESC delivers (sim/damage.py cause "motor": less
+    voltage reaches the windings), None for all 1."""
     w_nl = kv * (w_com + a0 * w_com * w_com)
+    if drive is not None:
+        w_nl = w_nl * drive
     a = a0 * np.maximum(load, 1e-6) * kv * kv
     return 2.0 * w_nl / (1.0 + np.sqrt(1.0 + 4.0 * a * w_nl))  # the root, written stably for small a
 

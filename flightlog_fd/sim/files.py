@@ -17,7 +17,7 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
                       rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
                       esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
                       imbalance: Optional[list[str]] = None, imu_rate: Optional[float] = None,
-                      ) -> list[tuple[Path, dict]]:
+                      cause: str = "propeller") -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
 
     ``imbalance``: ["MOTOR:G_MM"] propeller mass imbalance m·r in g·mm on that motor, or
@@ -29,6 +29,10 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
     loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py).
 
+    ``cause``: what lost the thrust of ``motor``: ``"propeller"`` (damaged) or ``"motor"`` (the
+    motor or its ESC is weak: the rotor turns at sqrt(eta) of its commanded speed, the propeller
+    is sound; sim/damage.py).
+
     ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
     Existing files are never overwritten unless ``force``.
     """
@@ -36,8 +40,10 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     from ..logs.ulog_writer import write_ulog
     from .airframe import N_ROTOR_FRAMES, SIM_FRAMES, preset
     from .api import simulate_flights
-    from .damage import Damage
+    from .damage import CAUSES, Damage
 
+    if cause not in CAUSES:
+        raise FlightLogError(out, f"--cause must be one of {', '.join(CAUSES)}, got {cause!r}")
     if fmt not in FORMATS:
         raise FlightLogError(out, f"unknown format {fmt!r}: use ulog or dataflash")
     if frame is not None and frame not in SIM_FRAMES:
@@ -48,7 +54,7 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     if rho is not None and len(rho) != rotors:
         raise FlightLogError(out, f"--rho needs {rotors} values (one per rotor), got {len(rho)}")
     if motor and not 0.0 < eta < 1.0:
-        raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller, got {eta}")
+        raise FlightLogError(out, f"--eta must be between 0 and 1 for a damaged propeller or weak motor, got {eta}")
     profile_name = log_profile or ("px4_high" if fmt == "ulog" else "ardupilot_fast")
     want_autopilot = "px4" if fmt == "ulog" else "ardupilot"
     if not profile_name.startswith(want_autopilot) and profile_name != "training":
@@ -77,8 +83,8 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
     # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
     # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
-    eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate) else None
-    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors) if motor else Damage()
+    eta_torque = eta ** ESC_SAMPLE_TORQUE_EXPONENT if (motor and esc_rate and cause == "propeller") else None
+    damage = Damage(motor, eta if motor else 1.0, onset, eta_torque, rotors=rotors, cause=cause) if motor else Damage()
     props = parse_imbalance(out, imbalance, rotors, imu_rate) if (imbalance or imu_rate) else None
     flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
                                duration_s=duration, profile=profile_name, rho=rho, seed=seed,
@@ -99,9 +105,9 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
 
         with open(out / "truth.csv", "w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["file", "label", "motor", "eta", "onset_s", "airframe", "mission", "seed"])
+            w.writerow(["file", "label", "motor", "eta", "cause", "onset_s", "airframe", "mission", "seed"])
             for p, t in written:
-                w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("onset_s"),
+                w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("cause"), t.get("onset_s"),
                             (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed")])
     return written
 

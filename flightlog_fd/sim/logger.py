@@ -270,6 +270,7 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
         onset = float(d.onset_s + offset) if (d.motor and d.onset_s is not None) else None
         truth = {
             "label": int(d.motor), "motor": int(d.motor), "eta": float(d.eta),
+            "cause": d.cause if d.motor else None,
             "onset_s": onset, "airframe": af.to_dict(), "rho": rho[i].tolist(), "rho_mode": rho_mode,
             "mission": mission if isinstance(mission, str) else mission[i], "seed": int(seed), "index": i, "profile": profile.name,
             "takeoff_s": _us(res.t_takeoff[i] + offset) if np.isfinite(res.t_takeoff[i]) else None,

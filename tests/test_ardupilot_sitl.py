@@ -1,0 +1,51 @@
+"""Genuine ArduCopter 4.7 firmware (SITL, ../shared/ardupilot_sitl_quad, read its README): the log a
+pilot gets with fast logging on is diagnosable, and a weak motor is named as a motor or ESC fault,
+not a propeller. Skipped when ../shared is absent."""
+from __future__ import annotations
+
+import pytest
+
+from conftest import shared_path
+
+
+@pytest.fixture(scope="module")
+def model():
+    from flightlog_fd.diagnose import resolve_model
+
+    return resolve_model()
+
+
+def _diagnose(name, model):
+    from flightlog_fd import load_flight
+    from flightlog_fd.checks import describe_flight
+    from flightlog_fd.diagnose import diagnose_flight
+
+    flight = load_flight(shared_path("ardupilot_sitl_quad", name))
+    return describe_flight(flight), diagnose_flight(flight, model, keep_flight=False)
+
+
+def test_fast_logging_flight_is_diagnosed_healthy(model):
+    """LOG_BITMASK=442367 (IMU and RATE ~400 Hz): the logger dropped 126,941 messages (DSF.Dp),
+    leaving holes of up to 40 ms; `fdlog info` and `fdlog diagnose` agree that it can be judged."""
+    info, d = _diagnose("healthy_fastlog.BIN", model)
+    assert info["diagnosable"] and info["reasons"] == []
+    assert d.verdict.status == "healthy", d.verdict.reason
+    assert d.timeline.n_windows > 100  # ~107 s of 110 s airborne
+    assert d.verdict.cause is None and d.verdict.cause_evidence is None
+
+
+def test_weak_motor_is_named_as_a_motor_or_esc_fault(model):
+    """SIM_ENGINE_MUL=0.75 on motor 1 with ESC telemetry: motor 1 turns ~25 % slower per command
+    than the others: the verdict names motor 1 and says motor or ESC, not propeller."""
+    from flightlog_fd.report.terminal import verdict_sentence
+
+    info, d = _diagnose("motor1_weak_esc.BIN", model)
+    v = d.verdict
+    assert info["diagnosable"] and v.status == "damaged" and v.motor == 1, v.reason
+    assert v.cause == "motor_or_esc" and v.cause_evidence["llr"] > 20
+    assert v.cause_evidence["rpm_per_command"] < -15
+    assert "inspect motor 1 and ESC 1" in v.reason and "before the propeller" in v.reason
+    assert "inspect propeller 1" not in v.reason
+    assert verdict_sentence(d).startswith("Motor 1 (right) or its ESC is weak")
+    # the ESC relations now count for "rotor 1 lost thrust" (they weighed -6.1 nats against a propeller)
+    assert next(m for m in d.decision.motors if m.motor == 1).llr_by_source["esc"] > 6

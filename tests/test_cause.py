@@ -1,0 +1,169 @@
+"""Propeller or motor (flightlog_fd/cause.py): with ESC telemetry a rotor that lost thrust is named
+with its likely cause in every report and the store; without it the cause is unknown and said so;
+a healthy flight gets none. Simulated ArduPilot flights (fdlog simulate --cause, ESC at 50 Hz)."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import pytest
+from typer.testing import CliRunner
+
+from flightlog_fd.cli import app
+
+runner = CliRunner()
+FLIGHTS = {"weak_motor2": ["--motor", "2", "--eta", "0.7", "--cause", "motor"],
+           "propeller3": ["--motor", "3", "--eta", "0.7"],
+           "healthy": []}
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cause")
+    out = {}
+    for name, args in FLIGHTS.items():
+        p = d / f"{name}.bin"
+        res = runner.invoke(app, ["simulate", "-o", str(p), "-f", "dataflash", "--log-profile", "ardupilot",
+                                  "--airframe", "f450", "--esc-rate", "50", "--duration", "60", "--seed", "3",
+                                  *args])
+        assert res.exit_code == 0, res.output
+        out[name] = p
+    return out
+
+
+@pytest.fixture(scope="module")
+def reports(logs):
+    """name -> the JSON report of `fdlog diagnose --json`."""
+    out = {}
+    for name, p in logs.items():
+        res = runner.invoke(app, ["diagnose", "--json", str(p)])
+        out[name] = json.loads(res.stdout)
+    return out
+
+
+def test_weak_motor_is_named_with_its_motor_or_esc(logs, reports):
+    from flightlog_fd.report.json_report import validate
+
+    doc = reports["weak_motor2"]
+    v = doc["verdict"]
+    assert validate(doc) == [] and doc["schema"] == 6
+    assert (v["status"], v["motor"], v["cause"]) == ("damaged", 2, "motor_or_esc"), v["reason"]
+    ev = v["cause_evidence"]
+    assert ev["motor"] == 2 and ev["llr"] > 20 and ev["rpm_per_command"] < -8
+    assert "inspect motor 2 and ESC 2" in v["reason"] and "inspect propeller 2" not in v["reason"]
+    text = runner.invoke(app, ["diagnose", str(logs["weak_motor2"])]).stdout
+    assert "Motor 2 (rear-left) or its ESC is weak (not the propeller)" in text
+
+
+def test_damaged_propeller_is_named_with_its_propeller(reports):
+    v = reports["propeller3"]["verdict"]
+    assert (v["status"], v["motor"], v["cause"]) == ("damaged", 3, "propeller"), v["reason"]
+    ev = v["cause_evidence"]
+    assert ev["llr"] < -20 and ev["current_per_rpm2"] < -15  # a cut propeller draws less current per rpm²
+    assert v["reason"].endswith("inspect propeller 3")
+
+
+def test_healthy_flight_gets_no_cause(reports):
+    v = reports["healthy"]["verdict"]
+    assert v["status"] == "healthy" and v["cause"] is None and v["cause_evidence"] is None
+
+
+def test_without_esc_rpm_the_cause_is_unknown_and_said_so(logs):
+    from flightlog_fd import load_flight
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+
+    model = resolve_model()
+    v = diagnose_flight(replace(load_flight(logs["weak_motor2"]), esc=None), model, keep_flight=False).verdict
+    assert v.status == "damaged" and v.motor == 2, v.reason  # the commands alone: a rotor lost thrust
+    assert v.cause is None and v.cause_evidence["llr"] is None
+    assert "the log has no ESC telemetry, so a damaged propeller cannot be told from a weak motor or ESC" in v.reason
+    assert "inspect propeller 2, then motor 2 and its ESC" in v.reason
+    # the damaged propeller (its rotor turns 5 % faster per command, which makes up part of the
+    # lost thrust): whatever the commands alone say, no cause without ESC rpm
+    v = diagnose_flight(replace(load_flight(logs["propeller3"]), esc=None), model, keep_flight=False).verdict
+    assert v.cause is None
+
+
+def test_undecided_relations_state_no_cause():
+    from flightlog_fd.analyzers.esc import EscResult
+    from flightlog_fd.analyzers.base import Finding
+    from flightlog_fd.cause import CAUSE_LLR, judge_cause
+
+    def esc(llr):
+        return EscResult("esc", [Finding("esc", 1, "rpm_per_command", -1.0, "%")], cause_llr={1: llr})
+
+    assert judge_cause([esc(CAUSE_LLR + 0.1)], 1).cause == "motor_or_esc"
+    assert judge_cause([esc(-CAUSE_LLR - 0.1)], 1).cause == "propeller"
+    mid = judge_cause([esc(1.0)], 1)
+    assert mid.cause is None and "cannot be told" in mid.words and mid.llr == 1.0
+    gone = judge_cause([EscResult("esc", abstained="ESC telemetry too slow (motor 1: 1.0 Hz < 2 Hz)")], 1)
+    assert gone.cause is None and "could not be used (ESC telemetry too slow" in gone.words
+
+
+def test_html_store_history_and_web_page_carry_the_cause(logs, tmp_path):
+    from flightlog_fd.store import load_history
+
+    html = tmp_path / "r.html"
+    data = tmp_path / "data"
+    data.mkdir()
+    db = data / "fdlog.sqlite"
+    res = runner.invoke(app, ["diagnose", str(logs["weak_motor2"]), str(logs["healthy"]), "--html", str(html),
+                              "--db", str(db)])
+    assert res.exit_code == 1, res.output
+    page = html.read_text()
+    assert "likely cause" in page and "the motor or its ESC" in page and "2 (rear-left): motor or ESC" in page
+    ((key, records),) = load_history(db).items()
+    assert {r.log_path.rsplit("/", 1)[-1]: r.cause for r in records} == {"weak_motor2.bin": "motor_or_esc",
+                                                                         "healthy.bin": None}
+    text = runner.invoke(app, ["history", "--db", str(db)]).stdout
+    assert "damaged m2, motor or ESC" in text
+    pytest.importorskip("fastapi")
+    from serve_helpers import serve_client
+
+    fid = next(r.id for r in records if r.cause)
+    with serve_client(data, workers=0) as c:
+        flight_page = c.get(f"/flights/{fid}").text
+        airframe_page = c.get("/airframe", params={"key": key}).text
+    assert "Likely cause:</b> the motor or its ESC" in flight_page
+    assert "motor 2 (motor or ESC)" in airframe_page
+
+
+def test_a_weak_motor_does_not_make_its_neighbours_look_like_damaged_propellers(logs):
+    """rpm-only telemetry (bidirectional DShot): each motor is taken against a robust level of the
+    others, so the weak motor's 15 % does not lift its neighbours' rpm per command by a third of
+    it, which alone reads as a cut propeller (ArduCopter SITL against the mean: +9.5 %, +12 nats)."""
+    from flightlog_fd import load_flight
+    from flightlog_fd.analyzers.esc import analyze_esc
+    from flightlog_fd.flight import EscTelemetry
+
+    f = load_flight(logs["weak_motor2"])
+    f = replace(f, esc=EscTelemetry([replace(c, current=None) for c in f.esc.channels], f.esc.source, f.esc.units))
+    a = analyze_esc(f)
+    rpm = {x.motor: x.value for x in a.findings if x.name == "rpm_per_command"}
+    assert rpm[2] < -10 and a.cause_llr[2] > 20 and a.decision_llr[2] > 20
+    for k in (1, 3, 4):
+        assert abs(rpm[k]) < 3.0 and a.decision_llr[k] < 1.0, (k, rpm, a.decision_llr)
+
+
+def test_simulate_refuses_an_unknown_cause_in_one_line(tmp_path):
+    res = runner.invoke(app, ["simulate", "-o", str(tmp_path / "x.ulg"), "--motor", "1", "--cause", "esc"])
+    assert res.exit_code == 2 and "--cause must be one of propeller, motor" in res.output
+    assert "Traceback" not in res.output and not (tmp_path / "x.ulg").exists()
+
+
+def test_a_store_at_migration_6_gets_the_cause_from_its_stored_reports(logs, tmp_path):
+    """Migration 7 adds flight.cause and fills it from each stored report's verdict."""
+    import sqlite3
+
+    from flightlog_fd.store import SCHEMA_VERSION, Store
+
+    db = tmp_path / "s.sqlite"
+    assert runner.invoke(app, ["diagnose", "--db", str(db), str(logs["weak_motor2"])]).exit_code == 1
+    with sqlite3.connect(db) as c:  # back to what the release at migration 6 left
+        c.execute("ALTER TABLE flight DROP COLUMN cause")
+        c.execute("DELETE FROM schema_migrations WHERE version >= 7")
+        c.execute("PRAGMA user_version = 6")
+    with Store(db) as store:
+        assert store.db.schema_version() == SCHEMA_VERSION >= 7
+        (f,) = store.logs()
+        assert store.flight(f["id"])["cause"] == "motor_or_esc"
