@@ -7,7 +7,8 @@ Runs ``fdlog calibrate LOG -o ...`` alternately with this checkout's fdlog (the 
 Python) and, when given, ``--before`` (e.g. main's), ``--repeat`` times each, each in a fresh
 process, and prints per run the wall time, the CPU time of the process (user + sys, which the
 machine's other load disturbs less than the wall time), the load average when it started, and the
-profile's adaptation summary (simulated flights kept, epochs, why training stopped); then the
+profile's adaptation summary (stage wall times inside the adaptation, simulated flights kept,
+epochs, why training stopped); then the
 median of each and the after/before ratios. Figures only; nothing is asserted.
 """
 from __future__ import annotations
@@ -40,6 +41,8 @@ def one_run(fdlog: str, log: Path, out: Path) -> dict:
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     ad = (json.loads(out.read_text()).get("extra") or {}).get("adaptation") or {}
     return {"wall": wall, "cpu": cpu, "load": load, "epochs": ad.get("epochs"), "stop": ad.get("stop_reason", "-"),
+            "stages": {k.replace("_seconds", ""): ad.get(k) for k in ("simulate_seconds", "train_seconds", "total_seconds")
+                       if ad.get(k) is not None},
             "data": (ad.get("data") or "").split(" like this airframe")[0]}
 
 
@@ -57,7 +60,8 @@ def main() -> None:
                 res = one_run(fdlog, args.log, Path(tmp) / f"{name}.json")
                 results[name].append(res)
                 print(f"{name:6s} run {i + 1}: wall {res['wall']:6.1f} s  cpu {res['cpu']:6.1f} s  load {res['load']:5.2f}  "
-                      f"epochs {res['epochs']} ({res['stop']}); {res['data']}", flush=True)
+                      f"epochs {res['epochs']} ({res['stop']}); stages (wall s, inside adapt) {res['stages']}; {res['data']}",
+                      flush=True)
     print(f"\n{args.log.name}: median over {args.repeat} run(s) each")
     med = {name: {k: statistics.median(r[k] for r in rs) for k in ("wall", "cpu", "load")} for name, rs in results.items()}
     for name, m in med.items():

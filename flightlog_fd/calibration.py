@@ -133,6 +133,8 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
         profile = calibrate_profile(flights, spec=FeatureSpec.from_dict({**spec.to_dict(), "mean": None, "std": None}),
                                     sessions=groups)
         check_sessions(flights, groups)
+        if progress:
+            progress("measuring hover", 1.0)
         out_onnx = out.with_suffix(".onnx")
         res = adapt_model(profile, flights, out_onnx, settings=settings or AdaptSettings(),
                           base_model=None if base_model is None else Path(base_model), progress=progress)

@@ -23,9 +23,12 @@ def _weights(onnx_path: Path) -> dict:
 
 
 def _without_times(doc: dict) -> dict:
-    """A profile without what differs between two runs by design: when, where, how long."""
+    """A profile without what differs between two runs by design: when (the profile and its
+    sessions), where, how long."""
     doc = json.loads(json.dumps(doc))
     doc.pop("created", None)
+    for session in doc.get("sessions_") or []:
+        session.pop("created", None)
     ad = doc["extra"]["adaptation"]
     for k in ("simulate_seconds", "train_seconds", "total_seconds"):
         ad.pop(k)

@@ -191,9 +191,11 @@ def test_frozen_convolutions_stop_when_the_classes_have_converged(source, pretra
         if name.startswith("blocks."):
             torch.testing.assert_close(value, pretrained[name], rtol=0, atol=0)
     assert any(not torch.equal(v, pretrained[k]) for k, v in res.model.state_dict().items())
-    # The same epochs without the monitor: the same losses, the same weights.
+    # The same epochs without the monitor: the same losses as long as the learning rate has not
+    # been halved (after the first epoch whose change is no new low), so judging draws nothing.
+    same_lr = next((i + 1 for i in range(1, len(changed)) if changed[i] >= min(changed[:i])), len(changed))
     plain = train_dcnn(X, y, X_tgt[y_tgt == 0], max_epochs=len(changed), patience=len(changed), **kw)
-    assert [h.loss for h in plain.history] == [h.loss for h in res.history]
+    assert [h.loss for h in plain.history][:same_lr] == [h.loss for h in res.history][:same_lr]
     # A budget too small to converge stops on it.
     short = train_dcnn(X, y, X_tgt[y_tgt == 0], max_epochs=len(changed) - 1, converged_change=0.02, **kw)
     assert short.stop_reason in ("max_epochs", "patience") and len(short.history) == len(changed) - 1
