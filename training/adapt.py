@@ -19,8 +19,8 @@ from. No damaged real flight is ever needed. :func:`flightlog_fd.calibration.cal
    layer between healthy simulated windows and the log's own (healthy) windows, λ = 1e4. The
    shipped convolution blocks are kept (``ADAPT_FROZEN_BLOCKS``): their outputs are computed
    once per window and only the dense layers, where the MMD is taken, are trained: a step costs
-   a ninth of a full one (7 vs 69 ms measured). Training stops when it has converged: when the classes the model gives
-   a fixed monitor set (the target windows and 2048 source windows) change from one epoch to
+   about a third of a full one (18 vs 57 ms CPU per batch of 128 measured). Training stops when
+   it has converged: when the classes the model gives a fixed monitor set (the target windows and 2048 source windows) change from one epoch to
    the next on at most ``ADAPT_CONVERGED_CHANGE`` of it, the learning rate being halved
    whenever that share stops falling (:func:`flightlog_fd.training.train.train_dcnn`); at most
    ``ADAPT_EPOCHS`` epochs of at least ``ADAPT_MIN_EPOCH_STEPS`` steps.
@@ -39,9 +39,10 @@ from. No damaged real flight is ever needed. :func:`flightlog_fd.calibration.cal
 Deterministic: the same flights and ``AdaptSettings.seed`` give the same model on the same
 machine; nothing depends on the wall clock (``max_seconds`` is off unless asked for).
 
-Time (`results/calibrate_speed.md`): the 45 s sample log calibrates in about a fifth of the CPU
-time it took with 192 x 2.5 flights in batches of 128 and full fine-tuning; the simulation is
-most of what is left.
+Time (`results/calibrate_speed.md`): the 45 s ArduPilot sample calibrates in about 18 s of CPU,
+a quarter of what 192 x 2.5 flights in batches of 128 and full fine-tuning took even when a
+100 s wall-clock cap cut that training to 4 of its 12 epochs; simulating is two thirds of what
+is left, training a quarter.
 """
 from __future__ import annotations
 
@@ -58,11 +59,12 @@ from flightlog_fd.flight import Flight
 from flightlog_fd.profile import Profile
 
 #: Simulated flights (one batch per logging profile). The filter kept 215 of 320 for the
-#: ArduPilot sample, 35-174 for the Erle boards, 26-59 for the Crazyflie, 7-93 for the rrc quad
-#: (results/calibrate_speed.md); the measured adapted profiles there come from these numbers.
+#: ArduPilot sample, 98-146 for Erle board A's flights, 50-53 for the Crazyflie E9, 184 for the
+#: SIH quad, 7-93 for the rrc quad (its good flights 1-3; the old 480 kept 6-160 of them):
+#: results/calibrate_speed.md, whose adapted profiles come from these numbers.
 ADAPT_FLIGHTS = 320
 ADAPT_DURATION_S = 60.0
-#: Most epochs; training stops earlier once converged (4-15 epochs on the measured airframes).
+#: Most epochs; training stops earlier once converged (3-15 epochs on the measured airframes).
 ADAPT_EPOCHS = 30
 #: Converged: at most 1 % of the monitor windows change class in an epoch. With the shipped
 #: convolutions kept and the learning rate fixed, the change settles at 1-4 % epoch to epoch
@@ -234,6 +236,7 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
 
     # One vectorised batch per logging profile, the missions mixed inside it.
     batch = -(-settings.n_flights // len(log_profiles))
+    report("simulating", 0.0)  # the bar shows the stage as it starts (the first batch takes most of it)
     src = simulate_windows(settings.n_flights, spec, seed=settings.seed, batch=batch, mixed_missions=True,
                            flight_filter=like_this_airframe,
                            airframes=airframe_family(profile.frame, profile.hover_throttle_),
@@ -249,6 +252,7 @@ def adapt_model(profile: Profile, healthy_flights: Sequence[Flight], out_onnx: P
     init = None
     if settings.finetune and base_pt is not None:
         init = torch.load(base_pt, map_location="cpu", weights_only=True)
+    report("training", 0.0)
     res = fine_tune(spec.normalise(src.X), src.y, spec.normalise(target), settings, init,
                     DCNNConfig(in_channels=len(spec.channels), window=spec.window),
                     progress=lambda e: report("training", e.epoch / settings.max_epochs))
