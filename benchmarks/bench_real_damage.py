@@ -8,7 +8,9 @@ flights (the profile then measures the airframe's flight-to-flight drift); the r
 without a profile; px4_sih_dev calibrated on sih_004 and without a profile. Rows per set: the
 adapted (or shipped) model alone (majority of its windows' argmax), the fused verdict
 (`fdlog diagnose`), and the motor-balance rule (training/peer_rule.py, offsets from the
-calibration flight). Cells count healthy / uncertain / damaged (motor named) per group.
+calibration flight). Cells count healthy / uncertain / damaged (motor named) per group; the
+side-by-side table counts a damaged flight named right by a damaged verdict naming its motor and
+by an uncertain one naming it (``verdict.motor``) apart.
 ``--profiles DIR`` reuses the profiles calibrated there before (rrc_g1.json, rrc_g12.json,
 cp00.json, sih004.json) and writes there the ones it has to calibrate (about a minute each).
 
@@ -149,7 +151,7 @@ def real_part(args) -> None:
                 right["model alone"] += alone == ("damaged", truth)
                 right["fused verdict"] += (v.status, v.motor) == ("damaged", truth)
                 side["damaged"] += 1
-                side["uncertain naming it"] += v.status == "uncertain" and truth in v.inspect
+                side["uncertain naming it"] += v.status == "uncertain" and v.motor == truth
             elif group in ("healthy", "good"):
                 side["healthy"] += 1
                 side["verdict FA"] += v.status == "damaged"
@@ -177,11 +179,13 @@ def real_part(args) -> None:
         summary.append((label, side["damaged"], right["fused verdict"], side["uncertain naming it"],
                         right["model alone"], side["healthy"], side["verdict FA"], side["model FA"]))
     print("\n== side by side: the verdict and the model's window majority alone ==")
-    print(f"  {'set':58s} {'damaged: verdict names it (+uncertain naming it) / model alone':>62s}   "
-          f"{'healthy called damaged: verdict / model':>40s}")
+    print("  damaged flights: the verdict 'damaged' naming the motor, 'uncertain' naming it (verdict.motor), both, and the "
+          "model's window majority naming it; healthy flights called damaged by the verdict / by the model alone")
+    print(f"  {'set':58s} {'damaged':>8s} {'uncertain':>10s} {'named':>6s} {'model':>6s} {'of':>4s}   "
+          f"{'healthy called damaged':>24s}")
     for label, nd, vr, vu, mr, nh, vfa, mfa in summary:
-        dmg = f"{vr} (+{vu}) / {mr} of {nd}" if nd else "-"
-        print(f"  {label:58s} {dmg:>62s}   {f'{vfa} / {mfa} of {nh}' if nh else '-':>40s}")
+        dmg = f"{vr:8d} {vu:10d} {vr + vu:6d} {mr:6d} {nd:4d}" if nd else f"{'-':>8s} {'-':>10s} {'-':>6s} {'-':>6s} {'-':>4s}"
+        print(f"  {label:58s} {dmg}   {f'{vfa} / {mfa} of {nh}' if nh else '-':>24s}")
     print("\n== the shipped model's flight-mean window log ratios (decision.MODEL_* constants) ==")
     for label, rows in model_stats.items():
         if label.startswith("real healthy"):

@@ -3,6 +3,7 @@
     python benchmarks/bench_reliability.py collect [--sets real,sim,nrotor,esc] [--sim-airframes 30]
     python benchmarks/bench_reliability.py table [--write results/reliability.md]   # between its markers
     python benchmarks/bench_reliability.py replay            # the decision now, on the cached cases
+    python benchmarks/bench_reliability.py bars              # the uncertain bar per rate class, no profile
 
 ``collect`` diagnoses (in-process, shipped or the profile's model) every case below and caches
 (build/reliability/*.pkl), per case, the log's kind (:class:`flightlog_fd.analyzers.reliability.LogKind`:
@@ -50,6 +51,14 @@ CACHE = ROOT / "build" / "reliability"
 SIM_SEED = 9100
 SIM_LOG_PROFILES = ("px4_high", "ardupilot_fast", "ardupilot", "ardupilot_slow", "px4_default", "ardupilot_rcou")
 SIM_ETAS = (0.6, 0.7, 0.8, 0.9)
+#: The damaged motors the vote statistics are fitted on: eta at most this (the "lost thrust" the
+#: model is weighed for; milder damage is the decision's MILD_DAMAGE_LLR_FLOOR, invisible to every
+#: source, as the flight-mean constants before were measured on SIH eta <= 0.8). CrazyPAD's cuts
+#: (severity unknown, mild: a 3 mm cut moves the command share +0.16, eta ~0.86) are checked on, not fitted.
+VOTE_FIT_ETA = 0.8
+#: The seed of the simulated set the model's vote statistics per rate class are measured on
+#: (``collect --sets simfit``; model_votes.QUAD_VOTE_SHARE_STATS), apart from the table's own (SIM_SEED).
+SIM_FIT_SEED = 12100
 
 
 # ------------------------------------------------------------------------------------ one case
@@ -79,7 +88,9 @@ def case(d, *, set_name: str, name: str, truth: int, group: str, profile_kind: s
     from flightlog_fd.analyzers.model_votes import mean_log_ratio
 
     mlr = [float(x) for x in mean_log_ratio(np.array([w.probabilities for w in d.windows]))] if d.windows else None
+    mctx = getattr(d, "_model_ctx", None)  # what the model analyzer read (recorded by _recording_contexts)
     return {"set": set_name, "name": name, "truth": truth, "group": group, "eta": eta, "profile_kind": profile_kind,
+            "model_ctx": mctx,
             "n": n, "kind": None if kind is None else kind.as_dict(), "raw": raw, "mlr": mlr,
             "shares": None if d.share_fit is None else [float(m.command_share) for m in d.share_fit.motors], "abstained": abst,
             "status": d.verdict.status, "motor": d.verdict.motor, "confidence": d.verdict.confidence,
@@ -87,6 +98,37 @@ def case(d, *, set_name: str, name: str, truth: int, group: str, profile_kind: s
             "damaged_windows": sum(c > 0 for c in cls), "windows": len(cls),
             "replay": pickle.dumps((n, d.flight.frame if d.flight is not None else None, d.timeline, results,
                                     d.stopped, kind)) if dec is not None else None}
+
+
+class _recording_contexts:
+    """Within it, every diagnosis records what its (whole-log) model analyzer read: the windows'
+    probabilities after the onset selection, the covered time, the profile's model-vote baseline
+    and the judging model's sha256 (``d._model_ctx``), so ``replay`` can re-weigh the model's votes
+    with the code as it is now."""
+
+    def __enter__(self):
+        import flightlog_fd.diagnose as dg
+
+        self._dg, self._orig, self._diag = dg, dg.run_analyzers, dg.diagnose_flight
+        self.seen: list = []
+
+        def run(ctx, *a, **k):
+            self.seen.append({"probs": np.asarray(ctx.probs, np.float32), "covered_s": float(ctx.covered_s),
+                              "baseline": ctx.baseline_for("model"), "model_sha256": ctx.model_sha256})
+            return self._orig(ctx, *a, **k)
+
+        def diag(*a, **k):
+            self.seen.clear()
+            d = self._diag(*a, **k)
+            d._model_ctx = self.seen[0] if self.seen else None
+            return d
+
+        dg.run_analyzers, dg.diagnose_flight = run, diag
+        return self
+
+    def __exit__(self, *exc):
+        self._dg.run_analyzers, self._dg.diagnose_flight = self._orig, self._diag
+        return False
 
 
 # ------------------------------------------------------------------------------------ real sets
@@ -242,13 +284,51 @@ def sim_cases(n_airframes: int, frames: tuple[str, ...] = ("quad_x",), log_profi
 
 
 # ------------------------------------------------------------------------------------ cache
-def load_cases(which=("real", "sim", "nrotor", "esc")) -> list[dict]:
+def load_cases(which=("real", "sim", "nrotor", "esc"), reweigh: bool = True) -> list[dict]:
+    """The cached cases of ``which``; ``reweigh``: the model's votes weighed again with the code
+    as it is now (:func:`reweigh_model`), where the case recorded what the model read."""
     out = []
     for w in which:
         p = CACHE / f"{w}.pkl"
         if p.exists():
             out += pickle.loads(p.read_bytes())
+    if reweigh:
+        for c in out:
+            reweigh_model(c)
     return out
+
+
+def _model_context(c: dict):
+    """A Context holding what the case's model analyzer read (None when it was not recorded)."""
+    from types import SimpleNamespace
+
+    from flightlog_fd.analyzers import Context
+
+    m, k = c.get("model_ctx"), c.get("kind")
+    if m is None or k is None or not len(m["probs"]):
+        return None
+    flight = SimpleNamespace(motors=SimpleNamespace(rate_hz=k["motors_hz"]), rates=SimpleNamespace(rate_hz=k["rates_hz"]))
+    profile = SimpleNamespace(analyzers={"model": m["baseline"]}) if m["baseline"] else None
+    return Context(flight=flight, frame=None, n_motors=m["probs"].shape[1] - 1, probs=np.asarray(m["probs"], float),
+                   covered_s=m["covered_s"], profile=profile, model_sha256=m["model_sha256"])
+
+
+def reweigh_model(c: dict) -> None:
+    """Replace the case's model result (its raw LLR, and the result the replay re-decides with)
+    by the current ModelVotes' on what the model read."""
+    from flightlog_fd.analyzers import run_analyzers
+    from flightlog_fd.analyzers.model_votes import ModelVotes
+
+    ctx = _model_context(c)
+    if ctx is None or c["replay"] is None:
+        return
+    (new,) = run_analyzers(ctx, [ModelVotes()])
+    c.setdefault("replay_recorded", c["replay"])
+    n, frame, tl, results, stopped, kind = pickle.loads(c["replay"])
+    results = [new if r.analyzer == "model" else r for r in results]
+    c["replay"] = pickle.dumps((n, frame, tl, results, stopped, kind))
+    v = new.raw_llr(n)
+    c["raw"]["model"] = None if v is None else [float(x) for x in v]
 
 
 def collect(args) -> None:
@@ -259,10 +339,16 @@ def collect(args) -> None:
         (CACHE / "real.pkl").write_bytes(pickle.dumps(real_cases(dirs)))
     if "sim" in sets:
         (CACHE / "sim.pkl").write_bytes(pickle.dumps(sim_cases(args.sim_airframes)))
+    if "simfit" in sets:  # another seed: the set the model's vote statistics are measured on (model_votes)
+        (CACHE / "simfit.pkl").write_bytes(pickle.dumps(sim_cases(args.sim_airframes, seed=SIM_FIT_SEED)))
     if "esc" in sets:
         (CACHE / "esc.pkl").write_bytes(pickle.dumps(
             sim_cases(args.sim_airframes, log_profiles=("px4_high", "ardupilot", "px4_default"), seed=SIM_SEED + 500,
                       esc="random")))
+    if "nrotorfit" in sets:  # another seed: the n-rotor models' vote statistics (model_votes)
+        (CACHE / "nrotorfit.pkl").write_bytes(pickle.dumps(
+            sim_cases(args.sim_airframes, frames=("hexa_x", "octo_x"), log_profiles=("px4_high", "ardupilot", "px4_default"),
+                      seed=SIM_FIT_SEED + 500)))
     if "nrotor" in sets:
         (CACHE / "nrotor.pkl").write_bytes(pickle.dumps(
             sim_cases(args.sim_airframes, frames=("hexa_x", "octo_x"), log_profiles=("px4_high", "ardupilot", "px4_default"))))
@@ -350,64 +436,416 @@ def table(cases: list[dict], out_md: Path | None = None) -> str:
     return text
 
 
-def replay(cases: list[dict]) -> None:
-    """The decision as the code makes it now, on the cached cases, beside the decision with one cap
-    per source (no reliability table, the command pattern abstaining on an n-rotor without a
-    profile: main before issue 28) and the model's window majority: per set (profiles pooled) and
-    group, healthy / uncertain / damaged, and for a known damaged motor how often it was named."""
+def replay(cases: list[dict], listing: bool = False) -> None:
+    """The decision as the code makes it now on the cached cases (the model's votes re-weighed),
+    beside the verdict recorded when the cases were collected, and the model's window majority:
+    per set (profiles pooled) and group, healthy / uncertain / damaged, and for a known damaged
+    motor how often it was named (damaged naming it + uncertain naming it). ``listing``: every
+    case whose verdict moved."""
     from flightlog_fd.analyzers import REGISTRY
     from flightlog_fd.decision import decide
 
     keys = {a.id: tuple(a.reliability_keys) for a in REGISTRY}
     rows: dict = defaultdict(Counter)
+    moved = []
     for c in cases:
         if c["replay"] is None:
             continue
         n, frame, tl, results, stopped, kind = pickle.loads(c["replay"])
         for r in results:  # the analyzers' keys as the code names them now
             r.reliability_keys = keys.get(r.analyzer, ())
-        v, _ = decide(n, frame, timeline=tl, results=results, stopped=stopped, kind=kind)
-        n_rotor_bare = n != 4 and kind is not None and kind.profile == "none"
-        before, _ = decide(n, frame, timeline=tl, stopped=stopped, kind=None,
-                           results=[r for r in results if not (n_rotor_bare and r.analyzer == "commands")])
+        v, dec = decide(n, frame, timeline=tl, results=results, stopped=stopped, kind=kind)
+        # the recorded results re-decided (the collecting code's statuses; uncertain verdicts name their motor now)
+        _, _, _, rec_results, _, _ = pickle.loads(c.get("replay_recorded", c["replay"]))
+        for r in rec_results:
+            r.reliability_keys = keys.get(r.analyzer, ())
+        was, _ = decide(n, frame, timeline=tl, results=rec_results, stopped=stopped, kind=kind)
         prof = c["set"].split(" | ")[1].split(" ")[-1] if " | " in c["set"] else "none"
         grp = c["group"] if c["truth"] <= 0 else ("damaged" if not c["set"].startswith("sim") else c["group"])
         r = rows[(c["set"].split(" | ")[0], prof, grp)]
         r["n"] += 1
-        for tag, st, m in (("was", before.status, before.motor), ("now", v.status, v.motor)):
+        for tag, st, m in (("was", was.status, was.motor), ("now", v.status, v.motor)):
             r[f"{tag} {st[0]}"] += 1
             if c["truth"] > 0:
-                r[f"{tag} right"] += st == "damaged" and m == c["truth"]
+                r[f"{tag} right d"] += st == "damaged" and m == c["truth"]
+                r[f"{tag} right u"] += st == "uncertain" and m == c["truth"]
         if c["truth"] > 0:
             r["model right"] += c["model_alone"] == ("damaged", c["truth"])
         elif c["truth"] == 0:
             r["model FA"] += c["model_alone"][0] == "damaged"
+        if (was.status, was.motor) != (v.status, v.motor):
+            by = {m.motor: m.llr_by_source for m in dec.motors} if dec is not None else {}
+            k = v.motor or was.motor or (int(np.argmax([m.llr for m in dec.motors])) + 1 if dec and dec.motors else None)
+            moved.append(f"  {c['set']}: {c['name']} (truth {c['truth']}): {was.status} {was.motor or ''} -> "
+                         f"{v.status} {v.motor or ''}; motor {k}: "
+                         + ", ".join(f"{s_} {x:+.1f}" for s_, x in (by.get(k) or {}).items()))
 
     def cell(r, tag):
-        return f"{r[tag + ' h']}h {r[tag + ' u']}u {r[tag + ' d']}d" + (f" ({r[tag + ' right']} right)"
-                                                                       if (tag + " right") in r else "")
-    print(f"{'set':34s} {'profile':9s} {'group':10s} {'n':>4s}  {'before':>20s}  {'now':>20s}  model alone")
+        right = (f" ({r[tag + ' right d']}+{r[tag + ' right u']} right)" if (tag + " right d") in r else "")
+        return f"{r[tag + ' h']}h {r[tag + ' u']}u {r[tag + ' d']}d" + right
+    print(f"{'set':34s} {'profile':9s} {'group':10s} {'n':>4s}  {'as recorded':>24s}  {'now':>24s}  model alone")
     for (st, prof, grp), r in sorted(rows.items()):
         model = f"{r['model right']} right" if "model right" in r else f"{r['model FA']} called damaged"
         mark = " *" if cell(r, "was") != cell(r, "now") else ""
-        print(f"{st[:34]:34s} {prof:9s} {grp[:10]:10s} {r['n']:4d}  {cell(r, 'was'):>20s}  {cell(r, 'now'):>20s}  "
+        print(f"{st[:34]:34s} {prof:9s} {grp[:10]:10s} {r['n']:4d}  {cell(r, 'was'):>24s}  {cell(r, 'now'):>24s}  "
               f"{model}{mark}")
+    print("(right: damaged naming the motor + uncertain naming it)")
+    if listing:
+        print(f"\n{len(moved)} verdicts moved:")
+        print("\n".join(moved))
+
+
+# ------------------------------------------------------------------------------------ bars
+#: The share of a rate class's simulated healthy flights (realistic imbalance) an uncertain bar may
+#: let through: the reliability rule's for a trusted source (reliability.trust_level, 5 %).
+BAR_HEALTHY_SHARE = 0.05
+
+
+def bars(cases: list[dict]) -> None:
+    """The uncertain bar per rate class without a profile (decision.FULL_RATE_UNCERTAIN_LLR,
+    UNCERTAIN_LLR): the decision as the code makes it now on the cached cases; per rotor count,
+    rate class and origin, the healthy flights' leading total LLR (largest over the motors, every
+    source capped as the decision caps it), how many reach each bar from 2.0 to 3.5 nats, and how
+    many damaged flights (simulated: eta <= 0.8; real: every damaged flight whose motor is known)
+    lead with their damaged motor at it; then the lowest bar, in tenths, that at most
+    BAR_HEALTHY_SHARE of the simulated healthy flights and none of the real ones reach. Figures only."""
+    from flightlog_fd.analyzers import REGISTRY
+    from flightlog_fd.analyzers.reliability import rate_class
+    from flightlog_fd.decision import decide, uncertain_bar
+
+    keys = {a.id: tuple(a.reliability_keys) for a in REGISTRY}
+    healthy, damaged, code_bar = defaultdict(list), defaultdict(list), {}
+    for c in cases:
+        if c["replay"] is None or c["profile_kind"] != "none" or c["truth"] < 0:
+            continue
+        n, frame, tl, results, stopped, kind = pickle.loads(c["replay"])
+        if kind is None:
+            continue
+        for r in results:
+            r.reliability_keys = keys.get(r.analyzer, ())
+        _, dec = decide(n, frame, timeline=tl, results=results, stopped=stopped, kind=kind)
+        if dec is None or not dec.motors:
+            continue
+        total = np.array([m.llr for m in dec.motors])
+        key = ("quad" if n == 4 else "n-rotor", rate_class(kind.stream_hz),
+               "sim" if c["set"].startswith("sim") else "real")
+        code_bar[key[:2]] = uncertain_bar(kind)
+        if c["truth"] == 0:
+            healthy[key].append(float(total.max()))
+        elif key[2] == "real" or (c["eta"] is not None and c["eta"] <= VOTE_FIT_ETA + 1e-9):
+            k = c["truth"] - 1
+            damaged[key].append(float(total[k]) if int(np.argmax(total)) == k else -np.inf)
+    grid = np.round(np.arange(2.0, 3.51, 0.1), 1)
+    print(f"healthy flights reaching each bar / damaged flights leading with their motor at it (no profile)")
+    print(f"{'rotors':8s} {'rate':10s} {'origin':6s} {'healthy':>8s} {'max':>6s}  " + " ".join(f"{b:>7.1f}" for b in grid))
+    for key in sorted(set(healthy) | set(damaged)):
+        h, d = np.array(healthy.get(key, [])), np.array(damaged.get(key, []))
+        cells = " ".join(f"{int(np.sum(h >= b)):>3d}/{int(np.sum(d >= b)):<3d}" for b in grid)
+        print(f"{key[0]:8s} {key[1]:10s} {key[2]:6s} {len(h):4d}/{len(d):<3d} {h.max() if len(h) else float('nan'):+6.1f}  {cells}")
+    print(f"\nthe lowest bar (tenths) that <= {100 * BAR_HEALTHY_SHARE:.0f} % of the simulated healthy flights and no real one reach:")
+    for rk in sorted(code_bar):
+        hs, hr = np.array(healthy.get(rk + ("sim",), [])), np.array(healthy.get(rk + ("real",), []))
+        if not len(hs):
+            print(f"  {rk[0]} {rk[1]}: no simulated healthy flights   (code: {code_bar[rk]:g})")
+            continue
+        ok = [b for b in np.round(np.arange(0.0, 10.01, 0.1), 1)
+              if np.sum(hs >= b) <= BAR_HEALTHY_SHARE * len(hs) and not np.sum(hr >= b)]
+        print(f"  {rk[0]} {rk[1]}: {ok[0] if ok else '-'} ({len(hs)} simulated, {len(hr)} real healthy)   "
+              f"(code: {code_bar[rk]:g})")
+
+
+# ------------------------------------------------------------------------------------ votes
+def _vote_flights(cases: list[dict]) -> list[dict]:
+    """The flights without a profile whose model context was recorded and whose truth is known:
+    rotor count, rate class, origin, truth, eta, the windows' probabilities and covered time."""
+    from flightlog_fd.analyzers.reliability import PROPERTIES, LogKind
+
+    out = []
+    for c in cases:
+        m = c.get("model_ctx")
+        if " | " in c["set"] or m is None or c["kind"] is None or c["truth"] < 0 or not len(m["probs"]):
+            continue
+        kind = LogKind.from_dict(c["kind"])
+        out.append({"rotors": kind.n_motors, "rate": PROPERTIES["rate"](kind), "origin": "sim" if c["set"].startswith("sim") else "real",
+                    "truth": c["truth"], "eta": c.get("eta"), "probs": np.asarray(m["probs"], float),
+                    "covered_s": m["covered_s"], "name": c["name"], "set": c["set"]})
+    return out
+
+
+def _tau_int(indicators: list[np.ndarray], max_lag: int = 15, continuous: bool = False) -> float:
+    """Integrated autocorrelation time (windows) of series pooled over flights (0/1 vote indicators,
+    or ``continuous`` ones): 1 + 2 sum of the mean autocorrelation up to its first non-positive lag (Sokal)."""
+    acc, cnt = np.zeros(max_lag + 1), np.zeros(max_lag + 1)
+    for x in indicators:
+        x = x - x.mean()
+        var = float(np.mean(x * x))
+        if var < 1e-12:
+            continue
+        for lag in range(min(max_lag, len(x) - 1) + 1):
+            acc[lag] += np.mean(x[:len(x) - lag] * x[lag:]) / var
+            cnt[lag] += 1
+    rho = acc / np.maximum(cnt, 1)
+    tau = 1.0
+    for lag in range(1, max_lag + 1):
+        if rho[lag] <= 0 or cnt[lag] == 0:
+            break
+        tau += 2 * rho[lag]
+    return tau
+
+
+def _fit_vote_shares(k: np.ndarray, n: np.ndarray, mixture: bool) -> tuple:
+    """Maximum-likelihood Beta (a, b) or two-Beta mixture (a1, b1, a2, b2, w) of the vote share,
+    from k votes of n effective windows per motor (beta-binomial); a and b kept in [0.02, 500]."""
+    from scipy.optimize import minimize
+
+    from flightlog_fd.analyzers.model_votes import _log_beta_binomial
+
+    lo, hi = np.log(0.02), np.log(500.0)
+
+    def unpack(x):
+        ab = tuple(np.exp(np.clip(x[:4 if mixture else 2], lo, hi)))
+        return ab + (1 / (1 + np.exp(-x[4])),) if mixture else ab
+
+    def nll(x):
+        return -float(np.sum(_log_beta_binomial(k, n, unpack(x))))
+    starts = ([[np.log(0.1), np.log(2), np.log(2), np.log(1), -3], [np.log(0.2), np.log(10), np.log(0.5), np.log(0.7), -1]]
+              if mixture else [[np.log(0.3), np.log(3)], [np.log(1), np.log(1)]])
+    best = min((minimize(nll, x0, method="Nelder-Mead", options={"maxiter": 6000, "xatol": 1e-5, "fatol": 1e-7})
+                for x0 in starts), key=lambda r: r.fun)
+    return tuple(round(float(v), 4) for v in unpack(best.x))
+
+
+def _share_tail(params: tuple, x: float) -> float:
+    from scipy.stats import beta
+
+    if len(params) == 2:
+        return float(beta.sf(x, *params))
+    a1, b1, a2, b2, w = params
+    return float((1 - w) * beta.sf(x, a1, b1) + w * beta.sf(x, a2, b2))
+
+
+def _fit_flight_means(x: np.ndarray, se: np.ndarray) -> tuple[float, float]:
+    """Maximum-likelihood mean and between-flight standard deviation of flight means ``x`` whose
+    own (within-flight) standard errors are ``se``: x ~ N(mu, sqrt(sigma^2 + se^2))."""
+    from scipy.optimize import minimize
+
+    def nll(v):
+        sd = np.hypot(np.exp(v[1]), se)
+        return float(np.sum(0.5 * ((x - v[0]) / sd) ** 2 + np.log(sd)))
+    r = minimize(nll, [float(np.mean(x)), np.log(max(float(np.std(x)), 0.05))], method="Nelder-Mead")
+    return round(float(r.x[0]), 3), round(float(np.exp(r.x[1])), 3)
+
+
+def votes() -> None:
+    """The model's window votes without a profile, per rotor count and rate class: the figures
+    behind model_votes' VOTE_DECORRELATION_S and QUAD_VOTE_SHARE_STATS, and the re-measure of the
+    flight mean's levels (QUAD_VOTE_STATS, MODEL_DECORRELATION_S, MODEL_WINDOW_SIGMA) per rate
+    class. Measured: the decorrelation time of a motor's vote indicator and of its window log
+    ratio, and the log ratio's within-flight spread, on real and simulated flights (the larger of
+    the two is used); then, per hypothesis on the real flights where MIN_MEASURED of more than one
+    airframe are there, else
+    on the fit sets (simfit, nrotorfit) pooled with them (damaged: eta <= VOTE_FIT_ETA), the flight
+    mean's Gaussian levels and the vote share's beta-binomial; then, on the check sets (the table's
+    own simulated flights, seeds 9100+, and the real ones), what each statistic alone says: the
+    healthy flights' leading LLR against the decision's bars, and the damaged motor's LLR
+    (eta <= 0.8 and 0.9 apart) - for the flight mean with the code's levels and the fitted ones,
+    and for the vote share with the code's and the fitted figures. Figures only."""
+    from flightlog_fd.analyzers import model_votes as mv
+    from flightlog_fd.analyzers.reliability import MIN_MEASURED
+    from flightlog_fd.decision import DAMAGED_LLR, UNCERTAIN_LLR
+    from flightlog_fd.timeline import floored
+
+    def flights(which):
+        out = []
+        for w in which:
+            for f in _vote_flights(load_cases((w,), reweigh=False)):
+                f["src"] = w
+                out.append(f)
+        return out
+    fit, check = flights(("simfit", "real", "nrotorfit")), flights(("sim", "real", "nrotor"))
+    every = list({(f["src"], f["set"], f["name"]): f for f in fit + check}.values())
+    rates = ("low rate", "mid rate", "full rate")
+
+    def ratios(f):
+        q = floored(f["probs"])
+        return np.log(q[:, 1:]) - np.log(q[:, :1])
+    print("== decorrelation (flights with >= 25 windows; windows every 0.8 s) and within-flight spread, quads")
+    dec_vote, dec_lr, sd_lr = {}, {}, {}
+    for rate in rates:
+        line = []
+        for origin in ("real", "sim"):
+            fl = [f for f in every if f["rate"] == rate and f["origin"] == origin and f["rotors"] == 4]
+            long = [f for f in fl if len(f["probs"]) >= 25]
+            if not long:
+                continue
+            tv = 0.8 * _tau_int([(np.argmax(f["probs"], axis=1) == k + 1).astype(float) for f in long for k in range(4)])
+            tl = 0.8 * _tau_int([ratios(f)[:, k] for f in long for k in range(4)], continuous=True)
+            sd = float(np.median([np.median(ratios(f).std(axis=0)) for f in fl]))
+            dec_vote[rate], dec_lr[rate] = max(dec_vote.get(rate, 0), tv), max(dec_lr.get(rate, 0), tl)
+            sd_lr[rate] = max(sd_lr.get(rate, 0), sd)
+            line.append(f"{origin} {len(long)} flights: votes {tv:.1f} s, log ratio {tl:.1f} s; window sd {sd:.2f} "
+                        f"({len(fl)} flights)")
+        code = (f"code: votes {mv.VOTE_DECORRELATION_S.get(rate, '-')} s, log ratio {mv.MODEL_DECORRELATION_S} s, "
+                f"window sd {mv.MODEL_WINDOW_SIGMA}")
+        print(f"  {rate}: " + "; ".join(line) + f"   ({code})")
+
+    def damaged_fit(f):
+        return f["truth"] > 0 and f["eta"] is not None and f["eta"] <= VOTE_FIT_ETA + 1e-9
+
+    def real_first(fl, keep):
+        """The flights of one hypothesis: the real ones alone where MIN_MEASURED of them are there
+        from more than one airframe (real logs are what the tool is judged on, and the model reads
+        them unlike its own simulated flights), else the real ones pooled with the simulated fit set:
+        one airframe's flights (px4_sih_dev's, perfectly balanced, are the only real damaged ones at
+        full rate) miss how the model reads airframes with realistic imbalance."""
+        chosen = [f for f in fl if keep(f)]
+        real = [f for f in chosen if f["origin"] == "real"]
+        airframes = {f["set"] for f in real}
+        return (real, "real") if len(real) >= MIN_MEASURED and len(airframes) > 1 else (chosen, "real + sim")
+    means_fitted, shares_fitted = {}, {}
+    print(f"\n== fitted, quads, per hypothesis on the real flights where {MIN_MEASURED} of more than one airframe are there, else on "
+          f"simfit + real (damaged: eta <= {VOTE_FIT_ETA}; within-flight terms as measured above)")
+    for rate in rates:
+        every_rate = [f for f in fit if f["rotors"] == 4 and f["rate"] == rate]
+        hf, h_from = real_first(every_rate, lambda f: f["truth"] == 0)
+        df, d_from = real_first(every_rate, damaged_fit)
+        fl = hf + df
+        se = {id(f): sd_lr[rate] / np.sqrt(max(f["covered_s"] / dec_lr[rate], 1.0)) for f in fl}
+        h = [(x, se[id(f)]) for f in hf for x in mv.mean_log_ratio(f["probs"])]
+        d = [(mv.mean_log_ratio(f["probs"])[f["truth"] - 1], se[id(f)]) for f in df]
+        n_real = sum(f["origin"] == "real" for f in fl)
+        if len(h) < 40 or len(d) < 10:
+            print(f"  {rate}: too few ({len(h) // 4} healthy, {len(d)} damaged flights)")
+            continue
+        hm, hs = _fit_flight_means(*map(np.array, zip(*h)))
+        dm, ds = _fit_flight_means(*map(np.array, zip(*d)))
+        means_fitted[rate] = mv.VoteStats(hm, hs, dm, ds, mv.QUAD_VOTE_STATS.damage_shift, mv.QUAD_VOTE_STATS.shift_sigma)
+        neff = {id(f): max(f["covered_s"] / dec_vote[rate], 1.0) for f in fl}
+        hv = np.array([(mv.vote_shares(f["probs"])[k], neff[id(f)]) for f in hf for k in range(4)])
+        dv = np.array([(mv.vote_shares(f["probs"])[f["truth"] - 1], neff[id(f)]) for f in df])
+        ph = _fit_vote_shares(hv[:, 0] * hv[:, 1], hv[:, 1], mixture=True)
+        pd = _fit_vote_shares(dv[:, 0] * dv[:, 1], dv[:, 1], mixture=False)
+        shares_fitted[rate] = mv.VoteShareStats(ph, pd)
+        print(f"  {rate}: {len(h) // 4} healthy flights ({h_from}) and {len(d)} damaged ({d_from}); {n_real} real in all")
+        print(f"      flight mean: healthy {hm:+.3f} +- {hs:.3f}, damaged {dm:+.3f} +- {ds:.3f}")
+        print(f"      vote share:  healthy {ph}, damaged {pd}; healthy share >= 0.5: measured "
+              f"{np.mean(hv[:, 0] >= 0.5):.3f}, fitted {_share_tail(ph, 0.5):.3f}; >= 0.9: {np.mean(hv[:, 0] >= 0.9):.3f}, "
+              f"{_share_tail(ph, 0.9):.3f}; damaged median {np.median(dv[:, 0]):.2f}")
+
+    def stat_llrs(f, how):
+        rate = f["rate"]
+        if how == "mean, code":  # the real flights' levels (Erle healthy, SIH damage) at every rate
+            return mv.model_llr(f["probs"], f["covered_s"])
+        if how == "mean, fitted":
+            st = means_fitted.get(rate) if f["rotors"] == 4 else None
+            if st is None:
+                return None
+            within = sd_lr[rate] / np.sqrt(max(f["covered_s"] / dec_lr[rate], 1.0))
+            x = mv.mean_log_ratio(f["probs"])
+            return np.array([mv._gauss_logpdf(v, st.damaged_mean, float(np.hypot(st.damaged_sigma, within)))
+                             - mv._gauss_logpdf(v, st.healthy_mean, float(np.hypot(st.healthy_sigma, within))) for v in x])
+        st = (mv.vote_share_stats(f["rotors"], rate) if how == "share, code"
+              else shares_fitted.get(rate) if f["rotors"] == 4 else None)
+        if st is None:
+            return None
+        n = max(f["covered_s"] / (mv.VOTE_DECORRELATION_S.get(rate) or dec_vote[rate]), 1.0)
+        k = mv.vote_shares(f["probs"]) * n
+        return mv._log_beta_binomial(k, n, st.damaged) - mv._log_beta_binomial(k, n, st.healthy)
+    print(f"\n== each statistic alone on the check sets: healthy flights' leading LLR (median, max, reaching "
+          f"{UNCERTAIN_LLR:g} / {DAMAGED_LLR:g}); the damaged motor's LLR (p10 / median, reaching {UNCERTAIN_LLR:g} and leading)")
+    for rotors in sorted({f["rotors"] for f in check}):
+        for rate in rates:
+            for origin in ("real", "sim"):
+                fl = [f for f in check if f["rotors"] == rotors and f["rate"] == rate and f["origin"] == origin]
+                if not fl:
+                    continue
+                print(f"  {rotors} rotors, {rate}, {origin}:")
+                for how in ("mean, code", "mean, fitted", "share, code", "share, fitted"):
+                    if stat_llrs(fl[0], how) is None:
+                        continue
+                    hl, dl = [], {"eta<=0.8": [], "eta 0.9": []}
+                    for f in fl:
+                        x = stat_llrs(f, how)
+                        if f["truth"] == 0:
+                            hl.append(float(np.max(x)))
+                        else:
+                            g = "eta 0.9" if (f["eta"] or 0) > 0.85 else "eta<=0.8"
+                            dl[g].append((float(x[f["truth"] - 1]), int(np.argmax(x)) + 1 == f["truth"]))
+                    h = np.array(hl)
+                    part = (f"healthy {len(h)}: {np.median(h):+.1f}, {h.max():+.1f}, "
+                            f"{int(np.sum(h >= UNCERTAIN_LLR))} / {int(np.sum(h >= DAMAGED_LLR))}" if len(h) else "")
+                    for g, v in dl.items():
+                        if v:
+                            a_ = np.array([x for x, _ in v])
+                            part += (f"; damaged {g} {len(v)}: {np.percentile(a_, 10):+.1f} / {np.median(a_):+.1f}, "
+                                     f"{sum(1 for x, led in v if led and x >= UNCERTAIN_LLR)}")
+                    print(f"      {how:14s} {part}")
+    print("\n# fitted")
+    for rate, st in means_fitted.items():
+        print(f"  flight mean {rate!r}: VoteStats({st.healthy_mean}, {st.healthy_sigma}, {st.damaged_mean}, "
+              f"{st.damaged_sigma}, ...)")
+    for rate, st in shares_fitted.items():
+        print(f"  vote share {rate!r}: VoteShareStats(healthy={st.healthy}, damaged={st.damaged})")
+
+
+def trims(cases: list[dict]) -> None:
+    """How unbalanced the healthy airframes are, real and simulated (the reliability table's cases
+    without a profile): per origin and logging profile, the command shares' RMS deviation from an
+    even split, the leading motor's excess over the mean of the others, and how far the trim looks
+    like one rotor's loss (the cosine between the share pattern's roll/pitch/yaw part and the nearest
+    single-rotor pattern's: 1 = exactly one weak rotor, 0.58 = a pure yaw trim); percentiles
+    10 / 50 / 90 / max. The simulated airframes' draws: flightlog_fd/sim/imbalance.py."""
+    rows: dict = defaultdict(list)
+    for c in cases:
+        if " | " in c["set"] or c["truth"] != 0 or not c["shares"] or c["replay"] is None:
+            continue
+        n, frame, *_ = pickle.loads(c["replay"])
+        if frame is None or n != 4 or c["set"] == "px4_sih_dev":  # SIH: a perfectly balanced simulated airframe
+            continue
+        x = np.array([r.x for r in frame.rotors])
+        y = np.array([r.y for r in frame.rotors])
+        spin = np.array([r.spin for r in frame.rotors], float)
+        moments = np.stack([np.ones(4), -y / np.abs(y).max(), x / np.abs(x).max(), spin]).T  # (4 motors, 4)
+        o = np.array(c["shares"]) - 1.0
+        m = np.linalg.lstsq(moments, o, rcond=None)[0][1:]
+        singles = [np.linalg.lstsq(moments, np.eye(4)[k] - 0.25, rcond=None)[0][1:] for k in range(4)]
+        align = max(float(m @ sk / np.linalg.norm(m) / np.linalg.norm(sk)) for sk in singles) if np.linalg.norm(m) else 0.0
+        lead = max(o[k] - np.delete(o, k).mean() for k in range(4))
+        key = "real" if not c["set"].startswith("sim") else "sim " + c["set"].split()[2]
+        rows[key].append((float(np.sqrt(np.mean(o ** 2))), float(lead), align))
+    print(f"{'airframes':22s} {'n':>3s}  {'RMS share deviation':>26s}  {'leading excess':>26s}  {'one-rotor likeness':>26s}")
+    for key in ["real"] + sorted(k for k in rows if k != "real"):
+        a = np.array(rows[key])
+        cols = ["/".join(f"{v:.2f}" for v in np.percentile(a[:, j], [10, 50, 90, 100])) for j in range(3)]
+        print(f"{key:22s} {len(a):3d}  {cols[0]:>26s}  {cols[1]:>26s}  {cols[2]:>26s}")
+    allsim = np.array([r for k, v in rows.items() if k != "real" for r in v])
+    if len(allsim):
+        cols = ["/".join(f"{v:.2f}" for v in np.percentile(allsim[:, j], [10, 50, 90, 100])) for j in range(3)]
+        print(f"{'sim, all':22s} {len(allsim):3d}  {cols[0]:>26s}  {cols[1]:>26s}  {cols[2]:>26s}")
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=("collect", "table", "replay"))
+    ap.add_argument("what", choices=("collect", "table", "replay", "votes", "trims", "bars"))
+    ap.add_argument("--list", action="store_true", help="replay: list every verdict that moved")
     ap.add_argument("--sets", default="real,sim,nrotor,esc")
     ap.add_argument("--sim-airframes", type=int, default=12)
     ap.add_argument("--profiles", action="append", default=[], help="folders holding adapted profiles")
     ap.add_argument("--write", type=Path, default=None)
     args = ap.parse_args(argv)
     if args.what == "collect":
-        collect(args)
+        with _recording_contexts():
+            collect(args)
     elif args.what == "table":
         table(load_cases(args.sets.split(",")), args.write)
+    elif args.what == "replay":
+        replay(load_cases(args.sets.split(",")), args.list)
+    elif args.what == "votes":
+        votes()
+    elif args.what == "bars":
+        bars(load_cases(args.sets.split(",")))
     else:
-        replay(load_cases(args.sets.split(",")))
+        trims(load_cases(("real", "sim"), reweigh=False))
 
 
 if __name__ == "__main__":

@@ -3,7 +3,8 @@
 Usage: ``python benchmarks/real_imbalance.py [LOG ...] [--sim 24]``
 
 Without logs it reads the healthy sets under ``../shared`` (the Erle ArduCopter logs of
-``real_logs/ardupilot`` and ``real_healthy/logs``, CrazyPAD E9 ``normal_flight`` ULogs), skipping
+``real_logs/ardupilot`` and ``real_healthy/logs``, CrazyPAD E9 ``normal_flight`` ULogs, the rrc_straight
+good-propeller flights, the px4_sih_dev healthy flights: a perfectly balanced simulated airframe), skipping
 what is absent. Per log: stream rates, gyro noise std (°/s, roll/pitch/yaw, airborne minus 2 s at
 each end, after removing a 0.5 s moving-average trend), motor command noise std (same
 detrending, full scale 1), and the steady per-motor offsets (training/peer_rule.steady_means
@@ -25,7 +26,9 @@ from flightlog_fd import load_flight
 from flightlog_fd.training.peer_rule import steady_means
 
 SHARED = Path(__file__).resolve().parents[1] / ".." / "shared"
-DEFAULT_GLOBS = ("real_logs/ardupilot/erle_*.BIN", "real_healthy/logs/*.BIN", "crazypad_e9/ulog/normal_flight*.ulg")
+DEFAULT_GLOBS = ("real_logs/ardupilot/erle_*.BIN", "real_healthy/logs/*.BIN", "crazypad_e9/ulog/normal_flight*.ulg",
+                 "real_damaged/rrc_straight/good_prop_*.BIN", "px4_sih_dev/logs/sih_004.ulg", "px4_sih_dev/logs/sih_008.ulg",
+                 "px4_sih_dev/logs/sih_039.ulg", "px4_sih_dev/logs/sih_043.ulg")
 TREND_S = 0.5
 EDGE_S = 2.0
 

@@ -137,8 +137,12 @@ def advise(s: Situation) -> list[Advice]:
             out.append(_calibrate(s, "if the propellers are sound, calibrate this airframe on this flight and "
                                      "diagnose the next flights with the profile (--profile)"))
     elif not s.profile:
-        out.append(_calibrate(s, "the model could not tell this flight's propellers apart: a profile from a "
-                                 "healthy flight of this airframe lets its command pattern weigh in"))
+        # The command calibrates on this very flight, which may carry damage the model could not
+        # see: so the advice asks for the inspection first (a profile made on a damaged propeller
+        # would call that damage normal).
+        out.append(_calibrate(s, "the model could not tell this flight's propellers apart: inspect them, and "
+                                 "if they are sound, calibrate this airframe on this flight so its command "
+                                 "pattern weighs in fully next time (--profile)"))
     kind = s.kind
     autopilot = s.autopilot if s.autopilot in LOGGING else ""
     slow = kind is not None and kind.stream_hz < FULL_RATE_HZ

@@ -20,7 +20,8 @@ beside their constants in their own modules.
 
 ``damaged`` when the best motor's total LLR (without the discounted sources) reaches ``DAMAGED_LLR``, beats the runner-up by
 ``SEPARATION_LLR`` and its command share rose against its baseline (a weak rotor must need more);
-``uncertain`` from ``UNCERTAIN_LLR`` (the reason names the motor to inspect, or the two it cannot
+``uncertain`` from ``UNCERTAIN_LLR`` (``FULL_RATE_UNCERTAIN_LLR`` on a quad at full rate without a
+profile: :func:`uncertain_bar`; the reason names the motor to inspect, or the two it cannot
 tell apart); ``healthy`` below. "Airframe changed" (re-calibrate) is said only when the shares
 moved beyond the drift AND no single rotor explains the move; a motor whose excess is beyond the
 drift is named for inspection first.
@@ -69,7 +70,7 @@ import numpy as np
 from .analyzers import AnalyzerResult
 from .analyzers.base import SOURCE_LLR_CAP
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
-from .analyzers.reliability import LogKind, cell_of, trust_of
+from .analyzers.reliability import LogKind, cell_of, rate_class, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
 from .cause import Cause, judge_cause
@@ -85,6 +86,18 @@ SEPARATION_LLR = 2.0
 #: From this total LLR the flight is "uncertain" and the reason names what to inspect: half a nat
 #: above that largest healthy total (3.1), so those 18 flights stay healthy.
 UNCERTAIN_LLR = 3.5
+#: Without a profile, on a quad whose motor outputs and rates are logged at full rate
+#: (:func:`~flightlog_fd.analyzers.reliability.rate_class`, from 45 Hz), the uncertain bar is the
+#: lowest (in tenths of a nat) that at most 5 % of the simulated healthy airframes with realistic
+#: imbalance reach (the reliability rule's share for a trusted source: an inspection asked for on
+#: a healthy airframe) and no real healthy flight does: the healthy flights' leading total LLR
+#: (benchmarks/bench_reliability.py bars): 150 simulated full-rate quads (seed 9100: PX4 high-rate,
+#: ArduPilot 50 and 400 Hz, with and without ESC telemetry) reach 2.5 on 7 (4.7 %), 2.4 on 9; the 7
+#: real full-rate healthy flights (px4_sih_dev high-rate 3, CrazyPAD E9 normals 3, Erle-Brain2
+#: 50 Hz) at most -0.1. Elsewhere the bar stays UNCERTAIN_LLR, set on the real healthy flights: the
+#: same rule would raise it (low-rate quads 4.7: 10 of 90 simulated ones reach 3.5; n-rotors 5.3 at
+#: full rate, 4.5 at low rate), and mid rate has too few real flights (2) and no real damaged one.
+FULL_RATE_UNCERTAIN_LLR = 2.5
 #: Chi-square (per share degree of freedom) above which the healthy hypothesis fails: the shares
 #: moved beyond the drift (p < 0.01 with 3 degrees of freedom: 11.3 / 3).
 AIRFRAME_CHANGE_CHI2_PER_DOF = 3.8
@@ -160,6 +173,8 @@ class Verdict:
     on the log's clock (damaged: the onset's first window, or the first window; stopped: the stop)."""
 
     status: str  # "healthy" | "damaged" | "uncertain" | "stopped" | "not_diagnosable"
+    #: The damaged (stopped) motor, or the one propeller an uncertain verdict asks to inspect first
+    #: (:func:`named_motor`); None when it names none, or two it cannot tell apart.
     motor: Optional[int] = None
     position: Optional[str] = None
     confidence: float = 0.0  # the probability of the verdict as stated (module docstring)
@@ -187,6 +202,14 @@ class Verdict:
             "cause": self.cause,
             "cause_evidence": self.cause_evidence,
         }
+
+
+def named_motor(status: str, motor: Optional[int], inspect: Sequence[int]) -> Optional[int]:
+    """The motor a verdict names: a damaged or stopped verdict's own; for an uncertain one, the
+    propeller it asks to inspect when it names exactly one (two it cannot tell apart name none)."""
+    if status == "uncertain" and motor is None and len(inspect) == 1:
+        return int(inspect[0])
+    return motor
 
 
 def not_diagnosable(reason: str) -> Verdict:
@@ -347,6 +370,16 @@ def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[T
     return verdict, decision
 
 
+def uncertain_bar(kind: Optional[LogKind]) -> float:
+    """The total LLR from which a flight of this kind is "uncertain": ``FULL_RATE_UNCERTAIN_LLR``
+    for a quad at full rate without a profile, else ``UNCERTAIN_LLR`` (also when the kind of log
+    is not known)."""
+    if (kind is not None and kind.profile == "none" and kind.n_motors == 4
+            and rate_class(kind.stream_hz) == "full rate"):
+        return FULL_RATE_UNCERTAIN_LLR
+    return UNCERTAIN_LLR
+
+
 def source_weight(r: AnalyzerResult, kind: Optional[LogKind]) -> SourceWeight:
     """How much source ``r`` may give on this kind of log: the trust level of its cell in the
     measured reliability table (:func:`~flightlog_fd.analyzers.reliability.trust_of`) and the cap
@@ -444,11 +477,12 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         one = _one_flight_note(cmd) if status != "healthy" else None
         if one:
             reason += f"; {one}"
+        inspect = tuple(inspect) if status != "healthy" else ()
+        motor = named_motor(status, motor, inspect)
         return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
                        else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
                        first_seen=first_seen if status == "damaged" else None, reason=reason,
-                       inspect=tuple(inspect) if status != "healthy" else (),
-                       cause=named.cause if named else None,
+                       inspect=inspect, cause=named.cause if named else None,
                        cause_evidence=named.evidence() if named else None), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
@@ -482,10 +516,11 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
                     + f"; {evidence_words(kb)}; {inspect_kb}", (kb,), cause)
-    if total[best] >= UNCERTAIN_LLR:
+    bar = uncertain_bar(kind)
+    if total[best] >= bar:
         named: tuple[int, ...] = (kb,)
         named_cause: Optional[Cause] = None
-        if lead < SEPARATION_LLR and second is not None and total[second] >= UNCERTAIN_LLR:
+        if lead < SEPARATION_LLR and second is not None and total[second] >= bar:
             k2 = second + 1
             named = (kb, k2)
             confidence = w[kb] + w[k2]
@@ -595,7 +630,9 @@ def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason
     sources = [vib.analyzer] if vib.llr(n) is not None else []
     decision = Decision(sources=sources, results=[vib])
     tied = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted and status != "healthy" else ()
-    return Verdict(status=status, confidence=p if status != "healthy" else 1.0 - p, reason=text, inspect=tied), decision
+    motor = named_motor(status, None, tied)
+    return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor) else None,
+                   confidence=p if status != "healthy" else 1.0 - p, reason=text, inspect=tied), decision
 
 
 def worst_flight(verdicts: Sequence[Verdict]) -> int:

@@ -44,7 +44,7 @@ from .analyzers.reliability import log_kind
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
-from .decision import STATUS_RANK, Decision, Verdict, decide, log_verdict, not_diagnosable, worst_flight
+from .decision import STATUS_RANK, Decision, Verdict, decide, log_verdict, named_motor, not_diagnosable, worst_flight
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .flights import split_flights
@@ -463,9 +463,11 @@ def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> V
     whole = ""
     if own.motor and decision is not None and len(decision.motors) >= own.motor:
         whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"
-    return Verdict(status=status, motor=None, position=None, confidence=log.confidence if status == log.status
-                   else own.confidence, first_seen=None, inspect=(own.inspect or ((own.motor,) if own.motor else ()))
-                   if status != "healthy" else (),
+    inspect = (own.inspect or ((own.motor,) if own.motor else ())) if status != "healthy" else ()
+    motor = named_motor(status, None, inspect)
+    return Verdict(status=status, motor=motor, position=own.position if motor is not None and motor == own.motor
+                   else None, confidence=log.confidence if status == log.status
+                   else own.confidence, first_seen=None, inspect=inspect,
                    reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
                           f"confirm it ({log.status}{whole}), so this flight is {status}")
 

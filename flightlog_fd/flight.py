@@ -113,6 +113,15 @@ class Series:
         self.__dict__["_median_dt_cache"] = (key, med)
         return med
 
+    def with_values(self, values: np.ndarray, source: Optional[str] = None) -> "Series":
+        """A Series of other ``values`` on these very times, its :attr:`median_dt` carried over
+        (the thrust proxy of the motor outputs: a second median over the same 240 000 intervals
+        cost 3-5 ms of a 600 s 400 Hz log's diagnosis)."""
+        med = self.median_dt
+        out = Series(self.t, values, self.source if source is None else source)
+        out.__dict__["_median_dt_cache"] = ((id(out.t), out.t.shape[0]), med)
+        return out
+
     @property
     def rate_hz(self) -> float:
         """Median sample rate in Hz (0 when fewer than two samples), from :attr:`median_dt`."""

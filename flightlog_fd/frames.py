@@ -269,7 +269,8 @@ def ardupilot_motor_channels(params: dict[str, float], n_motors: int) -> tuple[l
     with: a script may re-assign an output in flight (see the SITL hexa set)."""
     by_motor: dict[int, int] = {}
     for key, value in params.items():
-        n = _servo_number(key)
+        # the prefix test first: a DataFlash log holds ~800 parameters, of which ~16 are outputs
+        n = _servo_number(key) if key.startswith("SERVO") else 0
         if n and int(value) in ARDUPILOT_MOTOR_FUNCTIONS:
             by_motor.setdefault(ARDUPILOT_MOTOR_FUNCTIONS[int(value)], n)
     if n_motors > 0 and all(k in by_motor for k in range(1, n_motors + 1)):

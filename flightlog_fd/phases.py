@@ -102,27 +102,29 @@ def window_phases(flight, t_start: Sequence[float], t_end: Sequence[float]) -> l
 
     rms = _window_rms(rates, ts, te, [0, 1]) if rates is not None and rates.values.shape[1] >= 2 else None
     vel = _window_means(velocity, ts, te, [0, 1, 2]) if velocity is not None else None
-    phases: list[str] = []
-    for i in range(ts.size):
-        rp_rms = float(rms[0][i]) if rms is not None and rms[1][i] else None
-        if rp_rms is not None and rp_rms > MANOEUVRE_RATE_RMS_RAD_S:
-            phases.append("manoeuvre")
-            continue
-        if vel is not None and vel[1][i]:
-            v = vel[0][i]
-            if v[2] < -CLIMB_SPEED_M_S:
-                phases.append("climb")
-            elif v[2] > CLIMB_SPEED_M_S:
-                phases.append("descent")
-            elif float(np.hypot(v[0], v[1])) > HOVER_MAX_HSPEED_M_S:
-                phases.append("manoeuvre")
-            else:
-                phases.append("hover")
-            continue
-        if np.isfinite(collective[i]) and np.isfinite(hover_collective) and hover_collective > 0:
-            rel = (collective[i] - hover_collective) / hover_collective
-            phases.append("climb" if rel > COLLECTIVE_CLIMB_DELTA
-                          else "descent" if rel < -COLLECTIVE_CLIMB_DELTA else "hover")
-            continue
-        phases.append("hover" if rp_rms is not None else "unknown")
-    return phases
+    # The rules below, in their order, for all windows at once (the first rule that applies wins).
+    w = ts.size
+    has_rms = rms[1].astype(bool) if rms is not None else np.zeros(w, dtype=bool)
+    rp = np.where(has_rms, rms[0], np.nan) if rms is not None else np.full(w, np.nan)
+    has_vel = vel[1].astype(bool) if vel is not None else np.zeros(w, dtype=bool)
+    v = vel[0] if vel is not None else np.zeros((w, 3))
+    hover_known = bool(np.isfinite(hover_collective) and hover_collective > 0)
+    by_collective = np.isfinite(collective) if hover_known else np.zeros(w, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        rel = (collective - hover_collective) / hover_collective if hover_known else np.zeros(w)
+        rules = [
+            (has_rms & (rp > MANOEUVRE_RATE_RMS_RAD_S), "manoeuvre"),
+            (has_vel & (v[:, 2] < -CLIMB_SPEED_M_S), "climb"),
+            (has_vel & (v[:, 2] > CLIMB_SPEED_M_S), "descent"),
+            (has_vel & (np.hypot(v[:, 0], v[:, 1]) > HOVER_MAX_HSPEED_M_S), "manoeuvre"),
+            (has_vel, "hover"),
+            (by_collective & (rel > COLLECTIVE_CLIMB_DELTA), "climb"),
+            (by_collective & (rel < -COLLECTIVE_CLIMB_DELTA), "descent"),
+            (by_collective, "hover"),
+            (has_rms, "hover"),
+        ]
+    names = [name for _, name in rules] + ["unknown"]
+    first = np.full(w, len(rules))
+    for i in range(len(rules) - 1, -1, -1):
+        first[rules[i][0]] = i
+    return [names[i] for i in first.tolist()]

@@ -70,9 +70,13 @@ class PreparedFlight:
             if att is None or len(att) < 2 or att.values.shape[1] < 2:
                 return None
             s = self.clean("attitude", max_gap_s, 2)
-            # np.unwrap changes nothing when no step exceeds pi (it then costs ~7 ms on 600 s at 250 Hz)
-            steps = np.abs(np.diff(s.v, axis=0))
-            v = np.array(s.v, dtype=np.float64) if steps.size == 0 or steps.max() <= np.pi else np.unwrap(s.v, axis=0)
+            # np.unwrap changes nothing when no step exceeds pi (it then costs ~7 ms on 600 s at 250 Hz).
+            # The steps are taken on the contiguous copy: on the strided roll/pitch columns of the
+            # (n, 3) attitude they cost 4-5 ms of a 600 s 400 Hz log, on the copy under 1 ms.
+            v = np.array(s.v, dtype=np.float64)
+            steps = np.abs(np.diff(v, axis=0))
+            if steps.size and steps.max() > np.pi:
+                v = np.unwrap(v, axis=0)
             return Stream(s.t, v, s.gap_s, s.median_dt)
         return self.memo(("attitude", max_gap_s), make)
 

@@ -67,7 +67,7 @@ from typing import Optional
 import numpy as np
 
 from .errors import MissingDataError, NotDiagnosableError, UnsupportedVehicleError
-from .filters import savgol_at
+from .filters import savgol_at_derivs
 from .flight import Flight, Series
 
 #: Model grid rate (Hz): the paper's 50 Hz.
@@ -372,10 +372,10 @@ def speed_stream(flight: Flight, speed_source: str, rate_hz: float, max_gap_s: f
         rpm = flight.esc_rpm.values[:, :n].astype(np.float64)
         rpm = np.where(rpm > 0, rpm, np.nan)  # telemetry dropouts read as 0: treat as missing
         top = np.nanmax(rpm) if np.any(np.isfinite(rpm)) else 1.0
-        s = clean_stream(Series(flight.esc_rpm.t, (rpm / top) ** 2, flight.esc_rpm.source), max_gap_s, n)
+        s = clean_stream(flight.esc_rpm.with_values((rpm / top) ** 2), max_gap_s, n)
         return s, "esc_rpm"
     m = flight.motors
-    s = clean_stream(Series(m.t, flight_thrust_proxy(flight, m.values[:, :n]), m.source), max_gap_s, n)
+    s = clean_stream(m.with_values(flight_thrust_proxy(flight, m.values[:, :n])), max_gap_s, n)
     return s, "command"
 
 
@@ -503,8 +503,7 @@ def resample_streams(prep, rate_hz: float, max_gap_s: float, trim_s: float, savg
         dt = 1.0 / fine_hz
         # the filters' values at the grid samples only (the fine samples between are dropped)
         keep = np.flatnonzero(on_grid)
-        smooth = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=0)
-        dwdt = savgol_at(w_fine, n_sg, SAVGOL_POLYORDER, keep, deriv=1, delta=dt)
+        smooth, dwdt = savgol_at_derivs(w_fine, n_sg, SAVGOL_POLYORDER, keep, (0, 1), delta=dt)
         tg = j_run[on_grid] / fine_hz
         att = (attitude.interp(tg) if attitude is not None else np.full((tg.size, 2), np.nan))
         att = (att + np.pi) % (2 * np.pi) - np.pi

@@ -29,16 +29,17 @@ def intersect_intervals(a: list[tuple[float, float]], b: list[tuple[float, float
 
 
 _BLAS_CONTROLLER = None
-_BLAS_SEES_SCIPY = False
+_BLAS_MODULES_SEEN = -1  # len(sys.modules) when the controller was made
 
 
 def blas_threads(n: int):
     """A context that runs NumPy's (and, once loaded, SciPy's) BLAS with at most ``n`` threads
     (threadpoolctl), or does nothing when threadpoolctl is not installed. A controller limits only
-    the BLAS libraries loaded when it is made, so it is made on first use and again once
-    ``scipy.linalg`` (which brings its own BLAS) has been loaded since; the diagnosis itself no
-    longer imports scipy (0.3 s CPU of every cold start)."""
-    global _BLAS_CONTROLLER, _BLAS_SEES_SCIPY
+    the BLAS libraries loaded when it is made, so it is made on first use and again whenever
+    modules were imported since (``scipy.linalg``, torch and scikit-learn bring their own BLAS: a
+    server or a calibration that loads them after the first diagnosis would otherwise run them
+    unlimited)."""
+    global _BLAS_CONTROLLER, _BLAS_MODULES_SEEN
     import contextlib
     import sys
 
@@ -46,7 +47,6 @@ def blas_threads(n: int):
         from threadpoolctl import ThreadpoolController
     except ImportError:  # pragma: no cover - threadpoolctl is a dependency
         return contextlib.nullcontext()
-    scipy_loaded = "scipy.linalg" in sys.modules
-    if _BLAS_CONTROLLER is None or (scipy_loaded and not _BLAS_SEES_SCIPY):
-        _BLAS_CONTROLLER, _BLAS_SEES_SCIPY = ThreadpoolController(), scipy_loaded
+    if _BLAS_CONTROLLER is None or len(sys.modules) != _BLAS_MODULES_SEEN:
+        _BLAS_CONTROLLER, _BLAS_MODULES_SEEN = ThreadpoolController(), len(sys.modules)
     return _BLAS_CONTROLLER.limit(limits=n, user_api="blas")

@@ -126,7 +126,7 @@ def test_branch_damaged_names_the_motor_its_severity_and_inspection():
 def test_branch_uncertain_weak_names_the_motor_to_inspect():
     s, thr = damaged_shares(BASE, 2, 0.90)
     d = decide(window_probs(2, 0.5), s, ratio=thr)
-    assert d.status == "uncertain" and d.motor is None, d.reason
+    assert d.status == "uncertain" and d.motor == 2 and d.position == "rear-left", d.reason
     assert "motor 2 (rear-left) may have lost thrust" in d.reason and "inspect propeller 2" in d.reason
 
 
@@ -137,6 +137,7 @@ def test_branch_uncertain_split_names_both_motors():
     assert d.status == "uncertain", d.reason
     assert "motor 1 (front-right)" in d.reason and "motor 4 (rear-right)" in d.reason
     assert "cannot tell them apart" in d.reason and "propellers" in d.reason
+    assert d.motor is None and d.position is None and set(d.inspect) == {1, 4}  # two named: no one motor
 
 
 def test_branch_airframe_changed_only_when_no_rotor_explains_it():
@@ -179,7 +180,7 @@ def test_branch_uncertain_when_the_commands_do_not_rise_for_the_named_motor():
     results = [res("model", "vote", 5.0, 0.9), res("commands", "share", -0.5, 0.98, 1.0, shares),
                res("esc", "esc_damage", 4.0, 30.0)]
     v = verdict(results)
-    assert v.status == "uncertain" and v.motor is None, v.reason
+    assert v.status == "uncertain" and v.motor == 1, v.reason
     assert "did not rise" in v.reason and "inspect propeller 1" in v.reason
     results[1] = res("commands", "share", -0.5, 1.02, 1.0, shares)  # the same with its share up 2 %
     assert verdict(results).status == "damaged"
@@ -239,7 +240,7 @@ def test_commands_alone_against_a_profile_reach_at_most_uncertain_with_advice():
     does not read the trim agreeing: uncertain, naming the propeller and when to re-calibrate."""
     s, thr = damaged_shares(BASE, 4, 0.75)
     d = decide(window_probs(4, 0.5), s, ratio=thr)  # the model leans to motor 4, too weakly to agree
-    assert d.status == "uncertain" and d.motor is None, d.reason
+    assert d.status == "uncertain" and d.motor == 4, d.reason
     assert "motor 4 (rear-right) needs" in d.reason and "more command than at calibration" in d.reason
     assert "inspect propeller 4" in d.reason and "the load moved" in d.reason and "re-calibrate" in d.reason
     assert "the profile holds one calibration session" in d.reason and "fdlog calibrate --add" in d.reason

@@ -31,6 +31,23 @@ def test_savgol_at_is_scipy_bit_for_bit(n, deriv, delta):
             assert np.array_equal(F.savgol_at(x, n, 2, idx, deriv, delta), ref[idx])
 
 
+@pytest.mark.parametrize("step", [1, 5, 8])
+def test_savgol_at_derivs_long_strided_is_scipy_bit_for_bit(step):
+    """Every step-th sample of a long stream (more rows than one cache block, a last phase row
+    past the end), both derivatives from one gather: scipy's bits (the resampler's case)."""
+    from scipy.signal import savgol_filter
+
+    rng = np.random.default_rng(step)
+    m, n, delta = 40_003, 41, 1 / 400
+    x = np.cumsum(rng.normal(size=(m, 3)), axis=0) * 0.01 + 0.5
+    idx = np.arange(3, m, step)
+    smooth, slope = F.savgol_at_derivs(x, n, 2, idx, (0, 1), delta)
+    assert np.array_equal(smooth, savgol_filter(x, n, 2, axis=0)[idx])
+    assert np.array_equal(slope, savgol_filter(x, n, 2, deriv=1, delta=delta, axis=0)[idx])
+    assert np.array_equal(F.savgol_at(x[:, 1], n, 2, idx, 1, delta),
+                          savgol_filter(x[:, 1], n, 2, deriv=1, delta=delta)[idx])
+
+
 def test_numpy_lstsq_is_scipys_on_every_savgol_shape():
     """The filters solve their small least squares with NumPy: the same bits as scipy.linalg's."""
     from math import factorial

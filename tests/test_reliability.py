@@ -100,6 +100,28 @@ def test_a_source_gives_what_its_cell_allows():
     assert d.weights["model"].trust is None and d.motors[0].llr == pytest.approx(5.0)
 
 
+def test_the_uncertain_bar_is_lower_only_where_healthy_flights_were_measured_below_it():
+    """A quad at full rate without a profile asks for an inspection from FULL_RATE_UNCERTAIN_LLR
+    (measured: 7 of 150 simulated healthy full-rate quads and no real one reach it); a low-rate log,
+    a profile or an n-rotor keeps UNCERTAIN_LLR, and the lower bar never makes a damaged verdict."""
+    assert D.FULL_RATE_UNCERTAIN_LLR < D.UNCERTAIN_LLR < D.DAMAGED_LLR
+    assert D.uncertain_bar(kind(250.0)) == D.FULL_RATE_UNCERTAIN_LLR
+    for k in (kind(10.0), kind(24.0), kind(250.0, "profile"), kind(250.0, "adapted"), kind(250.0, n=6), None):
+        assert D.uncertain_bar(k) == D.UNCERTAIN_LLR
+    between = (D.FULL_RATE_UNCERTAIN_LLR + D.UNCERTAIN_LLR) / 2
+    tl = Timeline(n_windows=60, covered_s=60.0, t_first=0.0)
+    results = [_source("model", [-1.0, between, -1.0, -1.0], 5.0)]
+    v, _ = D.decide(4, timeline=tl, results=results, kind=kind(250.0))
+    assert (v.status, v.motor, v.inspect) == ("uncertain", 2, (2,))
+    for k in (kind(10.0), kind(250.0, "profile")):
+        v, _ = D.decide(4, timeline=tl, results=[_source("model", [-1.0, between, -1.0, -1.0], 5.0)], kind=k)
+        assert v.status == "healthy" and "motor 2" in v.reason
+    # below the lower bar: healthy at full rate too
+    v, _ = D.decide(4, timeline=tl, results=[_source("model", [-1.0, D.FULL_RATE_UNCERTAIN_LLR - 0.2, -1.0, -1.0], 5.0)],
+                    kind=kind(250.0))
+    assert v.status == "healthy"
+
+
 def _situation(**kw) -> Situation:
     base = dict(status="uncertain", inspect=(3,), kind=kind(10.0, "profile"), autopilot="px4",
                 log="/logs/my flight.ulg", profile="/p/x500.json", has_esc=False,
@@ -126,6 +148,8 @@ def test_nothing_to_resolve_on_a_clear_verdict_and_why_on_a_thin_one():
     assert advise(_situation(status="damaged")) == []
     thin = advise(_situation(status="healthy", profile=None, timeline_uncertain=0.9, kind=kind(250.0, "none", 8)))
     assert [a.kind for a in thin] == ["calibrate"] and "could not tell" in thin[0].text
+    # it calibrates on this very flight, which may carry what the model missed: inspect first
+    assert "inspect them, and if they are sound" in thin[0].text
     fast = advise(_situation(kind=kind(250.0, "profile"), little_manoeuvring=True, has_esc=True))
     assert [a.kind for a in fast] == ["inspect", "add_session", "manoeuvre"]
 

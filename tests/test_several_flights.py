@@ -33,7 +33,7 @@ def test_a_flight_is_never_worse_than_its_log():
     assert capped_by_log(damaged2, uncertain, None).status == "uncertain"
     assert capped_by_log(damaged2, Verdict("damaged", motor=2), None) is damaged2
     other = capped_by_log(damaged2, Verdict("damaged", motor=3), None)  # another motor than the log's
-    assert other.status == "uncertain" and other.motor is None
+    assert other.status == "uncertain" and other.motor == 2 and other.inspect == (2,)  # the one to inspect
     assert capped_by_log(healthy, damaged2, None) is healthy  # better than its log: its own
     nd = Verdict("not_diagnosable", reason="too short")
     assert capped_by_log(nd, damaged2, None) is nd

@@ -172,15 +172,22 @@ def _raw_level(s: Series, intervals) -> tuple[np.ndarray, float]:
     acc, n, secs = np.zeros(3), 0, 0.0
     for a, b in intervals:
         m = (s.t >= a) & (s.t <= b)
-        x = s.values[m]
+        idx = np.flatnonzero(m)
+        x = s.values[idx[0]:idx[-1] + 1] if idx.size and idx[-1] - idx[0] + 1 == idx.size else s.values[m]
         if x.shape[0] <= 2 * k:
             continue
-        c = np.cumsum(np.vstack([np.zeros((1, 3)), x]), axis=0)
-        floor = (c[k:] - c[:-k]) / k
-        d = x[k // 2: k // 2 + floor.shape[0]] - floor
-        acc += np.sum(d * d, axis=0)
-        n += d.shape[0]
-        secs += d.shape[0] / fs
+        # Axes as rows (a leading zero column for the running sum): the same sums in the same
+        # order as along the rows of x, without strided passes over the (n, 3) array.
+        # The squares are summed by a running sum, sample after sample, as the column sum of
+        # the (n, 3) array adds them.
+        xt = np.zeros((3, x.shape[0] + 1))
+        xt[:, 1:] = x[:, :3].T
+        c = np.cumsum(xt, axis=1)
+        floor = (c[:, k:] - c[:, :-k]) / k
+        d = xt[:, 1 + k // 2: 1 + k // 2 + floor.shape[1]] - floor
+        acc += np.cumsum(d * d, axis=1)[:, -1]
+        n += d.shape[1]
+        secs += d.shape[1] / fs
     return (np.sqrt(acc / n) if n else np.full(3, np.nan)), secs
 
 

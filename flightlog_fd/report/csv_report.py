@@ -5,7 +5,9 @@ given), ``t_start``, ``t_end`` (seconds on the log's clock, 3 decimals), ``class
 most probable class, 0 healthy, k motor k), ``p_healthy``, ``p_motor1`` .. ``p_motor<n>`` (0..1,
 4 decimals; empty past a log's own rotor count), ``phase`` (hover, climb, descent, manoeuvre,
 unknown), ``smoothed_class`` (the verdict's label: -1 uncertain, 0..n), ``verdict`` (the flight's
-status, repeated on every row so one file of many logs can be filtered), ``flight`` (which take-off
+status, repeated on every row so one file of many logs can be filtered), ``verdict_motor`` (the
+damaged or stopped motor, or the one propeller an uncertain verdict asks to inspect first; empty
+when it names none), ``flight`` (which take-off
 to landing of a log holding several the window lies in, "flight 2 of 5"; empty for a log's only
 one) and ``flight_verdict`` (that flight's own status, else the log's), then the per-motor view's
 (:mod:`flightlog_fd.report.motor_view`) findings, also repeated on every row, one column per
@@ -27,7 +29,7 @@ from .motor_view import MotorView
 
 #: The window columns before the class probabilities, and after them.
 LEAD_COLUMNS = ("log", "t_start", "t_end", "class", "p_healthy")
-TAIL_COLUMNS = ("phase", "smoothed_class", "verdict", "flight", "flight_verdict")
+TAIL_COLUMNS = ("phase", "smoothed_class", "verdict", "verdict_motor", "flight", "flight_verdict")
 
 
 def _finding_keys(views: Sequence[MotorView]) -> list[tuple[str, str, int]]:
@@ -97,4 +99,4 @@ def _write(diagnoses: Sequence[Diagnosis], fh: TextIO) -> None:
             part = next((p for p in parts if p[0] - 1e-6 <= w.t_start and w.t_end <= p[1] + 1e-6), None)
             writer.writerow([d.log, f"{w.t_start:.3f}", f"{w.t_end:.3f}", w.cls, f"{w.probabilities[0]:.4f}",
                              *probs, *[""] * (n - len(probs)), w.phase, w.label, d.verdict.status,
-                             part[2] if part else "", part[3] if part else d.verdict.status, *found, *weight])
+                             d.verdict.motor or "", part[2] if part else "", part[3] if part else d.verdict.status, *found, *weight])

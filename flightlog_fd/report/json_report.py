@@ -19,8 +19,9 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null,
                   "sessions": int} | null,             # its calibration sessions (schema 6)
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
-                  "motor": 1-n | null,
-                  "position": "front-right" | ... | null,
+                  "motor": 1-n | null,               # the damaged (stopped) propeller, or the one an
+                                                     #   uncertain verdict asks to inspect first
+                  "position": "front-right" | ... | null,   # the frame's words for "motor"
                   "confidence": 0-1,
                   "first_seen": seconds | null,   # start of the first window of the damaged run
                   "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
@@ -104,9 +105,11 @@ the whole log's, each flight judged from the log's windows and never worse than 
 flight-level findings (``motor`` 0: the vibration level); schema 6 adds the verdict's ``advice`` (what would
 resolve it: the propellers to inspect, the command that adds the flight to the profile, the logging
 settings that let a source decide next time), each source's reliability ``weights`` in
-``motor_evidence.decision``, and ``profile.sessions`` (how many calibration sessions the profile holds). Schema 6 also adds ``verdict.cause`` and
-``verdict.cause_evidence`` (:mod:`flightlog_fd.cause`: with ESC telemetry, whether the named rotor's
-propeller or its motor / ESC lost the thrust; null and the reason when the log cannot tell).
+``motor_evidence.decision``, ``profile.sessions`` (how many calibration sessions the profile holds),
+``verdict.motor`` for an ``uncertain`` verdict naming one propeller to inspect (it was null for
+every uncertain verdict), and ``verdict.cause`` and ``verdict.cause_evidence``
+(:mod:`flightlog_fd.cause`: with ESC telemetry, whether the named rotor's propeller or its motor / ESC
+lost the thrust; null and the reason when the log cannot tell).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
