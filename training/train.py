@@ -206,9 +206,10 @@ def train_dcnn(
 
     ``frozen_blocks``: keep the first this many convolution blocks as given (``init_state``) and
     train the rest; their outputs are then computed once for every window instead of every
-    step (the first blocks, on the longest sequences, cost the most). ``converged_change``: stop once the classes the model gives a fixed monitor set (every
-    target window and up to ``monitor_windows`` source windows) change, from one epoch to the
-    next, on at most this share of it (after the warm-up; the first epoch compares with the
+    step (the first blocks, on the longest sequences, cost the most). ``converged_change``:
+    stop once the classes the model gives a fixed monitor set (every target window and up to
+    ``monitor_windows`` source windows) change, from one epoch to the next, on at most this
+    share of it (after the warm-up; the first epoch compares with the
     starting weights): the adaptation has converged. The weights kept are then that epoch's.
     Meanwhile the learning rate is halved whenever that share has not reached a new low for
     CONVERGE_PLATEAU_EPOCHS epochs (the changes left are then the steps' noise).
