@@ -1,10 +1,11 @@
-"""Screenshots of the three `fdlog serve` pages (fleet, airframe, flight) into results/, by headless Chromium.
+"""Screenshots of the three `fdlog serve` pages (fleet, airframe, flight) and of an HTML report into results/, by headless Chromium.
 
 What: starts `fdlog serve` on loopback with the sample logs plus a small simulated history of one
 airframe ("x500-demo": 5 flights of the same id, propeller 3 losing thrust a little more each
 flight, eta 1.00 -> 0.80, so the airframe page has trends and, when the rule fires, a drift
 flag), waits for every diagnosis, signs in and saves results/serve_fleet.png,
-results/serve_airframe.png, results/serve_flight.png. Needs chromium + chromedriver (apt) and
+results/serve_airframe.png, results/serve_flight.png, then writes `fdlog diagnose --html` of
+HTML_REPORT_LOG and saves results/html_report.png (the guide, docs/, shows them). Needs chromium + chromedriver (apt) and
 the [serve] extra. About a minute on 2 cores.
 
     .venv/bin/python benchmarks/serve_screenshots.py [--out results]
@@ -29,6 +30,8 @@ TOKEN = "screenshot-token-0123456789"
 DRIFT_ETAS = (1.0, 0.96, 0.92, 0.86, 0.80)
 #: Tallest screenshot kept (px): whole pages, but bounded.
 MAX_SHOT_PX = 3000
+#: The sample log whose HTML report the guide shows (a damaged propeller: every part of the page drawn).
+HTML_REPORT_LOG = ROOT / "sample_logs" / "px4_motor1_damaged.ulg"
 FLIGHT_S = 30.0  # simulated flight length (s): short, still well over the 20 s a diagnosis needs
 
 
@@ -61,6 +64,16 @@ def get_json(url: str) -> dict:
     import json
 
     return json.loads(urllib.request.urlopen(url, timeout=5).read())
+
+
+def capture(drv, out: Path) -> None:
+    """The whole page (at most MAX_SHOT_PX tall) as a PNG at ``out``."""
+    h = int(drv.execute_script("return document.documentElement.scrollHeight"))
+    shot = drv.execute_cdp_cmd("Page.captureScreenshot", {
+        "format": "png", "captureBeyondViewport": True,
+        "clip": {"x": 0, "y": 0, "width": 1360, "height": min(h, MAX_SHOT_PX), "scale": 1}})
+    out.write_bytes(base64.b64decode(shot["data"]))
+    print(f"wrote {out}")
 
 
 def main() -> None:
@@ -115,13 +128,13 @@ def main() -> None:
         for name, url in (("fleet", "/"), ("airframe", "/airframe?key=x500-demo"), ("flight", f"/flights/{last_demo}")):
             drv.get(base + url)
             time.sleep(2.5)  # plotly draws after load
-            h = int(drv.execute_script("return document.documentElement.scrollHeight"))
-            shot = drv.execute_cdp_cmd("Page.captureScreenshot", {
-                "format": "png", "captureBeyondViewport": True,
-                "clip": {"x": 0, "y": 0, "width": 1360, "height": min(h, MAX_SHOT_PX), "scale": 1}})
-            out = args.out / f"serve_{name}.png"
-            out.write_bytes(base64.b64decode(shot["data"]))
-            print(f"wrote {out}")
+            capture(drv, args.out / f"serve_{name}.png")
+        report = work / "report.html"
+        subprocess.run([sys.executable, "-c", "from flightlog_fd.cli import main; main()", "diagnose", "--html",
+                        str(report), str(HTML_REPORT_LOG.relative_to(ROOT))], stdout=subprocess.DEVNULL, cwd=ROOT)
+        drv.get(report.as_uri())
+        time.sleep(1.0)
+        capture(drv, args.out / "html_report.png")
     finally:
         if drv is not None:
             drv.quit()
