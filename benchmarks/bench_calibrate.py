@@ -1,12 +1,14 @@
 """`fdlog calibrate` on one healthy flight, then `fdlog diagnose --profile` on the rest of the set.
 
-    python benchmarks/bench_calibrate.py [--target px4_sih_dev|crazypad_e9] [--calib NAME]
+    python benchmarks/bench_calibrate.py [--target px4_sih_dev|crazypad_e9] [--calib NAME] [--profile P.json]
 
 Prints the calibration time (goal: under 3 minutes on this 2-core CPU), then for every other
 flight of the labelled set its verdict against the truth, the first-seen time against a
 mid-flight onset, and the window accuracy (windows straddling an onset are not scored), with the
 shipped model (no profile) beside it. Uses the library functions the CLI calls. Prints figures;
-no asserts.
+no asserts. ``--profile``: diagnose with a profile made before (e.g. by another checkout's
+`fdlog calibrate` of the calibration flight, for a before/after pair diagnosed by the same code)
+instead of calibrating.
 """
 from __future__ import annotations
 
@@ -32,6 +34,7 @@ def main() -> None:
     ap.add_argument("--target", choices=sorted(DEFAULT_CALIB), default="px4_sih_dev")
     ap.add_argument("--calib", default=None)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--profile", type=Path, default=None, help="a profile of the calibration flight made before")
     args = ap.parse_args()
 
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
@@ -49,15 +52,17 @@ def main() -> None:
     calib = args.calib or DEFAULT_CALIB[args.target]
     cal = next(lg for lg in logs if lg.name == calib)
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "profile.json"
+        out = args.profile or Path(tmp) / "profile.json"
         t0 = time.perf_counter()
-        calibrate([cal.path], adapt=True, output=out, settings=AdaptSettings(seed=args.seed))
+        if args.profile is None:
+            calibrate([cal.path], adapt=True, output=out, settings=AdaptSettings(seed=args.seed))
         t_cal = time.perf_counter() - t0
         profile = Profile.load(out)
         adapted = resolve_model(None, profile)
         shipped = resolve_model()
         ad = (profile.extra or {}).get("adaptation", {})
-        print(f"calibrate {cal.name}: {t_cal:.1f} s (simulate {ad.get('simulate_seconds')} s, "
+        made = f"profile {args.profile} given" if args.profile else f"{t_cal:.1f} s"
+        print(f"calibrate {cal.name}: {made} (simulate {ad.get('simulate_seconds')} s, "
               f"{ad.get('epochs')} epochs), rho {np.round(profile.rho_, 4).tolist()}, "
               f"logit_bias {ad.get('logit_bias')}")
         rows, acc = [], {"calibrated": [], "shipped": []}

@@ -128,6 +128,8 @@ def real_part(args) -> None:
     model_stats: dict[str, list] = defaultdict(list)
     summary = []  # (set, damaged n, verdict named, uncertain naming it, model named, healthy n, FA verdict, FA model)
     print("\n== real flights: cells = healthy / uncertain / damaged (motors named) per group ==")
+    if args.profiled_only:
+        cases = [c for c in cases if c[1] is not None]
     for label, pname, cal_paths, flights in cases:
         profile = _profile(pname, cal_paths, args.profiles, tmp) if pname else None
         model = resolve_model(None, profile) if profile is not None else shipped
@@ -269,6 +271,8 @@ def sim_part(args) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--profiles", type=Path, default=None)
+    ap.add_argument("--profiled-only", action="store_true",
+                    help="only the sets diagnosed with a profile (e.g. to compare two folders of profiles)")
     ap.add_argument("--sim-per-eta", type=int, default=6)
     ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--seed", type=int, default=3)

@@ -133,12 +133,18 @@ def calibrate(flights_or_paths: Iterable[Union[PathLike, Flight]], *, adapt: boo
         profile = calibrate_profile(flights, spec=FeatureSpec.from_dict({**spec.to_dict(), "mean": None, "std": None}),
                                     sessions=groups)
         check_sessions(flights, groups)
+        if progress:
+            progress("measuring hover", 1.0)
         out_onnx = out.with_suffix(".onnx")
         res = adapt_model(profile, flights, out_onnx, settings=settings or AdaptSettings(),
                           base_model=None if base_model is None else Path(base_model), progress=progress)
         profile.extra = {**(profile.extra or {}), "adaptation": res.summary}
         profile.set_model(out_onnx, profile_path=out)
+        if progress:
+            progress("fitting baselines", 0.0)
         profile.fit_analyzers(flights, FaultModel(out_onnx), sessions=groups, adapted_on=True)
+        if progress:
+            progress("fitting baselines", 1.0)
     if part is not None:
         profile.extra = {**(profile.extra or {}), "flight": part}
     if out is not None:

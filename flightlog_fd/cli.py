@@ -520,8 +520,8 @@ def calibrate(
     one_session: bool = typer.Option(False, "--one-session", help="The logs given are one calibration session (e.g. several short flights on one battery)."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing profile and model."),
     no_adapt: bool = typer.Option(False, "--no-adapt", help="Only measure the imbalance and statistics; keep the shipped model."),
-    flights: int = typer.Option(192, help="Simulated flights of this airframe to adapt on."),
-    epochs: int = typer.Option(12, help="At most this many training epochs."),
+    flights: Optional[int] = typer.Option(None, min=1, help="Airframes to simulate (those that fly like this one are adapted on); default: the calibration's own."),
+    epochs: Optional[int] = typer.Option(None, min=1, help="At most this many training epochs (training stops earlier once it has converged); default: the calibration's own."),
     seed: int = typer.Option(0, help="Random seed (simulation and training)."),
     flight: Optional[int] = typer.Option(None, "--flight", help="Calibrate on this take-off to landing (1, 2, ...) of the one log given (a log holding several flights; `fdlog diagnose` lists them)."),
 ) -> None:
@@ -569,7 +569,7 @@ def calibrate(
         else:
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-            with Progress(TextColumn("{task.description:<16}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+            with Progress(TextColumn("{task.description:<22}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                           TimeElapsedColumn(), console=err_console, transient=True) as bar:
                 tasks: dict[str, int] = {}
 
@@ -578,7 +578,8 @@ def calibrate(
                         tasks[stage] = bar.add_task(stage, total=1.0)
                     bar.update(tasks[stage], completed=min(1.0, frac))
 
-                settings = AdaptSettings(n_flights=flights, max_epochs=epochs, seed=seed)
+                given = {"n_flights": flights, "max_epochs": epochs}
+                settings = AdaptSettings(seed=seed, **{k: v for k, v in given.items() if v is not None})
                 profile = run_calibration(files, adapt=True, output=output, overwrite=force, settings=settings,
                                           progress=progress, flight=flight, one_session=one_session)
     except FlightLogError as e:

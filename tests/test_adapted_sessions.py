@@ -81,3 +81,21 @@ def test_full_rate_and_shipped_model_keep_the_plain_baseline():
 
 def test_the_adapted_low_rate_cell_follows_the_rule_without_an_exception():
     assert trust_of("model", "low rate, profile, adapted model, quad") == "corroborating"
+
+
+def test_each_adaptation_keeps_its_own_session_drift():
+    """A profile whose adaptation records what it trained (the convergence-stopped adaptation) is
+    weighed with the drift measured on its own models; older adapted profiles with theirs."""
+    from types import SimpleNamespace
+
+    import flightlog_fd.analyzers.model_votes as MV
+
+    old = SimpleNamespace(extra={"adaptation": {"kind": "calibrated", "epochs": 8}})
+    new = SimpleNamespace(extra={"adaptation": {"trained": "dense layers (convolutions frozen)"}})
+    assert MV.adapted_session_drift(old) == (MV.ADAPTED_LOW_RATE_SESSION_OFFSET, MV.ADAPTED_LOW_RATE_SESSION_SIGMA)
+    assert MV.adapted_session_drift(SimpleNamespace(extra=None)) == MV.adapted_session_drift(old)
+    off, sig = MV.adapted_session_drift(new)
+    assert (off, sig) == (MV.ADAPTED_FAST_LOW_RATE_SESSION_OFFSET, MV.ADAPTED_FAST_LOW_RATE_SESSION_SIGMA)
+    base = {"healthy_mean": [-1.0, -1.2, -0.8, -1.1], "sessions": [[-1.0, -1.2, -0.8, -1.1]], "sessions_seen": [True]}
+    ref = MV.adapted_session_reference(base, off, sig)
+    assert np.allclose(ref.healthy_mean, np.array(base["healthy_mean"]) + off) and ref.sigma == sig

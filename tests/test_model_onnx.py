@@ -17,7 +17,7 @@ from flightlog_fd.errors import ModelError
 from flightlog_fd.windows import FeatureSpec
 from flightlog_fd.model import CLASSES, INFERENCE_BATCH, METADATA_KEY, FaultModel, default_model_path
 from flightlog_fd.training.dcnn import DCNN, DCNNConfig
-from flightlog_fd.training.export import export_onnx
+from flightlog_fd.training.export import export_onnx, export_onnx_like
 from flightlog_fd.training.train import predict_proba, train_dcnn
 
 
@@ -97,6 +97,28 @@ def test_onnx_probabilities_equal_torch(trained, exported, tmp_path, prefer_dyna
     for n in (1, 3):  # any batch size
         np.testing.assert_allclose(fm.predict_proba(X[:n]), p_onnx[:n], atol=1e-6)
     assert fm.predict_proba(X[:0]).shape == (0, 5)
+
+
+def test_weights_into_a_graph_equal_torch(trained, exported, tmp_path):
+    """export_onnx_like (what a calibration uses: the shipped graph, new weights) gives torch's
+    probabilities, keeps the graph, and refuses a graph of another network."""
+    model, spec, summary = trained
+    other = DCNN(DCNNConfig())
+    torch.manual_seed(5)
+    other.load_state_dict({k: v + 0.01 * torch.randn_like(v) for k, v in model.state_dict().items()})
+    result = export_onnx_like(other, exported.path, tmp_path / "like.onnx",
+                              {"feature_spec": spec.to_dict(), "training": {"note": "weights swapped"}})
+    assert "weights into the graph of model.onnx (dynamo export)" == result.exporter
+    fm = FaultModel(result.path)
+    X = fm.standardise(labelled_windows(500, seed=2)[0])
+    assert np.abs(fm.predict_proba(X) - predict_proba(other, X)).max() < 1e-5
+    assert np.abs(fm.predict_proba(X) - FaultModel(exported.path).predict_proba(X)).max() > 1e-3  # new weights
+    assert [n.op_type for n in onnx.load(str(result.path)).graph.node] == \
+        [n.op_type for n in onnx.load(str(exported.path)).graph.node]
+    assert fm.training == {"note": "weights swapped"}
+    with pytest.raises(ValueError, match="not a graph of this model"):
+        export_onnx_like(DCNN(DCNNConfig(filters=16)), exported.path, tmp_path / "x.onnx",
+                         {"feature_spec": spec.to_dict()})
 
 
 def test_metadata_round_trip(trained, exported):

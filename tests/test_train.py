@@ -165,3 +165,48 @@ def test_bad_inputs(source):
     bad[0, 0, 0] = np.nan
     with pytest.raises(ValueError):
         train_dcnn(bad, y, max_epochs=1)
+
+
+@pytest.fixture(scope="module")
+def pretrained(source):
+    """Toy weights trained on the source: what a calibration fine-tunes from."""
+    X, y = source
+    return train_dcnn(X, y, config=TOY, max_epochs=4, seed=0).model.state_dict()
+
+
+def test_frozen_convolutions_stop_when_the_classes_have_converged(source, pretrained):
+    """The adaptation's stop: frozen blocks stay as given, and training ends at the first epoch
+    whose class changes on the monitor set are at most ``converged_change`` (none before it);
+    judging the epochs does not change the training itself."""
+    X, y = source
+    X_tgt, y_tgt = toy_windows(400, seed=2, shift=TARGET_SHIFT)
+    kw = dict(config=TOY, lam=1e4, seed=0, init_state=pretrained, frozen_blocks=4)
+    res = train_dcnn(X, y, X_tgt[y_tgt == 0], max_epochs=40, converged_change=0.02, **kw)
+    changed = [h.changed for h in res.history]
+    assert res.stop_reason == "converged" and 1 < len(changed) < 40
+    assert changed[-1] <= 0.02 and all(c > 0.02 for c in changed[:-1])
+    assert res.best_epoch == len(res.history)  # the converged weights are the ones returned
+    assert res.settings["trained"] == "dense layers (convolutions frozen)"
+    for name, value in res.model.state_dict().items():
+        if name.startswith("blocks."):
+            torch.testing.assert_close(value, pretrained[name], rtol=0, atol=0)
+    assert any(not torch.equal(v, pretrained[k]) for k, v in res.model.state_dict().items())
+    # The same epochs without the monitor: the same losses as long as the learning rate has not
+    # been halved (after the first epoch whose change is no new low), so judging draws nothing.
+    same_lr = next((i + 1 for i in range(1, len(changed)) if changed[i] >= min(changed[:i])), len(changed))
+    plain = train_dcnn(X, y, X_tgt[y_tgt == 0], max_epochs=len(changed), patience=len(changed), **kw)
+    assert [h.loss for h in plain.history][:same_lr] == [h.loss for h in res.history][:same_lr]
+    # A budget too small to converge stops on it.
+    short = train_dcnn(X, y, X_tgt[y_tgt == 0], max_epochs=len(changed) - 1, converged_change=0.02, **kw)
+    assert short.stop_reason in ("max_epochs", "patience") and len(short.history) == len(changed) - 1
+
+
+def test_frozen_training_is_repeatable(source, pretrained):
+    X, y = source
+    X_tgt, y_tgt = toy_windows(300, seed=5, shift=TARGET_SHIFT)
+    kw = dict(config=TOY, lam=1e4, max_epochs=3, seed=4, init_state=pretrained, frozen_blocks=4,
+              converged_change=0.0)
+    a, b = (train_dcnn(X[:600], y[:600], X_tgt[y_tgt == 0], **kw) for _ in range(2))
+    assert [h.loss for h in a.history] == [h.loss for h in b.history]
+    for name, value in a.model.state_dict().items():
+        torch.testing.assert_close(value, b.model.state_dict()[name], rtol=0, atol=0)

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Optional, Sequence
+from typing import Callable, Optional, Sequence, Union
 
 import numpy as np
 
 from flightlog_fd.windows import FeatureSpec, make_windows, window_labels
 from flightlog_fd.flight import Flight
+from flightlog_fd.prepared import PreparedFlight
 
 #: Missions mixed in simulated datasets: autonomous waypoints (like the PX4 SITL set) and
 #: pilot-style stick flying (like the paper's real flights).
@@ -78,13 +79,16 @@ class WindowSet:
         return WindowSet(d["X"], d["y"], d["flight"], d["t_start"], t_end, d["eta"], [str(x) for x in d["names"]])
 
 
-def flight_windows(flights: Sequence[Flight], spec: FeatureSpec, labels: Optional[Sequence[dict]] = None,
-                   names: Optional[Sequence[str]] = None, keep_ambiguous: bool = False) -> WindowSet:
-    """Window flights with labels from ``labels[i]`` (a truth dict: label, motor, eta, onset_s) or
-    from ``Flight.truth``; flights with neither get label 0 (use only for healthy targets)."""
+def flight_windows(flights: Sequence[Union[Flight, PreparedFlight]], spec: FeatureSpec,
+                   labels: Optional[Sequence[dict]] = None, names: Optional[Sequence[str]] = None,
+                   keep_ambiguous: bool = False) -> WindowSet:
+    """Window flights (or prepared flights) with labels from ``labels[i]`` (a truth dict: label,
+    motor, eta, onset_s) or from ``Flight.truth``; flights with neither get label 0 (use only for
+    healthy targets)."""
     sets = []
-    for i, fl in enumerate(flights):
-        w = make_windows(fl, spec)
+    for i, item in enumerate(flights):
+        w = make_windows(item, spec)  # a PreparedFlight shares its resampled segments
+        fl = PreparedFlight.of(item).flight
         truth = (labels[i] if labels is not None else None) or fl.truth
         if truth is not None:
             y = window_labels(fl, w, truth)
@@ -111,7 +115,8 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
                      imbalance=None, mild_fraction: Optional[float] = None,
                      torque_exponent_range: Optional[tuple[float, float]] = None, noise: Optional[str] = None,
                      flight_filter: Optional[Callable[[Flight], bool]] = None,
-                     progress: Optional[Callable[[int, int], None]] = None) -> WindowSet:
+                     progress: Optional[Callable[[int, int], None]] = None,
+                     mixed_missions: bool = False) -> WindowSet:
     """Fly ``n_flights`` simulated quads in batches and window them (labels from the truth).
 
     ``airframes`` / ``rho`` / ``rho_mode`` / ``eta_range`` / ``imbalance`` (None, ``"random"`` for
@@ -121,7 +126,10 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
     passed to :func:`flightlog_fd.sim.api.simulate_flights`; ``airframes`` may be a callable
     ``(n, rng) -> list[Airframe]`` to draw a family (e.g. airframes like a calibrated one).
     Missions (and ``profiles``, logging profiles, when given instead of ``profile``) alternate
-    batch by batch. ``flight_filter(flight) -> bool`` keeps only some of the simulated flights
+    batch by batch; with ``mixed_missions`` every batch flies all the missions (vehicle i the
+    i-th, cycling) and only the logging profiles alternate, so that one batch per logging
+    profile gives every mission (a batch's cost is mostly its per-step overhead, whatever its
+    size). ``flight_filter(flight) -> bool`` keeps only some of the simulated flights
     (``n_flights`` counts the simulated ones). Deterministic for a seed.
     """
     return simulate_window_sets(n_flights, [spec], seed=seed, batch=batch, airframes=airframes, rho=rho,
@@ -129,7 +137,7 @@ def simulate_windows(n_flights: int, spec: FeatureSpec, *, seed: int = 0, batch:
                                 profiles=profiles, healthy_fraction=healthy_fraction, eta_range=eta_range,
                                 imbalance=imbalance, mild_fraction=mild_fraction,
                                 torque_exponent_range=torque_exponent_range, noise=noise,
-                                flight_filter=flight_filter, progress=progress)[0]
+                                flight_filter=flight_filter, progress=progress, mixed_missions=mixed_missions)[0]
 
 
 def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: int = 0, batch: int = SIM_BATCH,
@@ -141,7 +149,8 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
                          imbalance=None, mild_fraction: Optional[float] = None,
                          torque_exponent_range: Optional[tuple[float, float]] = None, noise: Optional[str] = None,
                          flight_filter: Optional[Callable[[Flight], bool]] = None,
-                         progress: Optional[Callable[[int, int], None]] = None) -> list[WindowSet]:
+                         progress: Optional[Callable[[int, int], None]] = None,
+                         mixed_missions: bool = False) -> list[WindowSet]:
     """:func:`simulate_windows` for several feature specs at once: one WindowSet per spec, all from
     the same simulated flights (so NIF and CF windows of an experiment describe the same data)."""
     from flightlog_fd.sim.api import simulate_flights
@@ -158,6 +167,7 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
     if noise is not None:
         kw["noise"] = noise
     sets: list[list[WindowSet]] = [[] for _ in specs]
+    log_profiles = list(profiles) if profiles else [profile]
     done = 0
     b = 0
     while done < n_flights:
@@ -167,10 +177,18 @@ def simulate_window_sets(n_flights: int, specs: Sequence[FeatureSpec], *, seed: 
         r = rho
         if rho is not None and not isinstance(rho, str) and np.ndim(rho) == 2:
             r = np.asarray(rho)[done:done + n]
-        flights = simulate_flights(n, airframes=afs, mission=missions[b % len(missions)], duration_s=duration_s,
-                                   profile=profiles[(b // len(missions)) % len(profiles)] if profiles else profile, rho=r, rho_mode=rho_mode, seed=bseed,
-                                   imbalance=imbalance, accelerometer=False, **kw)
+        if mixed_missions:
+            mission = [missions[i % len(missions)] for i in range(n)]
+            log_profile = log_profiles[b % len(log_profiles)]
+        else:
+            mission = missions[b % len(missions)]
+            log_profile = log_profiles[(b // len(missions)) % len(log_profiles)]
+        flights = simulate_flights(n, airframes=afs, mission=mission, duration_s=duration_s, profile=log_profile,
+                                   rho=r, rho_mode=rho_mode, seed=bseed, imbalance=imbalance, accelerometer=False,
+                                   **kw)
         names = [f"sim{seed}-{b}-{i}" for i in range(n)]
+        # Prepared once: the filter (e.g. the attitude time constant) and the windows resample alike.
+        flights = [PreparedFlight(fl) for fl in flights]
         if flight_filter is not None:
             keep = [i for i, fl in enumerate(flights) if flight_filter(fl)]
             flights, names = [flights[i] for i in keep], [names[i] for i in keep]

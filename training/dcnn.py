@@ -103,11 +103,17 @@ class DCNN(nn.Module):
         self.act = nn.ReLU()
         self.dropout = nn.Dropout(cfg.dropout)
 
+    def conv_features(self, x: torch.Tensor) -> torch.Tensor:
+        """The convolution blocks' output, flattened (N, 64 * T // 16): what the dense layers read."""
+        return self.blocks(x).flatten(1)  # (N, C, T) -> (N, 64, T // 16) -> (N, 64 * T // 16)
+
+    def dense_features(self, z: torch.Tensor) -> torch.Tensor:
+        """First dense layer's activations from :meth:`conv_features` output."""
+        return self.act(self.dense1(z))  # (N, 128)
+
     def features(self, x: torch.Tensor) -> torch.Tensor:
         """First dense layer's activations (after ReLU, before dropout): where the MMD is taken."""
-        x = self.blocks(x)  # (N, C, T) -> (N, 64, T // 16)
-        x = x.flatten(1)  # (N, 64 * T // 16)
-        return self.act(self.dense1(x))  # (N, 128)
+        return self.dense_features(self.conv_features(x))  # (N, 128)
 
     def classify(self, feats: torch.Tensor) -> torch.Tensor:
         """Logits from first-dense features (the rest of the network)."""

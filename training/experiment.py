@@ -41,11 +41,14 @@ RESULTS = Path(__file__).resolve().parents[1] / "results"
 CLASS_NAMES = ["healthy", "motor 1", "motor 2", "motor 3", "motor 4"]
 DEFAULT_CALIB = {"px4_sih_dev": "sih_004", "crazypad_e9": "normal_flight__E9_log00"}
 METHODS = ("CF", "NIF", "NIF+DA")
-#: Our addition, not the paper's: exactly what `fdlog calibrate` ships (training/adapt.py): NIF+DA
-#: fine-tuned from the shipped model's weights (its statistics, ADAPT_EPOCHS epochs), then decision
+#: Our addition, not the paper's: exactly what `fdlog calibrate` ships (training/adapt.py: its
+#: fine_tune with the default AdaptSettings), trained on this experiment's S, then decision
 #: offsets set on the calibration flight's healthy windows.
 OFFSETS = "NIF+DA, fine-tuned + offsets"
 TSNE_POINTS = 1200  # per domain
+#: Flights simulated per training flight asked for (``--flights``): the airframe filter keeps
+#: about 1 in 2 for the SIH and 1 in 7 for the Crazyflie.
+TAU_OVERSAMPLE = 2.5
 
 
 @dataclass
@@ -93,7 +96,7 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
         out_dir: Path, log=print) -> dict:
     import torch
 
-    from flightlog_fd.training.adapt import (ETA_RANGE, TAU_BAND, TAU_OVERSAMPLE, airframe_family, dynamics_filter,
+    from flightlog_fd.training.adapt import (ETA_RANGE, TAU_BAND, airframe_family, dynamics_filter,
                                 logging_profiles_for, target_windows)
     from flightlog_fd.training.data import flight_windows, simulate_window_sets
     from flightlog_fd.training.dcnn import DCNNConfig
@@ -138,7 +141,7 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
                               names=[lg.name for lg in tests], keep_ambiguous=True)
          for name, spec in (("nif", nif), ("cf", cf))}
     from flightlog_fd.model import FaultModel
-    from flightlog_fd.training.adapt import ADAPT_EPOCHS, ADAPT_PATIENCE, base_model_files
+    from flightlog_fd.training.adapt import AdaptSettings, base_model_files, fine_tune
 
     base_onnx, base_pt = base_model_files()
     base_spec = FeatureSpec.from_dict(FaultModel(base_onnx).feature_spec)
@@ -193,9 +196,8 @@ def run(target: str, calib: str | None, runs: int, flights: int, epochs: int, pa
         tr, te = S["nif"]
         tw = T["nif"]
         t1 = time.time()
-        res = train_dcnn(base_spec.normalise(tr.X), tr.y, target_base, config=DCNNConfig(
-                         in_channels=len(base_spec.channels), window=base_spec.window), lam=1e4,
-                         max_epochs=ADAPT_EPOCHS, patience=ADAPT_PATIENCE, seed=seed + r, init_state=init)
+        res = fine_tune(base_spec.normalise(tr.X), tr.y, target_base, AdaptSettings(seed=seed + r), init,
+                        DCNNConfig(in_channels=len(base_spec.channels), window=base_spec.window))
         bias = healthy_decision_offsets(predict_proba(res.model, target_base))
         ps = apply_logit_bias(predict_proba(res.model, base_spec.normalise(te.X)), bias).argmax(1)
         P = apply_logit_bias(predict_proba(res.model, base_spec.normalise(tw.X)), bias)

@@ -127,16 +127,20 @@ def _export_torchscript(head: nn.Module, example: torch.Tensor) -> onnx.ModelPro
     return onnx.load_from_string(buffer.getvalue())
 
 
-def export_onnx(model: DCNN, path, metadata: dict, *, prefer_dynamo: bool = True) -> ExportResult:
-    """Write ``model`` + softmax as one ONNX file at ``path`` with validated metadata."""
-    path = Path(path)
-    meta = build_metadata(metadata, model.config.n_classes)
+def _check_spec(model: DCNN, meta: dict) -> None:
     spec = meta["feature_spec"]
     if len(spec["channels"]) != model.config.in_channels or spec["window"] != model.config.window:
         raise ValueError(
             f"feature_spec says ({len(spec['channels'])} channels, window {spec['window']}), "
             f"the model takes ({model.config.in_channels}, {model.config.window})"
         )
+
+
+def export_onnx(model: DCNN, path, metadata: dict, *, prefer_dynamo: bool = True) -> ExportResult:
+    """Write ``model`` + softmax as one ONNX file at ``path`` with validated metadata."""
+    path = Path(path)
+    meta = build_metadata(metadata, model.config.n_classes)
+    _check_spec(model, meta)
     was_training = model.training
     model.eval()  # dropout off in the exported graph
     head = ProbabilityHead(model).eval()
@@ -155,6 +159,36 @@ def export_onnx(model: DCNN, path, metadata: dict, *, prefer_dynamo: bool = True
     if dynamo_error is not None:
         meta["exporter_note"] = f"dynamo export failed ({dynamo_error[:200]}); used torchscript"
     meta["exporter"] = exporter
+    return _write(proto, path, meta, exporter)
+
+
+def export_onnx_like(model: DCNN, base_onnx, path, metadata: dict) -> ExportResult:
+    """Write ``model`` as ONNX by putting its weights into the graph of ``base_onnx``, a model
+    this module exported from a DCNN of the same configuration (e.g. the shipped model a
+    calibration fine-tunes): the same graph, new weights and metadata, in milliseconds instead
+    of the seconds a torch export takes. ValueError when the graph does not hold exactly the
+    model's weights with the same shapes (use :func:`export_onnx` then)."""
+    from onnx import numpy_helper
+
+    path = Path(path)
+    meta = build_metadata(metadata, model.config.n_classes)
+    _check_spec(model, meta)
+    proto = onnx.load(str(base_onnx))
+    inits = {i.name: i for i in proto.graph.initializer}
+    state = {f"model.{k}": v.detach().cpu().numpy() for k, v in model.state_dict().items()}  # ProbabilityHead names
+    for name, value in state.items():
+        init = inits.get(name)
+        if init is None or tuple(init.dims) != value.shape:
+            raise ValueError(f"{base_onnx}: no initializer {name} of shape {value.shape}: not a graph of this model")
+        init.CopyFrom(numpy_helper.from_array(value.astype(numpy_helper.to_array(init).dtype), name))
+    base_meta = json.loads(next((e.value for e in proto.metadata_props if e.key == METADATA_KEY), "{}"))
+    exporter = f"weights into the graph of {Path(base_onnx).name} ({base_meta.get('exporter', 'unknown')} export)"
+    meta["exporter"] = exporter
+    return _write(proto, path, meta, exporter)
+
+
+def _write(proto: onnx.ModelProto, path: Path, meta: dict, exporter: str) -> ExportResult:
+    """Metadata into ``proto``, check it, write it atomically to ``path``."""
     del proto.metadata_props[:]
     entry = proto.metadata_props.add()
     entry.key, entry.value = METADATA_KEY, json.dumps(meta, sort_keys=True)

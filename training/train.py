@@ -67,6 +67,14 @@ HEALTHY = 0  # class index of healthy windows
 # cores that are busy.
 TORCH_THREADS = 1
 PREDICT_BATCH = 4096  # windows per forward pass at inference
+#: Source windows in the convergence monitor set (with every target window): enough that a
+#: 1 % change is ~20 windows, few enough that judging an epoch costs a small part of it.
+MONITOR_SOURCE_WINDOWS = 2048
+#: With a convergence stop: epochs without a new least class change before the learning rate is
+#: multiplied by CONVERGE_LR_FACTOR. Measured on the adaptation of the Erle board-A flight
+#: 09-10-2014_25 (frozen convolutions, lr 5e-4): the change stays at 1.1-4 % from epoch 5 to 60.
+CONVERGE_PLATEAU_EPOCHS = 1
+CONVERGE_LR_FACTOR = 0.5
 
 
 @dataclass
@@ -79,6 +87,9 @@ class EpochStats:
     mmd2: float  # unbiased estimate, may be slightly negative; 0.0 when no target data
     accuracy: float  # on the (dropout-perturbed) training batches
     seconds: float
+    #: share of the monitor set whose class changed since the previous epoch (None unless
+    #: ``converged_change`` is given)
+    changed: Optional[float] = None
 
 
 @dataclass
@@ -89,7 +100,7 @@ class TrainResult:
     history: list[EpochStats]
     best_epoch: int
     best_loss: float
-    stop_reason: str  # "max_epochs" | "patience" | "max_seconds"
+    stop_reason: str  # "max_epochs" | "patience" | "max_seconds" | "converged"
     seconds: float
     settings: dict = field(default_factory=dict)
 
@@ -129,6 +140,23 @@ def _check_windows(name: str, X: np.ndarray, config: DCNNConfig) -> None:
         raise ValueError(f"{name} holds NaN or infinite values")
 
 
+def _frozen_outputs(blocks: torch.nn.Module, X: torch.Tensor) -> torch.Tensor:
+    """The output of the frozen leading conv ``blocks`` for windows ``X`` (N, C, T), in batches."""
+    with torch.no_grad():
+        return torch.cat([blocks(X[i : i + PREDICT_BATCH]) for i in range(0, len(X), PREDICT_BATCH)])
+
+
+def _classes(model: DCNN, features: Callable, X: torch.Tensor) -> torch.Tensor:
+    """Most probable class (N,) of inputs ``X`` (windows, or conv outputs with frozen blocks), eval mode."""
+    was_training = model.training
+    model.eval()
+    with torch.no_grad():
+        out = torch.cat([model.classify(features(X[i : i + PREDICT_BATCH])).argmax(1)
+                         for i in range(0, len(X), PREDICT_BATCH)])
+    model.train(was_training)
+    return out
+
+
 def _cycle_batches(indices: np.ndarray, size: int, rng: np.random.Generator):
     """Endless mini-batches of ``size`` drawn without replacement from reshuffled ``indices``."""
     size = min(size, len(indices))
@@ -162,6 +190,10 @@ def train_dcnn(
     warmup_steps: Optional[int] = None,
     init_state: Optional[dict] = None,
     threads: int = TORCH_THREADS,
+    frozen_blocks: int = 0,
+    converged_change: Optional[float] = None,
+    monitor_windows: int = MONITOR_SOURCE_WINDOWS,
+    min_epoch_steps: int = 1,
 ) -> TrainResult:
     """Train a DCNN on source windows, aligning healthy features with ``X_tgt_healthy`` if given.
 
@@ -171,6 +203,18 @@ def train_dcnn(
     optimised loss; default WARMUP_STEPS from random weights, 0 when fine-tuning ``init_state``
     (its features are already trained). ``progress(stats)`` is called after every epoch;
     ``sample_weight`` weights the source CE.
+
+    ``frozen_blocks``: keep the first this many convolution blocks as given (``init_state``) and
+    train the rest; their outputs are then computed once for every window instead of every
+    step (the first blocks, on the longest sequences, cost the most). ``converged_change``:
+    stop once the classes the model gives a fixed monitor set (every target window and up to
+    ``monitor_windows`` source windows) change, from one epoch to the next, on at most this
+    share of it (after the warm-up; the first epoch compares with the
+    starting weights): the adaptation has converged. The weights kept are then that epoch's.
+    Meanwhile the learning rate is halved whenever that share has not reached a new low for
+    CONVERGE_PLATEAU_EPOCHS epochs (the changes left are then the steps' noise).
+    ``min_epoch_steps``: an epoch passes over a small source several times, so that it holds at
+    least this many steps (the epochs between two judgements then move the weights alike).
     """
     config = config or DCNNConfig(in_channels=X_src.shape[1], window=X_src.shape[2])
     X_src = np.ascontiguousarray(X_src, dtype=np.float32)
@@ -206,15 +250,41 @@ def train_dcnn(
                 model.load_state_dict(init_state)
             except (RuntimeError, KeyError) as e:
                 raise ValueError(f"init_state does not fit a DCNN with {config}: {e}") from None
-        optimiser = torch.optim.Adam(model.parameters(), lr=lr)
         X_src_t = torch.from_numpy(X_src)  # (N, C, T), shares memory
         y_src_t = torch.from_numpy(y_src)  # (N,)
+        X_tgt_t = torch.from_numpy(X_tgt_healthy) if use_mmd else None  # (M, C, T)
+        if not 0 <= frozen_blocks <= len(model.blocks):
+            raise ValueError(f"frozen_blocks must be 0..{len(model.blocks)}, got {frozen_blocks}")
+        if frozen_blocks:
+            # Frozen blocks never change: their outputs are the inputs of what is trained.
+            frozen, trained = model.blocks[:frozen_blocks], model.blocks[frozen_blocks:]
+            for p in frozen.parameters():
+                p.requires_grad_(False)
+            X_src_t = _frozen_outputs(frozen, X_src_t)  # (N, 64, T // 2**frozen_blocks)
+            X_tgt_t = _frozen_outputs(frozen, X_tgt_t) if use_mmd else None
+
+            def features(z: torch.Tensor) -> torch.Tensor:
+                return model.dense_features(trained(z).flatten(1))  # (N, 128)
+        else:
+            features = model.features
+        optimiser = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=lr)
         if use_mmd:
-            X_tgt_t = torch.from_numpy(X_tgt_healthy)  # (M, C, T)
             src_healthy_batches = _cycle_batches(healthy_src, mmd_batch, rng)
             tgt_batches = _cycle_batches(np.arange(len(X_tgt_healthy)), mmd_batch, rng)
+        monitor = None
+        if converged_change is not None:
+            # A fixed subsample of the source (drawn from its own generator so that the training
+            # draws are those of a run without it) and every target window.
+            pick = np.sort(np.random.default_rng([seed, 1]).permutation(len(X_src))[:monitor_windows])
+            monitor = X_src_t[torch.from_numpy(pick)]
+            if use_mmd:
+                monitor = torch.cat([monitor, X_tgt_t])
+            previous = _classes(model, features, monitor)
+            least_change, since_least = float("inf"), 0
 
-        steps_per_epoch = -(-len(X_src) // batch)
+        # An epoch is one pass over the source, or as many passes as make min_epoch_steps steps.
+        passes = max(1, -(-min_epoch_steps // -(-len(X_src) // batch)))
+        steps_per_epoch = -(-len(X_src) * passes // batch)
         warmup_epochs = 0
         if use_mmd and warmup_steps is None:
             # The default: WARMUP_STEPS from random weights, but at most a fifth of the epochs so
@@ -231,7 +301,7 @@ def train_dcnn(
         for epoch in range(1, max_epochs + 1):
             epoch_start = time.perf_counter()
             model.train()
-            order = torch.from_numpy(rng.permutation(len(X_src)))
+            order = torch.from_numpy(np.concatenate([rng.permutation(len(X_src)) for _ in range(passes)]))
             sums = {"loss": 0.0, "ce": 0.0, "mmd2": 0.0, "correct": 0}
             n_steps = 0
             for first in range(0, len(order), batch):
@@ -241,12 +311,12 @@ def train_dcnn(
                 if use_mmd:
                     xs = X_src_t[torch.from_numpy(next(src_healthy_batches))]  # (Bm, C, T)
                     xt = X_tgt_t[torch.from_numpy(next(tgt_batches))]  # (Bm', C, T)
-                    logits_all, feats = model.forward_with_features(torch.cat([xb, xs, xt]))
-                    logits = logits_all[: len(xb)]  # (B, 5)
+                    feats = features(torch.cat([xb, xs, xt]))  # (B + Bm + Bm', 128)
+                    logits = model.classify(feats[: len(xb)])  # (B, 5)
                     f_src, f_tgt = feats[len(xb) : len(xb) + len(xs)], feats[len(xb) + len(xs) :]
                     mmd_term = mmd2(f_src, f_tgt, bandwidth=mmd_bandwidth, unbiased=True)  # scalar
                 else:
-                    logits = model(xb)  # (B, 5)
+                    logits = model.classify(features(xb))  # (B, 5)
                     mmd_term = torch.zeros(())
                 if weights is None:
                     ce = F.cross_entropy(logits, yb)
@@ -270,9 +340,23 @@ def train_dcnn(
                 loss=sums["loss"] / n_steps,
                 ce=sums["ce"] / n_steps,
                 mmd2=sums["mmd2"] / n_steps,
-                accuracy=sums["correct"] / len(X_src),
+                accuracy=sums["correct"] / len(order),
                 seconds=time.perf_counter() - epoch_start,
             )
+            if monitor is not None:
+                classes = _classes(model, features, monitor)
+                stats.changed = float((classes != previous).float().mean())
+                previous = classes
+                # At a fixed step size the classes keep changing at the level of the gradient
+                # noise; when that level stops falling, halve the step size, so it falls again.
+                if stats.changed < least_change:
+                    least_change, since_least = stats.changed, 0
+                else:
+                    since_least += 1
+                if since_least >= CONVERGE_PLATEAU_EPOCHS:
+                    for group in optimiser.param_groups:
+                        group["lr"] *= CONVERGE_LR_FACTOR
+                    least_change, since_least = float("inf"), 0
             history.append(stats)
             if progress is not None:
                 progress(stats)
@@ -280,6 +364,11 @@ def train_dcnn(
             # no measure of the model: they are never kept as best and do not use up patience.
             if epoch <= warmup_epochs:
                 pass
+            elif monitor is not None and stats.changed <= converged_change:
+                best_loss, best_epoch = stats.loss, epoch
+                best_state = copy.deepcopy(model.state_dict())
+                stop_reason = "converged"
+                break
             elif stats.loss < best_loss:
                 best_loss, best_epoch = stats.loss, epoch
                 best_state = copy.deepcopy(model.state_dict())
@@ -311,6 +400,10 @@ def train_dcnn(
         "seed": seed,
         "weighted": weights is not None,
         "init": "given weights" if init_state is not None else f"random (seed {seed})",
+        "trained": ("all layers" if not frozen_blocks else f"all but the first {frozen_blocks} convolution blocks"
+                    if frozen_blocks < config.n_blocks else "dense layers (convolutions frozen)"),
+        "converged_change": converged_change,
+        "passes_per_epoch": passes,
     }
     return TrainResult(model, history, best_epoch, best_loss, stop_reason, seconds, settings)
 

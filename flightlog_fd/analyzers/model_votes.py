@@ -326,6 +326,15 @@ def combine_sessions(sessions: list[dict], seen: list[bool] | None = None) -> di
 #: decorrelated within-flight term is added on top, as for every profile.
 ADAPTED_LOW_RATE_SESSION_OFFSET = 0.17
 ADAPTED_LOW_RATE_SESSION_SIGMA = 1.17
+#: The same shift and spread for a model made by the convergence-stopped adaptation (profiles whose
+#: ``extra.adaptation`` records what was ``trained``: `fdlog calibrate` from the calibration-speed
+#: work on, dense layers adapted): the same 16 pairs calibrated again with it (seeds 0 and 1 for
+#: Erle A; benchmarks/adapted_vote_drift.py, results/calibrate_speed.md): mean +1.24, standard
+#: deviation 1.22 (Erle A +1.65, Erle B +1.76, rrc +0.48). Its votes move a nat more between
+#: sessions than the older adaptation's, healthy and damaged alike (rrc 25 mm cuts +5.2..+6.0
+#: against +1.9..+5.1), so each adaptation keeps the figures measured on its own models.
+ADAPTED_FAST_LOW_RATE_SESSION_OFFSET = 1.24
+ADAPTED_FAST_LOW_RATE_SESSION_SIGMA = 1.22
 #: The population spread above is a prior worth this many sessions when the profile holds sessions
 #: the model never saw (added with ``fdlog calibrate --add``): their votes measure the airframe's own
 #: session-to-session spread (the weight command_shares.DRIFT_PRIOR_FLIGHTS gives the shares' prior).
@@ -366,13 +375,25 @@ def _adapted_at_low_rate(ctx: Context) -> bool:
     return min(rates) < LOW_RATE_HZ
 
 
-def adapted_session_reference(base: dict) -> SessionReference | None:
+def adapted_session_drift(profile) -> tuple[float, float]:
+    """(offset, spread) of an adapted model's votes in a session it never saw, for the adaptation
+    that made the profile's model: ADAPTED_FAST_* when its ``extra.adaptation`` records what was
+    ``trained`` (the convergence-stopped adaptation), else ADAPTED_LOW_RATE_SESSION_* (profiles made
+    before it, whose models those were measured on)."""
+    adaptation = ((getattr(profile, "extra", None) or {}).get("adaptation") or {}) if profile is not None else {}
+    if isinstance(adaptation, dict) and adaptation.get("trained"):
+        return ADAPTED_FAST_LOW_RATE_SESSION_OFFSET, ADAPTED_FAST_LOW_RATE_SESSION_SIGMA
+    return ADAPTED_LOW_RATE_SESSION_OFFSET, ADAPTED_LOW_RATE_SESSION_SIGMA
+
+
+def adapted_session_reference(base: dict, offset: float = ADAPTED_LOW_RATE_SESSION_OFFSET,
+                              prior: float = ADAPTED_LOW_RATE_SESSION_SIGMA) -> SessionReference | None:
     """The adapted model's healthy vote level for a session it never saw, and its spread, from the
     profile's vote baseline (:func:`combine_sessions`): each session the model was adapted on
     (``sessions_seen``; a profile without the flags: every session, as ``fdlog calibrate`` adapts
-    on all of its flights) raised by ADAPTED_LOW_RATE_SESSION_OFFSET, the sessions added later
-    as measured; the spread of those levels across sessions pooled with
-    ADAPTED_LOW_RATE_SESSION_SIGMA (worth ADAPTED_SESSION_PRIOR_SESSIONS sessions). None without
+    on all of its flights) raised by ``offset``, the sessions added later as measured; the spread
+    of those levels across sessions pooled with ``prior`` (worth ADAPTED_SESSION_PRIOR_SESSIONS
+    sessions); both from :func:`adapted_session_drift` for the profile's adaptation. None without
     a usable baseline. Limits: measured at low rate only (full-rate adapted pairs stayed below
     +0.7 nats, results/reliability.md item 3)."""
     rows = base.get("sessions") or [base.get("healthy_mean")]
@@ -382,8 +403,7 @@ def adapted_session_reference(base: dict) -> SessionReference | None:
     m = np.array(rows, float)
     seen = base.get("sessions_seen")
     seen = np.array([bool(x) for x in seen], bool) if seen and len(seen) == len(m) else np.ones(len(m), bool)
-    level = m + np.where(seen, ADAPTED_LOW_RATE_SESSION_OFFSET, 0.0)[:, None]
-    prior = ADAPTED_LOW_RATE_SESSION_SIGMA
+    level = m + np.where(seen, offset, 0.0)[:, None]
     if len(m) >= 2 and not seen.all():
         own = float(np.sqrt(np.mean(level.std(axis=0, ddof=1) ** 2)))
         dof = len(m) - 1
@@ -438,7 +458,8 @@ class ModelVotes(Analyzer):
         base = ctx.baseline_for(self.id)
         notes = []
         if base and base.get("model_sha256") == ctx.model_sha256 and len(base.get("healthy_mean", [])) == p.shape[1] - 1:
-            reference = adapted_session_reference(base) if _adapted_at_low_rate(ctx) else None
+            reference = (adapted_session_reference(base, *adapted_session_drift(ctx.profile))
+                         if _adapted_at_low_rate(ctx) else None)
             if reference is not None:
                 llr = model_llr(p, ctx.covered_s, reference.healthy_mean, reference.sigma,
                                 reference.stats(p.shape[1] - 1))

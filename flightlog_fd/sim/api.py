@@ -16,7 +16,8 @@ Arguments (all keyword except ``n``):
   ``also`` (:meth:`Damage.several`) damages several propellers, each with its own eta and onset
   (the truth's ``motors``, ``etas``, ``onsets_s`` list them; ``label``/``motor``/``eta``/``onset_s``
   are the first's);
-- ``mission``: "waypoints" | "manual" | "hover"; ``duration_s``: planned arming-to-disarm time;
+- ``mission``: "waypoints" | "manual" | "hover", or one of those per vehicle (a batch may mix
+  them: the legs are per vehicle); ``duration_s``: planned arming-to-disarm time;
 - ``profile``: logging profile (logger.PROFILES); ``rho``: None | "random" | (4,) | (n, 4) unbalance
   ratios, ``rho_mode`` "physical" | "paper" (rho.py);
 - ``seed``: everything (airframes, missions, damages, noise, log timing) is drawn from one
@@ -126,7 +127,8 @@ def _resolve_damages(n: int, damages: DamageSpec, airframes: list[Airframe], pla
 
 
 def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpec = None,
-                   mission: str = "waypoints", duration_s: float = 60.0, profile: str = "px4_high",
+                   mission: Union[str, Sequence[str]] = "waypoints", duration_s: float = 60.0,
+                   profile: str = "px4_high",
                    rho: RhoSpec = None, rho_mode: str = "physical", seed: int = 0, realism: bool = True,
                    vibration_gain: float = VIBRATION_GAIN_RADS, healthy_fraction: float = HEALTHY_FRACTION,
                    eta_range: tuple[float, float] = ETA_RANGE, midflight_fraction: float = MIDFLIGHT_FRACTION,
@@ -190,7 +192,7 @@ def flights_from_batch(batch: SimBatch) -> list[Flight]:
               "imbalance": imbs[i].to_dict() if imbs[i] is not None else None}
              for i in range(len(batch.airframes))]
     flights = build_flights(batch.result, batch.profile, batch.airframes, batch.damages, batch.rho, batch.rho_mode,
-                            batch.plan.name, batch.seed, rng, extra)
+                            batch.plan.missions, batch.seed, rng, extra)
     if batch.esc is not None:
         res = batch.result
         esc_rng = np.random.default_rng([batch.seed, 8])
@@ -214,7 +216,8 @@ def flights_from_batch(batch: SimBatch) -> list[Flight]:
 
 
 def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageSpec = None,
-                     mission: str = "waypoints", duration_s: float = 60.0, profile: str = "px4_high",
+                     mission: Union[str, Sequence[str]] = "waypoints", duration_s: float = 60.0,
+                   profile: str = "px4_high",
                      rho: RhoSpec = None, rho_mode: str = "physical", seed: int = 0, realism: bool = True,
                      vibration_gain: float = VIBRATION_GAIN_RADS, healthy_fraction: float = HEALTHY_FRACTION,
                      eta_range: tuple[float, float] = ETA_RANGE,

@@ -202,6 +202,9 @@ class QuadDynamics:
         #: Body-frame specific force (3, N) m/s² of the last step: what an accelerometer reads.
         self.specific_force = np.zeros((3, params.n))
         self.specific_force[2] = -GRAVITY
+        #: Whether step() updates ``specific_force``; nothing else reads it, so a run that records
+        #: no accelerometer turns it off (a tenth of a training batch's time).
+        self.track_specific_force = True
         self._dq = np.empty((4, params.n))
         self._cross = np.empty((3, params.n))
         self.k_tau_rotor = params.rotor_k_tau()
@@ -269,7 +272,8 @@ class QuadDynamics:
         acc *= -thrust
         acc += self.drag_lin * (wind - s.vel)
         acc *= self.inv_mass
-        self._body_frame(q, acc, self.specific_force)  # the accelerometer: thrust + drag, no gravity
+        if self.track_specific_force:
+            self._body_frame(q, acc, self.specific_force)  # the accelerometer: thrust + drag, no gravity
         acc[2] += GRAVITY
         s.vel += acc * dt
         s.pos += s.vel * dt
@@ -288,9 +292,10 @@ class QuadDynamics:
         s.landed = ground
         if ground.any():
             air = ~ground
-            # Resting on the ground the accelerometer reads the normal force: −g along body z.
-            self.specific_force *= air
-            self.specific_force[2] -= GRAVITY * ground
+            if self.track_specific_force:
+                # Resting on the ground the accelerometer reads the normal force: −g along body z.
+                self.specific_force *= air
+                self.specific_force[2] -= GRAVITY * ground
             s.pos[2] *= air
             s.vel *= air
             om *= air

@@ -82,6 +82,7 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     n, n_rot = vp.n, vp.n_rotors
     fields = {k: (n_rot if k in ROTOR_STREAMS else c) for k, c in STREAM_FIELDS.items()}
     dyn = QuadDynamics(vp if imbalance is None else vp.with_imbalance(imbalance), dt)
+    dyn.track_specific_force = "accel" in decimation or "sforce" in decimation
     if motor_model is not None:
         dyn.set_motor_model(motor_model.a0, motor_model.kv_scale)
     ctrl = CascadeController(airframes, vp, dt)

@@ -39,7 +39,7 @@ profiles give the per-motor thrust commands at the RATE rate (``"RATE mixer"``) 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Optional, Sequence, Union
 
 import numpy as np
 
@@ -195,7 +195,8 @@ def ardupilot_params(af: Airframe) -> dict[str, float]:
 
 
 def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Airframe], damages: Sequence[Damage],
-                  rho: np.ndarray, rho_mode: str, mission: str, seed: int, rng: np.random.Generator,
+                  rho: np.ndarray, rho_mode: str, mission: Union[str, Sequence[str]], seed: int,
+                  rng: np.random.Generator,
                   extra_truth: Optional[Sequence[dict]] = None) -> list[Flight]:
     """One `Flight` per vehicle from a batch's recorded streams (see module docstring)."""
     px4 = profile.autopilot == "px4"
@@ -271,7 +272,7 @@ def build_flights(res: BatchResult, profile: LogProfile, airframes: Sequence[Air
             "label": int(d.motor), "motor": int(d.motor), "eta": float(d.eta),
             "cause": d.cause if d.motor else None,
             "onset_s": onset, "airframe": af.to_dict(), "rho": rho[i].tolist(), "rho_mode": rho_mode,
-            "mission": mission, "seed": int(seed), "index": i, "profile": profile.name,
+            "mission": mission if isinstance(mission, str) else mission[i], "seed": int(seed), "index": i, "profile": profile.name,
             "takeoff_s": _us(res.t_takeoff[i] + offset) if np.isfinite(res.t_takeoff[i]) else None,
             "touchdown_s": _us(res.t_touchdown[i] + offset) if np.isfinite(res.t_touchdown[i]) else None,
             "log_start_boot_s": offset,

@@ -28,6 +28,7 @@ trajectory generator does the same), so the controller gets a position and a fee
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence, Union
 
 import numpy as np
 
@@ -61,6 +62,7 @@ class MissionPlan:
     """Legs for N vehicles, padded with LEG_DONE to the longest plan (arrays, leading axis vehicle)."""
 
     name: str
+    missions: tuple  # (N,) each vehicle's mission name
     kind: np.ndarray  # (N, L) int
     target: np.ndarray  # (N, L, 3) NED m
     speed: np.ndarray  # (N, L) m/s
@@ -205,11 +207,20 @@ def _plan_one(mission: str, duration_s: float, rng: np.random.Generator) -> tupl
     return legs, accel, home_yaw, dict(manual, estimated_s=t_est + DISARM_DELAY_S, takeoff_ramp=ramp)
 
 
-def plan_missions(n: int, mission: str, duration_s: float, rng: np.random.Generator) -> MissionPlan:
-    """Plan ``mission`` for ``n`` vehicles, each aiming at about ``duration_s`` from arming to disarm."""
-    if mission not in MISSIONS:
-        raise ValueError(f"mission must be one of {MISSIONS}, got {mission!r}")
-    plans = [_plan_one(mission, duration_s, rng) for _ in range(n)]
+def plan_missions(n: int, mission: Union[str, Sequence[str]], duration_s: float,
+                  rng: np.random.Generator) -> MissionPlan:
+    """Plan ``mission`` for ``n`` vehicles, each aiming at about ``duration_s`` from arming to disarm.
+
+    ``mission``: one name for every vehicle, or ``n`` names (one batch flies them together: the
+    legs are per vehicle); the plan's ``name`` is then the names joined with "+" in first-seen order.
+    """
+    missions = [mission] * n if isinstance(mission, str) else list(mission)
+    if len(missions) != n:
+        raise ValueError(f"got {len(missions)} missions for {n} vehicles")
+    bad = sorted({m for m in missions if m not in MISSIONS})
+    if bad:
+        raise ValueError(f"mission must be one of {MISSIONS}, got {bad[0]!r}")
+    plans = [_plan_one(m, duration_s, rng) for m in missions]
     n_legs = max(len(p[0]) for p in plans)
     kind = np.full((n, n_legs), LEG_DONE, dtype=np.int64)
     target = np.zeros((n, n_legs, 3))
@@ -225,7 +236,7 @@ def plan_missions(n: int, mission: str, duration_s: float, rng: np.random.Genera
         target[i, len(legs):] = legs[-1][1]
     m = [p[3] for p in plans]
     return MissionPlan(
-        name=mission, kind=kind, target=target, speed=speed, dyaw=dyaw, yaw_rate=yaw_rate, duration=duration,
+        name="+".join(dict.fromkeys(missions)), missions=tuple(missions), kind=kind, target=target, speed=speed, dyaw=dyaw, yaw_rate=yaw_rate, duration=duration,
         until=until,
         accel=np.array([p[1] for p in plans]), takeoff_ramp=np.array([p[3]["takeoff_ramp"] for p in plans]),
         home_yaw=np.array([p[2] for p in plans]),
