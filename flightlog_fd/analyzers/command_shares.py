@@ -260,24 +260,7 @@ def severity_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, f
         if with_thr:
             chi = chi + ((throttle_ratio - mean_u) / throttle_sigma) ** 2
         ll = loglik(s - pred, throttle_ratio - mean_u if with_thr else None)
-        top = ll.max()
-        log_marg = top + np.log(np.mean(np.exp(ll - top)))
-        llr = float(log_marg - ll_h)
-        post_eta = np.exp(ll - top).sum(axis=1)
-        post_eta = post_eta / post_eta.sum()
-        cdf = np.cumsum(post_eta)
-        ia = min(int(np.searchsorted(cdf, 0.05)), len(ETA_GRID) - 1)
-        ib = min(int(np.searchsorted(cdf, 0.95)), len(ETA_GRID) - 1)
-        # the interval never collapses: at least one grid step each side, and open below the grid
-        lo = 0.0 if ia == 0 else float(ETA_GRID[max(ia - (ia == ib), 0)])
-        hi = float(ETA_GRID[min(ib + (ia == ib), len(ETA_GRID) - 1)])
-        a, bm = np.unravel_index(int(np.argmax(ll)), ll.shape)
-        eta_hat = float(ETA_GRID[a])
-        # a best fit at the grid's healthy end means "no loss": report 1.0 with the interval
-        if eta_hat >= ETA_GRID[-1]:
-            eta_hat, hi = 1.0, 1.0
-        fits.append(SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]),
-                                chi2=float(chi[a, bm])))
+        fits.append(_fit_from_grid(ll, ll_h, lambda a, bm: chi[a, bm]))
     return chi_h, fits
 
 
@@ -390,10 +373,12 @@ def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
     cdf = np.cumsum(post_eta / post_eta.sum())
     ia = min(int(np.searchsorted(cdf, 0.05)), len(ETA_GRID) - 1)
     ib = min(int(np.searchsorted(cdf, 0.95)), len(ETA_GRID) - 1)
+    # the interval never collapses: at least one grid step each side, and open below the grid
     lo = 0.0 if ia == 0 else float(ETA_GRID[max(ia - (ia == ib), 0)])
     hi = float(ETA_GRID[min(ib + (ia == ib), len(ETA_GRID) - 1)])
     a, bm = np.unravel_index(int(np.argmax(ll)), ll.shape)
     eta_hat = float(ETA_GRID[a])
+    # a best fit at the grid's healthy end means "no loss": report 1.0 with the interval
     if eta_hat >= ETA_GRID[-1]:
         eta_hat, hi = 1.0, 1.0
     return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)))
