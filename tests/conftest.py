@@ -36,3 +36,15 @@ def postgres():
         pytest.skip(f"no PostgreSQL server: {e}")
     yield pg
     pg.stop()
+
+
+@pytest.fixture
+def runlog(tmp_path, monkeypatch):
+    """A file every counting diagnosis appends its log to (serve_helpers.counting_diagnose), for
+    checking that each log was diagnosed once; the variable is inherited by spawned workers."""
+    from serve_helpers import RUNLOG_ENV
+
+    p = tmp_path / "runs.txt"
+    p.write_text("")
+    monkeypatch.setenv(RUNLOG_ENV, str(p))
+    return p

@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("fastapi")
 
-from serve_helpers import (AUTH, RUNLOG_ENV, SAMPLES, counting_diagnose, dying_diagnose,  # noqa: E402
+from serve_helpers import (AUTH, SAMPLES, counting_diagnose, dying_diagnose,  # noqa: E402
                            serve_client, upload, wait_done)
 
 from flightlog_fd.database import DatabaseError  # noqa: E402
@@ -28,14 +28,6 @@ def db_url(request, tmp_path):
     if request.param == "sqlite":
         return str(tmp_path / "store.sqlite")
     return request.getfixturevalue("postgres").url()
-
-
-@pytest.fixture
-def runlog(tmp_path, monkeypatch):
-    p = tmp_path / "runs.txt"
-    p.write_text("")
-    monkeypatch.setenv(RUNLOG_ENV, str(p))  # inherited by the spawned worker processes
-    return p
 
 
 def test_concurrent_claims_take_each_job_once(db_url):

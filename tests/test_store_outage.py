@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("fastapi")
 
-from serve_helpers import (AUTH, RUNLOG_ENV, SAMPLES, counting_diagnose, pg_halt, pg_resume,  # noqa: E402
+from serve_helpers import (AUTH, SAMPLES, counting_diagnose, pg_halt, pg_resume,  # noqa: E402
                            serve_client, upload, wait_done)
 
 from flightlog_fd.database import RECONNECT_GAP_S, StoreUnavailable, open_database  # noqa: E402
@@ -23,14 +23,6 @@ LOGS = ["ardupilot_motor2_damaged.bin", "px4_motor4_damaged.ulg", "ardupilot_plu
         "ardupilot_healthy.bin", "px4_motor2_damaged.ulg", "ardupilot_motor3_damaged.bin"]
 #: Seconds the store stays away in these tests (results/store_outage.md: 10 s, measured).
 OUTAGE_S = 4.0
-
-
-@pytest.fixture
-def runlog(tmp_path, monkeypatch):
-    p = tmp_path / "runs.txt"
-    p.write_text("")
-    monkeypatch.setenv(RUNLOG_ENV, str(p))  # inherited by the spawned worker processes
-    return p
 
 
 @pytest.fixture(params=["sqlite", "postgres"])

@@ -309,13 +309,18 @@ def create_app(cfg: ServeConfig):
         where = ".".join(str(x) for x in first.get("loc", ()) if x not in ("body", "query", "path"))
         return error_response(request, 400, f"bad request: {where or 'input'}: {first.get('msg', 'invalid')}")
 
+    def error_or_plain(request: Request, status: int, message: str):
+        """The error page, or one plain line when the page itself cannot be made (it asks the
+        store for the job counts, which may be what failed)."""
+        try:
+            return error_response(request, status, message)
+        except Exception:
+            return PlainTextResponse(message, status_code=status)
+
     @app.exception_handler(StoreUnavailable)
     async def _store_down(request: Request, exc: StoreUnavailable):
         message = f"{exc.message} ({store.db.where}); the server reconnects by itself: try again in a few seconds"
-        try:
-            resp = error_response(request, 503, message)
-        except Exception:
-            resp = PlainTextResponse(message, status_code=503)
+        resp = error_or_plain(request, 503, message)
         resp.headers["Retry-After"] = str(RETRY_AFTER_S)
         return resp
 
@@ -326,13 +331,8 @@ def create_app(cfg: ServeConfig):
     @app.exception_handler(Exception)
     async def _internal(request: Request, exc: Exception):
         # Starlette answers unhandled errors outside the middleware stack: the security headers
-        # are added here. The page itself asks the store for the job counts, which may be what
-        # failed: then a plain line.
-        message = f"internal error: {type(exc).__name__}"
-        try:
-            resp = error_response(request, 500, message)
-        except Exception:
-            resp = PlainTextResponse(message, status_code=500)
+        # are added here.
+        resp = error_or_plain(request, 500, f"internal error: {type(exc).__name__}")
         for k, v in SECURITY_HEADERS.items():
             resp.headers.setdefault(k, v)
         return resp
