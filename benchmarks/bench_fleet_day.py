@@ -35,13 +35,14 @@ import sqlite3
 import statistics
 import subprocess
 import sys
-import tarfile
 import tempfile
 import threading
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_cli import extract  # noqa: E402  the package tree of a git revision
 SHARED = ROOT.parent / "shared"
 GOAL_FLIGHT_HOURS_PER_CPU_HOUR = 5000.0
 TOKEN = "fleet-day-token-0123456789abcdef"
@@ -88,15 +89,6 @@ def simulated_logs(cache: Path, n: int) -> list[Path]:
             (write_ulog if fmt == "ulog" else write_dataflash)(fl, paths[i])
         print(f"  simulated {profile} {seconds} s ({len(copies)} logs) in {time.perf_counter() - t:.0f} s", flush=True)
     return paths
-
-
-def extract(rev: str, into: Path) -> Path:
-    archive = into / "tree.tar"
-    subprocess.run(["git", "-C", str(ROOT), "archive", "-o", str(archive), rev, "flightlog_fd", "training", "models"],
-                   check=True)
-    with tarfile.open(archive) as tar:
-        tar.extractall(into / "tree")
-    return into / "tree"
 
 
 def _env(tree: Path | None) -> dict:

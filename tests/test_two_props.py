@@ -28,6 +28,7 @@ from flightlog_fd.sim.damage import (Damage, DamageArrays, feasible, hover_comma
 from flightlog_fd.timeline import Timeline
 
 from conftest import shared_path
+from test_decision import window_probs  # noqa: E402  n windows voting for one class
 
 runner = CliRunner()
 X500 = preset("x500")
@@ -165,14 +166,6 @@ def test_effectiveness_pair_evidence_follows_the_estimators_normalisation():
                                    Frame.quad_plus())
     assert -2.5 < plus[(1, 2)] < 0 and plus[(3, 4)] == pytest.approx(plus[(1, 2)]) and plus[(1, 3)] < plus[(1, 2)] - 2
     assert effectiveness_pair_llrs(EffectivenessEstimate(informative=False), Frame.quad_x()) == {}
-
-
-def window_probs(motor: int, p_motor: float, n: int = 60) -> np.ndarray:
-    p = np.full((n, 5), 0.01)
-    p[:, motor] = p_motor
-    if motor != 0:
-        p[:, 0] = 1.0 - p[:, 1:].sum(axis=1)
-    return p / p.sum(axis=1, keepdims=True)
 
 
 def test_model_sees_at_most_one_member_of_a_pair():
