@@ -115,11 +115,6 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
     from ..diagnose import Diagnosis, diagnose_flight
     from ..errors import FlightLogError
     from ..profile import Profile
-    from ..report.csv_report import render_csv
-    from ..report.html_report import render_html
-    from ..report.json_report import to_dict
-    from ..report.terminal import verdict_sentence
-    from ..store import utc_iso
     from ..util import file_sha256
     from ..decision import not_diagnosable
 
@@ -134,6 +129,20 @@ def diagnose_task(log_path: str, sha256: str, name: str, reports_dir: str, profi
         d = diagnose_flight(flight, _model_for(prof), prof, keep_flight=True)
     except FlightLogError as e:
         d = Diagnosis(log=name, verdict=not_diagnosable(e.message))
+    return task_result(d, flight, sha256, name, reports_dir, prof_sha)
+
+
+def task_result(d: Any, flight: Any, sha256: str, name: str, reports_dir: str, prof_sha: str = "") -> dict:
+    """What the store keeps of one diagnosis ``d`` of ``flight`` (None when it could not be read),
+    named ``name``: writes ``reports_dir/<sha>.html`` and ``.csv``; a report that cannot be drawn
+    costs that file and a warning on the flight's page, never the diagnosis. The tests feed it a
+    diagnosis made once (every log of ../shared through the flight page)."""
+    from ..report.csv_report import render_csv
+    from ..report.html_report import render_html
+    from ..report.json_report import to_dict
+    from ..report.terminal import verdict_sentence
+    from ..store import utc_iso
+
     d.log = name
     if d.facts is not None:
         d.facts.path = name
