@@ -20,6 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
+from .report.words import cause_words
+
 MIN_FLIGHTS = 3
 DRIFT_SLOPE_MIN = 0.5  # robust z per flight, in the damage direction
 DRIFT_Z_MIN = 2.0  # latest flight's robust z, in the damage direction
@@ -39,7 +41,8 @@ def verdict_words(status: Optional[str], motor: Optional[int], motors: list, pai
     named = list(motors) if pair and len(motors or []) > 1 else ([motor] if motor else [])
     if not named:
         return status
-    why = ", motor or ESC" if cause == "motor_or_esc" and len(named) == 1 else ""
+    tag = cause_words(cause).tag
+    why = f", {tag}" if tag and len(named) == 1 else ""
     if short:
         return f"{status} " + "+".join(f"m{k}" for k in named) + why
     if len(named) == 1:

@@ -16,6 +16,7 @@ from typing import Iterable, Optional
 
 from .drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS, FlightRecord, find_drift, verdict_words
 from .report.motor_view import summary_cell, summary_header
+from .report.words import cause_words
 from .store import TREND_FIGURES, UNKNOWN_VEHICLE
 
 def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
@@ -56,15 +57,13 @@ def _damaged_motors(f: FlightRecord) -> list[int]:
 
 
 def _latest_words(latest: dict) -> str:
-    """"propeller 3 damaged" / "propellers 1 and 4 damaged" / "motor 2 or its ESC weak" for the
-    latest-flight flag."""
+    """"propeller 3 damaged" / "propellers 1 and 4 damaged" / "motor 2 or its ESC weak" / "rotor 3
+    lost thrust (propeller, motor or ESC)" (no cause known) for the latest-flight flag."""
     motors = latest.get("motors") or ([latest["motor"]] if latest.get("motor") else [])
     if len(motors) > 1:
         return f"propellers {', '.join(map(str, motors[:-1]))} and {motors[-1]} damaged"
     motor = motors[0] if motors else latest.get("motor")
-    if latest.get("cause") == "motor_or_esc":
-        return f"motor {motor} or its ESC weak"
-    return f"propeller {motor} damaged"
+    return cause_words(latest.get("cause")).named(motor)
 
 
 # ----------------------------------------------------------------------------- html

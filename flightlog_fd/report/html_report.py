@@ -36,10 +36,10 @@ from ..diagnose import Diagnosis
 from ..flight import Series
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
+from .panels import missing_line, missing_panels
 from .terminal import verdict_sentence
-
-#: The likely cause of a named rotor's lost thrust, in words (decision.Verdict.cause).
-CAUSE_WORDS = {"propeller": "the propeller", "motor_or_esc": "the motor or its ESC"}
+from .vibration_view import VibrationPlot, vibration_and_gaps, vibration_plot
+from .words import cause_words
 
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
 MAX_POINTS_PER_LINE = 1600
@@ -237,7 +237,7 @@ def _facts_table(d: Diagnosis) -> str:
     v = d.verdict
     rows.append(("reason", v.reason))
     if v.cause_evidence:
-        rows.append(("likely cause", f"{CAUSE_WORDS.get(v.cause, 'unknown')}: {v.cause_evidence['reason']}"))
+        rows.append(("likely cause", f"{cause_words(v.cause).likely}: {v.cause_evidence['reason']}"))
     for i, a in enumerate(v.advice):
         rows.append(("to resolve it" if i == 0 else "", advice_line(a)))
     if d.timeline is not None and d.timeline.shortfall is None:
@@ -308,6 +308,10 @@ def log_section(d: Diagnosis) -> str:
     out.append(f'<div class="row">{_facts_table(d)}{motor_panel(d)}</div>')
     t0, t1 = _time_span(d)
     fl = d.flight
+    vp, gaps = vibration_and_gaps(fl, d) if fl is not None else (None, [])
+    missing = missing_line(missing_panels(d, gaps))
+    if missing:
+        out.append(f'<p class="muted missing">{esc(missing)}</p>')
     if fl is not None:
         if fl.rates is not None:
             out.append(svg_plot("Angular rates", "deg/s", _series_lines(fl.rates, ("p (roll)", "q (pitch)", "r (yaw)"),
@@ -317,8 +321,8 @@ def log_section(d: Diagnosis) -> str:
                      else f"motor {k + 1}" for k in range(fl.motors.values.shape[1])]
             out.append(svg_plot(f"Motor commands ({fl.motor_kind})", "command 0..1",
                                 _series_lines(fl.motors, names), t0, t1, d, y_range=(0.0, 1.0)))
-    if fl is not None:
-        out.append(vibration_svgs(d))
+    if vp is not None:
+        out.append(vibration_svgs(d, vp))
     if d.windows:
         centres = np.array([(w.t_start + w.t_end) / 2 for w in d.windows])
         probs = np.array([w.probabilities for w in d.windows])
@@ -326,19 +330,19 @@ def log_section(d: Diagnosis) -> str:
         lines = [(names[k], centres, probs[:, k]) for k in range(probs.shape[1])]
         out.append(svg_plot("Class probabilities per window", "probability", lines, t0, t1, d, y_range=(0.0, 1.0),
                             colours=(HEALTHY_COLOUR,) + LINE_COLOURS))
-        out.append('<p class="muted">Background: green healthy, red propeller damaged, amber uncertain '
-                   "(the verdict's smoothed window labels); white: no window (on the ground or not used).</p>")
+        out.append(f'<p class="muted">Background: green healthy, red {esc(cause_words(v.cause).lost)}, amber '
+                   "uncertain (the verdict's smoothed window labels); white: no window (on the ground or not "
+                   "used).</p>")
         out.append(_window_table(d))
     out.append("</section>")
     return "".join(out)
 
 
-def vibration_svgs(d: Diagnosis) -> str:
+def vibration_svgs(d: Diagnosis, vp: Optional[VibrationPlot] = None) -> str:
     """Vibration over time per IMU with its healthy reference (dashed), and the gyro spectrum with
-    the rotor rates marked (:mod:`flightlog_fd.report.vibration_view`); "" without vibration data."""
-    from .vibration_view import vibration_plot
-
-    vp = vibration_plot(d.flight, d)
+    the rotor rates marked (:mod:`flightlog_fd.report.vibration_view`; ``vp`` when already made);
+    "" without vibration data to draw."""
+    vp = vp if vp is not None else vibration_plot(d.flight, d)
     if vp is None:
         return ""
     out = ['<h3>Vibration</h3>']
@@ -350,7 +354,7 @@ def vibration_svgs(d: Diagnosis) -> str:
             name = "healthy reference"
             lines.append((name, np.array([t0, t1]), np.array([vp.reference, vp.reference])))
             dashed.append(name)
-        top = max(float(np.nanmax(y)) for _, _, y in lines if np.isfinite(y).any())
+        top = max((float(np.nanmax(y)) for _, _, y in lines if np.isfinite(y).any()), default=1.0)
         out.append(svg_plot(f"Vibration level per IMU ({vp.unit})", vp.unit, lines, t0, t1, d,
                             y_range=(0.0, max(top * 1.05, 1e-6)), dashed=dashed))
         ref = (f"; dashed: {vp.reference_label} ({vp.reference:.3g} {vp.unit})" if vp.reference is not None
@@ -381,8 +385,9 @@ def _summary(diagnoses: Sequence[Diagnosis]) -> str:
             prop = " and ".join(f"{k} ({p})" if p else str(k) for k, p in zip(v.motors, v.positions))
         else:
             prop = f"{v.motor} ({v.position})" if v.motor and v.position else (str(v.motor) if v.motor else "")
-            if prop and v.cause == "motor_or_esc":
-                prop += ": motor or ESC"
+            tag = cause_words(v.cause).tag
+            if prop and tag:
+                prop += f": {tag}"
         cells = [d.log, v.status, prop, f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "",
                  f"t={v.first_seen:.1f} s" if v.first_seen is not None else "", str(d.exit_code)]
         rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")

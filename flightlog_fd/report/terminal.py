@@ -33,6 +33,7 @@ from ..decision import THIN_TIMELINE_SHARE
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names, short_position
+from .words import cause_words
 
 #: Characters in the timeline strip (fits an 80-column terminal with its time labels).
 TIMELINE_WIDTH = 60
@@ -99,6 +100,12 @@ def timeline_strip(diagnosis: Diagnosis, width: int = TIMELINE_WIDTH) -> Text:
             text.append(LABEL_CHARS[label], style=LABEL_STYLES[label])
     text.append(f" t={t1:.1f} s", style="dim")
     return text
+
+
+def timeline_legend(n_motors: int, cause) -> str:
+    """The strip's legend; a rotor's characters in the verdict's cause's words
+    (:func:`~flightlog_fd.report.words.cause_words`): "  . healthy   1-4 motor or ESC weak   ? uncertain"."""
+    return f"  . healthy   1-{LABEL_CHARS[n_motors]} {cause_words(cause).lost}   ? uncertain"
 
 
 def window_table(diagnosis: Diagnosis) -> Table:
@@ -216,7 +223,7 @@ def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_wind
     if diagnosis.windows:
         parts.append(timeline_strip(diagnosis))
         n = len(diagnosis.windows[0].probabilities) - 1
-        parts.append(Text(f"  . healthy   1-{LABEL_CHARS[n]} propeller damaged   ? uncertain", style="dim"))
+        parts.append(Text(timeline_legend(n, v.cause), style="dim"))
     if diagnosis.flights:
         parts.append(Text(f"  {len(diagnosis.flights)} flights in this log, {several_flights_words(diagnosis)}:",
                           style="bold"))

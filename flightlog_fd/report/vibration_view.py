@@ -59,22 +59,27 @@ class VibrationPlot:
 
 
 def _raw_series(s, name: str) -> Optional[tuple[str, np.ndarray, np.ndarray]]:
-    """Horizontal RMS above FLOOR_HZ in SERIES_WINDOW_S blocks of a raw accelerometer Series."""
+    """Horizontal RMS above FLOOR_HZ in SERIES_WINDOW_S blocks of a raw accelerometer Series; a
+    block touching a missing (non-finite) sample is dropped, not the rest of the series after it
+    (a running sum carries a NaN forward: one lost sample blanked the whole panel)."""
     fs = s.rate_hz
     k = max(int(round(fs / FLOOR_HZ)), 1)
     n_blk = max(int(round(fs * SERIES_WINDOW_S)), 1)
     x = s.values[:, :2]
     if x.shape[0] <= 2 * k + n_blk:
         return None
-    c = np.cumsum(np.vstack([np.zeros((1, 2)), x]), axis=0)
+    good = np.isfinite(x).all(axis=1)
+    c = np.cumsum(np.vstack([np.zeros((1, 2)), np.where(good[:, None], x, 0.0)]), axis=0)
+    n_good = np.cumsum(np.r_[0, good.astype(np.int64)])
     floor = (c[k:] - c[:-k]) / k
+    floor[(n_good[k:] - n_good[:-k]) < k] = np.nan  # a floor over a missing sample is unknown
     d = x[k // 2: k // 2 + floor.shape[0]] - floor
     t = s.t[k // 2: k // 2 + floor.shape[0]]
     m = (d.shape[0] // n_blk) * n_blk
     sq = (d[:m] ** 2).sum(axis=1).reshape(-1, n_blk)
     tb = t[:m].reshape(-1, n_blk)
-    # a block spanning a gap in the samples (e.g. two flights) is dropped
-    ok = (tb[:, -1] - tb[:, 0]) <= 1.5 * SERIES_WINDOW_S
+    # a block spanning a gap in the samples (e.g. two flights), or a missing sample, is dropped
+    ok = ((tb[:, -1] - tb[:, 0]) <= 1.5 * SERIES_WINDOW_S) & np.isfinite(sq).all(axis=1)
     return name, tb[ok].mean(axis=1), np.sqrt(sq[ok].mean(axis=1))
 
 
@@ -121,11 +126,20 @@ def _marks(flight, result: Optional[VibrationResult]) -> list[tuple[float, str]]
 
 
 def vibration_plot(flight, diagnosis: Any = None) -> Optional[VibrationPlot]:
-    """The plots' data for one flight (module docstring); None when it logs no vibration."""
+    """The plots' data for one flight (module docstring); None when it logs no vibration or
+    nothing of it can be drawn (:func:`vibration_and_gaps` says why)."""
+    return vibration_and_gaps(flight, diagnosis)[0]
+
+
+def vibration_and_gaps(flight, diagnosis: Any = None) -> tuple[Optional[VibrationPlot], list[str]]:
+    """(the plots' data or None, what of them is not drawn and why): "vibration level (the
+    accelerometer's horizontal axes hold no samples)", "gyro spectrum (gyro logged at 100 Hz; rotor
+    lines need 100 Hz or more)". Every drawn line has a finite value."""
     v = getattr(flight, "vibration", None) if flight is not None else None
     if v is None:
-        return None
+        return None, ["vibration (no VIBE, vehicle_imu_status or raw IMU in this log)"]
     out = VibrationPlot()
+    why_level = ""
     if v.metrics:
         vibe = v.metric_kind == "ardupilot_vibe"
         for inst, s in sorted(v.metrics.items()):
@@ -133,15 +147,24 @@ def vibration_plot(flight, diagnosis: Any = None) -> Optional[VibrationPlot]:
             if x.shape[0] < 3 or not np.isfinite(x[:, 0]).any() or np.nanmax(np.abs(x[:, :2])) <= 0:
                 continue  # a board that never computes it logs zeros
             y = np.hypot(x[:, 0], x[:, 1]) if vibe else x[:, 0]
-            out.series.append((f"IMU {inst}", s.t, y))
+            if np.isfinite(y).any():
+                out.series.append((f"IMU {inst}", s.t, y))
         out.unit = "m/s/s" if vibe else "PX4 metric"
         out.source = "VIBE, horizontal sqrt(X² + Y²)" if vibe else "vehicle_imu_status.accel_vibration_metric"
+        if not out.series:
+            why_level = "the logged vibration metric is zero or empty throughout"
     if not out.series:
-        for s in v.imus:
-            if s.accel is not None and not s.batch and len(s.accel) > 2:
-                line = _raw_series(s.accel, f"IMU {s.instance}")
-                if line is not None and line[1].size:
-                    out.series.append(line)
+        raw = [s for s in v.imus if s.accel is not None and not s.batch and len(s.accel) > 2]
+        for s in raw:
+            line = _raw_series(s.accel, f"IMU {s.instance}")
+            if line is not None and np.isfinite(line[2]).any():
+                out.series.append(line)
+        if not raw:
+            why_level = why_level or "no vibration metric and no continuous raw accelerometer"
+        elif not out.series:
+            empty = all(not np.isfinite(s.accel.values[:, :2]).any() for s in raw)
+            why_level = ("the accelerometer's horizontal axes hold no samples" if empty
+                         else "too few consecutive accelerometer samples")
         out.unit = "m/s/s"
         out.source = (f"raw accelerometer, horizontal RMS above {FLOOR_HZ:.0f} Hz per {SERIES_WINDOW_S:.0f} s "
                       f"(a lower bound)")
@@ -150,12 +173,16 @@ def vibration_plot(flight, diagnosis: Any = None) -> Optional[VibrationPlot]:
         out.reference, out.reference_label = ref, words
     g = v.fastest("gyro", batch=False)
     iv = _intervals(flight)
-    if g is not None and g.gyro.rate_hz >= MIN_SPECTRUM_HZ and iv:
+    why_spectrum = ("no continuous raw gyro" if g is None else
+                    f"gyro logged at {g.gyro.rate_hz:.0f} Hz; rotor lines need {MIN_SPECTRUM_HZ:.0f} Hz or more"
+                    if g.gyro.rate_hz < MIN_SPECTRUM_HZ else "" if iv else "no airborne stretch long enough for a spectrum")
+    if not why_spectrum:
         f, p = spectrum(g.gyro, iv)
         band = (f >= LINE_MIN_HZ) & (f <= 0.95 * g.gyro.rate_hz / 2) & (p > 0)
-        if band.sum() >= 10:
+        why_spectrum = "" if band.sum() >= 10 else "too little airborne gyro for a spectrum"
+        if not why_spectrum:
             ref_p = float(np.median(p[band]))
-            keep = (f > 0) & (p > 0)
+            keep = (f > 0) & (p > 0) & np.isfinite(p)
             out.freq_hz, out.power_db = f[keep], 10.0 * np.log10(p[keep] / ref_p)
             out.spectrum_source = f"{g.gyro.source} at {g.gyro.rate_hz:.0f} Hz, horizontal, airborne"
             results = [r for d in ([diagnosis] + list(getattr(diagnosis, "flights", None) or [])
@@ -164,9 +191,11 @@ def vibration_plot(flight, diagnosis: Any = None) -> Optional[VibrationPlot]:
                        if isinstance(r, VibrationResult) and not r.abstained]
             out.marks = [(h, lab) for h, lab in _marks(flight, results[0] if results else None)
                          if 0 < h < g.gyro.rate_hz / 2]
+    gaps = ([f"vibration level ({why_level})"] if not out.series else []) + \
+        ([f"gyro spectrum ({why_spectrum})"] if out.freq_hz is None else [])
     if not out.series and out.freq_hz is None:
-        return None
-    return out
+        return None, [f"vibration ({why_level}; {why_spectrum})"]
+    return out, gaps
 
 
-__all__ = ["VibrationPlot", "vibration_plot", "SERIES_WINDOW_S"]
+__all__ = ["VibrationPlot", "vibration_plot", "vibration_and_gaps", "SERIES_WINDOW_S"]

@@ -43,6 +43,8 @@ from ..drift import DRIFT_SLOPE_MIN, DRIFT_Z_MIN, FIGURE_FLOORS, MIN_FLIGHTS, ve
 from ..database import StoreUnavailable
 from ..errors import FlightLogError
 from ..report.motor_view import MotorView, summary_cell, summary_header
+from ..report.panels import missing_line
+from ..report.words import cause_words
 from ..store import TREND_FIGURES, Store, parse_verdict_motors
 from .security import SESSION_COOKIE, Sessions, TokenSet, bearer
 from .worker import DataDir, JobRunner, diagnose_task
@@ -74,7 +76,8 @@ def named_motors(row: dict) -> str:
     words = verdict_words("x", row.get("motor"), list(motors or []), bool(row.get("pair")))
     if words == "x":
         return ""
-    why = " (motor or ESC)" if row.get("cause") == "motor_or_esc" and not (row.get("pair") and len(motors or []) > 1) else ""
+    tag = cause_words(row.get("cause")).tag
+    why = f" ({tag})" if tag and not (row.get("pair") and len(motors or []) > 1) else ""
     return f" \u00b7 {words[3:-1]}{why}"
 
 
@@ -199,6 +202,8 @@ def create_app(cfg: ServeConfig):
     env.filters["q"] = lambda s: quote(str(s), safe="")
     env.globals.update(summary_header=summary_header, summary_cell=summary_cell)  # the per-motor summary names
     env.globals["named_motors"] = named_motors
+    env.globals["cause_words"] = cause_words  # legends and labels in the verdict's cause's words
+    env.globals["missing_line"] = missing_line  # the streams a flight's plots lack, in one line
 
     watcher = None
     if cfg.watch:
@@ -572,7 +577,9 @@ def create_app(cfg: ServeConfig):
                    if isinstance(w, dict) and w.get("t_start") is not None]
         airframe = store.resolve(f["airframe"]) if f["airframe"] else None
         return page(request, "flight.html", f=f, doc=doc, mview=mview, mheader=mheader, mrows=mrows,
-                    plotdata={"plot": plot, "windows": windows}, airframe=airframe, parts=store.flight_parts(fid),
+                    plotdata={"plot": plot, "windows": windows,
+                              "rotor_word": cause_words(((doc or {}).get("verdict") or {}).get("cause")).short},
+                    airframe=airframe, parts=store.flight_parts(fid),
                     has_html=data.report_path(f["sha256"], "html").exists(),
                     has_csv=data.report_path(f["sha256"], "csv").exists())
 

@@ -84,15 +84,19 @@ def _line(name: str, t, y) -> dict:
 
 def plot_series(flight, diagnosis: Any = None) -> dict:
     """Decimated angular rates (deg/s) and motor commands (0..1) of a flight, and its vibration
-    (:func:`flightlog_fd.report.vibration_view.vibration_plot`, with the diagnosis's reference),
-    for the flight page."""
-    from ..report.vibration_view import vibration_plot
+    (:func:`flightlog_fd.report.vibration_view.vibration_and_gaps`, with the diagnosis's
+    reference), for the flight page; ``missing``: the streams not drawn and why
+    (:func:`flightlog_fd.report.panels.missing_panels`)."""
+    from ..report.panels import missing_panels
+    from ..report.vibration_view import vibration_and_gaps
 
     out: dict[str, Any] = {"rates": [], "motors": [], "motor_kind": getattr(flight, "motor_kind", ""),
-                           "vibration": None}
+                           "vibration": None, "missing": []}
     if flight is None:
         return out
-    vp = vibration_plot(flight, diagnosis)
+    vp, gaps = vibration_and_gaps(flight, diagnosis)
+    if diagnosis is not None and getattr(diagnosis, "flight", None) is flight:
+        out["missing"] = missing_panels(diagnosis, gaps)
     if vp is not None:
         out["vibration"] = vp.to_json(_line)
     if flight.rates is not None and len(flight.rates):

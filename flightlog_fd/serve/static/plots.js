@@ -39,7 +39,7 @@ function fdlogFlight() {
     var nClasses = w[0].p.length;  // healthy + one class per rotor
     for (var k = 0; k < nClasses; k++) {
       (function (k) {
-        traces.push({x: cx, y: w.map(function (x) { return x.p[k]; }), name: "P(" + (k ? "prop " + k : "healthy") + ")",
+        traces.push({x: cx, y: w.map(function (x) { return x.p[k]; }), name: "P(" + (k ? (d.rotor_word || "rotor") + " " + k : "healthy") + ")",
                      yaxis: "y3", mode: "lines", legendgroup: "classes",
                      line: {width: 1.5, color: k ? MOTOR_COLOURS[(k - 1) % MOTOR_COLOURS.length] : "#222222"}});
       })(k);

@@ -1,0 +1,175 @@
+"""Every output of one diagnosed log, checked: the helpers of the test_outputs_* files (one per
+dataset of ../shared) and of ``benchmarks/every_output.py``.
+
+A log is diagnosed ONCE (``batch.diagnose_one``, the CLI's own path, keeping the flight for the
+plots); :func:`output_problems` draws every report from that one result: the terminal with
+``--windows``, JSON (validated), CSV, HTML and the ``--db`` store; :class:`FlightPages` stores it
+as the fleet page's finished job (the server's own :func:`~flightlog_fd.serve.worker.task_result`)
+and fetches its flight page through the app, one store for all the logs of a test file. Each
+returns the problems it found (a traceback's last frame, or two outputs that say different
+things), [] when every output agrees with the diagnosis. Importable without pytest state.
+"""
+from __future__ import annotations
+
+import csv
+import html
+import io
+import json
+import re
+import tempfile
+import traceback
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+SAMPLES = ROOT / "sample_logs"
+LOG_SUFFIXES = (".ulg", ".bin")
+
+
+def log_files(folder: Path) -> list[Path]:
+    """Every log under ``folder`` (ULog or DataFlash by suffix, any case), sorted."""
+    return sorted(p for p in Path(folder).rglob("*") if p.is_file() and p.suffix.lower() in LOG_SUFFIXES)
+
+
+def shared_datasets() -> list[Path]:
+    """Every folder of ../shared holding logs ([] without ../shared)."""
+    if not SHARED.is_dir():
+        return []
+    return sorted(p for p in SHARED.iterdir() if p.is_dir() and log_files(p))
+
+
+def _attempt(bad: list[str], what: str, fn: Callable[[], Any]) -> Any:
+    try:
+        return fn()
+    except Exception as e:  # the problem found, with where it was raised
+        tb = traceback.extract_tb(e.__traceback__)[-1]
+        bad.append(f"{what}: {type(e).__name__}: {str(e)[:160]} ({Path(tb.filename).name}:{tb.lineno})")
+        return None
+
+
+def output_problems(res: Any, store: Any = None, run: Any = None) -> list[str]:
+    """What is wrong with the outputs of one ``LogResult`` (module docstring); ``store`` and
+    ``run``: a :class:`~flightlog_fd.store.Store` and its RunInfo to write the result to."""
+    from rich.console import Console
+
+    from flightlog_fd.report import terminal
+    from flightlog_fd.report.csv_report import render_csv
+    from flightlog_fd.report.html_report import render_html
+    from flightlog_fd.report.json_report import render_json, validate
+    from flightlog_fd.report.words import cause_words
+
+    d = res.diagnosis
+    v = d.verdict
+    bad: list[str] = []
+    if "internal error" in (v.reason or ""):
+        bad.append(f"diagnose: {v.reason}")
+    want = (v.status, v.motor)
+    lost = cause_words(v.cause).lost
+
+    def term() -> str:
+        con = Console(file=io.StringIO(), width=80, color_system=None)
+        terminal.render(d, con, show_windows=True)
+        return con.file.getvalue()
+
+    text = _attempt(bad, "terminal", term)
+    if text is not None:
+        if " ".join(terminal.verdict_sentence(d).split()) not in " ".join(text.split()):
+            bad.append("terminal: no verdict sentence")
+        if d.windows and f"{lost}   ? uncertain" not in text:
+            bad.append(f"terminal: the timeline legend does not say {lost!r} (cause {v.cause})")
+    doc = _attempt(bad, "json", lambda: json.loads(render_json(d)))
+    if doc is not None:
+        errs = validate(doc)
+        if errs:
+            bad.append(f"json: invalid: {errs[:2]}")
+        jv = doc["verdict"]
+        if (jv["status"], jv["motor"], jv["cause"]) != (*want, v.cause):
+            bad.append(f"json: verdict {jv['status']} {jv['motor']} {jv['cause']} != {want} {v.cause}")
+    rows = _attempt(bad, "csv", lambda: list(csv.reader(io.StringIO(render_csv(d)))))
+    if rows:
+        if {len(r) for r in rows} != {len(rows[0])}:
+            bad.append("csv: rows of different widths")
+        h = rows[0]
+        got = {(r[h.index("verdict")], r[h.index("verdict_motor")], r[h.index("verdict_cause")]) for r in rows[1:]}
+        if len(rows) != len(d.windows) + 1 or (got and got != {(v.status, str(v.motor or ""), v.cause or "")}):
+            bad.append(f"csv: {len(rows) - 1} rows for {len(d.windows)} windows, verdict {got} != {want} {v.cause}")
+    page = _attempt(bad, "html", lambda: render_html(d))
+    if page is not None:
+        if html.escape(terminal.verdict_sentence(d), quote=True) not in page:
+            bad.append("html: the verdict sentence is not the terminal's")
+        if d.windows and f"red {html.escape(lost, quote=True)}," not in page:
+            bad.append(f"html: the background legend does not say {lost!r}")
+        if d.flight is not None and d.flight.motors is not None and len(d.flight.motors) \
+                and "Motor commands" not in page:
+            bad.append("html: no motor commands panel")
+    if store is not None and res.log_sha256:
+        fid = _attempt(bad, "store", lambda: store.add_result(res, run))
+        if fid is not None:
+            row = store.flight(fid)
+            if (row["status"], row["motor"], row["cause"]) != (*want, v.cause):
+                bad.append(f"store: verdict {row['status']} {row['motor']} {row['cause']} != {want} {v.cause}")
+    return bad
+
+
+class FlightPages:
+    """The fleet page (``fdlog serve``'s app, no job workers) over one store in a temporary
+    folder: :meth:`problems` stores a diagnosis as its finished job and reads its flight page."""
+
+    def __init__(self, root: Optional[Path] = None):
+        from fastapi.testclient import TestClient
+
+        from flightlog_fd.serve.app import ServeConfig, create_app
+        from flightlog_fd.serve.security import TokenSet
+        from flightlog_fd.store import Store
+
+        self._tmp = None if root is not None else tempfile.TemporaryDirectory(prefix="fdlog-pages-")
+        self.root = Path(root if root is not None else self._tmp.name)
+        app = create_app(ServeConfig(data_dir=self.root, tokens=TokenSet(["t" * 24]), workers=0))
+        self.client = TestClient(app, raise_server_exceptions=False).__enter__()
+        self.store = Store(self.root / "fdlog.sqlite")
+        self.n = 0
+
+    def close(self) -> None:
+        self.client.__exit__(None, None, None)
+        self.store.close()
+        if self._tmp is not None:
+            self._tmp.cleanup()
+
+    def problems(self, res: Any, path: Path) -> list[str]:
+        """What is wrong with the flight page of ``res`` (a LogResult of ``path``)."""
+        from flightlog_fd.report.words import cause_words
+        from flightlog_fd.serve.worker import task_result
+
+        bad: list[str] = []
+        d, v = res.diagnosis, res.diagnosis.verdict
+        self.n += 1
+        sha = res.log_sha256 or f"{self.n:064x}"
+        out = _attempt(bad, "flight page (worker)",
+                       lambda: task_result(d, d.flight, sha, path.name, str(self.root / "reports")))
+        if out is None:
+            return bad
+        bad += [f"flight page: {w}" for w in out["diagnosis"]["warnings"] if "could not be drawn" in w]
+        fid, _ = self.store.add_upload(sha, path.name, path.stat().st_size,
+                                       "ulog" if path.suffix.lower() == ".ulg" else "dataflash")
+        job = self.store.claim_job("tests")
+        self.store.complete_diagnosis(job, "tests", out)
+        r = self.client.get(f"/flights/{fid}")
+        if r.status_code != 200:
+            return bad + [f"flight page: HTTP {r.status_code}"]
+        m = re.search(r'data-status="([^"]*)"', r.text)
+        if m is None or m.group(1) != v.status:
+            bad.append(f"flight page: status {m.group(1) if m else None} != {v.status}")
+        row = self.store.flight(fid)
+        if (row["status"], row["motor"]) != (v.status, v.motor):
+            bad.append(f"flight page store: {row['status']} {row['motor']} != {v.status} {v.motor}")
+        lost = html.escape(cause_words(v.cause).lost, quote=True)
+        if d.windows and f"red {lost}," not in r.text:
+            bad.append(f"flight page: the plot legend does not say {cause_words(v.cause).lost!r}")
+        if d.flight is not None and out["plot"].get("missing") and 'id="missing"' not in r.text:
+            bad.append("flight page: the missing streams are not said")
+        if v.status != "not_diagnosable":
+            for ext in ("html", "csv"):
+                if self.client.get(f"/flights/{fid}/report.{ext}").status_code != 200:
+                    bad.append(f"flight page: no {ext.upper()} report")
+        return bad
