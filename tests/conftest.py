@@ -48,3 +48,15 @@ def runlog(tmp_path, monkeypatch):
     p.write_text("")
     monkeypatch.setenv(RUNLOG_ENV, str(p))
     return p
+
+
+@pytest.fixture(scope="module")
+def every_output(tmp_path_factory):
+    """Callable: ``every_output(path)`` diagnoses the log once and returns the problems of every
+    output drawn from that result (output_checks.OutputRun: terminal, JSON, CSV, HTML, the store
+    and the flight page, one store and one app per test file)."""
+    from output_checks import OutputRun
+
+    run = OutputRun(tmp_path_factory.mktemp("every_output"))
+    yield run.check
+    run.close()

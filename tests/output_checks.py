@@ -12,6 +12,7 @@ things), [] when every output agrees with the diagnosis. Importable without pyte
 from __future__ import annotations
 
 import csv
+import dataclasses
 import html
 import io
 import json
@@ -145,8 +146,11 @@ class FlightPages:
         d, v = res.diagnosis, res.diagnosis.verdict
         self.n += 1
         sha = res.log_sha256 or f"{self.n:064x}"
+        # the worker names the report after the upload: a copy, so the caller's diagnosis stays as it was
+        mine = dataclasses.replace(d, warnings=list(d.warnings),
+                                   facts=dataclasses.replace(d.facts) if d.facts is not None else None)
         out = _attempt(bad, "flight page (worker)",
-                       lambda: task_result(d, d.flight, sha, path.name, str(self.root / "reports")))
+                       lambda: task_result(mine, d.flight, sha, path.name, str(self.root / "reports")))
         if out is None:
             return bad
         bad += [f"flight page: {w}" for w in out["diagnosis"]["warnings"] if "could not be drawn" in w]
@@ -173,3 +177,68 @@ class FlightPages:
                 if self.client.get(f"/flights/{fid}/report.{ext}").status_code != 200:
                     bad.append(f"flight page: no {ext.upper()} report")
         return bad
+
+
+class OutputRun:
+    """One test file's run: the shipped model, a ``--db`` store and the fleet page, shared by its
+    logs; :meth:`check` diagnoses one log once and returns every output's problems."""
+
+    def __init__(self, root: Path):
+        from flightlog_fd.diagnose import resolve_model
+        from flightlog_fd.store import RunInfo, Store
+
+        self.model = resolve_model()
+        self.store, self.run = Store(Path(root) / "cli.sqlite"), RunInfo.for_batch(self.model)
+        self.pages = FlightPages(Path(root) / "serve")
+
+    def check(self, path: Path) -> list[str]:
+        from flightlog_fd.batch import diagnose_one
+
+        return self.problems(diagnose_one(0, path, self.model, keep_flight=True), path)
+
+    def problems(self, res: Any, path: Path) -> list[str]:
+        """Every output's problems for a result made already (a LogResult of ``path``)."""
+        return output_problems(res, self.store, self.run) + self.pages.problems(res, path)
+
+    def close(self) -> None:
+        self.pages.close()
+        self.store.close()
+
+
+def shared_log_params(*datasets: str) -> list:
+    """pytest params: every log of these ../shared datasets (id: dataset/relative path), or one
+    skipped param saying why when ../shared or a dataset is absent."""
+    import pytest
+
+    out = []
+    for ds in datasets:
+        folder = SHARED / ds
+        files = log_files(folder) if folder.is_dir() else []
+        if not files:
+            out.append(pytest.param(None, id=ds, marks=pytest.mark.skip(reason=f"../shared/{ds} not available")))
+        out += [pytest.param(p, id=f"{ds}/{p.relative_to(folder)}") for p in files]
+    return out
+
+
+def cli_exit_problems(path: Path, tmp: Path) -> list[str]:
+    """``fdlog diagnose LOG --windows --json --csv --html --db`` as a user runs it (the installed
+    command, a process of its own): no traceback, and the exit code the documented one for the
+    verdict its JSON states (0 healthy, 1 damaged / uncertain / stopped, 2 not diagnosable)."""
+    import subprocess
+    import sys
+
+    fdlog = Path(sys.executable).parent / "fdlog"
+    r = subprocess.run([str(fdlog), "diagnose", str(path), "--windows", "--json", "--csv", str(tmp / "r.csv"),
+                        "--html", str(tmp / "r.html"), "--db", str(tmp / "r.sqlite")],
+                       capture_output=True, text=True, timeout=300)
+    bad = [f"CLI: traceback: {r.stderr[-300:]}"] if "Traceback" in r.stdout + r.stderr else []
+    try:
+        status = json.loads(r.stdout)["verdict"]["status"]
+    except (ValueError, KeyError, TypeError):
+        return bad + [f"CLI: no JSON on stdout (exit {r.returncode}): {r.stderr[-300:]}"]
+    want = {"healthy": 0, "damaged": 1, "uncertain": 1, "stopped": 1}.get(status, 2)
+    if r.returncode != want:
+        bad.append(f"CLI: exit {r.returncode} for {status} (documented: {want})")
+    if want != 2 and not (tmp / "r.html").is_file():
+        bad.append("CLI: no HTML report written")
+    return bad

@@ -16,7 +16,8 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from flightlog_fd.cli import app
-from flightlog_fd.diagnose import diagnose_path, resolve_model
+from flightlog_fd.batch import diagnose_one
+from flightlog_fd.diagnose import resolve_model
 from flightlog_fd.report import terminal
 from flightlog_fd.report.csv_report import render_csv
 from flightlog_fd.report.html_report import render_html
@@ -30,10 +31,31 @@ runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
-def diagnoses():
-    """Log name -> Diagnosis (with its flight, for the HTML plots), each sample diagnosed once."""
+def results():
+    """Log name -> LogResult (the CLI's path, with the flight for the plots), each sample diagnosed once."""
     model = resolve_model()
-    return {p.name: diagnose_path(p, model) for p in SAMPLE_FILES}
+    return {p.name: diagnose_one(0, p, model, keep_flight=True) for p in SAMPLE_FILES}
+
+
+@pytest.fixture(scope="module")
+def diagnoses(results):
+    """Log name -> Diagnosis (with its flight, for the HTML plots)."""
+    return {name: r.diagnosis for name, r in results.items()}
+
+
+def test_every_output_of_every_sample_says_the_same_verdict(results, tmp_path):
+    """tests/output_checks.py on the samples' one diagnosis each: the terminal with --windows, JSON,
+    CSV, HTML, the store and the flight page agree with it (status, motor, the cause's words);
+    the test_outputs_* files do the same for every log of ../shared."""
+    pytest.importorskip("fastapi", reason="the serve extra is not installed")
+    from output_checks import OutputRun
+
+    run = OutputRun(tmp_path)
+    try:
+        problems = {name: run.problems(r, SAMPLES / name) for name, r in results.items()}
+    finally:
+        run.close()
+    assert {k: v for k, v in problems.items() if v} == {}
 
 
 def test_the_samples_cover_every_frame_and_kind(diagnoses):

@@ -191,7 +191,7 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
 
     res = runner.invoke(app, ["history", "--db", str(db)])
     assert res.exit_code == 1  # sim-12-0's latest (only) flight is damaged
-    assert "sim-12-0" in res.stdout and "propeller 1 damaged" in res.stdout
+    assert "sim-12-0" in res.stdout and "rotor 1 lost thrust (propeller, motor or ESC)" in res.stdout  # no ESC rpm
     res = runner.invoke(app, ["history", "--db", str(db), "--vehicle", "sim-11-0", "--json"])
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)

@@ -64,7 +64,7 @@ def test_a_results_store_of_the_current_release_is_upgraded_in_place(tmp_path, v
             assert all(f["direction"] in ("up", "down", "") for f in finds)
         assert {a["key"] for a in store.fleet()} == {"sim-12-0", "unknown"}  # the web fleet page reads it too
     res = runner.invoke(app, ["history", "--db", str(db)])
-    assert res.exit_code == 1 and "propeller 1 damaged" in res.stdout
+    assert res.exit_code == 1 and "rotor 1 lost thrust (propeller, motor or ESC)" in res.stdout  # no ESC rpm: no cause
     # the new code writes into it: the same log again replaces its diagnosis, now with every figure
     res = runner.invoke(app, ["diagnose", str(SAMPLES / "px4_motor1_damaged.ulg"), "--db", str(db)])
     assert res.exit_code == 1, res.output

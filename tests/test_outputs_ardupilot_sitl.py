@@ -1,0 +1,30 @@
+"""Every output on every log of ``../shared/ardupilot_sitl_hexa`` and ``ardupilot_sitl_quad``
+(ArduCopter SITL: stopped motors, a weak motor with ESC telemetry) (``tests/output_checks.py``):
+each log diagnosed once through the library; the terminal with --windows, JSON, CSV, HTML, the --db
+store and the fleet page's flight page drawn from that one result, all saying the same verdict, in
+the words of its cause; and ``fdlog diagnose`` run as a user runs it on the weak-motor log and a
+stopped motor, for its exit code. Skipped, saying so, where ../shared is absent."""
+from __future__ import annotations
+
+import pytest
+from output_checks import SHARED, cli_exit_problems, shared_log_params
+
+DATASETS = ('ardupilot_sitl_hexa', 'ardupilot_sitl_quad')
+#: Logs run through the installed CLI (a process each): a damaged verdict whose cause is the motor or ESC, and a stopped motor.
+CLI_LOGS = (
+    'ardupilot_sitl_quad/motor1_weak_esc.BIN',
+    'ardupilot_sitl_hexa/hexa_cwx_m1.bin',
+)
+
+
+@pytest.mark.parametrize("path", shared_log_params(*DATASETS))
+def test_every_output_of_the_log(path, every_output):
+    assert every_output(path) == []
+
+
+@pytest.mark.parametrize("rel", CLI_LOGS)
+def test_the_cli_exit_code(rel, tmp_path):
+    path = SHARED / rel
+    if not path.is_file():
+        pytest.skip(f"../shared/{rel} not available")
+    assert cli_exit_problems(path, tmp_path) == []
