@@ -91,6 +91,9 @@ def test_the_weak_motor_log_names_the_motor_or_esc_in_every_legend(model, shared
     assert (d.verdict.status, d.verdict.motor, d.verdict.cause) == ("damaged", 1, "motor_or_esc")
     legend = _legend(_terminal(d))
     assert f"1-4 {WEAK}" in legend and "propeller" not in legend
+    con = Console(file=io.StringIO(), width=80, color_system=None)
+    con.print(terminal.summary_table([d, d]))  # several logs: the summary's rotor cell tags the cause
+    assert "1 (right), motor or ESC" in con.file.getvalue() and "propeller" not in con.file.getvalue()
     page = render_html(d)
     assert f"red {WEAK}," in page and PROPELLER not in page
     assert "<th>likely cause</th><td>the motor or its ESC:" in page

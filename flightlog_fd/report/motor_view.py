@@ -33,7 +33,7 @@ ANALYZER_LABELS = {"model": "vote", "commands": "share", "throttle": "thr.", "ef
                    "esc": "esc"}
 #: What each column means (the HTML report's and the web page's legend).
 FINDING_DESCRIPTIONS = {
-    "vote": "the model's mean probability that this propeller is damaged",
+    "vote": "the model's mean probability that this rotor lost thrust (its class k)",
     "share": "mean thrust command / mean of all motors (1 = even), and its change against the baseline",
     "thrust": "the share of its normal thrust the rotor gives (eta-hat), fitted from the steady command "
               "pattern, with its 90 % interval",

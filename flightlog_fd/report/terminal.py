@@ -49,11 +49,13 @@ def _motor_words(motor: int, position: Optional[str]) -> str:
 
 
 def _propeller_cell(v) -> str:
-    """The summary table's propeller cell: the damaged (stopped) motor, both of a pair (damaged or
-    uncertain), else empty."""
+    """The summary table's rotor cell: the damaged (stopped) motor, with its cause's tag where it
+    is not the propeller ("1 (right), motor or ESC"), both of a pair (damaged or uncertain), else
+    empty."""
     if v.pair and len(v.motors) > 1:
         return " + ".join(_motor_words(k, short_position(p) if p else None) for k, p in zip(v.motors, v.positions))
-    return _motor_words(v.motor, v.position) if v.motor else ""
+    tag = cause_words(v.cause).tag
+    return (_motor_words(v.motor, v.position) + (f", {tag}" if tag else "")) if v.motor else ""
 
 
 def verdict_sentence(diagnosis: Diagnosis) -> str:
@@ -137,8 +139,8 @@ def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
     # A light box and short headers keep a row on one line in an 80-column terminal or a CI log.
     table = Table(title="Diagnosis summary", box=box.SIMPLE_HEAD, pad_edge=False)
     table.add_column("log", overflow="fold")
-    for name in ("verdict", "propeller", "conf.", "first seen", "exit"):
-        table.add_column(name, no_wrap=True, min_width={"verdict": 9, "propeller": 15, "conf.": 5,
+    for name in ("verdict", "rotor", "conf.", "first seen", "exit"):
+        table.add_column(name, no_wrap=True, min_width={"verdict": 9, "rotor": 15, "conf.": 5,
                                                         "first seen": 9, "exit": 4}[name],
                          justify="right" if name in ("conf.", "first seen", "exit") else "left")
     names = [Path(d.log).name for d in diagnoses]
