@@ -13,6 +13,7 @@ Run it nice'd: ``nice -n 10 .venv/bin/python benchmarks/every_output.py [FOLDER.
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 import tempfile
@@ -63,12 +64,19 @@ def main(argv=None) -> int:
     if args.cli:
         for folder in folders:
             with tempfile.TemporaryDirectory() as t:
-                cmd = [str(Path(sys.executable).parent / "fdlog"), "diagnose", str(folder), "--windows",
+                cmd = [str(Path(sys.executable).parent / "fdlog"), "diagnose", str(folder), "--windows", "--json",
                        "--csv", f"{t}/r.csv", "--html", f"{t}/r.html", "--db", f"{t}/r.sqlite"]
                 r = subprocess.run(cmd, capture_output=True, text=True)
                 tb = "Traceback" in r.stdout + r.stderr
-                print(f"CLI {folder.name}: exit {r.returncode}{' TRACEBACK' if tb else ''}", flush=True)
-                if tb or r.returncode not in (0, 1, 2):
+                try:  # the folder's exit code: 2 if any log is not diagnosable, else the worst of 0 / 1
+                    codes = [{"healthy": 0, "damaged": 1, "uncertain": 1, "stopped": 1}.get(x["verdict"]["status"], 2)
+                             for x in json.loads(r.stdout)]
+                    want = 2 if 2 in codes else max(codes)
+                except (ValueError, KeyError, TypeError):
+                    want = None
+                print(f"CLI {folder.name}: exit {r.returncode} (documented {want}){' TRACEBACK' if tb else ''}",
+                      flush=True)
+                if tb or r.returncode != want:
                     failures.append(f"CLI {folder.name}: exit {r.returncode} {(r.stderr or '')[-300:]}")
     print("\nper dataset (logs, logs with a problem, CPU s):")
     for k, (n, f, cpu) in counts.items():

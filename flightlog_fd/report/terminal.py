@@ -7,9 +7,10 @@ only words and draws what the verdict says.
   t=34.5 s" / "No propeller damage found ..." / "Uncertain: ..." / "Not diagnosable: ...".
 - :func:`timeline_strip`: ``TIMELINE_WIDTH`` characters spanning the first window's start to the
   last window's end (seconds on the log's clock), one per equal time slot: ``.`` healthy, ``1``-``9``
-  then ``a``-``c`` the motor judged damaged (any rotor count up to 12), ``?`` uncertain, a space
-  where there is no window (on the ground). The characters are the verdict's smoothed window
-  labels, so the strip shows what the verdict saw.
+  then ``a``-``c`` the rotor judged to have lost thrust (any rotor count up to 12), ``?``
+  uncertain, a space where there is no window (on the ground). The characters are the verdict's
+  smoothed window labels, so the strip shows what the verdict saw; :func:`timeline_legend` words
+  a rotor's character in the verdict's cause (:func:`~flightlog_fd.report.words.cause_words`).
 - :func:`motor_panel`: the per-motor table of :mod:`flightlog_fd.report.motor_view`.
 - :func:`window_table` (``--windows``): every window with its times, class, the probabilities of
   healthy and of each motor, phase.
