@@ -52,11 +52,12 @@ def runlog(tmp_path, monkeypatch):
 
 @pytest.fixture(scope="module")
 def every_output(tmp_path_factory):
-    """Callable: ``every_output(path)`` diagnoses the log once and returns the problems of every
-    output drawn from that result (output_checks.OutputRun: terminal, JSON, CSV, HTML, the store
-    and the flight page, one store and one app per test file)."""
+    """output_checks.OutputRun, one per test file: ``every_output.check(path)`` diagnoses the log
+    once and returns the problems of every output drawn from that result (terminal, JSON, CSV,
+    HTML, the store and the flight page); ``history_problems(logs)`` those of `fdlog history` and
+    the fleet pages over the stores they filled."""
     from output_checks import OutputRun
 
     run = OutputRun(tmp_path_factory.mktemp("every_output"))
-    yield run.check
+    yield run
     run.close()

@@ -200,6 +200,29 @@ class OutputRun:
         """Every output's problems for a result made already (a LogResult of ``path``)."""
         return output_problems(res, self.store, self.run) + self.pages.problems(res, path)
 
+    def history_problems(self, logs: list[Path]) -> list[str]:
+        """`fdlog history` over the store the checked logs went to (text, JSON and HTML, as its
+        command draws them) and the fleet and airframe pages over the flight pages' store: every
+        log listed, nothing raised."""
+        from flightlog_fd.history import history_summary, iter_text_lines, render_html, summary_json
+
+        bad: list[str] = []
+        summary = _attempt(bad, "history", lambda: history_summary(self.store.history()))
+        if summary is not None:
+            text = "\n".join(_attempt(bad, "history text", lambda: list(iter_text_lines(summary))) or [])
+            _attempt(bad, "history json", lambda: json.loads(summary_json(summary)))
+            _attempt(bad, "history html", lambda: render_html(summary))
+            missing = [p.name for p in logs if p.name not in text]
+            if missing:
+                bad.append(f"history: {len(missing)} stored logs not listed, e.g. {missing[:3]}")
+        r = self.pages.client.get("/")
+        if r.status_code != 200:
+            bad.append(f"fleet page: HTTP {r.status_code}")
+        for key in {row["airframe"] for row in self.pages.client.get("/api/logs").json()["logs"]}:
+            if self.pages.client.get("/airframe", params={"key": key}).status_code != 200:
+                bad.append(f"airframe page {key}: not drawn")
+        return bad
+
     def close(self) -> None:
         self.pages.close()
         self.store.close()

@@ -3,8 +3,8 @@ flights: no horizontal accelerometer, a 100 Hz gyro; every HTML report failed on
 (``tests/output_checks.py``): each log diagnosed once through the library; the terminal with
 --windows, JSON, CSV, HTML, the --db store and the fleet page's flight page drawn from that one
 result, all saying the same verdict, in the words of its cause; and ``fdlog diagnose`` run as a user
-runs it on one log of each dataset, for its exit code. Skipped, saying so, where ../shared is
-absent."""
+runs it on one log of each dataset, for its exit code; then `fdlog history` and the fleet pages over
+the stores the logs filled. Skipped, saying so, where ../shared is absent."""
 from __future__ import annotations
 
 import pytest
@@ -20,7 +20,16 @@ CLI_LOGS = (
 
 @pytest.mark.parametrize("path", shared_log_params(*DATASETS))
 def test_every_output_of_the_log(path, every_output):
-    assert every_output(path) == []
+    assert every_output.check(path) == []
+
+
+def test_history_and_the_fleet_pages_of_those_logs(every_output):
+    """After the logs above (same file, same store): `fdlog history` lists each, the fleet and
+    airframe pages draw."""
+    logs = [p.values[0] for p in shared_log_params(*DATASETS) if p.values[0] is not None]
+    if not logs:
+        pytest.skip("../shared not available")
+    assert every_output.history_problems(logs) == []
 
 
 @pytest.mark.parametrize("rel", CLI_LOGS)
