@@ -93,6 +93,10 @@ def test_browser_uploads_a_log_sees_its_verdict_and_zooms_the_flight_plot(tmp_pa
         after = x_range(driver)
         assert after[1] - after[0] < 0.6 * (before[1] - before[0])
         assert before[0] <= after[0] < after[1] <= before[1]
+        # the class traces and the legend in the verdict's cause's words: no ESC rpm, no cause known
+        names = driver.execute_script("return document.getElementById('flightplot').data.map(function (t) { return t.name; })")
+        assert "P(rotor 1)" in names and not any("prop" in n for n in names), names
+        assert "red rotor lost thrust (propeller, motor or ESC)," in driver.page_source
         # nothing on the page broke the Content-Security-Policy or threw
         problems = [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
         assert problems == [], problems
@@ -107,4 +111,39 @@ def test_browser_uploads_a_log_sees_its_verdict_and_zooms_the_flight_plot(tmp_pa
             server.wait(20)
         except subprocess.TimeoutExpired:
             server.kill()
+        shutil.rmtree(profile, ignore_errors=True)
+
+
+def test_a_crazypad_e9_html_report_opens_with_its_timeline_and_motor_panels(tmp_path):
+    """Issue 34: every crazypad_e9 HTML report ended in a traceback (a vibration panel with nothing
+    finite to draw). One such report in a real browser: its plots laid out, shaded by the
+    timeline, the missing vibration said in one line, nothing thrown."""
+    from selenium.webdriver.common.by import By
+
+    from flightlog_fd.diagnose import diagnose_path, resolve_model
+    from flightlog_fd.report.html_report import write_html
+
+    log = SAMPLES.parents[1] / "shared" / "crazypad_e9" / "ulog" / "cut_m3_2mm_2mm__E9_log00.ulg"
+    if not log.is_file():
+        pytest.skip("../shared/crazypad_e9 not available")
+    page = tmp_path / "report.html"
+    write_html(diagnose_path(log, resolve_model()), page)
+    profile = tempfile.mkdtemp(prefix="fdlog-chrome-")
+    driver = None
+    try:
+        driver = chrome(profile)
+        driver.get(page.as_uri())
+        plots = {s.get_attribute("aria-label"): s for s in driver.find_elements(By.CSS_SELECTOR, "svg[role=img]")}
+        for title in ("Angular rates", "Motor commands (thrust)", "Class probabilities per window"):
+            assert plots[title].size["width"] > 500 and plots[title].size["height"] > 150, title
+        motors = plots["Motor commands (thrust)"]
+        assert len(motors.find_elements(By.TAG_NAME, "polyline")) == 4  # one line per motor
+        assert motors.find_elements(By.CSS_SELECTOR, "rect[fill='#fff8e1'], rect[fill='#e8f5e9']")  # timeline shading
+        assert not any(t.startswith("Vibration") for t in plots)
+        missing = driver.find_element(By.CSS_SELECTOR, "p.missing").text
+        assert "vibration (the accelerometer's horizontal axes hold no samples" in missing
+        assert [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"] == []
+    finally:
+        if driver is not None:
+            driver.quit()
         shutil.rmtree(profile, ignore_errors=True)
