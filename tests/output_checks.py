@@ -101,9 +101,13 @@ def output_problems(res: Any, store: Any = None, run: Any = None) -> list[str]:
             bad.append("html: the verdict sentence is not the terminal's")
         if d.windows and f"red {html.escape(lost, quote=True)}," not in page:
             bad.append(f"html: the background legend does not say {lost!r}")
-        if d.flight is not None and d.flight.motors is not None and len(d.flight.motors) \
-                and "Motor commands" not in page:
-            bad.append("html: no motor commands panel")
+        fl = d.flight
+        for what, series, title in (("motor commands", fl and fl.motors, "Motor commands"),
+                                    ("angular rates", fl and fl.rates, "Angular rates")):
+            if series is not None and len(series) and f'aria-label="{title}' not in page:
+                bad.append(f"html: no {what} panel")  # the panels the log can draw are drawn
+        if d.windows and 'aria-label="Class probabilities per window"' not in page:
+            bad.append("html: no class probabilities panel")
     if store is not None and res.log_sha256:
         fid = _attempt(bad, "store", lambda: store.add_result(res, run))
         if fid is not None:
@@ -172,6 +176,12 @@ class FlightPages:
             bad.append(f"flight page: the plot legend does not say {cause_words(v.cause).lost!r}")
         if d.flight is not None and out["plot"].get("missing") and 'id="missing"' not in r.text:
             bad.append("flight page: the missing streams are not said")
+        fl = d.flight
+        for key, series in (("motors", fl and fl.motors), ("rates", fl and fl.rates)):
+            if series is not None and len(series) and not out["plot"][key]:
+                bad.append(f"flight page: no {key} lines")
+        if d.windows and 'id="flightplot"' not in r.text:
+            bad.append("flight page: no timeline plot")
         if v.status != "not_diagnosable":
             for ext in ("html", "csv"):
                 if self.client.get(f"/flights/{fid}/report.{ext}").status_code != 200:
