@@ -1,0 +1,381 @@
+"""Loads an airframe carries: a point mass fixed on the frame, a payload swinging on a line, a
+battery moved along the body (:class:`Load`), and their mass bookkeeping for the dynamics.
+
+Positions are body FRD metres from the frame centre (the airframe's nominal centre of mass):
+x forward, y right, z down. ``toward_motor=k`` with ``arm_fraction=f`` places the load on the
+way from the centre to rotor k (autopilot numbering), ``f = 1`` on the rotor itself.
+
+- ``"point"``: a mass fixed to the frame. Mass, centre of mass and inertia change together: the
+  total mass grows, the CoM moves to the mass-weighted mean, the inertia about the new CoM is
+  the airframe's (diagonal, about its own CoM) plus the point's, both moved there with the
+  parallel-axis theorem (:func:`mass_properties`; off-diagonal products included).
+- ``"battery"``: mass already in the airframe (``mass_fraction`` of the airframe's mass,
+  default :data:`BATTERY_MASS_FRACTION`) moved by ``position`` (a displacement): the total mass
+  is unchanged, the CoM moves by ``m_batt/M · d``, the inertia changes by the same theorem.
+- ``"line"``: a payload of ``mass`` hanging on a line of ``length_m`` from ``position`` (the
+  attachment point): a spherical pendulum coupled to the body (dynamics.py): the line tension
+  acts on the body at the attachment point (force and moment), the payload feels gravity and
+  the attachment point's acceleration, the swing is lightly damped
+  (:data:`LINE_DAMPING_RATIO`). On the ground the payload rests (no tension); its weight comes
+  on over the last :data:`LINE_LIFT_RAMP_M` of climb once the line is taut.
+
+``mass_kg`` or ``mass_fraction`` gives the mass: a fraction is of the take-off mass of the
+airframe with this load (``m = f / (1 - f) · m_airframe``; a battery's fraction is of the
+airframe's own mass).
+
+The controller is never told (as on a real aircraft): its mixer and thrust model keep the
+nominal airframe, its rate integrators absorb the moment of the moved CoM and its vertical
+velocity integrator the extra weight, so the hover command rises.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Sequence, Union
+
+import numpy as np
+
+from flightlog_fd.sim.airframe import GRAVITY, Airframe
+
+KINDS = ("point", "line", "battery")
+#: A battery's share of the airframe's mass when not given: a 4S 5000 mAh pack is ~0.5 kg of a
+#: 2 kg X500, a Crazyflie's 250 mAh pack 7 g of 27 g: 25-26 %.
+BATTERY_MASS_FRACTION = 0.25
+#: Damping ratio of a payload's swing (line friction, the payload's air drag): light, a swing
+#: decays over tens of periods, as a slung load's does.
+LINE_DAMPING_RATIO = 0.03
+#: A payload on the ground takes its weight over this much climb once the line is taut (a line
+#: stretches): no step in the vertical force at the payload's lift-off.
+LINE_LIFT_RAMP_M = 0.15
+#: Largest mass fraction of the take-off mass a load may have (beyond, no multirotor hovers).
+MAX_MASS_FRACTION = 0.6
+#: A load sits within this many arm lengths of the centre (else it is not on the frame).
+MAX_POSITION_ARMS = 2.0
+LINE_LENGTH_RANGE_M = (0.05, 20.0)
+#: Static hover commands a loaded airframe may need (of full thrust): above the upper bound
+#: the mixer saturates at the first gust (the controller's roll/pitch authority is gone); below
+#: the lower one a motor idles and cannot take torque away. The simulator refuses such loads.
+MAX_LOADED_HOVER_COMMAND = 0.9
+MIN_LOADED_HOVER_COMMAND = 0.05
+
+
+@dataclass(frozen=True)
+class Load:
+    """One load (see the module docstring). Give ``mass_kg`` or ``mass_fraction`` (a battery:
+    ``mass_fraction`` of the airframe's mass, default BATTERY_MASS_FRACTION), and ``position``
+    (metres, FRD; a battery's displacement) or ``toward_motor`` (1-based) with ``arm_fraction``."""
+
+    kind: str = "point"
+    mass_kg: Optional[float] = None
+    mass_fraction: Optional[float] = None
+    position: Optional[tuple[float, float, float]] = None
+    toward_motor: Optional[int] = None
+    arm_fraction: float = 1.0
+    length_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"load kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
+        if self.position is not None:
+            p = tuple(float(v) for v in self.position)
+            if len(p) == 2:
+                p = p + (0.0,)
+            if len(p) != 3 or not np.all(np.isfinite(p)):
+                raise ValueError(f"load position needs x,y[,z] metres, got {self.position!r}")
+            object.__setattr__(self, "position", p)
+        if (self.position is None) == (self.toward_motor is None):
+            raise ValueError("a load needs a position x,y[,z] or toward_motor (one of the two)")
+        if self.kind == "battery" and self.toward_motor is not None:
+            raise ValueError("a battery is moved by a displacement dx,dy[,dz], not toward a motor")
+        if not 0.0 <= self.arm_fraction <= MAX_POSITION_ARMS:
+            raise ValueError(f"arm fraction must be 0..{MAX_POSITION_ARMS:g}, got {self.arm_fraction:g}")
+        if self.mass_kg is not None and self.mass_fraction is not None:
+            raise ValueError("give a load's mass in kg or as a fraction, not both")
+        if self.kind != "battery" and self.mass_kg is None and self.mass_fraction is None:
+            raise ValueError(f"a {self.kind} load needs a mass")
+        if self.mass_kg is not None and not (np.isfinite(self.mass_kg) and self.mass_kg > 0.0):
+            raise ValueError(f"load mass must be > 0 kg, got {self.mass_kg:g}")
+        if self.mass_fraction is not None and not 0.0 < self.mass_fraction <= MAX_MASS_FRACTION:
+            raise ValueError(f"load mass fraction must be in (0, {MAX_MASS_FRACTION:g}], got {self.mass_fraction:g}")
+        if self.kind == "line":
+            lo, hi = LINE_LENGTH_RANGE_M
+            if not lo <= self.length_m <= hi:
+                raise ValueError(f"line length must be {lo:g}..{hi:g} m, got {self.length_m:g}")
+        elif self.length_m:
+            raise ValueError(f"only a line load has a length (got {self.length_m:g} m on a {self.kind})")
+
+    def mass_on(self, af: Airframe) -> float:
+        """This load's mass in kg on ``af`` (a battery: the moved battery's mass)."""
+        if self.mass_kg is not None:
+            return float(self.mass_kg)
+        if self.kind == "battery":
+            return float((BATTERY_MASS_FRACTION if self.mass_fraction is None else self.mass_fraction) * af.mass)
+        f = float(self.mass_fraction)
+        return f / (1.0 - f) * af.mass
+
+    def position_on(self, af: Airframe) -> np.ndarray:
+        """(3,) body FRD metres from the frame centre (a battery: its displacement)."""
+        if self.position is not None:
+            return np.array(self.position, dtype=np.float64)
+        rotors = af.geometry().rotors
+        if not 1 <= self.toward_motor <= len(rotors):
+            raise ValueError(f"load toward motor {self.toward_motor}: the {af.frame} airframe has motors 1..{len(rotors)}")
+        r = rotors[self.toward_motor - 1]
+        return np.array([r.x, r.y, 0.0]) * self.arm_fraction
+
+    def check(self, af: Airframe) -> None:
+        """ValueError when this load cannot sit on ``af`` (too far from the centre)."""
+        p = self.position_on(af)
+        if np.linalg.norm(p) > MAX_POSITION_ARMS * af.arm + 1e-9:
+            raise ValueError(f"a load {np.linalg.norm(p):.2f} m from the centre is not on this frame "
+                             f"(arm {af.arm:.2f} m; at most {MAX_POSITION_ARMS:g} arms)")
+
+    def to_dict(self, af: Airframe) -> dict:
+        """Truth of this load on ``af``: kind, mass kg, its fraction of the take-off mass, position."""
+        m = self.mass_on(af)
+        d = {"kind": self.kind, "mass_kg": round(m, 6), "position_m": [round(float(v), 6) for v in self.position_on(af)],
+             "toward_motor": self.toward_motor, "arm_fraction": self.arm_fraction if self.toward_motor else None}
+        if self.kind == "battery":
+            d["mass_fraction"] = round(m / af.mass, 6)
+        else:
+            d["mass_fraction"] = round(m / (af.mass + m), 6)
+        if self.kind == "line":
+            d["length_m"] = self.length_m
+        return d
+
+
+LoadSpec = Union[None, Load, Sequence[Load]]
+
+
+def as_loads(spec: LoadSpec) -> tuple[Load, ...]:
+    """One vehicle's loads as a tuple (None: none)."""
+    if spec is None:
+        return ()
+    if isinstance(spec, Load):
+        return (spec,)
+    out = tuple(spec)
+    if not all(isinstance(x, Load) for x in out):
+        raise ValueError("loads must be Load objects")
+    if sum(x.kind == "line" for x in out) > 1:
+        raise ValueError("one vehicle carries at most one payload on a line")
+    return out
+
+
+@dataclass(frozen=True)
+class MassProperties:
+    """A loaded airframe's rigid body (the line's payload excluded) and its line payload.
+
+    ``com`` (3,) m from the frame centre; ``inertia`` (3, 3) kg·m² about ``com``; ``take_off_mass``
+    includes the line's payload; ``line_attach`` (3,) from the frame centre."""
+
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+    take_off_mass: float
+    line_mass: float = 0.0
+    line_attach: Optional[np.ndarray] = None
+    line_length: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"body_mass_kg": round(self.mass, 6), "take_off_mass_kg": round(self.take_off_mass, 6),
+                "com_m": [round(float(v), 6) for v in self.com],
+                "inertia_kgm2": [[round(float(v), 8) for v in row] for row in self.inertia]}
+
+
+def _point_inertia(m: float, r: np.ndarray) -> np.ndarray:
+    """Inertia (3, 3) of a point mass ``m`` at ``r`` about the origin."""
+    return m * (float(r @ r) * np.eye(3) - np.outer(r, r))
+
+
+def mass_properties(af: Airframe, loads: LoadSpec, cog_xy: Sequence[float] = (0.0, 0.0)) -> MassProperties:
+    """Mass, centre of mass and inertia of ``af`` carrying ``loads`` (parallel-axis theorem, module
+    docstring). ``cog_xy``: the bare airframe's own CoM (m; imbalance.py's offset × arm)."""
+    loads = as_loads(loads)
+    c0 = np.array([float(cog_xy[0]), float(cog_xy[1]), 0.0])
+    m_tot = float(af.mass)
+    first = af.mass * c0
+    inertia_o = np.diag(np.array(af.inertia, dtype=np.float64)) + _point_inertia(af.mass, c0)
+    line = None
+    for ld in loads:
+        ld.check(af)
+        m, p = ld.mass_on(af), ld.position_on(af)
+        if ld.kind == "point":
+            m_tot += m
+            first = first + m * p
+            inertia_o = inertia_o + _point_inertia(m, p)
+        elif ld.kind == "battery":  # the battery (at the frame centre as built) moved by p
+            first = first + m * p
+            inertia_o = inertia_o + _point_inertia(m, p)
+        else:
+            line = (m, p, ld.length_m)
+    com = first / m_tot
+    inertia = inertia_o - _point_inertia(m_tot, com)
+    if line is None:
+        return MassProperties(m_tot, com, inertia, m_tot)
+    return MassProperties(m_tot, com, inertia, m_tot + line[0], line[0], line[1], float(line[2]))
+
+
+def static_hover(af: Airframe, loads: LoadSpec, eta: Optional[Sequence[float]] = None,
+                 cog_xy: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
+    """(R,) steady-hover thrust setpoints of ``af`` carrying ``loads`` (a line's payload hanging
+    still below its attachment point), rotor k giving ``eta[k]`` of its thrust: the static
+    force and moment balance about the loaded CoM (least squares for R != 4 rotors, as the
+    simulator's allocation). What the flown hover converges to once the integrators settle."""
+    mp = mass_properties(af, loads, cog_xy)
+    frame = af.geometry()
+    x = np.array([r.x for r in frame.rotors]) - mp.com[0]
+    y = np.array([r.y for r in frame.rotors]) - mp.com[1]
+    spin = np.array([r.spin for r in frame.rotors], dtype=float)
+    e = np.ones(len(x)) if eta is None else np.asarray(eta, dtype=float)
+    a = np.stack([e, -y * e, x * e, spin * af.torque_ratio * e])
+    rhs = np.array([mp.take_off_mass * GRAVITY, 0.0, 0.0, 0.0]) / af.thrust_max
+    if mp.line_mass:
+        ra = mp.line_attach - mp.com
+        # Weight W down (+z) at ra: torque ra × (0, 0, W) = (ra_y W, −ra_x W, 0); rotors cancel it.
+        w = mp.line_mass * GRAVITY / af.thrust_max
+        rhs[1] -= ra[1] * w
+        rhs[2] += ra[0] * w
+    return np.linalg.solve(a, rhs) if a.shape[1] == 4 else np.linalg.pinv(a) @ rhs
+
+
+def check_flyable(af: Airframe, loads: LoadSpec, damage=None, imbalance=None) -> None:
+    """ValueError naming the motor when ``af`` with ``loads`` (and ``damage``, ``imbalance``: its
+    CoM offset) cannot hover with control left: a static hover command above
+    MAX_LOADED_HOVER_COMMAND or below MIN_LOADED_HOVER_COMMAND."""
+    loads = as_loads(loads)
+    if not loads:
+        return
+    eta = np.ones(af.rotor_count)
+    if damage is not None:
+        for p in damage.parts:
+            eta[p.motor - 1] = p.eta
+    cog = (0.0, 0.0) if imbalance is None else tuple(c * af.arm for c in imbalance.cog_offset)
+    u = static_hover(af, loads, eta, cog)
+    k = int(np.argmax(u))
+    if u[k] > MAX_LOADED_HOVER_COMMAND:
+        raise ValueError(f"the {af.name} airframe cannot carry this load: motor {k + 1} would need {u[k]:.2f} of its "
+                         f"full thrust to hover (at most {MAX_LOADED_HOVER_COMMAND:g})")
+    k = int(np.argmin(u))
+    if u[k] < MIN_LOADED_HOVER_COMMAND:
+        raise ValueError(f"the {af.name} airframe cannot balance this load: motor {k + 1} would need {u[k]:.2f} of its "
+                         f"full thrust to hover (at least {MIN_LOADED_HOVER_COMMAND:g})")
+
+
+@dataclass
+class LoadArrays:
+    """Loads of N vehicles for the dynamics, component-major: rigid-body mass (N,), the CoM's
+    shift by the loads (3, N) m (from the as-built CoM), inertia (3, 3, N) about the loaded CoM,
+    the line's payload mass (N,) (0: none), attachment point from the loaded CoM (3, N), length (N,)."""
+
+    mass: np.ndarray
+    shift: np.ndarray
+    inertia: np.ndarray
+    line_mass: np.ndarray
+    line_attach: np.ndarray
+    line_length: np.ndarray
+    props: list
+
+    @classmethod
+    def build(cls, loads: Sequence[tuple[Load, ...]], airframes: Sequence[Airframe],
+              cog_xy: Optional[np.ndarray] = None) -> "LoadArrays":
+        """``cog_xy`` (2, N) m: each bare airframe's own CoM offset (imbalance), else 0."""
+        n = len(airframes)
+        props = []
+        mass, inertia = np.empty(n), np.empty((3, 3, n))
+        shift, attach = np.zeros((3, n)), np.zeros((3, n))
+        lm, ll = np.zeros(n), np.ones(n)
+        for i, (af, ld) in enumerate(zip(airframes, loads)):
+            c0 = (0.0, 0.0) if cog_xy is None else (float(cog_xy[0, i]), float(cog_xy[1, i]))
+            mp = mass_properties(af, ld, c0)
+            props.append(mp)
+            mass[i] = mp.mass
+            inertia[:, :, i] = mp.inertia
+            shift[:, i] = mp.com - np.array([c0[0], c0[1], 0.0])
+            if mp.line_mass:
+                lm[i], ll[i] = mp.line_mass, mp.line_length
+                attach[:, i] = mp.line_attach - mp.com
+        return cls(mass, shift, inertia, lm, attach, ll, props)
+
+
+def resolve_loads(spec, n: int) -> Optional[list[tuple[Load, ...]]]:
+    """None (no loads: the flights are exactly as without this module), one load or tuple of
+    loads for every vehicle, or a list of n (each None, a Load or a sequence of Loads)."""
+    if spec is None:
+        return None
+    if isinstance(spec, Load):
+        return [(spec,)] * n
+    items = list(spec)
+    if items and all(isinstance(x, Load) for x in items):
+        # a flat sequence of Loads: all vehicles carry all of them (one vehicle: its loads)
+        return [as_loads(items)] * n
+    out = [as_loads(x) for x in items]
+    if len(out) != n:
+        raise ValueError(f"got {len(out)} load sets for {n} vehicles")
+    return out
+
+
+def parse_load(text: str) -> Load:
+    """One ``--load`` value as a Load; ValueError with the expected forms otherwise.
+
+    ``point:MASS@WHERE``, ``line:MASS@WHERE:LENGTH_M``, ``battery:DX[,DY[,DZ]][@MASS]``;
+    MASS is kg (``0.3``) or a percentage of the take-off mass (``15%``; a battery's of the
+    airframe's mass); WHERE is ``X,Y[,Z]`` metres (body x forward, y right, z down) or
+    ``motorK[,F]`` (on the way to rotor K, F of the arm, default 1: on the rotor)."""
+    forms = ("point:MASS@X,Y[,Z] | point:MASS@motorK[,F] | line:MASS@WHERE:LENGTH_M | battery:DX[,DY[,DZ]][@MASS] "
+             "(MASS in kg or as a percentage of the take-off mass, e.g. 15%)")
+    try:
+        kind, rest = text.split(":", 1)
+        kind = kind.strip().lower()
+        if kind == "battery":
+            disp, _, mass = rest.partition("@")
+            mkg, mfrac = _mass(mass) if mass else (None, None)
+            d = tuple(float(v) for v in disp.split(","))
+            if not 1 <= len(d) <= 3:
+                raise ValueError("a battery's displacement is dx[,dy[,dz]] metres")
+            return Load("battery", mass_kg=mkg, mass_fraction=mfrac, position=(d + (0.0, 0.0))[:3])
+        if kind not in ("point", "line"):
+            raise ValueError
+        mass, where = rest.split("@", 1)
+        length = 0.0
+        if kind == "line":
+            where, length_text = where.rsplit(":", 1)
+            length = float(length_text)
+        mkg, mfrac = _mass(mass)
+        if where.strip().lower().startswith("motor"):
+            parts = where.strip()[5:].split(",")
+            if len(parts) > 2:
+                raise ValueError
+            k = int(parts[0])
+            f = float(parts[1]) if len(parts) == 2 else 1.0
+            return Load(kind, mass_kg=mkg, mass_fraction=mfrac, toward_motor=k, arm_fraction=f, length_m=length)
+        return Load(kind, mass_kg=mkg, mass_fraction=mfrac, position=_floats(where), length_m=length)
+    except ValueError as e:
+        msg = str(e)
+        if msg and not msg.startswith(("could not convert", "invalid literal", "not enough values")):
+            raise ValueError(f"--load {text!r}: {msg}") from None
+        raise ValueError(f"--load {text!r} must be {forms}") from None
+
+
+def _mass(text: str) -> tuple[Optional[float], Optional[float]]:
+    t = text.strip()
+    if t.endswith("%"):
+        return None, float(t[:-1]) / 100.0
+    return float(t), None
+
+
+def _floats(text: str) -> tuple[float, ...]:
+    vals = tuple(float(v) for v in text.split(","))
+    if not 2 <= len(vals) <= 3:
+        raise ValueError("a position needs x,y or x,y,z metres")
+    return vals
+
+
+def describe(ld: Load, af: Airframe) -> str:
+    """Plain words for a load on ``af`` ("0.30 kg fixed 0.18 m toward motor 2")."""
+    m = ld.mass_on(af)
+    where = (f"toward motor {ld.toward_motor} at {ld.arm_fraction:g} of the arm" if ld.toward_motor
+             else "at ({:+.3f}, {:+.3f}, {:+.3f}) m".format(*ld.position_on(af)))
+    if ld.kind == "battery":
+        return f"battery ({m:.2f} kg) moved by ({ld.position[0]:+.3f}, {ld.position[1]:+.3f}, {ld.position[2]:+.3f}) m"
+    if ld.kind == "line":
+        return f"{m:.2f} kg payload on a {ld.length_m:g} m line {where}"
+    return f"{m:.2f} kg fixed {where}"
