@@ -56,6 +56,10 @@ LINE_LENGTH_RANGE_M = (0.05, 20.0)
 #: the lower one a motor idles and cannot take torque away. The simulator refuses such loads.
 MAX_LOADED_HOVER_COMMAND = 0.9
 MIN_LOADED_HOVER_COMMAND = 0.05
+#: Largest lift-off tilt estimate (:func:`liftoff_tilt_deg`) a load may cause. Measured
+#: (results/sim_loads.md): a SITL-like 3 kg quad and an X500 flown with growing offsets reach at
+#: most 24-27 deg in flight up to an estimate of 20.6, 50 deg at 25.1 and flip from 26.
+MAX_LIFTOFF_TILT_DEG = 22.0
 
 
 @dataclass(frozen=True)
@@ -240,7 +244,8 @@ def static_hover(af: Airframe, loads: LoadSpec, eta: Optional[Sequence[float]] =
 def check_flyable(af: Airframe, loads: LoadSpec, damage=None, imbalance=None) -> None:
     """ValueError naming the motor when ``af`` with ``loads`` (and ``damage``, ``imbalance``: its
     CoM offset) cannot hover with control left: a static hover command above
-    MAX_LOADED_HOVER_COMMAND or below MIN_LOADED_HOVER_COMMAND."""
+    MAX_LOADED_HOVER_COMMAND or below MIN_LOADED_HOVER_COMMAND, or a moment that tips it over at
+    lift-off (:func:`liftoff_tilt_deg` above MAX_LIFTOFF_TILT_DEG)."""
     loads = as_loads(loads)
     if not loads:
         return
@@ -258,6 +263,33 @@ def check_flyable(af: Airframe, loads: LoadSpec, damage=None, imbalance=None) ->
     if u[k] < MIN_LOADED_HOVER_COMMAND:
         raise ValueError(f"the {af.name} airframe cannot balance this load: motor {k + 1} would need {u[k]:.2f} of its "
                          f"full thrust to hover (at least {MIN_LOADED_HOVER_COMMAND:g})")
+    tilt = liftoff_tilt_deg(af, loads, eta, cog)
+    if tilt > MAX_LIFTOFF_TILT_DEG:
+        raise ValueError(f"the {af.name} airframe tips over at lift-off with this load: its moment tilts it "
+                         f"{tilt:.0f} deg before the rate integrator holds it (at most {MAX_LIFTOFF_TILT_DEG:g})")
+
+
+def liftoff_tilt_deg(af: Airframe, loads: LoadSpec, eta: Optional[Sequence[float]] = None,
+                     cog_xy: Sequence[float] = (0.0, 0.0)) -> float:
+    """Tilt (degrees) at which the controller's P loops alone hold the moment of ``loads`` (and a
+    rotor giving ``eta`` of its thrust) at lift-off, equal commands on every motor and the rate
+    integrator still at zero (it is reset on the ground): ``α / (rate_kp · att_p)`` per axis,
+    as damage.py's lift-off check for a damaged propeller. An upper estimate: the integrator
+    catches up before the P-only equilibrium is reached."""
+    mp = mass_properties(af, loads, cog_xy)
+    frame = af.geometry()
+    x = np.array([r.x for r in frame.rotors]) - mp.com[0]
+    y = np.array([r.y for r in frame.rotors]) - mp.com[1]
+    e = np.ones(len(x)) if eta is None else np.asarray(eta, dtype=float)
+    f = e * mp.take_off_mass * GRAVITY / len(x)
+    torque = np.array([-(y * f).sum(), (x * f).sum()])
+    if mp.line_mass:
+        ra = mp.line_attach - mp.com
+        w = mp.line_mass * GRAVITY
+        torque += np.array([ra[1] * w, -ra[0] * w])
+    alpha = np.abs(torque) / np.array([mp.inertia[0, 0], mp.inertia[1, 1]])
+    g = af.gains
+    return float(np.degrees(alpha.max() / (g.rate_kp[0] * g.att_p[0])))
 
 
 @dataclass
