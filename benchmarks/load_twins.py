@@ -25,8 +25,8 @@ role            flight
 ==============  ==========================================================================
 
 A load the airframe cannot hover with (sim/loads.py ``check_flyable``, with its damage and
-imbalance) is moved toward the centre, then lightened (never below 5 %), until it can; the
-manifest holds what was flown. Logs: PX4 profiles as ULog (``.ulg``, the truth also under
+imbalance) is moved toward the centre and lightened (never below 5 %), alternately, until it can
+(at last: 5 % at the centre); the manifest holds what was flown. Logs: PX4 profiles as ULog (``.ulg``, the truth also under
 ``fdlog_truth``), ArduPilot ones as DataFlash (``.bin``). ``manifest.csv``: one row per file
 with the truth (role, damaged motor and eta, each load's kind, mass, mass fraction of the
 take-off mass, position, line length, the loaded CoM and take-off mass, the twin's file).
@@ -117,8 +117,11 @@ def _flyable(af, load, damage, imbalance):
             check_flyable(af, load, damage, imbalance)
             return load
         except ValueError:
-            if i == MAX_SHRINKS:
-                raise
+            if i == MAX_SHRINKS:  # the lightest load at the centre (raises if even that cannot fly)
+                load = replace(load, position=(0.0, 0.0, load.position[2]),
+                               mass_fraction=None if load.kind == "battery" else MASS_FRACTION_RANGE[0])
+                check_flyable(af, load, damage, imbalance)
+                return load
         if i % 2 == 0 or load.kind == "battery" or load.mass_fraction is None:
             load = replace(load, position=tuple(v * RADIUS_SHRINK for v in load.position))
         else:

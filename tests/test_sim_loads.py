@@ -143,3 +143,29 @@ def test_cli_writes_a_loaded_log_and_refuses_bad_loads(tmp_path):
         assert "--load" in res.output and "Traceback" not in res.output
         assert len(res.output.strip().splitlines()) == 1
     assert not (tmp_path / "bad.ulg").exists()
+
+
+def test_load_twins_generator_writes_flights_and_their_truth(tmp_path):
+    import importlib.util
+    from pathlib import Path
+
+    from flightlog_fd.logs.ulog import read_ulog_truth
+
+    path = Path(__file__).resolve().parent.parent / "benchmarks" / "load_twins.py"
+    spec = importlib.util.spec_from_file_location("load_twins", path)
+    lt = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(lt)
+    rows = lt.make_load_twins(tmp_path, frames=("quad_x",), profiles=("px4_default",), duration_s=20.0, seed=5)
+    assert [r["role"] for r in rows] == list(lt.ROLES)
+    assert lt.read_manifest(tmp_path)[3]["file"] == rows[3]["file"]
+    by_role = {r["role"]: r for r in rows}
+    assert by_role["damaged"]["damaged_motor"] == by_role["damaged_load"]["damaged_motor"] > 0
+    assert by_role["healthy"]["load_kind"] == "" and by_role["load"]["load_kind"] == "point"
+    assert 0.05 <= by_role["load"]["load_mass_fraction"] <= 0.30
+    assert by_role["load2"]["load_kind"] in ("line", "battery")
+    for r in rows:  # every flight flew and its file holds the same truth
+        assert r["airborne_s"] != "" and r["airborne_s"] > 10.0
+        truth = read_ulog_truth(str(tmp_path / r["file"]))
+        assert truth["motor"] == r["damaged_motor"]
+        assert [x["kind"] for x in truth["loads"]] == ([r["load_kind"]] if r["load_kind"] else [])
+    assert "load2" in lt.count_table(rows)
