@@ -24,9 +24,10 @@ role            flight
                 battery 2:1:1)
 ==============  ==========================================================================
 
-A load the airframe cannot hover with (sim/loads.py ``check_flyable``, with its damage and
-imbalance) is moved toward the centre and lightened (never below 5 %), alternately, until it can
-(at last: 5 % at the centre); the manifest holds what was flown. Logs: PX4 profiles as ULog (``.ulg``, the truth also under
+Loads are drawn by sim/loads.py (``random_load``, its ranges); one the airframe cannot hover with
+(``check_flyable``, with its damage and imbalance) is moved toward the centre and lightened
+(never below 5 %), alternately, until it can (``make_flyable``); the manifest holds what was
+flown. Logs: PX4 profiles as ULog (``.ulg``, the truth also under
 ``fdlog_truth``), ArduPilot ones as DataFlash (``.bin``). ``manifest.csv``: one row per file
 with the truth (role, damaged motor and eta, each load's kind, mass, mass fraction of the
 take-off mass, position, line length, the loaded CoM and take-off mass, the twin's file).
@@ -55,14 +56,6 @@ LOG_PROFILES = ("px4_high", "px4_default", "ardupilot_fast", "ardupilot", "ardup
 FRAMES = ("quad_x", "hexa_x", "octo_x")
 ETAS = (0.6, 0.7, 0.8, 0.9)
 ROLES = ("twin", "healthy", "damaged", "load", "load2", "damaged_load")
-#: The issue's range of fixed loads: 5-30 % of the take-off mass, centre to a rotor.
-MASS_FRACTION_RANGE = (0.05, 0.30)
-LINE_LENGTH_RANGE_M = (0.3, 1.5)
-#: A moved battery: this share of the arm along x (either way), and up to ±BATTERY_Y of it along y.
-BATTERY_X_RANGE_ARM = (0.1, 0.5)
-BATTERY_Y_ARM = 0.1
-#: Shrinking an unflyable load: radius × RADIUS_SHRINK, then mass × MASS_SHRINK, alternately.
-RADIUS_SHRINK, MASS_SHRINK, MAX_SHRINKS = 0.7, 0.8, 16
 QUICK = dict(frames=("quad_x",), profiles=("px4_high", "ardupilot"), duration_s=30.0)
 
 MANIFEST_FIELDS = ["file", "role", "frame", "rotor_count", "log_profile", "airframe", "airframe_mass_kg",
@@ -72,69 +65,13 @@ MANIFEST_FIELDS = ["file", "role", "frame", "rotor_count", "log_profile", "airfr
                    "airborne_s"]
 
 
-def _fixed_load(af, rng: np.random.Generator):
-    from flightlog_fd.sim.loads import Load
-
-    frac = float(rng.uniform(*MASS_FRACTION_RANGE))
-    radius = float(rng.uniform(0.0, 1.0))
-    z = float(rng.uniform(-0.02, 0.08))
-    if rng.uniform() < 0.5:
-        k = int(rng.integers(1, af.rotor_count + 1))
-        r = af.geometry().rotors[k - 1]
-        pos = (r.x * radius, r.y * radius, z)
-    else:
-        ang = float(rng.uniform(-np.pi, np.pi))
-        pos = (af.arm * radius * np.cos(ang), af.arm * radius * np.sin(ang), z)
-    return Load("point", mass_fraction=frac, position=pos)
-
-
-def _line_load(af, rng: np.random.Generator):
-    from flightlog_fd.sim.loads import Load
-
-    frac = float(rng.uniform(*MASS_FRACTION_RANGE))
-    radius = float(rng.uniform(0.0, 0.6))
-    ang = float(rng.uniform(-np.pi, np.pi))
-    pos = (af.arm * radius * np.cos(ang), af.arm * radius * np.sin(ang), float(rng.uniform(0.02, 0.08)))
-    return Load("line", mass_fraction=frac, position=pos, length_m=float(rng.uniform(*LINE_LENGTH_RANGE_M)))
-
-
-def _battery_load(af, rng: np.random.Generator):
-    from flightlog_fd.sim.loads import Load
-
-    dx = float(rng.choice([-1.0, 1.0]) * rng.uniform(*BATTERY_X_RANGE_ARM) * af.arm)
-    dy = float(rng.uniform(-BATTERY_Y_ARM, BATTERY_Y_ARM) * af.arm)
-    return Load("battery", position=(dx, dy, 0.0))
-
-
-def _flyable(af, load, damage, imbalance):
-    """``load`` moved toward the centre and lightened until ``af`` hovers with it (module docstring)."""
-    from dataclasses import replace
-
-    from flightlog_fd.sim.loads import check_flyable
-
-    for i in range(MAX_SHRINKS + 1):
-        try:
-            check_flyable(af, load, damage, imbalance)
-            return load
-        except ValueError:
-            if i == MAX_SHRINKS:  # the lightest load at the centre (raises if even that cannot fly)
-                load = replace(load, position=(0.0, 0.0, load.position[2]),
-                               mass_fraction=None if load.kind == "battery" else MASS_FRACTION_RANGE[0])
-                check_flyable(af, load, damage, imbalance)
-                return load
-        if i % 2 == 0 or load.kind == "battery" or load.mass_fraction is None:
-            load = replace(load, position=tuple(v * RADIUS_SHRINK for v in load.position))
-        else:
-            load = replace(load, mass_fraction=max(MASS_FRACTION_RANGE[0], load.mass_fraction * MASS_SHRINK))
-    return load
-
-
 def _cell(frame: str, profile: str, per_cell: int, seed: int, duration_s: float, esc: bool, cell: int = 0):
     """The flights of one frame and logging profile: (flights, roles, airframe index, damage)."""
     from flightlog_fd.sim.airframe import random_airframes
     from flightlog_fd.sim.api import simulate_flights
     from flightlog_fd.sim.damage import Damage, min_feasible_eta
     from flightlog_fd.sim.imbalance import random_imbalances
+    from flightlog_fd.sim.loads import make_flyable, random_load
 
     rng = np.random.default_rng(seed)
     afs = random_airframes(per_cell, rng, frames=(frame,))
@@ -146,13 +83,13 @@ def _cell(frame: str, profile: str, per_cell: int, seed: int, duration_s: float,
         dmg = Damage(int(rng.integers(1, nrot + 1)), eta, rotors=nrot)
         healthy = Damage(0, 1.0, rotors=nrot)
         mission = "waypoints" if (cell + i) % 2 == 0 else "manual"
-        second = (_line_load if (seed + i) % 2 == 0 else _battery_load)(af, rng)
+        second = random_load(af, rng, "line" if (seed + i) % 2 == 0 else "battery")
         pick = rng.uniform()
-        with_damage = (_fixed_load if pick < 0.5 else _line_load if pick < 0.75 else _battery_load)(af, rng)
+        with_damage = random_load(af, rng, "point" if pick < 0.5 else "line" if pick < 0.75 else "battery")
         plan = {"twin": (healthy, ()), "healthy": (healthy, ()), "damaged": (dmg, ()),
-                "load": (healthy, (_flyable(af, _fixed_load(af, rng), healthy, imb),)),
-                "load2": (healthy, (_flyable(af, second, healthy, imb),)),
-                "damaged_load": (dmg, (_flyable(af, with_damage, dmg, imb),))}
+                "load": (healthy, (make_flyable(af, random_load(af, rng, "point"), healthy, imb),)),
+                "load2": (healthy, (make_flyable(af, second, healthy, imb),)),
+                "damaged_load": (dmg, (make_flyable(af, with_damage, dmg, imb),))}
         for role in ROLES:
             vehicles.append((i, role, plan[role][0], plan[role][1], mission))
     esc_spec = None

@@ -51,6 +51,24 @@ def test_line_payload_is_carried_not_part_of_the_body():
     assert mp.line_length == 1.0 and np.allclose(mp.line_attach, [0, 0, 0.05])
 
 
+def test_random_loads_are_flyable_and_in_range():
+    from flightlog_fd.sim.airframe import random_airframes
+    from flightlog_fd.sim.loads import RANDOM_MASS_FRACTION_RANGE, check_flyable, random_loads
+
+    rng = np.random.default_rng(7)
+    afs = random_airframes(40, rng, frames=("quad_x",))
+    loads = random_loads(afs, rng, weights=(2, 1, 1))
+    kinds = [ld[0].kind for ld in loads]
+    assert set(kinds) == {"point", "line", "battery"}
+    for af, ld in zip(afs, loads):
+        check_flyable(af, ld)  # raises if not
+        if ld[0].kind != "battery":
+            frac = ld[0].to_dict(af)["mass_fraction"]
+            assert RANDOM_MASS_FRACTION_RANGE[0] - 1e-9 <= frac <= RANDOM_MASS_FRACTION_RANGE[1] + 1e-9
+            assert np.hypot(*ld[0].position[:2]) <= af.arm + 1e-9
+    assert random_loads(afs[:5], np.random.default_rng(1), loaded_fraction=0.0) == [()] * 5
+
+
 def test_static_hover_load_toward_a_motor_against_a_weak_motor():
     toward1 = static_hover(X500, parse_load("battery:0.085,0.085"))  # CoM 0.03 m toward motor 1
     weak1 = static_hover(X500, None, eta=[0.75, 1, 1, 1])

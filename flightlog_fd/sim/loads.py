@@ -292,6 +292,93 @@ def liftoff_tilt_deg(af: Airframe, loads: LoadSpec, eta: Optional[Sequence[float
     return float(np.degrees(alpha.max() / (g.rate_kp[0] * g.att_p[0])))
 
 
+#: Random loads (:func:`random_load`): the issue's fixed loads, 5-30 % of the take-off mass from
+#: the centre to a rotor (half toward a rotor, half in a random direction; 2 cm above to 8 cm
+#: below the frame); lines of 0.3-1.5 m attached within 0.6 arm, 2-8 cm below; a battery moved
+#: 10-50 % of the arm along x (either way) and up to ±10 % along y.
+RANDOM_MASS_FRACTION_RANGE = (0.05, 0.30)
+RANDOM_Z_RANGE_M = (-0.02, 0.08)
+RANDOM_LINE_LENGTH_RANGE_M = (0.3, 1.5)
+RANDOM_LINE_RADIUS_ARM = 0.6
+RANDOM_BATTERY_X_RANGE_ARM = (0.1, 0.5)
+RANDOM_BATTERY_Y_ARM = 0.1
+#: Shrinking an unflyable draw (:func:`make_flyable`): radius × RADIUS_SHRINK and mass × MASS_SHRINK,
+#: alternately, at most MAX_SHRINKS times, then the lightest load at the centre.
+RADIUS_SHRINK, MASS_SHRINK, MAX_SHRINKS = 0.7, 0.8, 16
+
+
+def random_load(af: Airframe, rng: np.random.Generator, kind: str = "point") -> Load:
+    """One random load of ``kind`` on ``af`` (ranges above; not yet checked for flyability)."""
+    if kind == "battery":
+        dx = float(rng.choice([-1.0, 1.0]) * rng.uniform(*RANDOM_BATTERY_X_RANGE_ARM) * af.arm)
+        dy = float(rng.uniform(-RANDOM_BATTERY_Y_ARM, RANDOM_BATTERY_Y_ARM) * af.arm)
+        return Load("battery", position=(dx, dy, 0.0))
+    frac = float(rng.uniform(*RANDOM_MASS_FRACTION_RANGE))
+    if kind == "line":
+        radius, ang = float(rng.uniform(0.0, RANDOM_LINE_RADIUS_ARM)), float(rng.uniform(-np.pi, np.pi))
+        pos = (af.arm * radius * np.cos(ang), af.arm * radius * np.sin(ang), float(rng.uniform(0.02, 0.08)))
+        return Load("line", mass_fraction=frac, position=pos,
+                    length_m=float(rng.uniform(*RANDOM_LINE_LENGTH_RANGE_M)))
+    if kind != "point":
+        raise ValueError(f"load kind must be one of {', '.join(KINDS)}, got {kind!r}")
+    radius, z = float(rng.uniform(0.0, 1.0)), float(rng.uniform(*RANDOM_Z_RANGE_M))
+    if rng.uniform() < 0.5:
+        r = af.geometry().rotors[int(rng.integers(af.rotor_count))]
+        pos = (r.x * radius, r.y * radius, z)
+    else:
+        ang = float(rng.uniform(-np.pi, np.pi))
+        pos = (af.arm * radius * np.cos(ang), af.arm * radius * np.sin(ang), z)
+    return Load("point", mass_fraction=frac, position=pos)
+
+
+def make_flyable(af: Airframe, load: Load, damage=None, imbalance=None) -> Load:
+    """``load`` moved toward the centre and lightened (never below 5 %), alternately, until ``af``
+    hovers with it (:func:`check_flyable`, with ``damage`` and ``imbalance``); at last the
+    lightest load at the centre (ValueError if even that cannot fly)."""
+    from dataclasses import replace
+
+    for i in range(MAX_SHRINKS):
+        try:
+            check_flyable(af, load, damage, imbalance)
+            return load
+        except ValueError:
+            pass
+        if load.position is None:
+            load = replace(load, position=tuple(load.position_on(af)), toward_motor=None, arm_fraction=1.0)
+        if i % 2 == 0 or load.mass_fraction is None or load.kind == "battery":
+            load = replace(load, position=tuple(v * RADIUS_SHRINK for v in load.position[:2]) + (load.position[2],))
+        else:
+            load = replace(load, mass_fraction=max(RANDOM_MASS_FRACTION_RANGE[0], load.mass_fraction * MASS_SHRINK))
+    try:
+        check_flyable(af, load, damage, imbalance)
+        return load
+    except ValueError:
+        load = replace(load, position=(0.0, 0.0, load.position[2]),
+                       mass_fraction=None if load.kind == "battery" else RANDOM_MASS_FRACTION_RANGE[0],
+                       mass_kg=None)
+        check_flyable(af, load, damage, imbalance)
+        return load
+
+
+def random_loads(airframes: Sequence[Airframe], rng: np.random.Generator, *, kinds: Sequence[str] = KINDS,
+                 weights: Optional[Sequence[float]] = None, loaded_fraction: float = 1.0, damages=None,
+                 imbalances=None) -> list[tuple[Load, ...]]:
+    """One random flyable load per airframe (``kinds`` drawn with ``weights``; with probability
+    1 − ``loaded_fraction`` none), made flyable with its damage and imbalance (lists of n or None):
+    training sets and benchmarks draw here. Pass the result as ``simulate_flights(loads=...)``."""
+    out = []
+    p = None if weights is None else np.asarray(weights, dtype=float) / float(np.sum(weights))
+    for i, af in enumerate(airframes):
+        if rng.uniform() >= loaded_fraction:
+            out.append(())
+            continue
+        kind = str(kinds[int(rng.choice(len(kinds), p=p))])
+        ld = make_flyable(af, random_load(af, rng, kind), None if damages is None else damages[i],
+                          None if imbalances is None else imbalances[i])
+        out.append((ld,))
+    return out
+
+
 @dataclass
 class LoadArrays:
     """Loads of N vehicles for the dynamics, component-major: rigid-body mass (N,), the CoM's
