@@ -1,7 +1,7 @@
 """The simulator's loads against genuine firmware, and a swinging payload's pendulum: figures for
 results/sim_loads.md.
 
-    python benchmarks/sim_loads_check.py [sih] [sitl] [pendulum]      # default: all three
+    python benchmarks/sim_loads_check.py [sih] [sitl] [pendulum] [hook]     # default: all four
 
 - ``sih``: PX4 SIH (``../shared/px4_sih_dev_load``, the CoM moved 0.03 m toward motor 1 or 3,
   0.05 m forward) against the ``sih`` preset (SIH's own parameters) carrying the same CoM shift
@@ -18,7 +18,8 @@ results/sim_loads.md.
   hover / manual / waypoint missions, seeds 1-2, px4_high: the swing's own frequency (the
   ``swing`` stream), and the power of the rates and accelerations (x and y) within ±10 % of
   the coupled pendulum frequency sqrt(g/L · (1 + m/M)) / 2π against the same band of the same
-  airframe flown unloaded (ratio > 1: a peak, < 1: a notch).
+  airframe flown unloaded (ratio > 1: a peak, < 1: a notch); ``hook``: the same on a hook 15 cm
+  below the centre (hover and manual).
 Figures only; nothing is asserted.
 """
 from __future__ import annotations
@@ -120,7 +121,7 @@ def sitl() -> None:
     print()
 
 
-def pendulum(seeds=(1, 2), lengths=(0.5, 1.0, 2.0), frac=0.15) -> None:
+def pendulum(seeds=(1, 2), lengths=(0.5, 1.0, 2.0), frac=0.15, attach_z=0.05, missions=("hover", "manual", "waypoints")) -> None:
     from flightlog_fd.sim.airframe import GRAVITY
     from flightlog_fd.sim.api import simulate_batch
     from flightlog_fd.sim.loads import Load
@@ -130,15 +131,15 @@ def pendulum(seeds=(1, 2), lengths=(0.5, 1.0, 2.0), frac=0.15) -> None:
         f = np.fft.rfftfreq(len(x), 1 / fs)
         return f, (np.abs(np.fft.rfft(x * np.hanning(len(x))[:, None], axis=0)) ** 2).sum(1)
 
-    print(f"## A payload of {frac:.0%} of the take-off mass swinging under an X500 (attached 5 cm below the centre)\n")
+    print(f"## A payload of {frac:.0%} of the take-off mass swinging under an X500 (attached {100 * attach_z:.0f} cm below the centre)\n")
     print("| mission | seed | L m | f pendulum sqrt(g/L)/2pi | f coupled | swing: peak Hz, max deg | rates power ratio | accel power ratio |")
     print("|---|---|---|---|---|---|---|---|")
     n = len(lengths)
-    for mission in ("hover", "manual", "waypoints"):
+    for mission in missions:
         for seed in seeds:
             b = simulate_batch(2 * n, airframes="x500", damages=[None] * (2 * n), mission=mission, duration_s=90.0,
                                profile="px4_high", seed=seed,
-                               loads=[Load("line", mass_fraction=frac, position=(0, 0, 0.05), length_m=L)
+                               loads=[Load("line", mass_fraction=frac, position=(0, 0, attach_z), length_m=L)
                                       for L in lengths] + [None] * n, extra_streams={"swing": 25})
             r = b.result
 
@@ -170,9 +171,10 @@ def pendulum(seeds=(1, 2), lengths=(0.5, 1.0, 2.0), frac=0.15) -> None:
 
 
 def main(argv=None) -> int:
-    which = (argv if argv is not None else sys.argv[1:]) or ["sih", "sitl", "pendulum"]
+    which = (argv if argv is not None else sys.argv[1:]) or ["sih", "sitl", "pendulum", "hook"]
     for w in which:
-        {"sih": sih, "sitl": sitl, "pendulum": pendulum}[w]()
+        {"sih": sih, "sitl": sitl, "pendulum": pendulum,
+         "hook": lambda: pendulum(attach_z=0.15, missions=("hover", "manual"))}[w]()
     return 0
 
 
