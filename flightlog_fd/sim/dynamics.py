@@ -25,6 +25,12 @@ Model per vehicle (parameters from :class:`~flightlog_fd.sim.airframe.Airframe`)
   ``−ω × Iω``, and an angular-acceleration disturbance (turbulence / prop wash) from the caller;
 - accelerometer: ``QuadDynamics.specific_force`` (3, N) body-frame specific force of the last step,
   ``(−Σ f_i·z_body + drag)/m`` seen in FRD, and ``−g`` along body z while resting on the ground;
+- loads (loads.py, :meth:`QuadDynamics.set_loads` with :meth:`VehicleParams.with_loads`): the rigid
+  body's mass, rotors about the loaded CoM, the full inertia tensor ``I ω̇ = τ − ω × Iω − cω``,
+  the IMU's lever arm to the CoM in the accelerometer, and a payload on a line: its tension
+  (reduced-mass solution of the taut line) pulls the body at the attachment point and the
+  payload's direction ``n`` swings as a damped spherical pendulum driven by the attachment
+  point's acceleration;
 - ground contact: the vehicle starts landed at z = 0; while thrust cannot lift it (z ≥ 0 after a
   step) it stays level (yaw kept) with zero velocity and angular velocity; touching down clamps
   z to 0 and levels it the same way.
