@@ -48,8 +48,9 @@ Arguments (all keyword except ``n``):
   of a seed do not change, nor do the flown trajectories.
 
 - ``loads``: None (nothing carried: the flights are exactly as before), one
-  :class:`~flightlog_fd.sim.loads.Load` or a sequence of Loads for every vehicle, or a list of n
-  (each None, a Load or a sequence): fixed point masses, a moved battery, a payload swinging on a
+  :class:`~flightlog_fd.sim.loads.Load` or a tuple of Loads carried by every vehicle, or a list
+  of n, one per vehicle (each None, a Load or a tuple; ``loads.random_loads`` draws one):
+  fixed point masses, a moved battery, a payload swinging on a
   line (loads.py; the controller is not told). ValueError when an airframe cannot hover with its
   loads (and damage). The truth then carries ``loads`` (kind, mass kg, mass fraction, position m,
   line length) and ``load_mass`` (rigid-body and take-off mass, CoM, inertia about it). Draws

@@ -101,7 +101,8 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
                                    duration_s=duration, profile=profile_name, rho=rho, seed=seed,
                                    esc=esc_rate, imbalance="random" if esc_rate else None,
-                                   prop_imbalance=props, imu_rate_hz=imu_rate, loads=load_list)
+                                   prop_imbalance=props, imu_rate_hz=imu_rate,
+                                   loads=None if load_list is None else tuple(load_list))
     except ValueError as e:
         if load_list is None:
             raise

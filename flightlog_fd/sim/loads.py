@@ -422,19 +422,17 @@ class LoadArrays:
 
 
 def resolve_loads(spec, n: int) -> Optional[list[tuple[Load, ...]]]:
-    """None (no loads: the flights are exactly as without this module), one load or tuple of
-    loads for every vehicle, or a list of n (each None, a Load or a sequence of Loads)."""
+    """None (no loads: the flights are exactly as without this module); one Load, or a tuple of
+    Loads, carried by every vehicle; or a list of n, one entry per vehicle (None, a Load or a
+    tuple of Loads)."""
     if spec is None:
         return None
-    if isinstance(spec, Load):
-        return [(spec,)] * n
-    items = list(spec)
-    if items and all(isinstance(x, Load) for x in items):
-        # a flat sequence of Loads: all vehicles carry all of them (one vehicle: its loads)
-        return [as_loads(items)] * n
-    out = [as_loads(x) for x in items]
+    if isinstance(spec, (Load, tuple)):
+        return [as_loads(spec)] * n
+    out = [as_loads(x) for x in spec]
     if len(out) != n:
-        raise ValueError(f"got {len(out)} load sets for {n} vehicles")
+        raise ValueError(f"got {len(out)} load entries for {n} vehicles (a list gives one per vehicle; "
+                         "a tuple of Loads is carried by every vehicle)")
     return out
 
 
