@@ -67,6 +67,9 @@ def test_random_loads_are_flyable_and_in_range():
             assert RANDOM_MASS_FRACTION_RANGE[0] - 1e-9 <= frac <= RANDOM_MASS_FRACTION_RANGE[1] + 1e-9
             assert np.hypot(*ld[0].position[:2]) <= af.arm + 1e-9
     assert random_loads(afs[:5], np.random.default_rng(1), loaded_fraction=0.0) == [()] * 5
+    # simulate_flights(loads="random"): random airframes and damage, each with a load it flies with.
+    fl = simulate_flights(6, loads="random", imbalance="random", seed=2, duration_s=15.0, profile="training")
+    assert all(len(f.truth["loads"]) == 1 and f.truth["takeoff_s"] is not None for f in fl)
 
 
 def test_static_hover_load_toward_a_motor_against_a_weak_motor():

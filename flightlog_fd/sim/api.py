@@ -51,10 +51,12 @@ Arguments (all keyword except ``n``):
   :class:`~flightlog_fd.sim.loads.Load` or a tuple of Loads carried by every vehicle, or a list
   of n, one per vehicle (each None, a Load or a tuple; ``loads.random_loads`` draws one):
   fixed point masses, a moved battery, a payload swinging on a
-  line (loads.py; the controller is not told). ValueError when an airframe cannot hover with its
-  loads (and damage). The truth then carries ``loads`` (kind, mass kg, mass fraction, position m,
-  line length) and ``load_mass`` (rigid-body and take-off mass, CoM, inertia about it). Draws
-  nothing: a seed flies the same missions, noise and damage with and without loads.
+  line (loads.py; the controller is not told); ``"random"``: one random load per vehicle
+  (point, line, battery 2:1:1, made flyable with its damage and imbalance). ValueError when an
+  airframe cannot hover with its loads (and damage). The truth then carries ``loads`` (kind, mass
+  kg, mass fraction, position m, line length) and ``load_mass`` (rigid-body and take-off mass,
+  CoM, inertia about it). Random loads come from a generator of their own: a seed flies the same
+  missions, noise and damage with and without loads.
 
 Cost: one batch of N vehicles costs about as much as a handful of single flights (all array
 operations), so call it with a few hundred vehicles at a time for datasets (profile "training").
@@ -73,13 +75,15 @@ from flightlog_fd.sim.damage import (ETA_RANGE, HEALTHY, HEALTHY_FRACTION, MIDFL
 from flightlog_fd.sim.engine import BatchResult, run_batch
 from flightlog_fd.sim.esc import MAX_RECORD_HZ, EscParams, EscSpec, MotorArrays, esc_telemetry, resolve_esc
 from flightlog_fd.sim.imbalance import AirframeImbalance, ImbalanceArrays, ImbalanceSpec, resolve_imbalances
-from flightlog_fd.sim.loads import LoadArrays, check_flyable, resolve_loads
+from flightlog_fd.sim.loads import LoadArrays, check_flyable, random_loads, resolve_loads
 from flightlog_fd.sim.logger import LogProfile, build_flights, get_profile
 from flightlog_fd.sim.missions import MissionPlan, plan_missions
 from flightlog_fd.sim.prop_vibration import PropSpec, add_vibration, resolve as resolve_props
 from flightlog_fd.sim.sensors import SensorParams
 from flightlog_fd.sim.rho import RhoSpec, check_mode, resolve_rho
 
+#: ``loads="random"``: kinds point, line, battery drawn 2:1:1 (loads.random_loads).
+RANDOM_LOAD_WEIGHTS = (2.0, 1.0, 1.0)
 #: Extra simulated time allowed beyond the longest planned flight before the batch is stopped.
 OVERTIME_FACTOR = 1.5
 OVERTIME_S = 20.0
@@ -189,6 +193,12 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
         dec.update(w_fine=1, omega_fine=1, sforce=1)
     t_max = float(plan.estimated_s.max()) * OVERTIME_FACTOR + OVERTIME_S
     imb_arr = None if imbalance is None else ImbalanceArrays.build(imbs)
+    if isinstance(loads, str):
+        if loads != "random":
+            raise ValueError(f"loads must be None, 'random', a Load, a tuple or a list, got {loads!r}")
+        # Drawn from a child generator after the damages, so each random load flies with its damage.
+        loads = random_loads(afs, np.random.default_rng([seed, 11]), weights=RANDOM_LOAD_WEIGHTS, damages=dmg,
+                             imbalances=None if imbalance is None else imbs)
     load_sets = resolve_loads(loads, n)
     load_arr = None
     if load_sets is not None:  # nothing drawn: a seed flies the same with and without loads
