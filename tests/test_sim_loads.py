@@ -190,3 +190,44 @@ def test_load_twins_generator_writes_flights_and_their_truth(tmp_path):
         assert truth["motor"] == r["damaged_motor"]
         assert [x["kind"] for x in truth["loads"]] == ([r["load_kind"]] if r["load_kind"] else [])
     assert "load2" in lt.count_table(rows)
+
+
+def test_line_coupling_conserves_momentum_and_swings_at_the_cart_pendulum_frequency(monkeypatch):
+    """No controller, no drag, no damping, the line at the CoM, thrust = total weight: the body and
+    payload are a pendulum on a free cart: the horizontal momentum stays 0 and the swing's
+    period is that of sqrt(g/L · (1 + m/M))."""
+    from dataclasses import replace
+
+    import flightlog_fd.sim.dynamics as dyn_mod
+    from flightlog_fd.sim.dynamics import QuadDynamics, RigidBodyState, VehicleParams
+    from flightlog_fd.sim.loads import LoadArrays
+
+    monkeypatch.setattr(dyn_mod, "LINE_DAMPING_RATIO", 0.0)
+    af = replace(X500, drag_lin=0.0, drag_ang=0.0)
+    m, length, dt = 0.5, 1.0, 0.002
+    la = LoadArrays.build([(Load("line", mass_kg=m, position=(0.0, 0.0, 0.0), length_m=length),)], [af])
+    vp = VehicleParams.from_airframes([af]).with_loads(la)
+    d = QuadDynamics(vp, dt)
+    d.set_loads(la)
+    s = RigidBodyState.on_ground(1)
+    s.pos[2] = -20.0
+    s.landed[:] = False
+    w = np.sqrt((af.mass + m) * GRAVITY / (4 * af.k_f)) * np.ones((4, 1))
+    s.w[:] = w
+    theta0 = np.radians(8.0)
+    d.line_n[:, 0] = [np.sin(theta0), 0.0, np.cos(theta0)]
+    zeros3, ones4 = np.zeros((3, 1)), np.ones((4, 1))
+    nx, p = [], []
+    for _ in range(int(12.0 / dt)):
+        d.step(s, w, ones4, zeros3, zeros3)
+        nx.append(d.line_n[0, 0])
+        v_payload = s.vel[0, 0] + length * d.line_ndot[0, 0]
+        p.append(af.mass * s.vel[0, 0] + m * v_payload)
+    nx = np.array(nx)
+    assert np.abs(p).max() < 1e-3  # kg·m/s; the payload's own swing carries ~0.2 (measured 4e-5)
+    assert np.abs(s.omega).max() < 1e-9  # the line at the CoM: no moment
+    up = np.flatnonzero((nx[:-1] < 0) & (nx[1:] >= 0))
+    period = np.diff(up).mean() * dt
+    expect = 2 * np.pi / np.sqrt(GRAVITY / length * (1 + m / af.mass))
+    assert period == pytest.approx(expect, rel=0.01)
+    assert np.abs(nx).max() == pytest.approx(np.sin(theta0), rel=0.03)  # undamped: the amplitude stays
