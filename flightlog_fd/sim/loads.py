@@ -40,8 +40,9 @@ KINDS = ("point", "line", "battery")
 #: A battery's share of the airframe's mass when not given: a 4S 5000 mAh pack is ~0.5 kg of a
 #: 2 kg X500, a Crazyflie's 250 mAh pack 7 g of 27 g: 25-26 %.
 BATTERY_MASS_FRACTION = 0.25
-#: Damping ratio of a payload's swing (line friction, the payload's air drag): light, a swing
-#: decays over tens of periods, as a slung load's does.
+#: Damping ratio of a payload's swing (line friction, the payload's air drag): a choice, light (a
+#: swing decays over tens of periods); not measured: the real string flights of
+#: ../shared/crazypad_e9_load last 8-9 s, five periods, too short to fit it.
 LINE_DAMPING_RATIO = 0.03
 #: A payload on the ground takes its weight over this much climb once the line is taut (a line
 #: stretches): no step in the vertical force at the payload's lift-off.
@@ -51,9 +52,11 @@ MAX_MASS_FRACTION = 0.6
 #: A load sits within this many arm lengths of the centre (else it is not on the frame).
 MAX_POSITION_ARMS = 2.0
 LINE_LENGTH_RANGE_M = (0.05, 20.0)
-#: Static hover commands a loaded airframe may need (of full thrust): above the upper bound
-#: the mixer saturates at the first gust (the controller's roll/pitch authority is gone); below
-#: the lower one a motor idles and cannot take torque away. The simulator refuses such loads.
+#: Static hover commands a loaded airframe may need (of full thrust); the simulator refuses
+#: loads beyond. Measured (results/sim_loads.md): an X500 with a central mass raising its hover
+#: command to 0.8 / 0.9 / 0.95 has a motor at full output 0.2 / 1.4 / 12.8 % of a waypoint flight
+#: (manual: 5 / 8 / 12 %) and at 0.95 the mission takes 1.7x as long (it cannot climb at speed).
+#: Below the lower bound a motor idles and cannot take torque away.
 MAX_LOADED_HOVER_COMMAND = 0.9
 MIN_LOADED_HOVER_COMMAND = 0.05
 #: Largest lift-off tilt estimate (:func:`liftoff_tilt_deg`) a load may cause. Measured
@@ -490,15 +493,3 @@ def _floats(text: str) -> tuple[float, ...]:
     if not 2 <= len(vals) <= 3:
         raise ValueError("a position needs x,y or x,y,z metres")
     return vals
-
-
-def describe(ld: Load, af: Airframe) -> str:
-    """Plain words for a load on ``af`` ("0.30 kg fixed 0.18 m toward motor 2")."""
-    m = ld.mass_on(af)
-    where = (f"toward motor {ld.toward_motor} at {ld.arm_fraction:g} of the arm" if ld.toward_motor
-             else "at ({:+.3f}, {:+.3f}, {:+.3f}) m".format(*ld.position_on(af)))
-    if ld.kind == "battery":
-        return f"battery ({m:.2f} kg) moved by ({ld.position[0]:+.3f}, {ld.position[1]:+.3f}, {ld.position[2]:+.3f}) m"
-    if ld.kind == "line":
-        return f"{m:.2f} kg payload on a {ld.length_m:g} m line {where}"
-    return f"{m:.2f} kg fixed {where}"
