@@ -47,9 +47,10 @@ LINE_DAMPING_RATIO = 0.03
 #: A payload on the ground takes its weight over this much climb once the line is taut (a line
 #: stretches): no step in the vertical force at the payload's lift-off.
 LINE_LIFT_RAMP_M = 0.15
-#: Largest mass fraction of the take-off mass a load may have (beyond, no multirotor hovers).
+#: Input bound: the largest mass fraction of the take-off mass a load may be given (the hover
+#: check below refuses most loads well before it).
 MAX_MASS_FRACTION = 0.6
-#: A load sits within this many arm lengths of the centre (else it is not on the frame).
+#: Input bound: a load sits within this many arm lengths of the centre (else it is not on the frame).
 MAX_POSITION_ARMS = 2.0
 LINE_LENGTH_RANGE_M = (0.05, 20.0)
 #: Static hover commands a loaded airframe may need (of full thrust); the simulator refuses
