@@ -802,8 +802,14 @@ def simulate(
                                                   "vibration and the logs' vibration metrics (VIBE, vehicle_imu_status)."),
     imu_rate: Optional[float] = typer.Option(None, "--imu-rate", help="Also log raw IMU samples at this rate (Hz, "
                                              "100-1000: ArduPilot ACC/GYR, PX4 sensor_accel/sensor_gyro)."),
+    load: Optional[list[str]] = typer.Option(None, "--load", help="A load the aircraft carries (the autopilot is not "
+                                             "told); repeatable. point:MASS@X,Y[,Z] a mass fixed on the frame (metres, "
+                                             "x forward, y right, z down), point:MASS@motorK[,F] on the way to rotor K "
+                                             "(F of the arm, default 1), line:MASS@WHERE:LENGTH_M a payload swinging on "
+                                             "a line, battery:DX[,DY[,DZ]][@MASS] the battery moved; MASS in kg or as "
+                                             "a percentage of the take-off mass (15%)."),
 ) -> None:
-    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy, with one or two damaged propellers or with a weak motor (--cause motor), and write them as ULog or DataFlash logs."""
+    """Simulate multirotor flights (quad; hexa and octo as ULog), healthy, with one or two damaged propellers or with a weak motor (--cause motor), carrying loads (--load), and write them as ULog or DataFlash logs."""
     rho_list = None
     if rho:
         try:
@@ -819,7 +825,7 @@ def simulate(
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor or 0,
                                     eta=eta or 0.8, onset=onset or None, duration=duration, mission=mission, log_profile=log_profile,
                                     rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id,
-                                    imbalance=imbalance, imu_rate=imu_rate, cause=cause)
+                                    imbalance=imbalance, imu_rate=imu_rate, cause=cause, loads=load)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
@@ -843,6 +849,10 @@ def simulate(
         unbalanced += [f"{k + 1}: aero {a:g}" for k, a in enumerate(added.get("added_aero", [])) if a > 0]
         if unbalanced:
             what += "; propeller imbalance " + ", ".join(unbalanced)
+        if t.get("loads"):
+            from .sim.files import load_text
+
+            what += "; carrying " + ", ".join(load_text(x) for x in t["loads"])
         console.print(f"wrote {p}: {what}", markup=False)
 
 

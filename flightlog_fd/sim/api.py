@@ -47,6 +47,17 @@ Arguments (all keyword except ``n``):
   ACC/GYR, PX4 sensor_accel/sensor_gyro). Drawn from generators of their own: the other draws
   of a seed do not change, nor do the flown trajectories.
 
+- ``loads``: None (nothing carried: the flights are exactly as before), one
+  :class:`~flightlog_fd.sim.loads.Load` or a tuple of Loads carried by every vehicle, or a list
+  of n, one per vehicle (each None, a Load or a tuple; ``loads.random_loads`` draws one):
+  fixed point masses, a moved battery, a payload swinging on a
+  line (loads.py; the controller is not told); ``"random"``: one random load per vehicle
+  (point, line, battery 2:1:1, made flyable with its damage and imbalance). ValueError when an
+  airframe cannot hover with its loads (and damage). The truth then carries ``loads`` (kind, mass
+  kg, mass fraction, position m, line length) and ``load_mass`` (rigid-body and take-off mass,
+  CoM, inertia about it). Random loads come from a generator of their own: a seed flies the same
+  missions, noise and damage with and without loads.
+
 Cost: one batch of N vehicles costs about as much as a handful of single flights (all array
 operations), so call it with a few hundred vehicles at a time for datasets (profile "training").
 """
@@ -64,12 +75,15 @@ from flightlog_fd.sim.damage import (ETA_RANGE, HEALTHY, HEALTHY_FRACTION, MIDFL
 from flightlog_fd.sim.engine import BatchResult, run_batch
 from flightlog_fd.sim.esc import MAX_RECORD_HZ, EscParams, EscSpec, MotorArrays, esc_telemetry, resolve_esc
 from flightlog_fd.sim.imbalance import AirframeImbalance, ImbalanceArrays, ImbalanceSpec, resolve_imbalances
+from flightlog_fd.sim.loads import LoadArrays, check_flyable, random_loads, resolve_loads
 from flightlog_fd.sim.logger import LogProfile, build_flights, get_profile
 from flightlog_fd.sim.missions import MissionPlan, plan_missions
 from flightlog_fd.sim.prop_vibration import PropSpec, add_vibration, resolve as resolve_props
 from flightlog_fd.sim.sensors import SensorParams
 from flightlog_fd.sim.rho import RhoSpec, check_mode, resolve_rho
 
+#: ``loads="random"``: kinds point, line, battery drawn 2:1:1 (loads.random_loads).
+RANDOM_LOAD_WEIGHTS = (2.0, 1.0, 1.0)
 #: Extra simulated time allowed beyond the longest planned flight before the batch is stopped.
 OVERTIME_FACTOR = 1.5
 OVERTIME_S = 20.0
@@ -97,6 +111,9 @@ class SimBatch:
     #: flights_from_batch to give the same flown batch other propellers
     prop_imbalance: PropSpec = None
     imu_rate_hz: Optional[float] = None
+    #: each vehicle's loads (loads.py), None when the batch carries none
+    loads: Optional[list] = None
+    load_arrays: Optional[LoadArrays] = None
 
 
 def _resolve_airframes(n: int, airframes: AirframeSpec, rng: np.random.Generator) -> list[Airframe]:
@@ -136,7 +153,7 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
                    mild_fraction: float = 0.0,
                    torque_exponent_range: Optional[tuple[float, float]] = None, noise: str = "default",
                    accelerometer: bool = True, esc: EscSpec = None, prop_imbalance: PropSpec = None,
-                   imu_rate_hz: Optional[float] = None) -> SimBatch:
+                   imu_rate_hz: Optional[float] = None, loads=None) -> SimBatch:
     """Fly the batch and keep the raw recording (see :func:`simulate_flights` for the arguments).
 
     ``extra_streams`` maps engine stream names (engine.STREAM_FIELDS, e.g. ``"w_com"``, ``"pos"``)
@@ -176,11 +193,25 @@ def simulate_batch(n: int, *, airframes: AirframeSpec = None, damages: DamageSpe
         dec.update(w_fine=1, omega_fine=1, sforce=1)
     t_max = float(plan.estimated_s.max()) * OVERTIME_FACTOR + OVERTIME_S
     imb_arr = None if imbalance is None else ImbalanceArrays.build(imbs)
+    if isinstance(loads, str):
+        if loads != "random":
+            raise ValueError(f"loads must be None, 'random', a Load, a tuple or a list, got {loads!r}")
+        # Drawn from a child generator after the damages, so each random load flies with its damage.
+        loads = random_loads(afs, np.random.default_rng([seed, 11]), weights=RANDOM_LOAD_WEIGHTS, damages=dmg,
+                             imbalances=None if imbalance is None else imbs)
+    load_sets = resolve_loads(loads, n)
+    load_arr = None
+    if load_sets is not None:  # nothing drawn: a seed flies the same with and without loads
+        cog = None if imb_arr is None else imb_arr.cog * np.array([a.arm for a in afs])
+        for af, ld, d, imb in zip(afs, load_sets, dmg, imbs):
+            check_flyable(af, ld, d, None if imb_arr is None else imb)
+        load_arr = LoadArrays.build(load_sets, afs, cog)
     res = run_batch(afs, plan, dmg_arr, rho_arr, rho_mode, sens, 1.0 / prof.sim_rate_hz, dec, t_max, rng,
-                    imbalance=imb_arr, motor_model=None if escs is None else MotorArrays.build(escs, afs))
+                    imbalance=imb_arr, motor_model=None if escs is None else MotorArrays.build(escs, afs),
+                    loads=load_arr)
     return SimBatch(airframes=afs, damages=dmg, rho=rho_arr, rho_mode=rho_mode, plan=plan, sensors=sens,
                     profile=prof, result=res, seed=seed, imbalances=imbs, esc=escs, prop_imbalance=prop_imbalance,
-                    imu_rate_hz=imu_rate_hz)
+                    imu_rate_hz=imu_rate_hz, loads=load_sets, load_arrays=load_arr)
 
 
 def flights_from_batch(batch: SimBatch) -> list[Flight]:
@@ -191,6 +222,10 @@ def flights_from_batch(batch: SimBatch) -> list[Flight]:
               "etas_torque": [float(x.torque_eta) for x in batch.damages[i].parts],
               "imbalance": imbs[i].to_dict() if imbs[i] is not None else None}
              for i in range(len(batch.airframes))]
+    if batch.loads is not None:  # the loads' truth (absent from batches without loads)
+        for i, (af, ld) in enumerate(zip(batch.airframes, batch.loads)):
+            extra[i]["loads"] = [x.to_dict(af) for x in ld]
+            extra[i]["load_mass"] = batch.load_arrays.props[i].to_dict()
     flights = build_flights(batch.result, batch.profile, batch.airframes, batch.damages, batch.rho, batch.rho_mode,
                             batch.plan.missions, batch.seed, rng, extra)
     if batch.esc is not None:
@@ -225,12 +260,13 @@ def simulate_flights(n: int, *, airframes: AirframeSpec = None, damages: DamageS
                      mild_fraction: float = 0.0,
                      torque_exponent_range: Optional[tuple[float, float]] = None,
                      noise: str = "default", accelerometer: bool = True, esc: EscSpec = None,
-                     prop_imbalance: PropSpec = None, imu_rate_hz: Optional[float] = None) -> list[Flight]:
+                     prop_imbalance: PropSpec = None, imu_rate_hz: Optional[float] = None,
+                     loads=None) -> list[Flight]:
     """Simulate ``n`` flights and return them as parsed-log `Flight` objects (see module docstring)."""
     batch = simulate_batch(n, airframes=airframes, damages=damages, mission=mission, duration_s=duration_s,
                            profile=profile, rho=rho, rho_mode=rho_mode, seed=seed, realism=realism,
                            vibration_gain=vibration_gain, healthy_fraction=healthy_fraction, eta_range=eta_range,
                            midflight_fraction=midflight_fraction, imbalance=imbalance, mild_fraction=mild_fraction,
                            torque_exponent_range=torque_exponent_range, noise=noise, accelerometer=accelerometer,
-                           esc=esc, prop_imbalance=prop_imbalance, imu_rate_hz=imu_rate_hz)
+                           esc=esc, prop_imbalance=prop_imbalance, imu_rate_hz=imu_rate_hz, loads=loads)
     return flights_from_batch(batch)

@@ -25,6 +25,12 @@ Model per vehicle (parameters from :class:`~flightlog_fd.sim.airframe.Airframe`)
   ``−ω × Iω``, and an angular-acceleration disturbance (turbulence / prop wash) from the caller;
 - accelerometer: ``QuadDynamics.specific_force`` (3, N) body-frame specific force of the last step,
   ``(−Σ f_i·z_body + drag)/m`` seen in FRD, and ``−g`` along body z while resting on the ground;
+- loads (loads.py, :meth:`QuadDynamics.set_loads` with :meth:`VehicleParams.with_loads`): the rigid
+  body's mass, rotors about the loaded CoM, the full inertia tensor ``I ω̇ = τ − ω × Iω − cω``,
+  the IMU's lever arm to the CoM in the accelerometer, and a payload on a line: its tension
+  (reduced-mass solution of the taut line) pulls the body at the attachment point and the
+  payload's direction ``n`` swings as a damped spherical pendulum driven by the attachment
+  point's acceleration;
 - ground contact: the vehicle starts landed at z = 0; while thrust cannot lift it (z ≥ 0 after a
   step) it stays level (yaw kept) with zero velocity and angular velocity; touching down clamps
   z to 0 and levels it the same way.
@@ -42,6 +48,7 @@ import numpy as np
 
 from flightlog_fd.sim.airframe import GRAVITY, Airframe
 from flightlog_fd.sim.esc import loaded_speed
+from flightlog_fd.sim.loads import LINE_DAMPING_RATIO, LINE_LIFT_RAMP_M
 
 
 @dataclass
@@ -65,6 +72,9 @@ class VehicleParams:
     torque_scale: Optional[np.ndarray] = None  # (4, N) × k_tau
     motor_tau_scale: Optional[np.ndarray] = None  # (4, N) × motor_tau
     tilt_yaw_lever: Optional[np.ndarray] = None  # (4, N) m, yaw torque per newton of rotor thrust
+    # Full inertia tensor (3, 3, N) about the CoM of vehicles carrying loads (loads.py: products
+    # of inertia of an off-centre mass); None = the diagonal ``inertia``.
+    inertia_full: Optional[np.ndarray] = None
 
     @property
     def n(self) -> int:
@@ -110,6 +120,14 @@ class VehicleParams:
                        rotor_y=self.rotor_y - imb.cog[1] * arm.max(axis=0),
                        thrust_scale=imb.thrust_scale, torque_scale=imb.torque_scale,
                        motor_tau_scale=imb.motor_tau_scale, tilt_yaw_lever=arm * np.sin(imb.tilt))
+
+    def with_loads(self, la) -> "VehicleParams":
+        """These vehicles carrying loads (:class:`~flightlog_fd.sim.loads.LoadArrays`): the rigid
+        body's mass, rotors placed relative to the loaded CoM, the full inertia about it."""
+        from dataclasses import replace
+
+        return replace(self, mass=la.mass.copy(), rotor_x=self.rotor_x - la.shift[0], rotor_y=self.rotor_y - la.shift[1],
+                       inertia=np.einsum("iin->in", la.inertia).copy(), inertia_full=la.inertia.copy())
 
     def rotor_k_f(self) -> np.ndarray:
         """(4, N) thrust coefficient of each rotor."""
@@ -212,6 +230,13 @@ class QuadDynamics:
         self.motor_a0: Optional[np.ndarray] = None
         self.motor_kv: Optional[np.ndarray] = None
         self.torque_rel = np.ones_like(self.k_tau_rotor) if params.torque_scale is None else params.torque_scale
+        #: Loads (loads.py, :meth:`set_loads`): full inertia, the IMU's offset from the loaded CoM
+        #: (3, N) body m, and a payload on a line (None: none).
+        self.inertia_full = params.inertia_full
+        self.inv_inertia_full = (None if params.inertia_full is None
+                                 else np.linalg.inv(params.inertia_full.transpose(2, 0, 1)).transpose(1, 2, 0).copy())
+        self.imu_offset: Optional[np.ndarray] = None
+        self.line_mass: Optional[np.ndarray] = None
 
     def set_motor_model(self, a0: np.ndarray, kv_scale: np.ndarray) -> None:
         """Use the load-dependent motor model of sim/esc.py (``a0`` (N,) s/rad, ``kv_scale`` (R, N))."""
@@ -256,13 +281,8 @@ class QuadDynamics:
         if drag_ratio is not None:
             torque[2] += (self.g_drag * (drag_ratio - 1.0) * w2).sum(axis=0)
 
-        # Rotational dynamics: I ω_dot = τ − ω × Iω − c ω, plus the disturbance.
+        # Translational: thrust along −z_body, linear drag relative to the air (gravity below).
         om = s.omega
-        om_dot = torque - cross(om, self.p.inertia * om, self._cross) - self.drag_ang * om
-        om_dot *= self.inv_inertia
-        om_dot += ang_acc_dist
-
-        # Translational: thrust along −z_body, gravity, linear drag relative to the air.
         q = s.quat
         qw, qx, qy, qz = q
         acc = self._acc
@@ -272,8 +292,25 @@ class QuadDynamics:
         acc *= -thrust
         acc += self.drag_lin * (wind - s.vel)
         acc *= self.inv_mass
+        if self.line_mass is not None:  # a payload on a line: its tension on the body (loads.py)
+            torque = torque + self._line_tension(s, acc)
+
+        # Rotational dynamics: I ω_dot = τ − ω × Iω − c ω, plus the disturbance.
+        if self.inertia_full is None:
+            om_dot = torque - cross(om, self.p.inertia * om, self._cross) - self.drag_ang * om
+            om_dot *= self.inv_inertia
+        else:  # a vehicle carrying loads: the full tensor about the loaded CoM
+            i_om = np.einsum("ijn,jn->in", self.inertia_full, om)
+            om_dot = np.einsum("ijn,jn->in", self.inv_inertia_full,
+                               torque - cross(om, i_om, self._cross) - self.drag_ang * om)
+        om_dot += ang_acc_dist
         if self.track_specific_force:
             self._body_frame(q, acc, self.specific_force)  # the accelerometer: thrust + drag, no gravity
+            if self.imu_offset is not None:  # the IMU at the frame centre, off the loaded CoM
+                r = self.imu_offset
+                self.specific_force += cross(om_dot, r) + cross(om, cross(om, r))
+        if self.line_mass is not None:
+            self._om_dot = om_dot.copy()
         acc[2] += GRAVITY
         s.vel += acc * dt
         s.pos += s.vel * dt
@@ -304,7 +341,82 @@ class QuadDynamics:
             q[2] *= air
             q[0] = np.where(ground, np.cos(yaw / 2.0), q[0])
             q[3] = np.where(ground, np.sin(yaw / 2.0), q[3])
+        if self.line_mass is not None:
+            self._swing_step()
         return f
+
+    def set_loads(self, la) -> None:
+        """Fly the loads of :class:`~flightlog_fd.sim.loads.LoadArrays` ``la`` (the params must come
+        from :meth:`VehicleParams.with_loads`): the IMU's lever arm to the loaded CoM and, where a
+        vehicle carries one, the payload on a line (hanging straight down at the start)."""
+        n = self.p.n
+        self.imu_offset = -la.shift.copy() if np.any(la.shift) else None
+        if not np.any(la.line_mass):
+            return
+        self.line_mass = la.line_mass.copy()
+        self.line_attach = la.line_attach.copy()
+        self.line_length = la.line_length.copy()
+        m = self.p.mass
+        self._line_mu = self.line_mass * m / (m + self.line_mass)  # reduced mass: tension per m/s²
+        self._line_w0 = np.sqrt(GRAVITY / self.line_length)
+        self.line_n = np.zeros((3, n))
+        self.line_n[2] = 1.0
+        self.line_ndot = np.zeros((3, n))
+        self._om_dot = np.zeros((3, n))
+        self.line_tension = np.zeros(n)
+
+    @staticmethod
+    def _rotation(q: np.ndarray) -> np.ndarray:
+        """(3, 3, N) body→NED rotation matrices of (4, N) quaternions."""
+        w, x, y, z = q
+        return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+    def _line_tension(self, s: RigidBodyState, acc: np.ndarray) -> np.ndarray:
+        """Add the line's pull to ``acc`` (NED specific force of the body, m/s²) in place and
+        return its (3, N) body torque about the CoM.
+
+        The tension follows from the line staying taut (|n| = 1): with the attachment point's
+        acceleration ``a_a = g + acc + T·n/M + rot`` (``rot``: ω̇ × r + ω × (ω × r), ω̇ of the
+        previous step) and the payload's ``m·(a_a + L·n̈) = m·g − T·n``,
+        ``T = μ·(L·|ṅ|² − (acc + rot)·n)`` with the reduced mass ``μ = m·M/(m + M)``; never
+        negative (a slack line pulls nothing), scaled by how far the payload is lifted."""
+        r_mat = self._rotation(s.quat)
+        ra = self.line_attach
+        rot_b = cross(self._om_dot, ra) + cross(s.omega, cross(s.omega, ra))
+        rot_w = np.einsum("ijn,jn->in", r_mat, rot_b)
+        ra_w = np.einsum("ijn,jn->in", r_mat, ra)
+        n, nd = self.line_n, self.line_ndot
+        base = acc + rot_w
+        # The payload rests on the ground until the attachment point is a line length up.
+        self._lifted = np.clip(-(s.pos[2] + ra_w[2] + self.line_length) / LINE_LIFT_RAMP_M, 0.0, 1.0)
+        self._swing_drive = base
+        tension = self._line_mu * np.maximum(self.line_length * (nd * nd).sum(axis=0) - (base * n).sum(axis=0), 0.0)
+        tension *= self._lifted
+        self.line_tension = tension
+        pull = n * tension
+        acc += pull * self.inv_mass
+        pull_b = np.einsum("jin,jn->in", r_mat, pull)  # Rᵀ: NED → body
+        return cross(ra, pull_b)
+
+    def _swing_step(self) -> None:
+        """Advance the payload's direction ``n`` (NED unit vector from the attachment point) by one
+        step: ``n̈ = −(acc + rot)⊥ / L − |ṅ|²·n − 2ζω₀·ṅ`` (the attachment point's acceleration
+        across the line, the constraint, light damping); straight down and still while on the ground."""
+        dt = self.dt
+        n, nd = self.line_n, self.line_ndot
+        drive = -self._swing_drive
+        drive -= (drive * n).sum(axis=0) * n
+        ndd = drive / self.line_length - (nd * nd).sum(axis=0) * n - (2.0 * LINE_DAMPING_RATIO * self._line_w0) * nd
+        nd += ndd * dt
+        n += nd * dt
+        n /= np.sqrt((n * n).sum(axis=0))
+        nd -= (nd * n).sum(axis=0) * n
+        rest = self._lifted < 1.0
+        if rest.any():
+            n[:, rest] = np.array([[0.0], [0.0], [1.0]])
+            nd[:, rest] = 0.0
 
     @staticmethod
     def _body_frame(q: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:

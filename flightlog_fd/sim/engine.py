@@ -11,7 +11,8 @@ per-vehicle loop). Time is seconds since arming (t = 0 is the first logged insta
    paper's speed gain (``"paper"`` mode), plus the damaged rotor's separate drag-torque loss and a
    weak motor's lost speed (damage.py cause "motor");
    rigid-body step with the airframe as built (imbalance.py: CoG offset, motor tilt, per-rotor
-   coefficient and lag spread), while the controller's mixer uses the nominal airframe;
+   coefficient and lag spread) and loaded (loads.py: mass, CoM and inertia of fixed loads and a
+   moved battery, a payload swinging on a line), while the controller uses the nominal airframe;
 5. recording: stream ``s`` stores its quantities every ``decimation[s]`` steps.
 
 Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``attitude``
@@ -21,7 +22,8 @@ Recordable streams (:data:`STREAM_FIELDS`): ``rates`` (filtered gyro, rad/s), ``
 ``torque`` (each propeller's drag torque N·m, what its motor delivers: ESC current, sim/esc.py);
 ``sforce`` (noise-free body specific force m/s², FRD), ``omega_fine`` and ``w_fine`` (true body rates
 and rotor speeds, under names of their own so that sim/prop_vibration.py can record them at every
-step without changing the decimation other users give ``omega`` / ``w``).
+step without changing the decimation other users give ``omega`` / ``w``); ``swing`` (the direction
+of a payload's line from its attachment point, NED unit vector; loads.py).
 
 ``motor_model`` (sim/esc.py ``MotorArrays``): rotor speeds follow the load-dependent motor model
 (a lighter propeller spins faster at the same command) instead of reaching the commanded speed.
@@ -46,7 +48,7 @@ from flightlog_fd.sim.rho import check_mode, paper_speed_gain, physical_effectiv
 
 STREAM_FIELDS = {"rates": 3, "attitude": 4, "motors": 4, "velocity": 3, "accel": 3, "w_com": 4, "w": 4,
                  "pos": 3, "thrust": 4, "omega": 3, "eta": 4, "torque": 4,
-                 "sforce": 3, "omega_fine": 3, "w_fine": 4}
+                 "sforce": 3, "omega_fine": 3, "w_fine": 4, "swing": 3}
 #: Streams with one column per rotor (STREAM_FIELDS gives a quad's 4; a hexa records 6).
 ROTOR_STREAMS = ("motors", "w_com", "w", "thrust", "eta", "torque", "w_fine")
 #: Simulated time kept after the last disarm (covers the logger's tail after disarming).
@@ -71,9 +73,10 @@ class BatchResult:
 def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageArrays, rho: np.ndarray, rho_mode: str,
               sensor_params: SensorParams, dt: float, decimation: dict[str, int], t_max: float,
               rng: np.random.Generator, tail_s: float = DEFAULT_TAIL_S,
-              imbalance: Optional[ImbalanceArrays] = None, motor_model=None) -> BatchResult:
+              imbalance: Optional[ImbalanceArrays] = None, motor_model=None, loads=None) -> BatchResult:
     """Fly the batch; see the module docstring. ``decimation`` maps stream name → record every k steps;
-    ``imbalance`` the airframes as built (None: as designed)."""
+    ``imbalance`` the airframes as built (None: as designed); ``loads`` what they carry
+    (:class:`~flightlog_fd.sim.loads.LoadArrays`, None: nothing; the controller is not told)."""
     check_mode(rho_mode)
     for name in decimation:
         if name not in STREAM_FIELDS:
@@ -81,7 +84,12 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
     vp = VehicleParams.from_airframes(airframes)
     n, n_rot = vp.n, vp.n_rotors
     fields = {k: (n_rot if k in ROTOR_STREAMS else c) for k, c in STREAM_FIELDS.items()}
-    dyn = QuadDynamics(vp if imbalance is None else vp.with_imbalance(imbalance), dt)
+    vp_built = vp if imbalance is None else vp.with_imbalance(imbalance)
+    dyn = QuadDynamics(vp_built if loads is None else vp_built.with_loads(loads), dt)
+    if loads is not None:
+        dyn.set_loads(loads)
+    if "swing" in decimation and dyn.line_mass is None:
+        raise ValueError("the 'swing' stream needs a payload on a line")
     dyn.track_specific_force = "accel" in decimation or "sforce" in decimation
     if motor_model is not None:
         dyn.set_motor_model(motor_model.a0, motor_model.kv_scale)
@@ -160,6 +168,8 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
                 v = state.omega
             elif name == "w_fine":
                 v = state.w
+            elif name == "swing":
+                v = dyn.line_n
             elif name == "sforce":  # specific force of the previous step, noise-free
                 v = dyn.specific_force
             elif name == "eta":

@@ -19,7 +19,7 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
                       rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
                       esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
                       imbalance: Optional[list[str]] = None, imu_rate: Optional[float] = None,
-                      cause: str = "propeller") -> list[tuple[Path, dict]]:
+                      cause: str = "propeller", loads: Optional[list[str]] = None) -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
 
     ``imbalance``: ["MOTOR:G_MM"] propeller mass imbalance m·r in g·mm on that motor, or
@@ -38,6 +38,12 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     ``cause``: what lost the thrust of each ``motor``: ``"propeller"`` (damaged) or ``"motor"``
     (the motor or its ESC is weak: the rotor turns at sqrt(eta) of its commanded speed, the
     propeller is sound; sim/damage.py).
+
+    ``loads``: ``--load`` values (sim/loads.py :func:`~flightlog_fd.sim.loads.parse_load`):
+    ``point:MASS@X,Y[,Z]`` or ``point:MASS@motorK[,F]`` (a mass fixed on the frame),
+    ``line:MASS@WHERE:LENGTH_M`` (a payload swinging on a line), ``battery:DX[,DY[,DZ]][@MASS]``
+    (the battery moved); MASS in kg or ``15%`` of the take-off mass. The truth carries them
+    (ULog ``fdlog_truth``; ``truth.csv`` with ``--count``).
 
     ``count == 1`` writes the file ``out``; more write ``out/sim_000.ulg``... and ``out/truth.csv``.
     Existing files are never overwritten unless ``force``.
@@ -90,10 +96,17 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     damage = Damage.several(*(Damage(k, e, o, e ** torque_exp if torque_exp else None, rotors=rotors, cause=cause)
                               for k, e, o in zip(motors, etas, onsets))) if motors else Damage()
     props = parse_imbalance(out, imbalance, rotors, imu_rate) if (imbalance or imu_rate) else None
-    flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
-                               duration_s=duration, profile=profile_name, rho=rho, seed=seed,
-                               esc=esc_rate, imbalance="random" if esc_rate else None,
-                               prop_imbalance=props, imu_rate_hz=imu_rate)
+    load_list = parse_loads(out, loads, af[0] if af else None, damage) if loads else None
+    try:
+        flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
+                                   duration_s=duration, profile=profile_name, rho=rho, seed=seed,
+                                   esc=esc_rate, imbalance="random" if esc_rate else None,
+                                   prop_imbalance=props, imu_rate_hz=imu_rate,
+                                   loads=None if load_list is None else tuple(load_list))
+    except ValueError as e:
+        if load_list is None:
+            raise
+        raise FlightLogError(out, f"--load: {e}") from None
     if count > 1:
         out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -110,13 +123,39 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         with open(out / "truth.csv", "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["file", "label", "motor", "eta", "cause", "onset_s", "airframe", "mission", "seed",
-                        "motors", "etas"])
+                        "motors", "etas", "loads"])
             for p, t in written:
                 w.writerow([p.name, t.get("label"), t.get("motor"), t.get("eta"), t.get("cause"), t.get("onset_s"),
                             (t.get("airframe") or {}).get("name"), t.get("mission"), t.get("seed"),
                             ";".join(str(k) for k in t.get("motors") or []),
-                            ";".join(f"{e:g}" for e in t.get("etas") or [])])
+                            ";".join(f"{e:g}" for e in t.get("etas") or []),
+                            ";".join(load_text(x) for x in t.get("loads") or [])])
     return written
+
+
+def load_text(d: dict) -> str:
+    """A load's truth (sim/loads.py ``Load.to_dict``) as one compact field:
+    ``point 0.300kg 15.0% @+0.120,+0.120,+0.000`` (a line adds ``L1.00m``)."""
+    text = "{} {:.3f}kg {:.1f}% @{:+.3f},{:+.3f},{:+.3f}".format(d["kind"], d["mass_kg"], 100 * d["mass_fraction"],
+                                                             *d["position_m"])
+    return text + (f" L{d['length_m']:.2f}m" if d.get("length_m") else "")
+
+
+def parse_loads(out: Path, items: list[str], af, damage) -> list:
+    """``--load`` values as Loads; FlightLogError naming ``out`` for a value that does not parse,
+    does not fit the airframe ``af`` (None: random airframes, checked as they are drawn), or
+    that it cannot hover with (with ``damage``)."""
+    from .loads import as_loads, check_flyable, parse_load
+
+    try:
+        loads = as_loads([parse_load(x) for x in items])
+        if af is not None:
+            for ld in loads:
+                ld.check(af)
+            check_flyable(af, loads, damage)
+    except ValueError as e:
+        raise FlightLogError(out, str(e) if str(e).startswith("--load") else f"--load: {e}") from None
+    return list(loads)
 
 
 def _damaged(out: Path, motor, eta, onset, rotors: int) -> tuple[list[int], list[float], list[Optional[float]]]:
