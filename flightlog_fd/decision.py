@@ -96,7 +96,7 @@ import numpy as np
 from .analyzers import AnalyzerResult
 from .analyzers.base import PAIR_ROTOR_COUNTS, SOURCE_LLR_CAP
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
-from .analyzers.reliability import LogKind, cell_of, rate_class, trust_of
+from .analyzers.reliability import FULL_RATE_HZ, LogKind, cell_of, rate_class, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
 from .cause import Cause, judge_cause
@@ -196,8 +196,7 @@ THIN_TIMELINE_SHARE = 0.5
 TRIM_ONLY_LLR_CAP = 1.0
 #: The one meaning of every stated confidence (the JSON reference, the guide and every report
 #: print this sentence).
-CONFIDENCE_MEANING = ("the probability that this verdict is right, as measured on real and simulated "
-                      "flights (results/confidence.md)")
+CONFIDENCE_MEANING = "the probability that this verdict is right, measured on real and simulated flights"
 #: No verdict is stated with a lower confidence: a healthy verdict whose P(healthy) is below it
 #: becomes uncertain naming the leading rotors, and an uncertain verdict names further rotors, by
 #: weight, until the propellers it names reach it (:func:`_stated`). Main 25a3211 without a
@@ -219,6 +218,11 @@ UNCERTAIN_CONFIDENCE_CAP = 0.8
 #: (bench_confidence.py, main 25a3211, with and without one-flight profiles); the real healthy
 #: flights without a profile: 15 of 18 at 0.7 or more, one at 0.53, two below 0.5.
 SEEN_HEALTHY_P = 0.7
+#: ... and from this much usable flight (seconds covered by the model's windows): the healthy
+#: verdicts from less were right 4 of 32 times on the real sets without a profile (CrazyPAD E9,
+#: 13.6 s each: its normal flights and its 0.5-3 mm cuts alike; an 8 s Erle flight), those from
+#: more 22 of 29 (bench_confidence.py, main 25a3211).
+SEEN_MIN_COVERED_S = 20.0
 #: Two propellers: a pair of rotors is named only when its total beats the best single rotor's by
 #: this much. Two weak rotors explain every pattern one does and more (a second free efficiency),
 #: and two damaged propellers at once are rarer than one, so the pair must earn its extra
@@ -788,6 +792,11 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                 motor, motors = None, None
         if status == "uncertain":
             confidence = min(confidence, UNCERTAIN_CONFIDENCE_CAP)
+        seen = None
+        if status == "healthy":
+            seen = bool(confidence >= SEEN_HEALTHY_P and timeline.covered_s >= SEEN_MIN_COVERED_S)
+            if not seen:
+                reason = f"{not_seen_words(confidence, timeline.covered_s, kind)}; {reason}"
         for note in notes:
             reason += f"; {note}"
         one = _one_flight_note(cmd) if status != "healthy" else None
@@ -803,7 +812,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                        positions=[frame.position(k) if frame is not None else None for k in motors],
                        cause=named.cause if named else None,
                        cause_evidence=named.evidence() if named else None,
-                       seen=bool(confidence >= SEEN_HEALTHY_P) if status == "healthy" else None), decision
+                       seen=seen), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -882,6 +891,28 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     return done("healthy", None, w[0], f"no rotor lost thrust: the strongest case is {_words(frame, kb)} at "
                                        f"{total[best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})"
                 + _thin_timeline_words(timeline, weights, cmd))
+
+
+def not_seen_words(p_healthy: float, covered_s: Optional[float], kind: Optional[LogKind]) -> str:
+    """Why this log could not show damage and what would make the next one decisive: more usable
+    flight (``SEEN_MIN_COVERED_S``), motor outputs and rates at full rate, a calibration profile."""
+    why = []
+    if covered_s is not None and covered_s < SEEN_MIN_COVERED_S:
+        why.append(f"only {covered_s:.0f} s of usable flight")
+    if p_healthy < SEEN_HEALTHY_P:
+        why.append(f"the evidence left P(healthy) at {p_healthy:.2f}, near the even prior")
+    todo = []
+    if covered_s is not None and covered_s < SEEN_MIN_COVERED_S:
+        todo.append(f"fly at least {SEEN_MIN_COVERED_S:.0f} s airborne with some roll and pitch manoeuvring")
+    if kind is not None and rate_class(kind.stream_hz) != "full rate":
+        todo.append(f"log the motor outputs and angular rates at {FULL_RATE_HZ:.0f} Hz or more "
+                    f"(now {kind.stream_hz:.0f} Hz)")
+    if kind is not None and kind.profile == "none":
+        todo.append("calibrate on a healthy flight of this airframe (fdlog calibrate)")
+    if not todo:
+        todo.append("fly a longer flight with some roll and pitch manoeuvring")
+    return (f"this log could not show damage ({'; '.join(why)}): not a clearance; what would make the next log "
+            f"decisive: {'; '.join(todo)}")
 
 
 def _leading(w: np.ndarray, first: Sequence[int] = ()) -> tuple[tuple[int, ...], float]:
