@@ -232,3 +232,18 @@ def test_decimate_keeps_each_buckets_first_minimum_and_maximum():
         t = np.arange(n) * 0.01
         got, want = decimate(t, y, max_points), one_at_a_time(t, y, max_points)
         assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1], equal_nan=True)
+
+
+def test_confidence_has_one_meaning_in_the_reference_the_guide_and_the_reports():
+    """The one sentence (decision.CONFIDENCE_MEANING) word for word in the JSON reference (docstring
+    and JSON Schema), the guide and the report line."""
+    from pathlib import Path
+
+    from flightlog_fd.report import json_report
+
+    flat = lambda text: " ".join(text.split())  # noqa: E731
+    assert CONFIDENCE_MEANING in flat(json_report.__doc__)
+    assert JSON_SCHEMA["properties"]["verdict"]["properties"]["confidence"]["description"] == CONFIDENCE_MEANING
+    guide = Path(__file__).resolve().parent.parent / "docs" / "verdicts.md"
+    assert f"**Confidence**: {CONFIDENCE_MEANING}." in flat(guide.read_text())
+    assert f"({CONFIDENCE_MEANING})" in verdict_sentence(make_diagnosis())
