@@ -240,9 +240,11 @@ def report(recs: list[dict]) -> None:
     rs = [r for r in recs if r["status"] in ("healthy", "uncertain", "damaged", "stopped")]
     nd = len(recs) - len(rs)
     print(f"# Stated confidence against the fraction right ({len(rs)} verdicts; {nd} not diagnosable left out)\n")
-    print("| group | set | profile | verdicts h/u/d/s | below 0.5 | " + " | ".join(
-        f"{lo:.2f}-{min(hi, 1):.2f}" for lo, hi in zip(BINS[:-1], BINS[1:])) + " | stated >= 0.9 right |")
-    print("|---|---|---|---|---|" + "---|" * (len(BINS) - 1) + "---|")
+    print("Cells: right / verdicts stated in that confidence bin. healthy seen / not seen: healthy verdicts whose "
+          "evidence saw the flight, and those whose log could not show damage (right in brackets).\n")
+    print("| group | set | profile | verdicts h/u/d/s | healthy seen (right) / not seen (right) | below 0.5 | "
+          + " | ".join(f"{lo:.2f}-{min(hi, 1):.2f}" for lo, hi in zip(BINS[:-1], BINS[1:])) + " | stated >= 0.9 right |")
+    print("|---|---|---|---|---|---|" + "---|" * (len(BINS) - 1) + "---|")
     keyed: dict[tuple, list[dict]] = defaultdict(list)
     for r in rs:
         keyed[(r["group"], r["set"], "none" if r["profile"] == "none" else "one flight")].append(r)
@@ -261,7 +263,10 @@ def report(recs: list[dict]) -> None:
         if hi9 and ok9 < 0.9 * len(hi9):
             worst.append((group, set_name, prof))
         below = sum(r["confidence"] < 0.5 for r in b)
+        seen = [r for r in b if r["status"] == "healthy" and r.get("seen") is not False]
+        unseen = [r for r in b if r["status"] == "healthy" and r.get("seen") is False]
         print(f"| {group} | {set_name} | {prof} | {c['healthy']}/{c['uncertain']}/{c['damaged']}/{c['stopped']} | "
+              f"{len(seen)} ({sum(map(right, seen))}) / {len(unseen)} ({sum(map(right, unseen))}) | "
               f"{below} | " + " | ".join(cells) + f" | {frac} |")
     for group in ("real", "simulated"):
         g = [r for r in rs if r["group"] == group]

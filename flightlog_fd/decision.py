@@ -943,8 +943,12 @@ def _stated(status: str, inspect: tuple, confidence: float, reason: str, w: np.n
         return status, inspect, confidence, reason, False
     healthy_like = status == "healthy" or not inspect
     named, p = _leading(w, () if healthy_like else inspect)
-    lead = " and ".join(f"{_words(frame, k)}, P {w[k]:.2f}" for k in named)
-    props = f"propeller{'s' if len(named) > 1 else ''} {' and '.join(map(str, named))}"
+    lead = " and ".join(f"{_words(frame, k)}, P {w[k]:.2f}" for k in named[:2]) + (
+        f" and {len(named) - 2} more" if len(named) > 2 else "")
+    props = f"propeller{'s' if len(named) > 1 else ''} {', '.join(map(str, named[:-1]))}" + (
+        f" and {named[-1]}" if len(named) > 1 else f"{named[0]}")
+    if len(named) == len(w) - 1 and len(named) > 2:
+        props = f"every propeller, propeller {named[0]} first"
     if healthy_like:
         said = "healthy" if status == "healthy" else "the airframe changed"
         words = (f"the evidence cannot say healthy (P(healthy) only {w[0]:.2f}): "
