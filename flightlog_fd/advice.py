@@ -6,8 +6,8 @@ source that could not weigh in decide next time.
 and the analyzers' abstentions into a list of :class:`Advice` (the JSON report's
 ``verdict.advice``; every report prints it). Advice is given for an ``uncertain`` verdict, and for a
 ``healthy`` one resting on thin evidence (a mostly uncertain timeline, a log that could not show
-damage: ``Verdict.seen`` False, or a source held back by the log's rates): what to inspect and what to log. A ``damaged`` verdict names its propeller in its
-reason; a ``stopped`` one its motor.
+damage: ``Verdict.seen`` False, or a source held back by the log's rates): what to inspect and what
+to log. A ``damaged`` verdict names its propeller in its reason; a ``stopped`` one its motor.
 
 Settings named (the autopilots' own parameters):
 - PX4: ``SDLOG_PROFILE`` bit 4 "high rate" (value 16; 17 = the default set plus high rate) logs
@@ -150,8 +150,8 @@ def advise(s: Situation) -> list[Advice]:
         # would call that damage normal).
         why = ("this log could not show damage" if s.seen is False
                else "the model could not tell this flight's propellers apart")
-        out.append(_calibrate(s, f"{why}: inspect the propellers, and if they are sound, calibrate this airframe on this "
-                                 f"flight so its command pattern weighs in fully next time (--profile)"))
+        out.append(_calibrate(s, f"{why}: inspect the propellers, and if they are sound, calibrate this airframe on "
+                                 f"this flight so its command pattern weighs in fully next time (--profile)"))
     kind = s.kind
     autopilot = s.autopilot if s.autopilot in LOGGING else ""
     slow = kind is not None and kind.stream_hz < FULL_RATE_HZ

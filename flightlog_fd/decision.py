@@ -305,7 +305,8 @@ class Verdict:
     #: What the cause rests on (:meth:`flightlog_fd.cause.Cause.evidence`), None when no rotor is named
     cause_evidence: Optional[dict] = None
     #: A healthy verdict: True when the evidence saw the flight (P(healthy) at least
-    #: ``SEEN_HEALTHY_P``), False when this log could not show damage; None for other verdicts.
+    #: ``SEEN_HEALTHY_P`` over at least ``SEEN_MIN_COVERED_S`` of usable flight), False when this log
+    #: could not show damage (not a clearance); None for other verdicts.
     seen: Optional[bool] = None
 
     def as_dict(self) -> dict:

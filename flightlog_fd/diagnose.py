@@ -44,7 +44,8 @@ from .analyzers.reliability import log_kind
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
-from .decision import STATUS_RANK, UNCERTAIN_CONFIDENCE_CAP, Decision, Verdict, decide, log_verdict, named_motor, not_diagnosable, worst_flight
+from .decision import (STATUS_RANK, UNCERTAIN_CONFIDENCE_CAP, Decision, Verdict, decide, log_verdict, named_motor,
+                       not_diagnosable, worst_flight)
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .flights import split_flights
