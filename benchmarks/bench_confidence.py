@@ -274,6 +274,10 @@ def report(recs: list[dict]) -> None:
         if hi9:
             print(f"\n{group}: stated >= 0.9 right {sum(map(right, hi9))}/{len(hi9)}; "
                   f"below 0.5: {sum(r['confidence'] < 0.5 for r in g)} of {len(g)}")
+        by = {st: [r for r in g if r["status"] == st] for st in ("healthy", "uncertain", "damaged", "stopped")}
+        print(f"{group}, right per verdict (mean stated): " + "; ".join(
+            f"{st} {sum(map(right, x))}/{len(x)} ({sum(r['confidence'] for r in x) / len(x):.2f})"
+            for st, x in by.items() if x))
     print(f"\nSets where stated >= 0.9 is right less than 90 % of the time: {worst or 'none'}")
     below = [r for r in rs if r["confidence"] < 0.5]
     for r in below[:40]:
