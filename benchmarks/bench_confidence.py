@@ -16,8 +16,8 @@ scoring). Sets, with their truth:
   (air_octo 03 and 10, udesa: a cut propeller, rotor not stated; air_octo 14: healthy);
 - simulated: ``sample_logs`` (named by their truth), ``ardupilot_sitl`` (ArduPilot's own SITL:
   healthy, a weak motor 1, hexa motors stopped) and ``sim batch``: flights ``fdlog simulate`` writes
-  into ``--sim`` (random airframes, three logging profiles, healthy and one damaged propeller at
-  eta 0.6-0.9; a preset x500 set with a healthy flight for the profile).
+  into ``--sim`` (random quads at three logging profiles and random hexas at PX4 high rate, healthy
+  and one damaged propeller at eta 0.6-0.95; a preset x500 set with a healthy flight for the profile).
 
 Right: ``healthy`` iff the truth is healthy; ``damaged``, ``uncertain`` and ``stopped`` iff the truth
 is damaged and a propeller the verdict names (``verdict.motors``, else its ``inspect`` advice,
@@ -102,11 +102,14 @@ def sim_sets(folder: Path) -> dict[str, list[tuple[Path, object]]]:
     return {k: v for k, v in out.items() if v}
 
 
-#: The simulated batch: (set, log profile, format, airframe); each gets healthy flights and one
-#: damaged propeller per motor at eta 0.6, 0.7, 0.8, 0.9 in turn.
-SIM_SETS = (("sim px4_high", "px4_high", "ulog", "random"), ("sim px4_default", "px4_default", "ulog", "random"),
-            ("sim ardupilot", "ardupilot", "dataflash", "random"), ("sim x500 px4_default", "px4_default", "ulog", "x500"))
-SIM_HEALTHY, SIM_ETAS = 4, (0.6, 0.7, 0.8, 0.9)
+#: The simulated batch: (set, log profile, format, airframe, frame); each gets SIM_HEALTHY healthy
+#: flights and one damaged propeller at each of SIM_ETAS, on motors 1..n in turn.
+SIM_SETS = (("sim px4_high", "px4_high", "ulog", "random", None),
+            ("sim px4_default", "px4_default", "ulog", "random", None),
+            ("sim ardupilot", "ardupilot", "dataflash", "random", None),
+            ("sim x500 px4_default", "px4_default", "ulog", "x500", None),
+            ("sim hexa px4_high", "px4_high", "ulog", "random", "hexa_x"))
+SIM_HEALTHY, SIM_ETAS = 6, (0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
 
 
 def make_sim(folder: Path) -> None:
@@ -117,16 +120,17 @@ def make_sim(folder: Path) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     truth: dict[str, list] = {}
     seed = 7300
-    for set_name, prof, fmt, airframe in SIM_SETS:
+    for set_name, prof, fmt, airframe, frame in SIM_SETS:
         ext = ".ulg" if fmt == "ulog" else ".bin"
         rows = []
-        jobs = [(0, 1.0)] * SIM_HEALTHY + [((i % 4) + 1, eta) for i, eta in enumerate(SIM_ETAS)]
+        n = {"hexa_x": 6, "octo_x": 8}.get(frame or "", 4)
+        jobs = [(0, 1.0)] * SIM_HEALTHY + [((i % n) + 1, eta) for i, eta in enumerate(SIM_ETAS)]
         for i, (motor, eta) in enumerate(jobs):
             seed += 1
             name = f"{set_name.replace(' ', '_')}_{i:02d}_{'healthy' if motor == 0 else f'm{motor}_eta{eta:.1f}'}{ext}"
             cmd = [FDLOG, "simulate", "-o", str(folder / name), "-f", fmt, "--airframe", airframe,
                    "--log-profile", prof, "--seed", str(seed), "--motor", str(motor), "--force",
-                   *(["--eta", str(eta)] if motor else [])]
+                   *(["--eta", str(eta)] if motor else []), *(["--frame", frame] if frame else [])]
             if airframe != "random":
                 cmd += ["--vehicle-id", set_name.replace(" ", "_")]
             r = subprocess.run(cmd, capture_output=True, text=True)
@@ -292,7 +296,7 @@ def report(recs: list[dict]) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--profiles", default=str(ROOT / "build" / "confidence_profiles"))
-    ap.add_argument("--sim", default=str(ROOT / "build" / "confidence_sim"), help="folder of the simulated batch")
+    ap.add_argument("--sim", default=str(ROOT / "build" / "confidence_sim2"), help="folder of the simulated batch")
     ap.add_argument("--only", help="only these sets (comma-separated)")
     ap.add_argument("--out", help="write the records (JSON) here")
     ap.add_argument("--report", help="print the report from saved records instead of running")

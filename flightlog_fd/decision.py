@@ -206,7 +206,7 @@ CONFIDENCE_MEANING = "the probability that this verdict is right, measured on re
 #: one on every one whose rotor is known (12 of 12; bench_confidence.py).
 STATED_MIN_CONFIDENCE = 0.5
 #: An uncertain verdict ("too weak to call") is stated at most this sure: uncertain verdicts were
-#: right 37 of 45 times (82 %) on the real sets and 8 of 8 on the simulated ones
+#: right 37 of 45 times (82 %) on the real sets and 16 of 16 on the simulated ones
 #: (benchmarks/bench_confidence.py: without a profile and with one-flight profiles; the 8 wrong:
 #: 5 real healthy Erle flights, 3 moved loads on px4_sih_dev_load), while their raw posterior
 #: reached 0.96-1.00; capped, a stated 0.9 or more is a damaged (or stopped) verdict.
