@@ -98,7 +98,8 @@ def _schema_rows(schema: dict, prefix: str = "", depth: int = 0) -> list[str]:
             typ += ": " + ", ".join(f"`{v}`" for v in sub["enum"])
         if "const" in sub:
             typ = f"`{sub['const']}`"
-        rows.append(f"| `{prefix}{key}` | {typ} | {'required' if key in req else ''} |")
+        note = "; ".join(x for x in ("required" if key in req else "", sub.get("description", "")) if x)
+        rows.append(f"| `{prefix}{key}` | {typ} | {note} |")
         if depth < 2 and isinstance(sub, dict):
             if sub.get("properties"):
                 rows += _schema_rows(sub, f"{prefix}{key}.", depth + 1)

@@ -5,9 +5,9 @@ source that could not weigh in decide next time.
 :func:`advise` turns a verdict, the kind of log (:class:`~flightlog_fd.analyzers.reliability.LogKind`)
 and the analyzers' abstentions into a list of :class:`Advice` (the JSON report's
 ``verdict.advice``; every report prints it). Advice is given for an ``uncertain`` verdict, and for a
-``healthy`` one resting on thin evidence (a mostly uncertain timeline, or a source held back by the
-log's rates): what to inspect and what to log. A ``damaged`` verdict names its propeller in its
-reason; a ``stopped`` one its motor.
+``healthy`` one resting on thin evidence (a mostly uncertain timeline, a log that could not show
+damage: ``Verdict.seen`` False, or a source held back by the log's rates): what to inspect and what
+to log. A ``damaged`` verdict names its propeller in its reason; a ``stopped`` one its motor.
 
 Settings named (the autopilots' own parameters):
 - PX4: ``SDLOG_PROFILE`` bit 4 "high rate" (value 16; 17 = the default set plus high rate) logs
@@ -80,6 +80,7 @@ class Situation:
     positions: dict = field(default_factory=dict)  # motor -> position words
     cause: Optional[str] = None  # the named rotor's likely cause (flightlog_fd.cause): its motor / ESC first
     pair: bool = False  # the verdict is that two propellers lost thrust together (``inspect`` holds both)
+    seen: Optional[bool] = None  # a healthy verdict: False when this log could not show damage
 
 
 def advice_line(a: Advice) -> str:
@@ -110,7 +111,7 @@ def _calibrate(s: Situation, text: str) -> Advice:
 
 def advise(s: Situation) -> list[Advice]:
     """The advice for one verdict (module docstring); [] when there is nothing to resolve."""
-    thin = s.status == "healthy" and s.timeline_uncertain >= THIN_TIMELINE_SHARE
+    thin = s.status == "healthy" and (s.timeline_uncertain >= THIN_TIMELINE_SHARE or s.seen is False)
     if s.status != "uncertain" and not thin:
         return []
     out: list[Advice] = []
@@ -147,9 +148,10 @@ def advise(s: Situation) -> list[Advice]:
         # The command calibrates on this very flight, which may carry damage the model could not
         # see: so the advice asks for the inspection first (a profile made on a damaged propeller
         # would call that damage normal).
-        out.append(_calibrate(s, "the model could not tell this flight's propellers apart: inspect them, and "
-                                 "if they are sound, calibrate this airframe on this flight so its command "
-                                 "pattern weighs in fully next time (--profile)"))
+        why = ("this log could not show damage" if s.seen is False
+               else "the model could not tell this flight's propellers apart")
+        out.append(_calibrate(s, f"{why}: inspect the propellers, and if they are sound, calibrate this airframe on "
+                                 f"this flight so its command pattern weighs in fully next time (--profile)"))
     kind = s.kind
     autopilot = s.autopilot if s.autopilot in LOGGING else ""
     slow = kind is not None and kind.stream_hz < FULL_RATE_HZ
@@ -184,4 +186,4 @@ def situation(diagnosis: Any, flight: Any) -> Situation:
         little_manoeuvring=bool(eff is not None and (eff.reason or "").startswith(LITTLE_MANOEUVRING)),
         timeline_uncertain=float(tl.abstained_share) if tl is not None and tl.n_windows else 0.0,
         positions={k: frame.position(k) for k in range(1, frame.rotor_count + 1)} if frame is not None else {},
-        cause=v.cause, pair=bool(getattr(v, "pair", False)))
+        cause=v.cause, pair=bool(getattr(v, "pair", False)), seen=getattr(v, "seen", None))

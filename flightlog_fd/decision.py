@@ -32,15 +32,20 @@ trim agrees (``TRIM_FREE_AGREE_LLR``) or the rise is beyond any moved load
 (``BEYOND_DRIFT_SHARE_RISE``), and never ``damaged`` with the throttle well below calibration
 (``THROTTLE_FELL_SIGMAS``); the reason then says what to inspect and when to re-calibrate.
 
-Confidence: the probability of the verdict as stated, from the per-motor LLRs under
-``PRIOR_DAMAGED`` (:func:`posterior`): healthy, P(no rotor lost thrust); damaged motor k, P(motor
-k); uncertain naming motor k, P(motor k); naming two it cannot tell apart, P(either); naming a pair
-(two lost thrust together), P(that pair) (:func:`_pair_posterior`); "the airframe changed, no rotor
-explains it", P(no rotor lost thrust). Stopped: 1; not diagnosable: 0. The LLRs it reads are
-each motor's total with two bounds: when the trim sources are held (above) their part is at most
-``TRIM_ONLY_LLR_CAP``, and no motor falls below ``MILD_DAMAGE_LLR_FLOOR`` (damage too mild for any
-source to see cannot be ruled out). Measured: benchmarks/bench_cross_session.py prints the
-reliability table (stated confidence against the fraction right).
+Confidence (:data:`CONFIDENCE_MEANING`): the probability that the stated verdict is right, from
+the per-motor LLRs under ``PRIOR_DAMAGED`` (:func:`posterior`): healthy, P(no rotor lost thrust);
+damaged motor k, P(motor k); uncertain, P(one of the propellers it names lost thrust), at most
+``UNCERTAIN_CONFIDENCE_CAP``; a damaged pair, P(that pair) (:func:`_pair_posterior`); an uncertain
+pair, P(either of the two); "the airframe changed, no rotor explains it", P(no rotor lost thrust).
+Stopped: 1; not diagnosable: 0 (no verdict stated). The LLRs it reads are each motor's total, no
+motor below ``MILD_DAMAGE_LLR_FLOOR`` (damage too mild for any source to see cannot be ruled out);
+the trim sources are not held here (they are for the bars). No verdict is stated below
+``STATED_MIN_CONFIDENCE`` (:func:`_stated`): a healthy one below it becomes ``uncertain`` naming the
+leading rotors ("P(healthy) only 0.28: motor 2 leads"), an uncertain one names the next rotors too
+until they reach it. A healthy verdict is ``seen`` from ``SEEN_HEALTHY_P``; below it the log could
+not show damage (not a clearance, though the status stays healthy: exit 0). Measured per set, real
+and simulated, without and with a one-flight profile: benchmarks/bench_confidence.py
+(results/confidence.md).
 
 Vibration (:class:`~flightlog_fd.analyzers.vibration.VibrationResult`): besides its per-motor LLRs
 (only for a line tied to a rotor by ESC rpm), its flight-level log Bayes factor "a propeller is out
@@ -91,7 +96,7 @@ import numpy as np
 from .analyzers import AnalyzerResult
 from .analyzers.base import PAIR_ROTOR_COUNTS, SOURCE_LLR_CAP
 from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
-from .analyzers.reliability import LogKind, cell_of, rate_class, trust_of
+from .analyzers.reliability import FULL_RATE_HZ, LogKind, cell_of, rate_class, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
 from .cause import Cause, judge_cause
@@ -182,10 +187,42 @@ TRUST_CAPS = {"trusted": SOURCE_LLR_CAP, "corroborating": DAMAGED_LLR - 1.0, "di
 #: on instead (the model could not tell the propellers apart: the shipped octo model on its own
 #: damaged sample, 92 %).
 THIN_TIMELINE_SHARE = 0.5
-#: When the trim sources are held, their joint part of the stated probabilities is at most this
-#: many nats for any motor: once a moved load explains the pattern as well as a weak rotor does,
-#: the commands add little to the prior odds (e ~ 2.7 to 1).
+#: When the trim sources are held, their joint part of a pair's total is at most this many nats
+#: (:func:`_pairs`, :func:`_pair_posterior`): once a moved load explains the pattern as well as a
+#: weak rotor does, the commands add little to the prior odds (e ~ 2.7 to 1). The single rotors'
+#: stated probabilities no longer hold them: held, the 8 uncertain verdicts with a one-flight
+#: profile on rrc_straight 10-25 mm cuts and px4_sih_dev weakened motors were stated at 0.09-0.56
+#: and all 8 named the damaged rotor (benchmarks/bench_confidence.py).
 TRIM_ONLY_LLR_CAP = 1.0
+#: The one meaning of every stated confidence (the JSON reference, the guide and every report
+#: print this sentence).
+CONFIDENCE_MEANING = "the probability that this verdict is right, measured on real and simulated flights"
+#: No verdict is stated with a lower confidence: a healthy verdict whose P(healthy) is below it
+#: becomes uncertain naming the leading rotors, and an uncertain verdict names further rotors, by
+#: weight, until the propellers it names reach it (:func:`_stated`). Main 25a3211 without a
+#: profile stated 20 healthy verdicts below it on ../shared and sample_logs, 17 of them on damaged
+#: flights (rrc_straight 10 and 20 mm cuts, CrazyPAD E9 cuts, px4_sih_dev sih_049, the octo
+#: sample; the other 3: two real Erle flights and a moved load); the leading rotor was a damaged
+#: one on every one whose rotor is known (12 of 12; bench_confidence.py).
+STATED_MIN_CONFIDENCE = 0.5
+#: An uncertain verdict ("too weak to call") is stated at most this sure: uncertain verdicts were
+#: right 37 of 45 times (82 %) on the real sets and 16 of 16 on the simulated ones
+#: (benchmarks/bench_confidence.py: without a profile and with one-flight profiles; the 8 wrong:
+#: 5 real healthy Erle flights, 3 moved loads on px4_sih_dev_load), while their raw posterior
+#: reached 0.96-1.00; capped, a stated 0.9 or more is a damaged (or stopped) verdict.
+UNCERTAIN_CONFIDENCE_CAP = 0.8
+#: A healthy verdict from this P(healthy) on "saw" the flight (``Verdict.seen``): the evidence moved
+#: the even prior odds to at least 7 : 3 for healthy. Below it the log could not show damage: on
+#: the real sets the healthy verdicts stated 0.5-0.7 were right 8 of 37 times (CrazyPAD E9 mild
+#: cuts 0 of 25, the 8 right ones 7 moved loads and one Erle flight), those at 0.7 or more 46 of 97
+#: (bench_confidence.py, main 25a3211, with and without one-flight profiles); the real healthy
+#: flights without a profile: 15 of 18 at 0.7 or more, one at 0.53, two below 0.5.
+SEEN_HEALTHY_P = 0.7
+#: ... and from this much usable flight (seconds covered by the model's windows): the healthy
+#: verdicts from less were right 4 of 32 times on the real sets without a profile (CrazyPAD E9,
+#: 13.6 s each: its normal flights and its 0.5-3 mm cuts alike; an 8 s Erle flight), those from
+#: more 22 of 29 (bench_confidence.py, main 25a3211).
+SEEN_MIN_COVERED_S = 20.0
 #: Two propellers: a pair of rotors is named only when its total beats the best single rotor's by
 #: this much. Two weak rotors explain every pattern one does and more (a second free efficiency),
 #: and two damaged propellers at once are rarer than one, so the pair must earn its extra
@@ -267,6 +304,10 @@ class Verdict:
     cause: Optional[str] = None
     #: What the cause rests on (:meth:`flightlog_fd.cause.Cause.evidence`), None when no rotor is named
     cause_evidence: Optional[dict] = None
+    #: A healthy verdict: True when the evidence saw the flight (P(healthy) at least
+    #: ``SEEN_HEALTHY_P`` over at least ``SEEN_MIN_COVERED_S`` of usable flight), False when this log
+    #: could not show damage (not a clearance); None for other verdicts.
+    seen: Optional[bool] = None
 
     def as_dict(self) -> dict:
         """The verdict fields of the JSON report."""
@@ -283,6 +324,7 @@ class Verdict:
             "advice": [a.as_dict() for a in self.advice],
             "cause": self.cause,
             "cause_evidence": self.cause_evidence,
+            "seen": self.seen,
         }
 
 
@@ -684,13 +726,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
     thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
     trim_held = _trim_held(cmd, sources, int(np.argmax(total)), n)
-    # the stated probabilities: with the trim sources held (a moved load explains them) their
-    # joint part is at most TRIM_ONLY_LLR_CAP; mild damage no source sees is never ruled out
-    weighed = total
-    if trim_held is not None:
-        trim = sum(v for s_, v in sources.items() if s_ in TRIM_SOURCES)
-        weighed = total - trim + np.minimum(trim, TRIM_ONLY_LLR_CAP)
-    w = posterior(np.maximum(weighed, MILD_DAMAGE_LLR_FLOOR))
+    # the stated probabilities: mild damage no source sees is never ruled out
+    w = posterior(np.maximum(total, MILD_DAMAGE_LLR_FLOOR))
     motors = []
     for k in range(n):
         thrust = cmd.finding("thrust", k + 1) if cmd is not None else None
@@ -748,6 +785,19 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             reason = (f"a propeller is {'likely damaged' if status == 'damaged' else 'possibly out of balance'}: "
                       f"{vib.level_words}; {_vibration_advice(vib, status, frame)}; "
                       f"the per-rotor evidence alone said: {reason}")
+        if raised is None:  # the per-rotor statement: never stated below STATED_MIN_CONFIDENCE
+            status, inspect, confidence, reason, restated = _stated(status, tuple(inspect), confidence, reason, w,
+                                                                    decision.motors, pair, frame)
+            if restated:
+                named = cause if tuple(inspect) == (kb,) else None
+                motor, motors = None, None
+        if status == "uncertain":
+            confidence = min(confidence, UNCERTAIN_CONFIDENCE_CAP)
+        seen = None
+        if status == "healthy":
+            seen = bool(confidence >= SEEN_HEALTHY_P and timeline.covered_s >= SEEN_MIN_COVERED_S)
+            if not seen:
+                reason = f"{not_seen_words(confidence, timeline.covered_s, kind)}; {reason}"
         for note in notes:
             reason += f"; {note}"
         one = _one_flight_note(cmd) if status != "healthy" else None
@@ -762,7 +812,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                        inspect=inspect, motors=motors, pair=pair,
                        positions=[frame.position(k) if frame is not None else None for k in motors],
                        cause=named.cause if named else None,
-                       cause_evidence=named.evidence() if named else None), decision
+                       cause_evidence=named.evidence() if named else None,
+                       seen=seen), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -843,6 +894,73 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                 + _thin_timeline_words(timeline, weights, cmd))
 
 
+def not_seen_words(p_healthy: float, covered_s: Optional[float], kind: Optional[LogKind]) -> str:
+    """Why this log could not show damage and what would make the next one decisive: more usable
+    flight (``SEEN_MIN_COVERED_S``), motor outputs and rates at full rate, a calibration profile."""
+    why = []
+    if covered_s is not None and covered_s < SEEN_MIN_COVERED_S:
+        why.append(f"only {covered_s:.0f} s of usable flight")
+    if p_healthy < SEEN_HEALTHY_P:
+        why.append(f"the evidence left P(healthy) at {p_healthy:.2f}, near the even prior")
+    todo = []
+    if covered_s is not None and covered_s < SEEN_MIN_COVERED_S:
+        todo.append(f"fly at least {SEEN_MIN_COVERED_S:.0f} s airborne with some roll and pitch manoeuvring")
+    if kind is not None and rate_class(kind.stream_hz) != "full rate":
+        todo.append(f"log the motor outputs and angular rates at {FULL_RATE_HZ:.0f} Hz or more "
+                    f"(now {kind.stream_hz:.0f} Hz)")
+    if kind is not None and kind.profile == "none":
+        todo.append("calibrate on a healthy flight of this airframe (fdlog calibrate)")
+    if not todo:
+        todo.append("fly a longer flight with some roll and pitch manoeuvring")
+    return (f"this log could not show damage ({'; '.join(why)}): not a clearance; what would make the next log "
+            f"decisive: {'; '.join(todo)}")
+
+
+def _leading(w: np.ndarray, first: Sequence[int] = ()) -> tuple[tuple[int, ...], float]:
+    """The propellers ``first`` and then the next by weight (``w`` from :func:`posterior`) until
+    together they reach ``STATED_MIN_CONFIDENCE`` (or all are named), and their probability."""
+    named = list(first)
+    for k in (int(i) + 1 for i in np.argsort(-w[1:], kind="stable")):
+        if sum(w[j] for j in named) >= STATED_MIN_CONFIDENCE:
+            break
+        if k not in named:
+            named.append(k)
+    return tuple(named), float(sum(w[j] for j in named))
+
+
+def _stated(status: str, inspect: tuple, confidence: float, reason: str, w: np.ndarray,
+            motors: Sequence[MotorDecision], pair: bool, frame: Optional[Frame]
+            ) -> tuple[str, tuple, float, str, bool]:
+    """(status, inspect, confidence, reason, restated) so that no verdict is stated below
+    ``STATED_MIN_CONFIDENCE``: a healthy verdict (or "the airframe changed") whose P(healthy) is
+    below it becomes uncertain naming the leading rotors; an uncertain pair is stated as P(either
+    of the two); an uncertain verdict below it names the next rotors too. ``w``: the single-rotor
+    posterior; ``motors``: each rotor's weight (alone or in a pair)."""
+    if status == "uncertain" and pair and len(inspect) == 2 and confidence < STATED_MIN_CONFIDENCE:
+        a, b = inspect  # the weights are then P(rotor k lost thrust, alone or in a pair)
+        either = motors[a - 1].weight + motors[b - 1].weight - confidence
+        return status, inspect, max(confidence, float(either)), reason, False
+    if status not in ("healthy", "uncertain") or confidence >= STATED_MIN_CONFIDENCE or pair:
+        return status, inspect, confidence, reason, False
+    healthy_like = status == "healthy" or not inspect
+    named, p = _leading(w, () if healthy_like else inspect)
+    lead = " and ".join(f"{_words(frame, k)}, P {w[k]:.2f}" for k in named[:2]) + (
+        f" and {len(named) - 2} more" if len(named) > 2 else "")
+    props = f"propeller{'s' if len(named) > 1 else ''} {', '.join(map(str, named[:-1]))}" + (
+        f" and {named[-1]}" if len(named) > 1 else f"{named[0]}")
+    if len(named) == len(w) - 1 and len(named) > 2:
+        props = f"every propeller, propeller {named[0]} first"
+    if healthy_like:
+        said = "healthy" if status == "healthy" else "the airframe changed"
+        words = (f"the evidence cannot say healthy (P(healthy) only {w[0]:.2f}): "
+                 f"{'the leading rotors are' if len(named) > 1 else 'the leading rotor is'} {lead}; inspect "
+                 f"{props}; the per-rotor bars alone said {said}: {reason}")
+    else:
+        words = (f"{reason}; no one of them is likely enough alone, so the verdict names the rotors that "
+                 f"together reach P {p:.2f}: {lead}")
+    return "uncertain", named, p, words, True
+
+
 def _thin_timeline_words(timeline: Timeline, weights: dict, cmd: Optional[CommandSharesResult]) -> str:
     """Why a healthy verdict stands over a mostly uncertain timeline ("" when the timeline is not):
     what it rests on instead (and how far those sources are trusted on this kind of log), and what
@@ -907,7 +1025,10 @@ def _vibration_advice(vib: VibrationResult, status: str, frame: Optional[Frame],
 def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason: str) -> tuple[Verdict, Decision]:
     """The verdict from vibration alone, for a flight the rest of the pipeline cannot judge."""
     llr = _vibration_llr(vib)
-    status = "damaged" if llr >= DAMAGED_LLR else ("uncertain" if llr >= UNCERTAIN_LLR else "healthy")
+    p = _p_imbalance(vib)
+    # below UNCERTAIN_LLR still uncertain when "out of balance" is the likelier (STATED_MIN_CONFIDENCE)
+    status = "damaged" if llr >= DAMAGED_LLR else (
+        "uncertain" if llr >= UNCERTAIN_LLR or 1.0 - p < STATED_MIN_CONFIDENCE else "healthy")
     no_outputs = "motor outputs" in reason
     if status == "damaged":
         text = f"a propeller is likely damaged: {vib.level_words}; {_vibration_advice(vib, status, frame, no_outputs=no_outputs)}"
@@ -920,13 +1041,14 @@ def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason
     text += f"; only vibration was judged ({reason})"
     for note in vib.notes:
         text += f"; {note}"
-    p = _p_imbalance(vib)
     sources = [vib.analyzer] if vib.llr(n) is not None else []
     decision = Decision(sources=sources, results=[vib])
     tied = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted and status != "healthy" else ()
     motor = named_motor(status, None, tied)
+    confidence = {"healthy": 1.0 - p, "uncertain": min(p, UNCERTAIN_CONFIDENCE_CAP)}.get(status, p)
     return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor) else None,
-                   confidence=p if status != "healthy" else 1.0 - p, reason=text, inspect=tied), decision
+                   confidence=confidence, reason=text, inspect=tied,
+                   seen=bool(confidence >= SEEN_HEALTHY_P) if status == "healthy" else None), decision
 
 
 def worst_flight(verdicts: Sequence[Verdict]) -> int:
@@ -942,4 +1064,4 @@ def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     return Verdict(status=worst.status, motor=worst.motor, position=worst.position, confidence=worst.confidence,
                    first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}", inspect=worst.inspect,
                    motors=list(worst.motors), pair=worst.pair, positions=list(worst.positions),
-                   cause=worst.cause, cause_evidence=worst.cause_evidence)
+                   cause=worst.cause, cause_evidence=worst.cause_evidence, seen=worst.seen)

@@ -44,7 +44,8 @@ from .analyzers.reliability import log_kind
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
-from .decision import STATUS_RANK, Decision, Verdict, decide, log_verdict, named_motor, not_diagnosable, worst_flight
+from .decision import (STATUS_RANK, UNCERTAIN_CONFIDENCE_CAP, Decision, Verdict, decide, log_verdict, named_motor,
+                       not_diagnosable, worst_flight)
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .flights import split_flights
@@ -467,7 +468,8 @@ def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> V
     motor = named_motor(status, None, inspect)
     return Verdict(status=status, motor=motor, position=own.position if motor is not None and motor == own.motor
                    else None, confidence=log.confidence if status == log.status
-                   else own.confidence, first_seen=None, inspect=inspect,
+                   else min(own.confidence, UNCERTAIN_CONFIDENCE_CAP), first_seen=None, inspect=inspect,
+                   seen=log.seen if status == log.status else None,
                    reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
                           f"confirm it ({log.status}{whole}), so this flight is {status}")
 

@@ -213,7 +213,34 @@ def test_confidence_is_the_probability_of_the_statement_whatever_the_rotor_count
     cap = (1 - D.PRIOR_DAMAGED) / (1 - D.PRIOR_DAMAGED + D.PRIOR_DAMAGED * np.exp(D.MILD_DAMAGE_LLR_FLOOR))
     assert v.status == "healthy" and v.confidence == pytest.approx(cap) and cap < 0.9
     v, d = verdict([4.0, 4.5, -2.0, -2.0, -2.0, -2.0], 6)  # two motors it cannot tell apart
-    assert v.status == "uncertain" and v.confidence == pytest.approx(d.motors[0].weight + d.motors[1].weight)
+    either = d.motors[0].weight + d.motors[1].weight
+    assert v.status == "uncertain" and either > D.UNCERTAIN_CONFIDENCE_CAP
+    assert v.confidence == pytest.approx(D.UNCERTAIN_CONFIDENCE_CAP)  # "too weak to call" is never stated surer
+
+
+def test_no_verdict_is_stated_below_a_coin_toss():
+    """P(healthy) below STATED_MIN_CONFIDENCE: uncertain naming the leading rotor (and why), its
+    probability the stated one; spread over several rotors, it names them until they reach it.
+    Above it the healthy verdict says whether the evidence saw the flight."""
+    def verdict(llrs):
+        r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=float(v)) for k, v in enumerate(llrs)])
+        return D.decide(len(llrs), Frame.quad_x(), timeline=Timeline(60, 60.0, 0.0), results=[r])
+
+    v, d = verdict([2.0, -2.0, -2.0, -2.0])  # below every bar: the bars alone say healthy
+    w = D.posterior(np.maximum([2.0, -2.0, -2.0, -2.0], D.MILD_DAMAGE_LLR_FLOOR))
+    assert w[0] < 0.5 and w[1] > 0.5
+    assert v.status == "uncertain" and v.motor == 1 and v.inspect == (1,), v.reason
+    assert v.confidence == pytest.approx(w[1]) and v.confidence >= D.STATED_MIN_CONFIDENCE
+    assert f"P(healthy) only {w[0]:.2f}" in v.reason and "inspect propeller 1" in v.reason and v.seen is None
+    v, d = verdict([1.2, 1.1, 1.0, -2.0])  # no rotor alone reaches 0.5: the leading ones together
+    assert v.status == "uncertain" and v.motor is None and len(v.inspect) >= 2 and v.inspect[:2] == (1, 2)
+    assert v.confidence >= D.STATED_MIN_CONFIDENCE
+    assert v.confidence == pytest.approx(sum(d.motors[k - 1].weight for k in v.inspect))
+    v, _ = verdict([-9.0] * 4)  # every rotor cleared: seen
+    assert v.status == "healthy" and v.seen is True and v.confidence >= D.SEEN_HEALTHY_P
+    v, _ = verdict([-0.2] * 4)  # the evidence barely moved the prior: not seen, still healthy
+    assert v.status == "healthy" and v.seen is False and 0.5 <= v.confidence < D.SEEN_HEALTHY_P
+    assert v.as_dict()["seen"] is False
 
 
 def test_stopped_outranks_and_not_diagnosable_passes_through():

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import json
 from html.parser import HTMLParser
@@ -16,7 +17,7 @@ from flightlog_fd.report.csv_report import csv_columns, render_csv, write_csv
 from flightlog_fd.report.html_report import decimate, nice_ticks, render_html, write_html
 from flightlog_fd.report.json_report import JSON_SCHEMA, render_json, to_dict, validate
 from flightlog_fd.report.terminal import render, summary_table, timeline_strip, verdict_sentence
-from flightlog_fd.decision import Verdict, not_diagnosable
+from flightlog_fd.decision import CONFIDENCE_MEANING, Verdict, not_diagnosable
 from flightlog_fd.timeline import build as build_timeline
 
 HOSTILE = '<script>alert("x")</script>'
@@ -61,7 +62,7 @@ def test_json_validates_and_holds_the_verdict():
     d = make_diagnosis()
     doc = json.loads(render_json(d))
     assert validate(doc) == []
-    assert doc["schema"] == 6 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["schema"] == 7 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
     assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
     assert doc["verdict"]["position"] == "front-left"
     assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
@@ -91,7 +92,7 @@ def test_validator_catches_schema_violations():
     assert any("verdict.status" in e for e in errors)
     assert any("windows[0].probabilities" in e for e in errors)
     assert any("missing 'warnings'" in e for e in errors)
-    assert JSON_SCHEMA["properties"]["schema"]["const"] == 6
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 7
 
 
 # ---------------------------------------------------------------- CSV
@@ -184,8 +185,15 @@ def test_terminal_words_timeline_and_summary():
     strip = timeline_strip(d, width=40).plain
     body = strip.split(" ")[2]  # "t=10.0 s <strip> t=... s"
     assert len(body) == 40 and body.startswith("....") and body.endswith("3333")
+    assert CONFIDENCE_MEANING in verdict_sentence(d)  # the one meaning, as the JSON reference and the guide say it
     healthy = make_diagnosis(onset_s=None)
-    assert verdict_sentence(healthy).startswith("No propeller damage found")
+    assert verdict_sentence(healthy).startswith("No sign of propeller damage in ")
+    assert "s of usable flight" in verdict_sentence(healthy)
+    unseen = make_diagnosis(onset_s=None)
+    unseen.verdict = dataclasses.replace(unseen.verdict, seen=False)
+    line = verdict_sentence(unseen)
+    assert line.startswith("Not seen: this log could not show damage") and "not a clearance" in line
+    assert "what would make the next log decisive" in line
     assert verdict_sentence(bad_file_diagnosis()).startswith("Not diagnosable: not a PX4 ULog")
 
     console = Console(record=True, width=120, color_system=None)
@@ -224,3 +232,18 @@ def test_decimate_keeps_each_buckets_first_minimum_and_maximum():
         t = np.arange(n) * 0.01
         got, want = decimate(t, y, max_points), one_at_a_time(t, y, max_points)
         assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1], equal_nan=True)
+
+
+def test_confidence_has_one_meaning_in_the_reference_the_guide_and_the_reports():
+    """The one sentence (decision.CONFIDENCE_MEANING) word for word in the JSON reference (docstring
+    and JSON Schema), the guide and the report line."""
+    from pathlib import Path
+
+    from flightlog_fd.report import json_report
+
+    flat = lambda text: " ".join(text.split())  # noqa: E731
+    assert CONFIDENCE_MEANING in flat(json_report.__doc__)
+    assert JSON_SCHEMA["properties"]["verdict"]["properties"]["confidence"]["description"] == CONFIDENCE_MEANING
+    guide = Path(__file__).resolve().parent.parent / "docs" / "verdicts.md"
+    assert f"**Confidence**: {CONFIDENCE_MEANING}." in flat(guide.read_text())
+    assert f"({CONFIDENCE_MEANING})" in verdict_sentence(make_diagnosis())

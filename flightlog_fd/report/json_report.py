@@ -1,4 +1,4 @@
-"""JSON report, schema version 6 (``fdlog diagnose --json``).
+"""JSON report, schema version 7 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals; n is the
@@ -7,7 +7,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
 .. code-block:: text
 
     {
-      "schema": 6,
+      "schema": 7,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -26,7 +26,10 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                   "positions": [str|null],           # the frame's words for each of "motors"
                   "pair": bool,                      # two propellers lost thrust together
                   "position": "front-right" | ... | null,   # the frame's words for "motor"
-                  "confidence": 0-1,
+                  "confidence": 0.5-1,      # the probability that this verdict is right, measured on real
+                                             #   and simulated flights (0 for not_diagnosable: no verdict)
+                  "seen": bool | null,       # healthy: true when the evidence saw the flight, false when
+                                             #   this log could not show damage (not a clearance); else null
                   "first_seen": seconds | null,   # start of the first window of the damaged run
                   "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
                   "cause": "propeller" | "motor_or_esc" | null,   # the named rotor's likely cause
@@ -120,7 +123,10 @@ propellers named together; ``motor`` stays the first of a damaged pair, null for
 and ``motor_evidence.decision.pair`` (the most likely pair hypothesis), and ``verdict.cause`` and
 ``verdict.cause_evidence`` (:mod:`flightlog_fd.cause`: with ESC telemetry, whether the named rotor's
 propeller or its motor / ESC lost the thrust; null and the reason when the log cannot tell, and
-null for a pair).
+null for a pair); schema 7 gives ``confidence`` one meaning: the probability that this verdict is
+right, measured on real and simulated flights (never below 0.5 for a stated verdict; an uncertain
+verdict's is the probability that one of the propellers it names lost thrust, at most 0.8;
+``benchmarks/bench_confidence.py``, ``results/confidence.md``), and adds ``verdict.seen``.
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -132,10 +138,11 @@ import numpy as np
 
 from .. import __version__
 from ..advice import ADVICE_KINDS
+from ..decision import CONFIDENCE_MEANING
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -174,7 +181,7 @@ JSON_SCHEMA: dict = {
         "verdict": {
             "type": "object",
             "required": ["status", "motor", "motors", "positions", "pair", "position", "confidence", "first_seen",
-                         "reason", "advice", "cause", "cause_evidence"],
+                         "reason", "advice", "cause", "cause_evidence", "seen"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
@@ -183,7 +190,8 @@ JSON_SCHEMA: dict = {
                 "positions": {"type": "array", "maxItems": MAX_ROTORS, "items": _STR_OR_NULL},
                 "pair": {"type": "boolean"},
                 "position": _STR_OR_NULL,
-                "confidence": _PROB,
+                "confidence": {**_PROB, "description": CONFIDENCE_MEANING},
+                "seen": {"type": ["boolean", "null"]},
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
                 "cause": {"enum": ["propeller", "motor_or_esc", None]},

@@ -3,8 +3,10 @@
 Inputs: :class:`~flightlog_fd.diagnose.Diagnosis` objects. Nothing here decides anything; it
 only words and draws what the verdict says.
 
-- :func:`verdict_sentence`: "Propeller 3 (front-left) damaged, confidence 0.93, first seen at
-  t=34.5 s" / "No propeller damage found ..." / "Uncertain: ..." / "Not diagnosable: ...".
+- :func:`verdict_sentence`: "Propeller 3 (front-left) damaged, confidence 0.93 (the probability
+  that this verdict is right, ...), first seen at t=34.5 s" / "No sign of propeller damage in 38 s
+  of usable flight, ..." / "Not seen: this log could not show damage ..." / "Uncertain, ...: ..." /
+  "Not diagnosable: ...".
 - :func:`timeline_strip`: ``TIMELINE_WIDTH`` characters spanning the first window's start to the
   last window's end (seconds on the log's clock), one per equal time slot: ``.`` healthy, ``1``-``9``
   then ``a``-``c`` the rotor judged to have lost thrust (any rotor count up to 12), ``?``
@@ -30,7 +32,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ..advice import advice_line
-from ..decision import THIN_TIMELINE_SHARE
+from ..decision import CONFIDENCE_MEANING, THIN_TIMELINE_SHARE, not_seen_words
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names, short_position
@@ -59,30 +61,41 @@ def _propeller_cell(v) -> str:
     return (_motor_words(v.motor, v.position) + (f", {tag}" if tag else "")) if v.motor else ""
 
 
+def confidence_words(confidence: float) -> str:
+    """"confidence 0.93 (the probability that this verdict is right, ...)": the figure with its one
+    meaning (:data:`~flightlog_fd.decision.CONFIDENCE_MEANING`), as every report states it."""
+    return f"confidence {confidence:.2f} ({CONFIDENCE_MEANING})"
+
+
 def verdict_sentence(diagnosis: Diagnosis) -> str:
-    """The verdict in one plain sentence (also used as the HTML page's headline)."""
+    """The verdict in one plain sentence (also used as the HTML page's headline). A healthy verdict
+    says whether the evidence saw the flight ("no sign of damage in N s of usable flight") or this
+    log could not show damage (``Verdict.seen`` False: not a clearance, and what would make the next
+    log decisive)."""
     v = diagnosis.verdict
+    conf = confidence_words(v.confidence)
     if v.status == "damaged":
         first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
         if v.motor is None:
-            return f"A propeller is damaged (no rotor named: inspect all), confidence {v.confidence:.2f}{first}"
+            return f"A propeller is damaged (no rotor named: inspect all), {conf}{first}"
         if v.pair and len(v.motors) > 1:
-            return (f"{v.propellers().capitalize()} damaged: inspect both, confidence {v.confidence:.2f}"
-                    f"{first}")
+            return f"{v.propellers().capitalize()} damaged: inspect both, {conf}{first}"
         if v.cause == "motor_or_esc":
-            return (f"Motor {_motor_words(v.motor, v.position)} or its ESC is weak (not the propeller), confidence "
-                    f"{v.confidence:.2f}{first}")
-        return f"Propeller {_motor_words(v.motor, v.position)} damaged, confidence {v.confidence:.2f}{first}"
+            return f"Motor {_motor_words(v.motor, v.position)} or its ESC is weak (not the propeller), {conf}{first}"
+        return f"Propeller {_motor_words(v.motor, v.position)} damaged, {conf}{first}"
     if v.status == "healthy":
         tl = diagnosis.timeline
         n = tl.n_windows if tl else len(diagnosis.windows)
-        covered = f", {tl.covered_s:.0f} s of flight" if tl else ""
-        basis = f"{n} windows{covered}" if n else "vibration only"
+        if v.seen is False:
+            covered = tl.covered_s if tl else None
+            return f"Not seen: {not_seen_words(v.confidence, covered, diagnosis.log_kind)}; {conf}"
+        seen = f"in {tl.covered_s:.0f} s of usable flight" if tl else "in the vibration (the only evidence this log has)"
+        thin = ""
         if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
-            basis += f"; {100 * tl.abstained_share:.0f} % of them uncertain: see why below"
-        return f"No propeller damage found, confidence {v.confidence:.2f} ({basis})"
+            thin = f" ({100 * tl.abstained_share:.0f} % of the model's windows uncertain: the other sources saw it, see below)"
+        return f"No sign of propeller damage {seen}{thin}, {conf}"
     if v.status == "uncertain":
-        return f"Uncertain: {v.reason}"
+        return f"Uncertain, {conf}: {v.reason}"
     if v.status == "stopped":
         return f"Motor {_motor_words(v.motor, v.position)} stopped in flight at t={v.first_seen:.1f} s"
     return f"Not diagnosable: {v.reason}"
