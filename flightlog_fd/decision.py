@@ -90,7 +90,7 @@ import numpy as np
 
 from .analyzers import AnalyzerResult
 from .analyzers.base import PAIR_ROTOR_COUNTS, SOURCE_LLR_CAP
-from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
+from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult, LoadFit
 from .analyzers.reliability import LogKind, cell_of, rate_class, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
@@ -207,6 +207,23 @@ PAIR_EXCESS_LLR = 5.0
 #: the largest by 0.8. Two-propeller flights of the simulated set reach a median 8.4 (2.3 without
 #: a profile).
 PAIR_EXCESS_PROFILE_LLR = 3.5
+#: A load toward a direction (:class:`~flightlog_fd.analyzers.command_shares.LoadFit`) explains the
+#: leading motor's command pattern when "rotor k lost thrust" beats it by less than this on the
+#: shares (``CommandSharesResult.rotor_vs_load``). Measured (results/load_vs_damage.md,
+#: benchmarks/bench_loads.py): the moved centres of mass of px4_sih_dev_load reach +2.2 at most
+#: (toward motor 1, --no-adapt profile of sih_004; +1.7 without a profile), the weak motors of
+#: px4_sih_dev +4.3..+7.7 against that profile; e^3 ~ 20 to 1.
+LOAD_SEPARATION_LLR = 3.0
+#: The sources that read the motor commands' pattern, which a load moves as a weak rotor does: the
+#: command shares, the throttle and the model's windows (its features carry each motor's command;
+#: against px4_sih_dev_load's moved centres of mass it gives +7.1..+8.0 to the motor toward the load).
+PATTERN_SOURCES = ("commands", "throttle", "model")
+#: The load is weighed only when the shares' pattern needs explaining: the load's or the leading
+#: rotor's evidence against an even split or the calibration reaches this (nats); a load that
+#: fits as well as the rotor is then named (``cause`` = ``load``). Without a profile a load's
+#: wide size prior costs it about 1.5 nats of Occam factor against one rotor's (px4_sih_dev_load
+#: toward motor 1: load -0.1, rotor +1.6 on a perfect fit), hence either of the two.
+LOAD_NAMED_LLR = 1.0
 
 
 @dataclass
@@ -267,6 +284,9 @@ class Verdict:
     cause: Optional[str] = None
     #: What the cause rests on (:meth:`flightlog_fd.cause.Cause.evidence`), None when no rotor is named
     cause_evidence: Optional[dict] = None
+    #: With ``cause`` = ``load``: where the load sits and its size (:meth:`LoadFit.as_dict` plus the
+    #: nearest motor's position and direction words), else None
+    load: Optional[dict] = None
 
     def as_dict(self) -> dict:
         """The verdict fields of the JSON report."""
@@ -283,6 +303,7 @@ class Verdict:
             "advice": [a.as_dict() for a in self.advice],
             "cause": self.cause,
             "cause_evidence": self.cause_evidence,
+            "load": self.load,
         }
 
 
@@ -423,6 +444,53 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
         return None
     return (f"the sources that do not read the trim give {free:+.1f} nats, agreement needs "
             f"{TRIM_FREE_AGREE_LLR:.0f}; a rise of {rise:+.2f} share is within what a moved load makes")
+
+
+# ----------------------------------------------------------------------------- a load, not a rotor
+
+def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int) -> Optional[LoadFit]:
+    """The command shares' :class:`LoadFit` when a load toward some direction explains the leading
+    motor's pattern as well as its rotor's loss does (``LOAD_SEPARATION_LLR``), the load is seen
+    (``LOAD_NAMED_LLR``) and the sources that do not read the pattern do not agree on that rotor
+    (``TRIM_FREE_AGREE_LLR``); else None."""
+    if cmd is None or cmd.abstained or cmd.load is None or len(cmd.rotor_vs_load) != n or not sources:
+        return None
+    best = int(np.argmax(np.sum(list(sources.values()), axis=0)))
+    rotor = cmd.rotor_vs_load[best] + cmd.load.llr  # the leading rotor's own evidence on the shares
+    if max(cmd.load.llr, rotor) < LOAD_NAMED_LLR or cmd.rotor_vs_load[best] >= LOAD_SEPARATION_LLR:
+        return None
+    free = float(sum(v[best] for s_, v in sources.items() if s_ not in PATTERN_SOURCES))
+    if free >= TRIM_FREE_AGREE_LLR:
+        return None
+    # two rotors must beat the load by the single rotor's margin and the pair's own prior odds
+    off = cmd.load.offset()
+    if any(v + off - cmd.load.llr >= LOAD_SEPARATION_LLR + pair_excess_bar(cmd) for v in cmd.pair_llrs.values()):
+        return None
+    return cmd.load
+
+
+def _held_for_load(sources: dict) -> dict:
+    """The sources with the pattern sources' evidence for any rotor held to ``TRIM_ONLY_LLR_CAP``
+    together (shared evenly), as for the trim sources against a profile; the pair step is not
+    taken then (two rotors did not beat the load either)."""
+    held = [s_ for s_ in sources if s_ in PATTERN_SOURCES]
+    cap = TRIM_ONLY_LLR_CAP / max(len(held), 1)
+    return {s_: (np.minimum(v, cap) if s_ in held else v) for s_, v in sources.items()}
+
+
+def load_verdict_fields(load: LoadFit, frame: Optional[Frame], cmd: Optional[CommandSharesResult]) -> dict:
+    """``Verdict.load``: the load's direction, nearest motor and size with their words ("the load
+    sits toward motor 2 (rear-left), which carries about 24 % more than at calibration")."""
+    from .frames import position_word
+
+    rad = np.radians(load.direction_deg)
+    side = position_word(float(np.cos(rad)), float(np.sin(rad)))
+    than = "at calibration" if cmd is not None and cmd.baseline == "profile" else "an even share"
+    where = _words(frame, load.motor)
+    pos = frame.position(load.motor) if frame is not None else None
+    toward = where if pos == side else f"the {side}, nearest {where}"
+    return {**load.as_dict(), "position": pos, "side": side,
+            "words": f"the load sits toward {toward}, which carries about {100 * load.size:.0f} % more than {than}"}
 
 
 # ----------------------------------------------------------------------------- the pair-hypothesis step
@@ -677,6 +745,9 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     sources = {r.analyzer: r.llr(n, weights[r.analyzer].cap) for r in results}
     sources = {k: v for k, v in sources.items() if v is not None}
     weights = {k: w for k, w in weights.items() if k in sources}
+    load = _load_explains(next((r for r in results if isinstance(r, CommandSharesResult)), None), sources, n)
+    if load is not None:  # the load stands for the pattern: what reads it says little of a rotor
+        sources = _held_for_load(sources)
     total = np.sum(list(sources.values()), axis=0) if sources else np.zeros(n)
     # a discounted source (frequent false alarms on this kind of log) counts toward "uncertain" only
     discounted = [v for s_, v in sources.items() if weights[s_].trust == "discounted"]
@@ -706,6 +777,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     inspect_kb = f"{cause.words}; {cause.advice}"
     lead = float(total[best] - (total[second] if second is not None else -np.inf))
     airframe_changed = _airframe_changed(cmd, thr, n, best)
+    if load is not None and load.chi2 / max(n - 3, 1) <= AIRFRAME_CHANGE_CHI2_PER_DOF:
+        airframe_changed = None  # the load explains the change since calibration
     notes = [note for r in results for note in r.notes]
     decision = Decision(motors=motors, airframe_changed=airframe_changed,
                         healthy_chi2=None if cmd is None else cmd.healthy_chi2,
@@ -753,6 +826,14 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         one = _one_flight_note(cmd) if status != "healthy" else None
         if one:
             reason += f"; {one}"
+        load_dict = None
+        if load is not None and status == "healthy" and raised is None:
+            load_dict = load_verdict_fields(load, frame, cmd)
+            reason = f"propellers healthy: {load_dict['words']}; {reason}"
+            named = None
+        elif load is not None and status == "uncertain" and raised is None:
+            reason += (f"; or no rotor lost thrust and {load_verdict_fields(load, frame, cmd)['words']}: "
+                       f"inspect the propeller, fly once without the payload, or turn on ESC telemetry to tell")
         inspect = tuple(inspect) if status != "healthy" else ()
         motor = named_motor(status, motor, inspect)
         motors = list(motors) if motors is not None else ([motor] if motor else [])
@@ -761,8 +842,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                        first_seen=first_seen if status == "damaged" else None, reason=reason,
                        inspect=inspect, motors=motors, pair=pair,
                        positions=[frame.position(k) if frame is not None else None for k in motors],
-                       cause=named.cause if named else None,
-                       cause_evidence=named.evidence() if named else None), decision
+                       cause="load" if load_dict else (named.cause if named else None),
+                       cause_evidence=named.evidence() if named else None, load=load_dict), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -776,7 +857,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     # pair that misses a bar of "damaged" does not replace a single rotor that meets all of them
     decision.pairs, singles_for_pairs = _pairs(results, sources, weights, cmd, n)
     single_weights = [m.weight for m in motors]
-    call = _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
+    call = None if load is not None else _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
     if call is not None and not (call[0] == "uncertain" and single_damaged):
         status, motor, confidence, reason, inspect, pair_motors, pair = call
         return done(status, motor, confidence, reason, inspect, None, pair_motors, pair)
@@ -942,4 +1023,4 @@ def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     return Verdict(status=worst.status, motor=worst.motor, position=worst.position, confidence=worst.confidence,
                    first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}", inspect=worst.inspect,
                    motors=list(worst.motors), pair=worst.pair, positions=list(worst.positions),
-                   cause=worst.cause, cause_evidence=worst.cause_evidence)
+                   cause=worst.cause, cause_evidence=worst.cause_evidence, load=worst.load)
