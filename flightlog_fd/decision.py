@@ -469,6 +469,20 @@ def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int) ->
     return cmd.load
 
 
+def _rotor_or_load(cmd: CommandSharesResult, sources: dict, weights: dict) -> Optional[int]:
+    """The leading motor (1-based) when the sources, not held, would call it damaged (its total
+    without the discounted ones reaches ``DAMAGED_LLR``) and its rotor fits the shares better than
+    the load (``rotor_vs_load`` > 0) though by less than ``LOAD_SEPARATION_LLR``: the flight is
+    then uncertain between the two; else None. Measured: rrc_straight's 25 mm cut 3 against good
+    1's --no-adapt profile, +2.8 (its yaw part is 0.58 of its roll/pitch part, the smallest of
+    the real cuts)."""
+    decisive = np.sum([v for s_, v in sources.items() if weights[s_].trust != "discounted"], axis=0)
+    best = int(np.argmax(decisive))
+    if decisive[best] < DAMAGED_LLR or cmd.rotor_vs_load[best] <= 0.0:
+        return None
+    return best + 1
+
+
 def _held_for_load(sources: dict) -> dict:
     """The sources with the pattern sources' evidence for any rotor held to ``TRIM_ONLY_LLR_CAP``
     together (shared evenly), as for the trim sources against a profile; the pair step is not
@@ -746,7 +760,9 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     sources = {k: v for k, v in sources.items() if v is not None}
     weights = {k: w for k, w in weights.items() if k in sources}
     load = _load_explains(next((r for r in results if isinstance(r, CommandSharesResult)), None), sources, n)
+    either = None  # the rotor a load explains nearly as well, where it alone would make the flight damaged
     if load is not None:  # the load stands for the pattern: what reads it says little of a rotor
+        either = _rotor_or_load(next(r for r in results if isinstance(r, CommandSharesResult)), sources, weights)
         sources = _held_for_load(sources)
     total = np.sum(list(sources.values()), axis=0) if sources else np.zeros(n)
     # a discounted source (frequent false alarms on this kind of log) counts toward "uncertain" only
@@ -831,7 +847,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
             load_dict = load_verdict_fields(load, frame, cmd)
             reason = f"propellers healthy: {load_dict['words']}; {reason}"
             named = None
-        elif load is not None and status == "uncertain" and raised is None:
+        elif load is not None and status == "uncertain" and raised is None and either is None:
             reason += (f"; or no rotor lost thrust and {load_verdict_fields(load, frame, cmd)['words']}: "
                        f"inspect the propeller, fly once without the payload, or turn on ESC telemetry to tell")
         inspect = tuple(inspect) if status != "healthy" else ()
@@ -891,6 +907,15 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
                     + f"; {evidence_words(kb)}; {inspect_kb}", (kb,), cause)
+    if either is not None:
+        ke = either
+        gap = cmd.rotor_vs_load[ke - 1]
+        return done("uncertain", None, w[ke],
+                    f"{_words(frame, ke)} lost thrust, or no rotor did and "
+                    f"{load_verdict_fields(load, frame, cmd)['words']}: the command pattern fits a weak rotor {ke} "
+                    f"only {gap:+.1f} nats better than the load (it needs {LOAD_SEPARATION_LLR:.0f} to tell); "
+                    f"inspect propeller {ke}; if it is sound, fly once without the payload (or turn on ESC "
+                    f"telemetry) to tell; {evidence_words(ke)}", (ke,), cause if ke == kb else None)
     bar = uncertain_bar(kind)
     if total[best] >= bar:
         named: tuple[int, ...] = (kb,)
