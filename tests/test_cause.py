@@ -46,7 +46,7 @@ def test_weak_motor_is_named_with_its_motor_or_esc(logs, reports):
 
     doc = reports["weak_motor2"]
     v = doc["verdict"]
-    assert validate(doc) == [] and doc["schema"] == 6
+    assert validate(doc) == [] and doc["schema"] == 7
     assert (v["status"], v["motor"], v["cause"]) == ("damaged", 2, "motor_or_esc"), v["reason"]
     ev = v["cause_evidence"]
     assert ev["motor"] == 2 and ev["llr"] > 20 and ev["rpm_per_command"] < -8

@@ -367,7 +367,7 @@ def test_terminal_and_json_name_both(pair_run):
     assert "Propellers 1 (front-right) and 4 (rear-right) damaged: inspect both" in pair_run.text
     assert "1 (FR) + 4 (RR)" in pair_run.text  # the summary table
     doc = pair_run.doc
-    assert validate(doc) == [] and doc["schema"] == 6
+    assert validate(doc) == [] and doc["schema"] == 7
     v = doc["verdict"]
     assert (v["status"], v["motor"], v["motors"], v["pair"]) == ("damaged", 1, [1, 4], True)
     assert v["positions"] == ["front-right", "rear-right"]

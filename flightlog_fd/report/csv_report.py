@@ -10,7 +10,9 @@ damaged or stopped motor, or the one propeller an uncertain verdict asks to insp
 when it names none or two), ``verdict_motors`` (every propeller the verdict names, "1;4" when two
 lost thrust together; empty when none), ``flight`` (which take-off
 to landing of a log holding several the window lies in, "flight 2 of 5"; empty for a log's only
-one) and ``flight_verdict`` (that flight's own status, else the log's), then the per-motor view's
+one), ``flight_verdict`` (that flight's own status, else the log's), ``verdict_cause``
+(``propeller``, ``motor_or_esc``, ``load``: healthy propellers, a moved load; empty when unknown)
+and ``load_motor`` (with cause ``load``: the motor nearest the load), then the per-motor view's
 (:mod:`flightlog_fd.report.motor_view`) findings, also repeated on every row, one column per
 analyzer, finding and motor: ``<analyzer>_<name>_m<k>`` (e.g. ``commands_share_m1``,
 ``commands_thrust_m1``, ``model_vote_m1``, ``effectiveness_effectiveness_m1``; empty where an
@@ -30,7 +32,8 @@ from .motor_view import MotorView
 
 #: The window columns before the class probabilities, and after them.
 LEAD_COLUMNS = ("log", "t_start", "t_end", "class", "p_healthy")
-TAIL_COLUMNS = ("phase", "smoothed_class", "verdict", "verdict_motor", "verdict_motors", "flight", "flight_verdict")
+TAIL_COLUMNS = ("phase", "smoothed_class", "verdict", "verdict_motor", "verdict_motors", "flight", "flight_verdict",
+                "verdict_cause", "load_motor")
 
 
 def _finding_keys(views: Sequence[MotorView]) -> list[tuple[str, str, int]]:
@@ -101,4 +104,5 @@ def _write(diagnoses: Sequence[Diagnosis], fh: TextIO) -> None:
             writer.writerow([d.log, f"{w.t_start:.3f}", f"{w.t_end:.3f}", w.cls, f"{w.probabilities[0]:.4f}",
                              *probs, *[""] * (n - len(probs)), w.phase, w.label, d.verdict.status,
                              d.verdict.motor or "", ";".join(str(k) for k in d.verdict.motors),
-                             part[2] if part else "", part[3] if part else d.verdict.status, *found, *weight])
+                             part[2] if part else "", part[3] if part else d.verdict.status, d.verdict.cause or "",
+                             (d.verdict.load or {}).get("motor", ""), *found, *weight])

@@ -39,7 +39,8 @@ from .motor_view import MotorView, class_names
 from .terminal import verdict_sentence
 
 #: The likely cause of a named rotor's lost thrust, in words (decision.Verdict.cause).
-CAUSE_WORDS = {"propeller": "the propeller", "motor_or_esc": "the motor or its ESC"}
+CAUSE_WORDS = {"propeller": "the propeller", "motor_or_esc": "the motor or its ESC",
+               "load": "a moved or added load (the propellers are healthy)"}
 
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
 MAX_POINTS_PER_LINE = 1600
@@ -238,6 +239,8 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("reason", v.reason))
     if v.cause_evidence:
         rows.append(("likely cause", f"{CAUSE_WORDS.get(v.cause, 'unknown')}: {v.cause_evidence['reason']}"))
+    elif v.cause == "load" and v.load:
+        rows.append(("likely cause", f"{CAUSE_WORDS['load']}: {v.load['words']}"))
     for i, a in enumerate(v.advice):
         rows.append(("to resolve it" if i == 0 else "", advice_line(a)))
     if d.timeline is not None and d.timeline.shortfall is None:
