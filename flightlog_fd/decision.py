@@ -208,12 +208,20 @@ PAIR_EXCESS_LLR = 5.0
 #: a profile).
 PAIR_EXCESS_PROFILE_LLR = 3.5
 #: A load toward a direction (:class:`~flightlog_fd.analyzers.command_shares.LoadFit`) explains the
-#: leading motor's command pattern when "rotor k lost thrust" beats it by less than this on the
-#: shares (``CommandSharesResult.rotor_vs_load``). Measured (results/load_vs_damage.md,
-#: benchmarks/bench_loads.py): the moved centres of mass of px4_sih_dev_load reach +2.2 at most
-#: (toward motor 1, --no-adapt profile of sih_004; +1.7 without a profile), the weak motors of
-#: px4_sih_dev +4.3..+7.7 against that profile; e^3 ~ 20 to 1.
-LOAD_SEPARATION_LLR = 3.0
+#: leading motor's command pattern when "rotor k lost thrust" (with the drag-torque exponents of
+#: measured damage, ``command_shares.DAMAGE_MIN_M``) beats it by less than this on the shares
+#: (``CommandSharesResult.rotor_vs_load``). Measured (results/load_vs_damage.md,
+#: benchmarks/bench_loads.py): px4_sih_dev_load's moved centres of mass reach +1.5 at most (toward
+#: motor 1 without a profile; -0.3 against sih_004's --no-adapt profile); the weak motors of
+#: px4_sih_dev give their rotor +2.3..+4.7 without a profile and +4.6..+7.9 against it, the real
+#: rrc_straight 20 and 25 mm cuts +2.6..+6.1 against each good flight's profile. SEPARATION_LLR's
+#: e^2 (7 to 1) sits in that gap.
+LOAD_SEPARATION_LLR = 2.0
+#: ... and from this much (but under LOAD_SEPARATION_LLR) the rotor fits better than the load, so a
+#: flight the sources would call damaged without the load is "uncertain" naming both; below it the
+#: two fit within e to 1 and the load, the likelier cause of a steady pattern, is named. No measured
+#: flight falls between: loads at most +1.5 (none of them near the damaged bar unheld), real cuts from +2.6.
+LOAD_EITHER_LLR = 1.0
 #: The sources that read the motor commands' pattern, which a load moves as a weak rotor does: the
 #: command shares, the throttle and the model's windows (its features carry each motor's command;
 #: against px4_sih_dev_load's moved centres of mass it gives +7.1..+8.0 to the motor toward the load).
@@ -472,13 +480,11 @@ def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int) ->
 def _rotor_or_load(cmd: CommandSharesResult, sources: dict, weights: dict) -> Optional[int]:
     """The leading motor (1-based) when the sources, not held, would call it damaged (its total
     without the discounted ones reaches ``DAMAGED_LLR``) and its rotor fits the shares better than
-    the load (``rotor_vs_load`` > 0) though by less than ``LOAD_SEPARATION_LLR``: the flight is
-    then uncertain between the two; else None. Measured: rrc_straight's 25 mm cut 3 against good
-    1's --no-adapt profile, +2.8 (its yaw part is 0.58 of its roll/pitch part, the smallest of
-    the real cuts)."""
+    the load (``rotor_vs_load`` from ``LOAD_EITHER_LLR``) though by less than ``LOAD_SEPARATION_LLR``: the flight is
+    then uncertain between the two; else None."""
     decisive = np.sum([v for s_, v in sources.items() if weights[s_].trust != "discounted"], axis=0)
     best = int(np.argmax(decisive))
-    if decisive[best] < DAMAGED_LLR or cmd.rotor_vs_load[best] <= 0.0:
+    if decisive[best] < DAMAGED_LLR or cmd.rotor_vs_load[best] < LOAD_EITHER_LLR:
         return None
     return best + 1
 

@@ -84,6 +84,9 @@ class SeverityFit:
     eta_ci: tuple[float, float]
     m_hat: float
     chi2: float  # at the best eta, m
+    #: the LLR over the drag-torque exponents of measured damage only (``M_GRID`` >= ``DAMAGE_MIN_M``):
+    #: what "rotor k" is weighed with against a moved load (:func:`load_fit`)
+    llr_vs_load: float = float("nan")
 
 
 #: Thrust-efficiency grid of the two-rotor hypothesis (uniform prior over both rotors): the
@@ -372,6 +375,9 @@ def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
     and the healthy one; ``chi_at(a, bm)``: the chi-square at the best grid point."""
     top = ll.max()
     llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+    yawed = ll[:, M_GRID >= DAMAGE_MIN_M]
+    top_y = yawed.max()
+    llr_yawed = float(top_y + np.log(np.mean(np.exp(yawed - top_y))) - ll_h)
     post_eta = np.exp(ll - top).sum(axis=1)
     cdf = np.cumsum(post_eta / post_eta.sum())
     ia = min(int(np.searchsorted(cdf, 0.05)), len(ETA_GRID) - 1)
@@ -384,7 +390,8 @@ def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
     # a best fit at the grid's healthy end means "no loss": report 1.0 with the interval
     if eta_hat >= ETA_GRID[-1]:
         eta_hat, hi = 1.0, 1.0
-    return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)))
+    return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)),
+                       llr_vs_load=llr_yawed)
 
 
 def pooled_sigma(measured: Optional[float], n_flights: int, prior: float) -> float:
@@ -429,6 +436,11 @@ def share_sigma(baseline_kind: str, spread: Optional[Sequence[float]], n: int, n
 #: straight toward it: a centre of mass 30 % of the arm off the centre (beyond it a quad is
 #: re-balanced before it flies; cross_session_physics.py: +0.6).
 LOAD_MAX_SHARE = 0.6
+#: Below this drag-torque exponent a weak rotor's pattern is a moved load's (its yaw part over its
+#: roll/pitch part is about m: 0.26 at m = 0.25, predicted_commands), so "rotor k" is weighed against
+#: a load on M_GRID from here: the smallest yaw / roll-pitch ratio measured on real damage is 0.47
+#: (CrazyPAD 1.5 mm cuts; rrc_straight 10-25 mm 0.58-1.19, px4_sih_dev 0.77-1.69, ArduPilot SITL 0.99).
+DAMAGE_MIN_M = 0.5
 #: The grid step of the load's two share-change components (0.01: below the 0.03 drift noise of
 #: the tightest profile baseline, DEFAULT_DRIFT_SIGMA).
 LOAD_GRID_STEP = 0.01
@@ -633,7 +645,7 @@ class CommandShares(Analyzer):
         pairs_full = (pair_fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None
                       else pairs_plain) or []
         return CommandSharesResult(self.id, findings, pair_llrs={p.motors: p.llr - off for p in pairs_plain},
-                                   load=load, rotor_vs_load=[] if load is None else [f.llr - load.llr for f in fits],
+                                   load=load, rotor_vs_load=[] if load is None else [f.llr_vs_load - load.llr for f in fits],
                                    pairs=list(pairs_full), baseline=share_fit.baseline, healthy_chi2=chi_full,
                                    fit_chi2=[f.chi2 for f in fits_full], share_sigma=float(np.mean(sig)),
                                    with_throttle=share_fit.throttle_ratio is not None,
