@@ -456,11 +456,12 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
 
 # ----------------------------------------------------------------------------- a load, not a rotor
 
-def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int) -> Optional[LoadFit]:
+def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int,
+                   results: Sequence[AnalyzerResult] = (), weights: Optional[dict] = None) -> Optional[LoadFit]:
     """The command shares' :class:`LoadFit` when a load toward some direction explains the leading
     motor's pattern as well as its rotor's loss does (``LOAD_SEPARATION_LLR``), the load is seen
-    (``LOAD_NAMED_LLR``) and the sources that do not read the pattern do not agree on that rotor
-    (``TRIM_FREE_AGREE_LLR``); else None."""
+    (``LOAD_NAMED_LLR``) and the sources that do not read the pattern agree neither on that rotor
+    nor on any pair of rotors (``TRIM_FREE_AGREE_LLR``); else None."""
     if cmd is None or cmd.abstained or cmd.load is None or len(cmd.rotor_vs_load) != n or not sources:
         return None
     best = int(np.argmax(np.sum(list(sources.values()), axis=0)))
@@ -469,6 +470,15 @@ def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int) ->
         return None
     free = float(sum(v[best] for s_, v in sources.items() if s_ not in PATTERN_SOURCES))
     if free >= TRIM_FREE_AGREE_LLR:
+        return None
+    pair_free: dict = {}
+    for r in results:
+        if r.analyzer in PATTERN_SOURCES or r.analyzer not in sources:
+            continue
+        cap = weights[r.analyzer].cap if weights and r.analyzer in weights else None
+        for pair, v in (r.pair_llr(n, cap) or {}).items():
+            pair_free[pair] = pair_free.get(pair, 0.0) + v
+    if any(v >= TRIM_FREE_AGREE_LLR for v in pair_free.values()):
         return None
     # two rotors must beat the load by the single rotor's margin and the pair's own prior odds
     off = cmd.load.offset()
@@ -765,7 +775,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     sources = {r.analyzer: r.llr(n, weights[r.analyzer].cap) for r in results}
     sources = {k: v for k, v in sources.items() if v is not None}
     weights = {k: w for k, w in weights.items() if k in sources}
-    load = _load_explains(next((r for r in results if isinstance(r, CommandSharesResult)), None), sources, n)
+    load = _load_explains(next((r for r in results if isinstance(r, CommandSharesResult)), None), sources, n,
+                          results, weights)
     either = None  # the rotor a load explains nearly as well, where it alone would make the flight damaged
     if load is not None:  # the load stands for the pattern: what reads it says little of a rotor
         either = _rotor_or_load(next(r for r in results if isinstance(r, CommandSharesResult)), sources, weights)
