@@ -44,7 +44,8 @@ def verdict_words(status: Optional[str], motor: Optional[int], motors: list, pai
     status = status or "-"
     named = list(motors) if pair and len(motors or []) > 1 else ([motor] if motor else [])
     if not named:
-        return status
+        return f"{status}, load" if cause == "load" and short else (
+            f"{status} (a moved load)" if cause == "load" else status)
     why = ", motor or ESC" if cause == "motor_or_esc" and len(named) == 1 else ""
     if short:
         return f"{status} " + "+".join(f"m{k}" for k in named) + why
