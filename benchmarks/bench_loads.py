@@ -142,6 +142,9 @@ def main() -> None:
             logs = [(p.stem, p, 1 if "cut" in p.stem else 0, p.stem.split("_straight")[0].rsplit("_", 1)[0]
                      if "cut" in p.stem else "good") for p in sorted(rrc.glob("*.BIN")) if p != good]
             run(f"rrc_straight, profile good {g} (--no-adapt)", logs, prof, a.verbose)
+        logs = [(p.stem, p, 1 if "cut" in p.stem else 0, p.stem.split("_straight")[0].rsplit("_", 1)[0]
+                 if "cut" in p.stem else "good") for p in sorted(rrc.glob("*.BIN"))]
+        run("rrc_straight, no profile", logs, None, a.verbose)
     if want("healthy") and (SHARED / "real_healthy").is_dir():
         paths = sorted((SHARED / "real_healthy" / "logs").glob("*")) + sorted(
             (SHARED / "real_logs" / "ardupilot").glob("erle_copter*.BIN"))

@@ -222,6 +222,12 @@ LOAD_SEPARATION_LLR = 2.0
 #: two fit within e to 1 and the load, the likelier cause of a steady pattern, is named. No measured
 #: flight falls between: loads at most +1.5 (none of them near the damaged bar unheld), real cuts from +2.6.
 LOAD_EITHER_LLR = 1.0
+#: Without a profile (the shares against an even split, four times the noise) real cuts come as
+#: close as +2.0 (rrc_straight 25 mm, +2.0..+2.2; the SIH weak motors +2.3..+4.7), so a load
+#: stands for the pattern only where it fits within e to 1 of the rotor: px4_sih_dev_load's
+#: loads toward one motor (+1.3..+1.5) stay as they were (uncertain, never damaged: their
+#: evidence is below the damaged bar), the load between two motors (forward, -2.9) is named.
+LOAD_SEPARATION_NO_PROFILE_LLR = 1.0
 #: The sources that read the motor commands' pattern, which a load moves as a weak rotor does: the
 #: command shares, the throttle and the model's windows (its features carry each motor's command;
 #: against px4_sih_dev_load's moved centres of mass it gives +7.1..+8.0 to the motor toward the load).
@@ -459,30 +465,23 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
 def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int,
                    results: Sequence[AnalyzerResult] = (), weights: Optional[dict] = None) -> Optional[LoadFit]:
     """The command shares' :class:`LoadFit` when a load toward some direction explains the leading
-    motor's pattern as well as its rotor's loss does (``LOAD_SEPARATION_LLR``), the load is seen
+    motor's pattern as well as its rotor's loss does (:func:`load_separation`), the load is seen
     (``LOAD_NAMED_LLR``) and the sources that do not read the pattern agree neither on that rotor
     nor on any pair of rotors (``TRIM_FREE_AGREE_LLR``); else None."""
     if cmd is None or cmd.abstained or cmd.load is None or len(cmd.rotor_vs_load) != n or not sources:
         return None
     best = int(np.argmax(np.sum(list(sources.values()), axis=0)))
     rotor = cmd.rotor_vs_load[best] + cmd.load.llr  # the leading rotor's own evidence on the shares
-    if max(cmd.load.llr, rotor) < LOAD_NAMED_LLR or cmd.rotor_vs_load[best] >= LOAD_SEPARATION_LLR:
+    separation = load_separation(cmd)
+    if max(cmd.load.llr, rotor) < LOAD_NAMED_LLR or cmd.rotor_vs_load[best] >= separation:
         return None
     free = float(sum(v[best] for s_, v in sources.items() if s_ not in PATTERN_SOURCES))
     if free >= TRIM_FREE_AGREE_LLR:
         return None
-    pair_free: dict = {}
-    for r in results:
-        if r.analyzer in PATTERN_SOURCES or r.analyzer not in sources:
-            continue
-        cap = weights[r.analyzer].cap if weights and r.analyzer in weights else None
-        for pair, v in (r.pair_llr(n, cap) or {}).items():
-            pair_free[pair] = pair_free.get(pair, 0.0) + v
-    if any(v >= TRIM_FREE_AGREE_LLR for v in pair_free.values()):
+    if any(v >= TRIM_FREE_AGREE_LLR for v in _pair_agreement(cmd, results, sources, weights, n).values()):
         return None
     # two rotors must beat the load by the single rotor's margin and the pair's own prior odds
-    off = cmd.load.offset()
-    if any(v + off - cmd.load.llr >= LOAD_SEPARATION_LLR + pair_excess_bar(cmd) for v in cmd.pair_llrs.values()):
+    if any(v - cmd.load.llr >= separation + pair_excess_bar(cmd) for v in cmd.pair_llrs.values()):
         return None
     return cmd.load
 
@@ -494,9 +493,39 @@ def _rotor_or_load(cmd: CommandSharesResult, sources: dict, weights: dict) -> Op
     then uncertain between the two; else None."""
     decisive = np.sum([v for s_, v in sources.items() if weights[s_].trust != "discounted"], axis=0)
     best = int(np.argmax(decisive))
-    if decisive[best] < DAMAGED_LLR or cmd.rotor_vs_load[best] < LOAD_EITHER_LLR:
+    if decisive[best] < DAMAGED_LLR or not LOAD_EITHER_LLR <= cmd.rotor_vs_load[best] < load_separation(cmd):
         return None
     return best + 1
+
+
+def _pair_agreement(cmd: CommandSharesResult, results: Sequence[AnalyzerResult], sources: dict,
+                    weights: Optional[dict], n: int) -> dict:
+    """{pair: nats} the sources that do not read the command pattern give each pair of rotors,
+    where they can tell two weak rotors from a load: a moved centre of mass shortens the lever
+    arms on its side, so the effectiveness fit reads the two rotors there as weaker too
+    (px4_sih_dev_load 5 cm forward: +8.0 for rotors 1 and 3, as for the simulated x500 with
+    rotors 1 and 4 weak) while the throttle stays (-3.6 for that pair; the x500's +2.1). So the
+    effectiveness counts for a pair only when the profile's throttle does not speak against
+    lost thrust for it; without a profile, only ESC telemetry and vibration count."""
+    thr = next((r for r in results if isinstance(r, ThrottleResult) and r.analyzer in sources), None)
+    thr_pairs = (thr.pair_llr(n, weights[thr.analyzer].cap if weights and thr.analyzer in weights else None)
+                 if thr is not None else None) or {}
+    out: dict = {}
+    for r in results:
+        if r.analyzer in PATTERN_SOURCES or r.analyzer not in sources:
+            continue
+        cap = weights[r.analyzer].cap if weights and r.analyzer in weights else None
+        for pair, v in (r.pair_llr(n, cap) or {}).items():
+            if r.analyzer == "effectiveness" and (cmd.baseline != "profile" or thr_pairs.get(pair, -1.0) < 0.0):
+                continue
+            out[pair] = out.get(pair, 0.0) + v
+    return out
+
+
+def load_separation(cmd: CommandSharesResult) -> float:
+    """How much better the rotor must fit the shares than a load to be weighed as a rotor:
+    ``LOAD_SEPARATION_LLR`` against a profile, ``LOAD_SEPARATION_NO_PROFILE_LLR`` without one."""
+    return LOAD_SEPARATION_LLR if cmd.baseline == "profile" else LOAD_SEPARATION_NO_PROFILE_LLR
 
 
 def _held_for_load(sources: dict) -> dict:

@@ -444,10 +444,6 @@ DAMAGE_MIN_M = 0.5
 #: The grid step of the load's two share-change components (0.01: below the 0.03 drift noise of
 #: the tightest profile baseline, DEFAULT_DRIFT_SIGMA).
 LOAD_GRID_STEP = 0.01
-#: Prior probability that a flight carries a load moved from the baseline's (an even split, or the
-#: calibration's): the share of real healthy sessions with a load move (SESSION_MOVE_P's
-#: measurement, benchmarks/bench_cross_session.py), no better figure being measured for flights.
-LOAD_PRIOR = 0.3
 
 
 @dataclass
@@ -462,11 +458,6 @@ class LoadFit:
     size: float
     motor: int
     chi2: float
-
-    def offset(self) -> float:
-        """How much of "healthy" a load can stand for, in nats (>= 0): the log of the healthy
-        hypothesis widened by a load (prior ``LOAD_PRIOR``) over the healthy one alone."""
-        return max(0.0, float(np.logaddexp(np.log1p(-LOAD_PRIOR), np.log(LOAD_PRIOR) + self.llr)))
 
     def as_dict(self) -> dict:
         return {"motor": int(self.motor), "direction_deg": round(float(self.direction_deg), 1),
@@ -629,14 +620,11 @@ class CommandShares(Analyzer):
         chi_h, fits, sig = plain
         full = fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None else plain
         chi_full, fits_full, _ = full
-        load = load_fit_for(ctx)
-        # "rotor k lost thrust" against "healthy, or healthy with a moved load": the load takes away
-        # what it explains as well as the rotor does
-        off = load.offset() if load is not None else 0.0
+        load = load_fit_for(ctx)  # weighed against each rotor by the decision (rotor_vs_load)
         findings = []
         for k, (m, f, ff) in enumerate(zip(share_fit.motors, fits, fits_full)):
             base = 1.0 if m.command_share_baseline is None else m.command_share_baseline  # no profile: even
-            findings.append(Finding(self.id, k + 1, "share", m.command_share, "", None, base, "up", f.llr - off,
+            findings.append(Finding(self.id, k + 1, "share", m.command_share, "", None, base, "up", f.llr,
                                     f"{m.command_share:.3f} {100 * (m.command_share / base - 1):+.0f}%"))
             lo, hi = ff.eta_ci
             findings.append(Finding(self.id, k + 1, "thrust", ff.eta_hat, "of normal", ff.eta_ci, 1.0, "down", None,
@@ -644,7 +632,7 @@ class CommandShares(Analyzer):
         pairs_plain = pair_fits_for(ctx, with_throttle=False) or []
         pairs_full = (pair_fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None
                       else pairs_plain) or []
-        return CommandSharesResult(self.id, findings, pair_llrs={p.motors: p.llr - off for p in pairs_plain},
+        return CommandSharesResult(self.id, findings, pair_llrs={p.motors: p.llr for p in pairs_plain},
                                    load=load, rotor_vs_load=[] if load is None else [f.llr_vs_load - load.llr for f in fits],
                                    pairs=list(pairs_full), baseline=share_fit.baseline, healthy_chi2=chi_full,
                                    fit_chi2=[f.chi2 for f in fits_full], share_sigma=float(np.mean(sig)),
