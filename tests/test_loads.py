@@ -20,32 +20,38 @@ runner = CliRunner()
 
 @pytest.fixture(scope="module")
 def moved(tmp_path_factory):
-    """The JSON report and the store of px4_sih_dev_load's centre of mass moved 3 cm toward motor 1."""
+    """The JSON report and the store of px4_sih_dev_load's centre of mass moved 3 cm toward motor 1,
+    against a --no-adapt profile of the same airframe's healthy sih_004."""
     log = shared_path("px4_sih_dev_load", "A_default_com_m1.ulg")
-    db = tmp_path_factory.mktemp("loads") / "s.sqlite"
-    res = runner.invoke(app, ["diagnose", "--json", "--db", str(db), str(log)])
-    return log, json.loads(res.stdout), res.exit_code, db
+    d = tmp_path_factory.mktemp("loads")
+    prof, db = d / "sih004.json", d / "s.sqlite"
+    res = runner.invoke(app, ["calibrate", "--no-adapt", str(shared_path("px4_sih_dev", "logs", "sih_004.ulg")),
+                              "-o", str(prof)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["diagnose", "--json", "--profile", str(prof), "--db", str(db), str(log)])
+    return log, json.loads(res.stdout), res.exit_code, db, prof
 
 
 def test_moved_centre_of_mass_is_healthy_with_the_load_named(moved):
     from flightlog_fd.report.json_report import validate
 
-    log, doc, code, _ = moved
+    log, doc, code, _, prof = moved
     v = doc["verdict"]
     assert validate(doc) == [] and doc["schema"] == 7 and code == 0
     assert (v["status"], v["cause"], v["load"]["motor"]) == ("healthy", "load", 1), v["reason"]
     assert v["reason"].startswith("propellers healthy: the load sits toward motor 1 (front-right)")
     assert 0.1 < v["load"]["size"] < 0.4 and abs(v["load"]["direction_deg"] - 45) < 20
-    text = runner.invoke(app, ["diagnose", str(log)]).stdout
+    assert "more than at calibration" in v["reason"]
+    text = runner.invoke(app, ["diagnose", "--profile", str(prof), str(log)]).stdout
     assert "No propeller damage found: the load sits toward motor 1 (front-right)" in text
 
 
 def test_csv_and_store_carry_the_load(moved, tmp_path):
     from flightlog_fd.store import SCHEMA_VERSION, Store
 
-    log, _, _, db = moved
+    log, _, _, db, prof = moved
     out = tmp_path / "w.csv"
-    runner.invoke(app, ["diagnose", "--csv", str(out), str(log)])
+    runner.invoke(app, ["diagnose", "--profile", str(prof), "--csv", str(out), str(log)])
     rows = list(csv.DictReader(io.StringIO(out.read_text())))
     assert rows and {(r["verdict_cause"], r["load_motor"]) for r in rows} == {("load", "1")}
     with Store(db) as store:
