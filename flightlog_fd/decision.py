@@ -233,10 +233,10 @@ LOAD_SEPARATION_NO_PROFILE_LLR = 1.0
 #: against px4_sih_dev_load's moved centres of mass it gives +7.1..+8.0 to the motor toward the load).
 PATTERN_SOURCES = ("commands", "throttle", "model")
 #: The load is weighed only when the shares' pattern needs explaining: the load's or the leading
-#: rotor's evidence against an even split or the calibration reaches this (nats); a load that
-#: fits as well as the rotor is then named (``cause`` = ``load``). Without a profile a load's
-#: wide size prior costs it about 1.5 nats of Occam factor against one rotor's (px4_sih_dev_load
-#: toward motor 1: load -0.1, rotor +1.6 on a perfect fit), hence either of the two.
+#: rotor's evidence against an even split or the calibration reaches this (nats). A healthy
+#: verdict names the load (``cause`` = ``load``) when the load's own evidence reaches it: the load
+#: is seen, not only as likely as a rotor (rrc_straight's 5 mm cuts against a good flight's
+#: profile: load -1.2..+0.6, not named; px4_sih_dev_load against sih_004: +2.7..+7.4, named).
 LOAD_NAMED_LLR = 1.0
 
 
@@ -889,7 +889,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         if one:
             reason += f"; {one}"
         load_dict = None
-        if load is not None and status == "healthy" and raised is None:
+        if load is not None and status == "healthy" and raised is None and load.llr >= LOAD_NAMED_LLR:
             load_dict = load_verdict_fields(load, frame, cmd)
             reason = f"propellers healthy: {load_dict['words']}; {reason}"
             named = None
