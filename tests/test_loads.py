@@ -96,3 +96,17 @@ def test_drift_leaves_load_flights_out_of_the_command_pattern():
     assert [d.motor for d in find_drift("v", rising) if d.figure == "command_share"] == [2]
     loaded = rising[:2] + [flight(i, 1.0 + 0.04 * i, "load") for i in range(2, 5)]
     assert not [d for d in find_drift("v", loaded) if d.figure == "command_share"]
+
+
+def test_calibrate_add_takes_a_loaded_healthy_flight_and_says_so(moved, tmp_path):
+    """Main refused it ("looks damaged against the 1 session ...: motor 1 lost thrust"): a flight
+    whose only change is its load is added as a session, the load named."""
+    import shutil
+
+    log, _, _, _, prof = moved
+    p = tmp_path / "p.json"
+    shutil.copy(prof, p)
+    res = runner.invoke(app, ["calibrate", "--add", str(p), str(log)])
+    assert res.exit_code == 0, res.output
+    assert "carries another load than the profile's sessions: the load sits toward motor 1" in res.output
+    assert json.loads(p.read_text())["baseline_"]["n_sessions"] == 2
