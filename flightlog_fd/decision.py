@@ -210,17 +210,16 @@ PAIR_EXCESS_PROFILE_LLR = 3.5
 #: A load toward a direction (:class:`~flightlog_fd.analyzers.command_shares.LoadFit`) explains the
 #: leading motor's command pattern when "rotor k lost thrust" (with the drag-torque exponents of
 #: measured damage, ``command_shares.DAMAGE_MIN_M``) beats it by less than this on the shares
-#: (``CommandSharesResult.rotor_vs_load``). Measured (results/load_vs_damage.md,
-#: benchmarks/bench_loads.py): px4_sih_dev_load's moved centres of mass reach +1.5 at most (toward
-#: motor 1 without a profile; -0.3 against sih_004's --no-adapt profile); the weak motors of
-#: px4_sih_dev give their rotor +2.3..+4.7 without a profile and +4.6..+7.9 against it, the real
-#: rrc_straight 20 and 25 mm cuts +2.6..+6.1 against each good flight's profile. SEPARATION_LLR's
-#: e^2 (7 to 1) sits in that gap.
+#: (``CommandSharesResult.rotor_vs_load``), against a profile. Measured (results/load_vs_damage.md,
+#: benchmarks/bench_loads.py): px4_sih_dev_load's moved centres of mass reach -0.3 at most against
+#: sih_004's --no-adapt profile; px4_sih_dev's weak motors give their rotor +4.6..+7.9 against it,
+#: the real rrc_straight 20 and 25 mm cuts +2.6..+6.1 against each good flight's profile.
+#: SEPARATION_LLR's e^2 (7 to 1), below the nearest cut.
 LOAD_SEPARATION_LLR = 2.0
 #: ... and from this much (but under LOAD_SEPARATION_LLR) the rotor fits better than the load, so a
 #: flight the sources would call damaged without the load is "uncertain" naming both; below it the
 #: two fit within e to 1 and the load, the likelier cause of a steady pattern, is named. No measured
-#: flight falls between: loads at most +1.5 (none of them near the damaged bar unheld), real cuts from +2.6.
+#: flight falls between against a profile (loads at most -0.3, cuts from +2.6).
 LOAD_EITHER_LLR = 1.0
 #: Without a profile (the shares against an even split, four times the noise) real cuts come as
 #: close as +2.0 (rrc_straight 25 mm, +2.0..+2.2; the SIH weak motors +2.3..+4.7), so a load
@@ -489,8 +488,8 @@ def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int,
 def _rotor_or_load(cmd: CommandSharesResult, sources: dict, weights: dict) -> Optional[int]:
     """The leading motor (1-based) when the sources, not held, would call it damaged (its total
     without the discounted ones reaches ``DAMAGED_LLR``) and its rotor fits the shares better than
-    the load (``rotor_vs_load`` from ``LOAD_EITHER_LLR``) though by less than ``LOAD_SEPARATION_LLR``: the flight is
-    then uncertain between the two; else None."""
+    the load (``rotor_vs_load`` from ``LOAD_EITHER_LLR``) though by less than
+    :func:`load_separation`: the flight is then uncertain between the two; else None."""
     decisive = np.sum([v for s_, v in sources.items() if weights[s_].trust != "discounted"], axis=0)
     best = int(np.argmax(decisive))
     if decisive[best] < DAMAGED_LLR or not LOAD_EITHER_LLR <= cmd.rotor_vs_load[best] < load_separation(cmd):
@@ -804,18 +803,17 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     sources = {r.analyzer: r.llr(n, weights[r.analyzer].cap) for r in results}
     sources = {k: v for k, v in sources.items() if v is not None}
     weights = {k: w for k, w in weights.items() if k in sources}
-    load = _load_explains(next((r for r in results if isinstance(r, CommandSharesResult)), None), sources, n,
-                          results, weights)
+    cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
+    thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
+    load = _load_explains(cmd, sources, n, results, weights)
     either = None  # the rotor a load explains nearly as well, where it alone would make the flight damaged
     if load is not None:  # the load stands for the pattern: what reads it says little of a rotor
-        either = _rotor_or_load(next(r for r in results if isinstance(r, CommandSharesResult)), sources, weights)
+        either = _rotor_or_load(cmd, sources, weights)
         sources = _held_for_load(sources)
     total = np.sum(list(sources.values()), axis=0) if sources else np.zeros(n)
     # a discounted source (frequent false alarms on this kind of log) counts toward "uncertain" only
     discounted = [v for s_, v in sources.items() if weights[s_].trust == "discounted"]
     decisive = total - np.sum(discounted, axis=0) if discounted else total
-    cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
-    thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
     trim_held = _trim_held(cmd, sources, int(np.argmax(total)), n)
     # the stated probabilities: with the trim sources held (a moved load explains them) their
     # joint part is at most TRIM_ONLY_LLR_CAP; mild damage no source sees is never ruled out
@@ -959,7 +957,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         return done("uncertain", None, w[ke],
                     f"{_words(frame, ke)} lost thrust, or no rotor did and "
                     f"{load_verdict_fields(load, frame, cmd)['words']}: the command pattern fits a weak rotor {ke} "
-                    f"only {gap:+.1f} nats better than the load (it needs {LOAD_SEPARATION_LLR:.0f} to tell); "
+                    f"only {gap:+.1f} nats better than the load (it needs {load_separation(cmd):.0f} to tell); "
                     f"inspect propeller {ke}; if it is sound, fly once without the payload (or turn on ESC "
                     f"telemetry) to tell; {evidence_words(ke)}", (ke,), cause if ke == kb else None)
     bar = uncertain_bar(kind)
