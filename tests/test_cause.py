@@ -46,7 +46,7 @@ def test_weak_motor_is_named_with_its_motor_or_esc(logs, reports):
 
     doc = reports["weak_motor2"]
     v = doc["verdict"]
-    assert validate(doc) == [] and doc["schema"] == 6
+    assert validate(doc) == [] and doc["schema"] == 7
     assert (v["status"], v["motor"], v["cause"]) == ("damaged", 2, "motor_or_esc"), v["reason"]
     ev = v["cause_evidence"]
     assert ev["motor"] == 2 and ev["llr"] > 20 and ev["rpm_per_command"] < -8
@@ -164,6 +164,8 @@ def test_a_store_at_migration_6_gets_the_cause_from_its_stored_reports(logs, tmp
         for table in ("flight", "flight_part"):  # migration 8's
             c.execute(f"ALTER TABLE {table} DROP COLUMN verdict_motors")
             c.execute(f"ALTER TABLE {table} DROP COLUMN pair")
+        for column in ("load_motor", "load_size", "load_direction_deg"):  # migration 9's
+            c.execute(f"ALTER TABLE flight DROP COLUMN {column}")
         c.execute("DELETE FROM schema_migrations WHERE version >= 7")
         c.execute("PRAGMA user_version = 6")
     with Store(db) as store:

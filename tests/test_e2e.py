@@ -98,7 +98,7 @@ def test_sample_log_verdict(sample_reports, name):
         assert v["motor"] == truth
         assert v["position"] in v["reason"]
     assert validate(d) == []
-    assert d["schema"] == 6 and len(d["windows"]) >= 8
+    assert d["schema"] == 7 and len(d["windows"]) >= 8
     w = d["windows"][0]
     assert w["t_end"] > w["t_start"] and len(w["probabilities"]) == 5
     assert sum(w["probabilities"]) == pytest.approx(1.0, abs=1e-3)

@@ -61,7 +61,7 @@ def test_json_validates_and_holds_the_verdict():
     d = make_diagnosis()
     doc = json.loads(render_json(d))
     assert validate(doc) == []
-    assert doc["schema"] == 6 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["schema"] == 7 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
     assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
     assert doc["verdict"]["position"] == "front-left"
     assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
@@ -91,7 +91,7 @@ def test_validator_catches_schema_violations():
     assert any("verdict.status" in e for e in errors)
     assert any("windows[0].probabilities" in e for e in errors)
     assert any("missing 'warnings'" in e for e in errors)
-    assert JSON_SCHEMA["properties"]["schema"]["const"] == 6
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 7
 
 
 # ---------------------------------------------------------------- CSV

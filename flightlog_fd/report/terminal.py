@@ -80,6 +80,8 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         basis = f"{n} windows{covered}" if n else "vibration only"
         if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
             basis += f"; {100 * tl.abstained_share:.0f} % of them uncertain: see why below"
+        if v.cause == "load" and v.load:
+            return f"No propeller damage found: {v.load['words']}, confidence {v.confidence:.2f} ({basis})"
         return f"No propeller damage found, confidence {v.confidence:.2f} ({basis})"
     if v.status == "uncertain":
         return f"Uncertain: {v.reason}"
