@@ -405,17 +405,20 @@ def check_sessions(flights: Sequence[Flight], groups: Sequence[Sequence[int]]) -
 
 
 def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, against: str,
-                       outcome: str = "not calibrated on") -> None:
+                       outcome: str = "not calibrated on") -> list:
     """ProfileError when one of ``flights`` is diagnosed damaged or stopped against ``profile``
-    with ``model``."""
+    with ``model``; else their verdicts (a moved load is healthy, ``cause`` = ``load``)."""
     from .diagnose import diagnose_flight
 
+    verdicts = []
     for fl in flights:
         v = diagnose_flight(fl, model, profile, keep_flight=False).verdict
+        verdicts.append(v)
         if v.status in ("damaged", "stopped"):
             what = (f"motor {v.motor} " + ("stopped" if v.status == "stopped" else "lost thrust")) if v.motor else "damaged"
             raise ProfileError(fl.path, f"looks damaged against {against}: {what} (confidence {v.confidence:.2f}); "
                                         f"{outcome}: inspect the propellers, and calibrate only on healthy flights")
+    return verdicts
 
 
 #: What a profile from logs without motor outputs cannot hold (its ``lacks_``).
@@ -507,8 +510,9 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
     model = (FaultModel(profile.model_path(verify=True)) if profile.model
              else model_for_flight(FaultModel(default_model_path()), flights[0]))
     n_before = profile.n_sessions
-    _refuse_if_damaged(flights, profile, model, f"the {n_before} session{'s' if n_before != 1 else ''} of {src.name}",
-                       "not added, the profile is unchanged")
+    verdicts = _refuse_if_damaged(flights, profile, model,
+                                  f"the {n_before} session{'s' if n_before != 1 else ''} of {src.name}",
+                                  "not added, the profile is unchanged")
 
     groups = [flights] if one_session else [[fl] for fl in flights]
     new = [session_entry(g) for g in groups]
@@ -528,6 +532,9 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
                                                                             seen + [False] * len(added))}
     changes = _session_changes(old_base, profile.baseline_, new, votes, profile.analyzers.get("model"), sessions,
                                n_before)
+    changes += [f"{Path(str(fl.path)).name} carries another load than the profile's sessions: {v.load['words']} "
+                f"(healthy propellers; added as a session, its load now part of the airframe's drift)"
+                for fl, v in zip(flights, verdicts) if v.cause == "load" and v.load]
     previous = _keep_previous(src, n_before) if keep_previous else None
     profile.save(src, overwrite=True)
     if previous is not None:

@@ -37,6 +37,9 @@ from .analyzers.esc import NO_ESC
 #: (propeller) and +3.8 (motor, eta 0.9); the ArduCopter SITL weak motor: +284.
 CAUSE_LLR = 3.0
 CAUSES = ("propeller", "motor_or_esc")
+#: Every cause a verdict can state: the ESC relations' two, and a moved load (decision.py: healthy
+#: propellers, a load explains the command pattern).
+VERDICT_CAUSES = CAUSES + ("load",)
 
 
 @dataclass(frozen=True)

@@ -95,7 +95,7 @@ import numpy as np
 
 from .analyzers import AnalyzerResult
 from .analyzers.base import PAIR_ROTOR_COUNTS, SOURCE_LLR_CAP
-from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult
+from .analyzers.command_shares import ETA_GRID, THROTTLE_DRIFT_SIGMA, CommandSharesResult, LoadFit
 from .analyzers.reliability import FULL_RATE_HZ, LogKind, cell_of, rate_class, trust_of
 from .analyzers.throttle import ThrottleResult
 from .analyzers.vibration import VibrationResult
@@ -244,6 +244,36 @@ PAIR_EXCESS_LLR = 5.0
 #: the largest by 0.8. Two-propeller flights of the simulated set reach a median 8.4 (2.3 without
 #: a profile).
 PAIR_EXCESS_PROFILE_LLR = 3.5
+#: A load toward a direction (:class:`~flightlog_fd.analyzers.command_shares.LoadFit`) explains the
+#: leading motor's command pattern when "rotor k lost thrust" (with the drag-torque exponents of
+#: measured damage, ``command_shares.DAMAGE_MIN_M``) beats it by less than this on the shares
+#: (``CommandSharesResult.rotor_vs_load``), against a profile. Measured (results/load_vs_damage.md,
+#: benchmarks/bench_loads.py): px4_sih_dev_load's moved centres of mass reach -0.3 at most against
+#: sih_004's --no-adapt profile; px4_sih_dev's weak motors give their rotor +4.6..+7.9 against it,
+#: the real rrc_straight 20 and 25 mm cuts +2.6..+6.1 against each good flight's profile.
+#: SEPARATION_LLR's e^2 (7 to 1), below the nearest cut.
+LOAD_SEPARATION_LLR = 2.0
+#: ... and from this much (but under LOAD_SEPARATION_LLR) the rotor fits better than the load, so a
+#: flight the sources would call damaged without the load is "uncertain" naming both; below it the
+#: two fit within e to 1 and the load, the likelier cause of a steady pattern, is named. No measured
+#: flight falls between against a profile (loads at most -0.3, cuts from +2.6).
+LOAD_EITHER_LLR = 1.0
+#: Without a profile (the shares against an even split, four times the noise) real cuts come as
+#: close as +2.0 (rrc_straight 25 mm, +2.0..+2.2; the SIH weak motors +2.3..+4.7), so a load
+#: stands for the pattern only where it fits within e to 1 of the rotor: px4_sih_dev_load's
+#: loads toward one motor (+1.3..+1.5) stay as they were (uncertain, never damaged: their
+#: evidence is below the damaged bar), the load between two motors (forward, -2.9) is named.
+LOAD_SEPARATION_NO_PROFILE_LLR = 1.0
+#: The sources that read the motor commands' pattern, which a load moves as a weak rotor does: the
+#: command shares, the throttle and the model's windows (its features carry each motor's command;
+#: against px4_sih_dev_load's moved centres of mass it gives +7.1..+8.0 to the motor toward the load).
+PATTERN_SOURCES = ("commands", "throttle", "model")
+#: The load is weighed only when the shares' pattern needs explaining: the load's or the leading
+#: rotor's evidence against an even split or the calibration reaches this (nats). A healthy
+#: verdict names the load (``cause`` = ``load``) when the load's own evidence reaches it: the load
+#: is seen, not only as likely as a rotor (rrc_straight's 5 mm cuts against a good flight's
+#: profile: load -1.2..+0.6, not named; px4_sih_dev_load against sih_004: +2.7..+7.4, named).
+LOAD_NAMED_LLR = 1.0
 
 
 @dataclass
@@ -308,6 +338,9 @@ class Verdict:
     #: ``SEEN_HEALTHY_P`` over at least ``SEEN_MIN_COVERED_S`` of usable flight), False when this log
     #: could not show damage (not a clearance); None for other verdicts.
     seen: Optional[bool] = None
+    #: With ``cause`` = ``load``: where the load sits and its size (:meth:`LoadFit.as_dict` plus the
+    #: nearest motor's position and direction words), else None
+    load: Optional[dict] = None
 
     def as_dict(self) -> dict:
         """The verdict fields of the JSON report."""
@@ -325,6 +358,7 @@ class Verdict:
             "cause": self.cause,
             "cause_evidence": self.cause_evidence,
             "seen": self.seen,
+            "load": self.load,
         }
 
 
@@ -465,6 +499,98 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
         return None
     return (f"the sources that do not read the trim give {free:+.1f} nats, agreement needs "
             f"{TRIM_FREE_AGREE_LLR:.0f}; a rise of {rise:+.2f} share is within what a moved load makes")
+
+
+# ----------------------------------------------------------------------------- a load, not a rotor
+
+def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int,
+                   results: Sequence[AnalyzerResult] = (), weights: Optional[dict] = None) -> Optional[LoadFit]:
+    """The command shares' :class:`LoadFit` when a load toward some direction explains the leading
+    motor's pattern as well as its rotor's loss does (:func:`load_separation`), the load is seen
+    (``LOAD_NAMED_LLR``) and the sources that do not read the pattern agree neither on that rotor
+    nor on any pair of rotors (``TRIM_FREE_AGREE_LLR``); else None."""
+    if cmd is None or cmd.abstained or cmd.load is None or len(cmd.rotor_vs_load) != n or not sources:
+        return None
+    best = int(np.argmax(np.sum(list(sources.values()), axis=0)))
+    rotor = cmd.rotor_vs_load[best] + cmd.load.llr  # the leading rotor's own evidence on the shares
+    separation = load_separation(cmd)
+    if max(cmd.load.llr, rotor) < LOAD_NAMED_LLR or cmd.rotor_vs_load[best] >= separation:
+        return None
+    free = float(sum(v[best] for s_, v in sources.items() if s_ not in PATTERN_SOURCES))
+    if free >= TRIM_FREE_AGREE_LLR:
+        return None
+    if any(v >= TRIM_FREE_AGREE_LLR for v in _pair_agreement(cmd, results, sources, weights, n).values()):
+        return None
+    # two rotors must beat the load by the single rotor's margin and the pair's own prior odds
+    if any(v - cmd.load.llr >= separation + pair_excess_bar(cmd) for v in cmd.pair_llrs.values()):
+        return None
+    return cmd.load
+
+
+def _rotor_or_load(cmd: CommandSharesResult, sources: dict, weights: dict) -> Optional[int]:
+    """The leading motor (1-based) when the sources, not held, would call it damaged (its total
+    without the discounted ones reaches ``DAMAGED_LLR``) and its rotor fits the shares better than
+    the load (``rotor_vs_load`` from ``LOAD_EITHER_LLR``) though by less than
+    :func:`load_separation`: the flight is then uncertain between the two; else None."""
+    decisive = np.sum([v for s_, v in sources.items() if weights[s_].trust != "discounted"], axis=0)
+    best = int(np.argmax(decisive))
+    if decisive[best] < DAMAGED_LLR or not LOAD_EITHER_LLR <= cmd.rotor_vs_load[best] < load_separation(cmd):
+        return None
+    return best + 1
+
+
+def _pair_agreement(cmd: CommandSharesResult, results: Sequence[AnalyzerResult], sources: dict,
+                    weights: Optional[dict], n: int) -> dict:
+    """{pair: nats} the sources that do not read the command pattern give each pair of rotors,
+    where they can tell two weak rotors from a load: a moved centre of mass shortens the lever
+    arms on its side, so the effectiveness fit reads the two rotors there as weaker too
+    (px4_sih_dev_load 5 cm forward: +8.0 for rotors 1 and 3, as for the simulated x500 with
+    rotors 1 and 4 weak) while the throttle stays (-3.6 for that pair; the x500's +2.1). So the
+    effectiveness counts for a pair only when the profile's throttle does not speak against
+    lost thrust for it; without a profile, only ESC telemetry and vibration count."""
+    thr = next((r for r in results if isinstance(r, ThrottleResult) and r.analyzer in sources), None)
+    thr_pairs = (thr.pair_llr(n, weights[thr.analyzer].cap if weights and thr.analyzer in weights else None)
+                 if thr is not None else None) or {}
+    out: dict = {}
+    for r in results:
+        if r.analyzer in PATTERN_SOURCES or r.analyzer not in sources:
+            continue
+        cap = weights[r.analyzer].cap if weights and r.analyzer in weights else None
+        for pair, v in (r.pair_llr(n, cap) or {}).items():
+            if r.analyzer == "effectiveness" and (cmd.baseline != "profile" or thr_pairs.get(pair, -1.0) < 0.0):
+                continue
+            out[pair] = out.get(pair, 0.0) + v
+    return out
+
+
+def load_separation(cmd: CommandSharesResult) -> float:
+    """How much better the rotor must fit the shares than a load to be weighed as a rotor:
+    ``LOAD_SEPARATION_LLR`` against a profile, ``LOAD_SEPARATION_NO_PROFILE_LLR`` without one."""
+    return LOAD_SEPARATION_LLR if cmd.baseline == "profile" else LOAD_SEPARATION_NO_PROFILE_LLR
+
+
+def _held_for_load(sources: dict) -> dict:
+    """The sources with the pattern sources' evidence for any rotor held to ``TRIM_ONLY_LLR_CAP``
+    together (shared evenly), as for the trim sources against a profile; the pair step is not
+    taken then (two rotors did not beat the load either)."""
+    held = [s_ for s_ in sources if s_ in PATTERN_SOURCES]
+    cap = TRIM_ONLY_LLR_CAP / max(len(held), 1)
+    return {s_: (np.minimum(v, cap) if s_ in held else v) for s_, v in sources.items()}
+
+
+def load_verdict_fields(load: LoadFit, frame: Optional[Frame], cmd: Optional[CommandSharesResult]) -> dict:
+    """``Verdict.load``: the load's direction, nearest motor and size with their words ("the load
+    sits toward motor 2 (rear-left), which carries about 24 % more than at calibration")."""
+    from .frames import position_word
+
+    rad = np.radians(load.direction_deg)
+    side = position_word(float(np.cos(rad)), float(np.sin(rad)))
+    than = "at calibration" if cmd is not None and cmd.baseline == "profile" else "an even share"
+    where = _words(frame, load.motor)
+    pos = frame.position(load.motor) if frame is not None else None
+    toward = where if pos == side else f"the {side}, nearest {where}"
+    return {**load.as_dict(), "position": pos, "side": side,
+            "words": f"the load sits toward {toward}, which carries about {100 * load.size:.0f} % more than {than}"}
 
 
 # ----------------------------------------------------------------------------- the pair-hypothesis step
@@ -719,12 +845,17 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     sources = {r.analyzer: r.llr(n, weights[r.analyzer].cap) for r in results}
     sources = {k: v for k, v in sources.items() if v is not None}
     weights = {k: w for k, w in weights.items() if k in sources}
+    cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
+    thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
+    load = _load_explains(cmd, sources, n, results, weights)
+    either = None  # the rotor a load explains nearly as well, where it alone would make the flight damaged
+    if load is not None:  # the load stands for the pattern: what reads it says little of a rotor
+        either = _rotor_or_load(cmd, sources, weights)
+        sources = _held_for_load(sources)
     total = np.sum(list(sources.values()), axis=0) if sources else np.zeros(n)
     # a discounted source (frequent false alarms on this kind of log) counts toward "uncertain" only
     discounted = [v for s_, v in sources.items() if weights[s_].trust == "discounted"]
     decisive = total - np.sum(discounted, axis=0) if discounted else total
-    cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
-    thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
     trim_held = _trim_held(cmd, sources, int(np.argmax(total)), n)
     # the stated probabilities: mild damage no source sees is never ruled out
     w = posterior(np.maximum(total, MILD_DAMAGE_LLR_FLOOR))
@@ -743,6 +874,8 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     inspect_kb = f"{cause.words}; {cause.advice}"
     lead = float(total[best] - (total[second] if second is not None else -np.inf))
     airframe_changed = _airframe_changed(cmd, thr, n, best)
+    if load is not None and load.chi2 / max(n - 3, 1) <= AIRFRAME_CHANGE_CHI2_PER_DOF:
+        airframe_changed = None  # the load explains the change since calibration
     notes = [note for r in results for note in r.notes]
     decision = Decision(motors=motors, airframe_changed=airframe_changed,
                         healthy_chi2=None if cmd is None else cmd.healthy_chi2,
@@ -803,6 +936,14 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         one = _one_flight_note(cmd) if status != "healthy" else None
         if one:
             reason += f"; {one}"
+        load_dict = None
+        if load is not None and status == "healthy" and raised is None and load.llr >= LOAD_NAMED_LLR:
+            load_dict = load_verdict_fields(load, frame, cmd)
+            reason = f"propellers healthy: {load_dict['words']}; {reason}"
+            named = None
+        elif load is not None and status == "uncertain" and raised is None and either is None:
+            reason += (f"; or no rotor lost thrust and {load_verdict_fields(load, frame, cmd)['words']}: "
+                       f"inspect the propeller, fly once without the payload, or turn on ESC telemetry to tell")
         inspect = tuple(inspect) if status != "healthy" else ()
         motor = named_motor(status, motor, inspect)
         motors = list(motors) if motors is not None else ([motor] if motor else [])
@@ -811,9 +952,9 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                        first_seen=first_seen if status == "damaged" else None, reason=reason,
                        inspect=inspect, motors=motors, pair=pair,
                        positions=[frame.position(k) if frame is not None else None for k in motors],
-                       cause=named.cause if named else None,
+                       cause="load" if load_dict else (named.cause if named else None),
                        cause_evidence=named.evidence() if named else None,
-                       seen=seen), decision
+                       seen=seen, load=load_dict), decision
 
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
@@ -827,7 +968,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     # pair that misses a bar of "damaged" does not replace a single rotor that meets all of them
     decision.pairs, singles_for_pairs = _pairs(results, sources, weights, cmd, n)
     single_weights = [m.weight for m in motors]
-    call = _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
+    call = None if load is not None else _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
     if call is not None and not (call[0] == "uncertain" and single_damaged):
         status, motor, confidence, reason, inspect, pair_motors, pair = call
         return done(status, motor, confidence, reason, inspect, None, pair_motors, pair)
@@ -861,6 +1002,15 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
         sev = severity_words(kb)
         return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
                     + f"; {evidence_words(kb)}; {inspect_kb}", (kb,), cause)
+    if either is not None:
+        ke = either
+        gap = cmd.rotor_vs_load[ke - 1]
+        return done("uncertain", None, w[ke],
+                    f"{_words(frame, ke)} lost thrust, or no rotor did and "
+                    f"{load_verdict_fields(load, frame, cmd)['words']}: the command pattern fits a weak rotor {ke} "
+                    f"only {gap:+.1f} nats better than the load (it needs {load_separation(cmd):.0f} to tell); "
+                    f"inspect propeller {ke}; if it is sound, fly once without the payload (or turn on ESC "
+                    f"telemetry) to tell; {evidence_words(ke)}", (ke,), cause if ke == kb else None)
     bar = uncertain_bar(kind)
     if total[best] >= bar:
         named: tuple[int, ...] = (kb,)
@@ -1064,4 +1214,4 @@ def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     return Verdict(status=worst.status, motor=worst.motor, position=worst.position, confidence=worst.confidence,
                    first_seen=worst.first_seen, reason=f"{label}: {worst.reason}{others}", inspect=worst.inspect,
                    motors=list(worst.motors), pair=worst.pair, positions=list(worst.positions),
-                   cause=worst.cause, cause_evidence=worst.cause_evidence, seen=worst.seen)
+                   cause=worst.cause, cause_evidence=worst.cause_evidence, seen=worst.seen, load=worst.load)

@@ -9,7 +9,9 @@ A least-squares line of z over the flight index (0, 1, 2...) flags motor k when,
 up: a worn propeller needs more command, effectiveness down) is at least ``DRIFT_SLOPE_MIN`` z
 per flight **and** the latest flight's z in that direction is at least ``DRIFT_Z_MIN``. A steady
 offset (a motor that always needs 2 % more) has no slope and is not flagged. The ``unknown``
-group (logs without identity) is not one airframe: no drift rule there. The floors keep
+group (logs without identity) is not one airframe: no drift rule there. A flight whose verdict
+names a moved load is left out of the command-share and model-vote series
+(``LOAD_MOVED_FIGURES``). The floors keep
 nearly equal neighbours from turning noise into large z: ``FIGURE_FLOORS`` (command share 0.005,
 i.e. half a percent of the total; model vote 0.05; effectiveness 0.02).
 Not yet measured on a real fleet (no multi-flight airframe history in ../shared): the constants
@@ -29,6 +31,10 @@ DRIFT_Z_MIN = 2.0  # latest flight's robust z, in the damage direction
 FIGURE_FLOORS = {"model_vote": 0.05, "command_share": 0.005, "effectiveness": 0.02}
 FIGURE_DIRECTION = {"model_vote": +1, "command_share": +1, "effectiveness": -1}
 FIGURES = tuple(FIGURE_FLOORS)
+#: Figures a moved or added load changes as a weak rotor does (the command pattern, and the model
+#: whose windows read it): a flight whose verdict's cause is a load (``cause`` = ``load``) is left
+#: out of their series, so a payload carried on some flights is not read as a motor drifting.
+LOAD_MOVED_FIGURES = ("command_share", "model_vote")
 
 
 def verdict_words(status: Optional[str], motor: Optional[int], motors: list, pair: bool, short: bool = False,
@@ -40,7 +46,8 @@ def verdict_words(status: Optional[str], motor: Optional[int], motors: list, pai
     status = status or "-"
     named = list(motors) if pair and len(motors or []) > 1 else ([motor] if motor else [])
     if not named:
-        return status
+        return f"{status}, load" if cause == "load" and short else (
+            f"{status} (a moved load)" if cause == "load" else status)
     tag = cause_words(cause).tag
     why = f", {tag}" if tag and len(named) == 1 else ""
     if short:
@@ -67,7 +74,8 @@ class FlightRecord:
     diagnosed_at: str
     vehicle_source: str
     motors: dict[int, dict] = field(default_factory=dict)
-    #: The named rotor's likely cause (propeller | motor_or_esc), None when unknown or none named.
+    #: The named rotor's likely cause (propeller | motor_or_esc), or load (propellers healthy, a
+    #: moved load); None when unknown or none named.
     cause: Optional[str] = None
     #: Each take-off to landing of a log holding several (``store.PART_COLUMNS`` and ``part``).
     parts: list[dict] = field(default_factory=list)
@@ -123,7 +131,7 @@ def find_drift(vehicle: str, flights: list[FlightRecord]) -> list[Drift]:
     """The motors flagged by the drift rule of the module docstring."""
     out = []
     for name in FIGURES:
-        series = [f.figure(name) for f in flights]
+        series = [f.figure(name) for f in flights if not (name in LOAD_MOVED_FIGURES and f.cause == "load")]
         series = [s for s in series if s is not None]
         if len(series) < MIN_FLIGHTS:
             continue

@@ -178,6 +178,27 @@ def _v7(db: Database) -> None:
             db.run("UPDATE flight SET cause = ? WHERE id = ?", (cause, flight_id))
 
 
+def _v9(db: Database) -> None:
+    """Migration 9: ``flight.load_motor``, ``load_size`` and ``load_direction_deg`` (a verdict whose
+    cause is a moved load: the motor nearest it, the share change of a motor straight toward it,
+    its direction in the body frame), filled from each stored diagnosis's ``verdict.load``
+    (reports before schema 7 have none)."""
+    for column, kind in (("load_motor", "INTEGER"), ("load_size", "REAL"), ("load_direction_deg", "REAL")):
+        db.run(f"ALTER TABLE flight ADD COLUMN {column} {kind}")
+    for flight_id, doc in _stored_diagnoses(db):
+        load = (doc.get("verdict") or {}).get("load")
+        if load:
+            db.run("UPDATE flight SET load_motor = ?, load_size = ?, load_direction_deg = ? WHERE id = ?",
+                   _load_columns(load) + (flight_id,))
+
+
+def _load_columns(load: Optional[dict]) -> tuple:
+    """(load_motor, load_size, load_direction_deg) of a JSON ``verdict.load`` (Nones without one)."""
+    if not load:
+        return (None, None, None)
+    return (load.get("motor"), _num(load.get("size")), _num(load.get("direction_deg")))
+
+
 MIGRATIONS: list[tuple[int, str, Any]] = [
     (1, "flights, motor figures, jobs, airframes", """
 CREATE TABLE airframe (
@@ -293,6 +314,7 @@ CREATE INDEX calibration_session_airframe ON calibration_session (airframe, sess
 """),
     (7, "the named rotor's likely cause: its propeller or its motor / ESC", _v7),
     (8, "every propeller a verdict names, and two named together", _v8),
+    (9, "a verdict's moved load: the motor nearest it, its size and direction", _v9),
 ]
 #: The schema version this fdlog writes (its newest migration).
 SCHEMA_VERSION = max(v for v, _, _ in MIGRATIONS)
@@ -527,13 +549,13 @@ class Store:
         self.db.run(
             "UPDATE flight SET state = 'done', airframe = ?, autopilot = ?, firmware = ?, flight_start_utc = ?, "
             "log_t_start_s = ?, airborne_s = ?, status = ?, motor = ?, verdict_motors = ?, pair = ?, confidence = ?, "
-            "reason = ?, cause = ?, sentence = ?, "
+            "reason = ?, cause = ?, load_motor = ?, load_size = ?, load_direction_deg = ?, sentence = ?, "
             "profile_sha256 = ?, profile_path = ?, model_sha256 = ?, model_version = ?, tool_version = ?, "
             "exit_code = ?, diagnosis_json = ?, plot_json = ?, error = NULL, diagnosed_at = ? WHERE id = ?",
             (airframe, doc.get("autopilot"), doc.get("firmware"), flight_start_utc, _num(log_t_start_s),
              _num(doc.get("airborne_s")), v.get("status"), v.get("motor"), verdict_motors_text(v),
              int(bool(v.get("pair"))), _num(v.get("confidence")), v.get("reason"), v.get("cause"),
-             sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
+             *_load_columns(v.get("load")), sentence, profile_sha256 or "", profile_path, model_sha, model_version, tool_version, exit_code,
              json.dumps(doc), None if plot is None else json.dumps(plot), diagnosed_at or utc_now(), fid))
         _write_figures(self.db, fid, doc, command_share)
         _write_parts(self.db, fid, doc)
@@ -779,7 +801,8 @@ class Store:
         db.run("UPDATE job SET state = 'error', error = ?, finished_at = ?, lease_until = NULL WHERE id = ?",
                (reason, utc_now(), job["id"]))
         if job.get("flight_id") is not None:
-            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', cause = NULL, reason = ?, "
+            db.run("UPDATE flight SET state = 'error', error = ?, status = 'not_diagnosable', cause = NULL, "
+                   "load_motor = NULL, load_size = NULL, load_direction_deg = NULL, reason = ?, "
                    "diagnosis_json = COALESCE(?, diagnosis_json), diagnosed_at = ? WHERE id = ?",
                    (reason, reason, diagnosis_json, utc_now(), job["flight_id"]))
 

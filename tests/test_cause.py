@@ -164,6 +164,8 @@ def test_a_store_at_migration_6_gets_the_cause_from_its_stored_reports(logs, tmp
         for table in ("flight", "flight_part"):  # migration 8's
             c.execute(f"ALTER TABLE {table} DROP COLUMN verdict_motors")
             c.execute(f"ALTER TABLE {table} DROP COLUMN pair")
+        for column in ("load_motor", "load_size", "load_direction_deg"):  # migration 9's
+            c.execute(f"ALTER TABLE flight DROP COLUMN {column}")
         c.execute("DELETE FROM schema_migrations WHERE version >= 7")
         c.execute("PRAGMA user_version = 6")
     with Store(db) as store:

@@ -142,8 +142,8 @@ def test_branch_uncertain_split_names_both_motors():
 
 
 def test_branch_airframe_changed_only_when_no_rotor_explains_it():
-    moved = BASE * np.array([1.10, 0.90, 1.10, 0.90])  # centre of mass moved forward: front pair up
-    d = decide(window_probs(0, 0.9), moved / moved.mean(), ratio=1.0)
+    retrim = BASE * np.array([1.10, 1.10, 0.90, 0.90])  # a yaw re-trim: no rotor and no load makes it
+    d = decide(window_probs(0, 0.9), retrim / retrim.mean(), ratio=1.0)
     assert d.status == "uncertain" and d.airframe_changed and "re-calibrate" in d.reason
     assert "no rotor explains the change" in d.reason
     # a throttle rise alone with one rotor's pattern is what a weak rotor does: not an airframe change
@@ -152,6 +152,25 @@ def test_branch_airframe_changed_only_when_no_rotor_explains_it():
     assert d.airframe_changed is None and d.status == "damaged" and d.motor == 4
     # the model's windows all confidently healthy outweigh the commands (each source is capped)
     assert decide(window_probs(0, 0.95), s, ratio=thr).status != "damaged"
+
+
+def test_moved_load_is_healthy_with_cause_load_and_a_weak_rotor_is_not_a_load():
+    """A centre of mass moved toward motor 1 raises it and lowers motor 2 (its diagonal), no yaw
+    part: propellers healthy, the load named toward motor 1, even with the model voting for motor 1
+    (its windows read the same commands). Motor 1 at eta 0.7 (m = 1) carries the yaw part a load
+    has not: damaged, not a load."""
+    moved = BASE * np.array([1.12, 0.88, 1.0, 1.0])
+    d = decide(window_probs(1, 0.6), moved / moved.mean(), ratio=1.0)
+    assert d.status == "healthy" and d.cause == "load" and d.load["motor"] == 1
+    assert "the load sits toward motor 1" in d.reason and d.load["size"] == pytest.approx(0.12, abs=0.03)
+    forward = BASE * np.array([1.1, 0.9, 1.1, 0.9])  # toward the front, between motors 1 and 3
+    d = decide(window_probs(0, 0.9), forward / forward.mean(), ratio=1.0)
+    assert d.status == "healthy" and d.cause == "load" and d.load["side"] == "front"
+    s, thr = damaged_shares(BASE, 1, 0.7)
+    d = decide(window_probs(1, 0.7), s, ratio=thr)
+    assert d.status == "damaged" and d.motor == 1 and d.cause != "load" and d.load is None
+    cmd = next(r for r in d.results if r.analyzer == "commands")
+    assert cmd.rotor_vs_load[0] > D.LOAD_SEPARATION_LLR  # its yaw part: a rotor, not a load
 
 
 def test_branch_healthy_says_the_strongest_case():

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from flightlog_fd.cause import CAUSES
+from flightlog_fd.cause import VERDICT_CAUSES as CAUSES
 from flightlog_fd.diagnose import diagnose_path, resolve_model
 from flightlog_fd.flight import Series
 from flightlog_fd.report import terminal

@@ -81,6 +81,8 @@ def test_an_existing_store_gets_its_flight_rows_when_upgraded(tmp_path):
         c.execute("ALTER TABLE flight DROP COLUMN cause")  # migration 7
         for column in ("verdict_motors", "pair"):  # migration 8's
             c.execute(f"ALTER TABLE flight DROP COLUMN {column}")
+        for column in ("load_motor", "load_size", "load_direction_deg"):  # migration 9's
+            c.execute(f"ALTER TABLE flight DROP COLUMN {column}")
         c.execute("DELETE FROM schema_migrations WHERE version >= 4")
         c.execute("PRAGMA user_version = 3")
     with Store(db) as store:

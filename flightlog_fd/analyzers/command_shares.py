@@ -84,6 +84,9 @@ class SeverityFit:
     eta_ci: tuple[float, float]
     m_hat: float
     chi2: float  # at the best eta, m
+    #: the LLR over the drag-torque exponents of measured damage only (``M_GRID`` >= ``DAMAGE_MIN_M``):
+    #: what "rotor k" is weighed with against a moved load (:func:`load_fit`)
+    llr_vs_load: float = float("nan")
 
 
 #: Thrust-efficiency grid of the two-rotor hypothesis (uniform prior over both rotors): the
@@ -123,6 +126,9 @@ class CommandSharesResult(AnalyzerResult):
     throttle_sigma: Optional[float] = None  # the relative throttle drift against the baseline
     n_sessions: Optional[int] = None  # the profile's calibration sessions (0: older than schema 6; None: no profile)
     pairs: list[PairFit] = field(default_factory=list)  # each pair's fit (with the throttle when weighed)
+    load: Optional["LoadFit"] = None  # the moved-load fit of the shares (:func:`load_fit`)
+    #: per motor, the shares' evidence for "rotor k lost thrust" against "a load toward some direction" (nats)
+    rotor_vs_load: list[float] = field(default_factory=list)
 
 
 def _mixer_rows(frame: Optional[Frame], n: int) -> np.ndarray:
@@ -369,6 +375,9 @@ def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
     and the healthy one; ``chi_at(a, bm)``: the chi-square at the best grid point."""
     top = ll.max()
     llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+    yawed = ll[:, M_GRID >= DAMAGE_MIN_M]
+    top_y = yawed.max()
+    llr_yawed = float(top_y + np.log(np.mean(np.exp(yawed - top_y))) - ll_h)
     post_eta = np.exp(ll - top).sum(axis=1)
     cdf = np.cumsum(post_eta / post_eta.sum())
     ia = min(int(np.searchsorted(cdf, 0.05)), len(ETA_GRID) - 1)
@@ -381,7 +390,8 @@ def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
     # a best fit at the grid's healthy end means "no loss": report 1.0 with the interval
     if eta_hat >= ETA_GRID[-1]:
         eta_hat, hi = 1.0, 1.0
-    return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)))
+    return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)),
+                       llr_vs_load=llr_yawed)
 
 
 def pooled_sigma(measured: Optional[float], n_flights: int, prior: float) -> float:
@@ -412,6 +422,109 @@ def share_sigma(baseline_kind: str, spread: Optional[Sequence[float]], n: int, n
         if p is not None and len(p) == n and np.all(np.isfinite(p)):
             out = np.sqrt(out ** 2 + np.square(np.asarray(p, float)))
     return out
+
+
+#: A moved or added load (a payload, camera or battery off the centre) needs a constant roll and
+#: pitch moment, so it raises the motors on its side and lowers those opposite: each motor's share
+#: moves by ``a * cos(angle to the load)`` (the rotor straight toward it by ``a``, the one opposite
+#: by ``-a``, those across by 0), with no yaw part (the rotors on one diagonal share a spin, their
+#: torques cancel). A rotor that lost thrust raises its own command alone, which carries a yaw part
+#: as large as its roll/pitch part. Measured (benchmarks/load_physics.py, results/load_vs_damage.md):
+#: yaw over roll/pitch 0.08-0.13 on px4_sih_dev_load's four moved centres of mass, 0.8-1.7 on
+#: px4_sih_dev's weak motors, 0.6-1.2 on rrc_straight's 10-25 mm cuts, 0.99 on ArduPilot SITL's weak
+#: motor. The load's size prior is uniform over a disc of this radius in share change of the motor
+#: straight toward it: a centre of mass 30 % of the arm off the centre (beyond it a quad is
+#: re-balanced before it flies; cross_session_physics.py: +0.6).
+LOAD_MAX_SHARE = 0.6
+#: Below this drag-torque exponent a weak rotor's pattern is a moved load's (its yaw part over its
+#: roll/pitch part is about m: 0.26 at m = 0.25, predicted_commands), so "rotor k" is weighed against
+#: a load on M_GRID from here: the smallest yaw / roll-pitch ratio measured on real damage is 0.47
+#: (CrazyPAD 1.5 mm cuts; rrc_straight 10-25 mm 0.58-1.19, px4_sih_dev 0.77-1.69, ArduPilot SITL 0.99).
+DAMAGE_MIN_M = 0.5
+#: The grid step of the load's two share-change components (0.01: below the 0.03 drift noise of
+#: the tightest profile baseline, DEFAULT_DRIFT_SIGMA).
+LOAD_GRID_STEP = 0.01
+
+
+@dataclass
+class LoadFit:
+    """The moved-load hypothesis on the command shares (:func:`load_fit`): its LLR against healthy
+    (log Bayes factor over the size/direction prior), the best direction (degrees in the body
+    frame: 0 forward, +90 right), its size (the share change of a motor straight toward it), the
+    motor nearest that direction, and the chi-square at the best fit."""
+
+    llr: float
+    direction_deg: float
+    size: float
+    motor: int
+    chi2: float
+
+    def as_dict(self) -> dict:
+        return {"motor": int(self.motor), "direction_deg": round(float(self.direction_deg), 1),
+                "size": round(float(self.size), 4), "llr": round(float(self.llr), 4)}
+
+
+def load_patterns(frame: Optional[Frame], n: int) -> np.ndarray:
+    """(2, n) share-change patterns of a unit load toward body x (forward) and body y (right):
+    each motor's position along that axis over the largest arm, so the rotor straight toward a
+    load of size ``a`` changes by ``a``."""
+    if frame is None or frame.rotor_count != n:
+        frame = Frame.quad_x()
+    xy = np.array([[r.x, r.y] for r in frame.rotors], dtype=float)
+    arm = float(np.max(np.hypot(xy[:, 0], xy[:, 1]))) or 1.0
+    return (xy / arm).T
+
+
+def _load_grid() -> np.ndarray:
+    """(G, 2) load components (toward x, toward y) on the uniform disc prior."""
+    g = np.arange(-LOAD_MAX_SHARE, LOAD_MAX_SHARE + 1e-9, LOAD_GRID_STEP)
+    ax, ay = np.meshgrid(g, g, indexing="ij")
+    keep = np.hypot(ax, ay) <= LOAD_MAX_SHARE + 1e-9
+    return np.stack([ax[keep], ay[keep]], axis=1)
+
+
+def load_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame: Optional[Frame] = None,
+             move: bool = False, sessions: Optional[SessionDrift] = None,
+             flight_pin: Optional[Sequence[float]] = None) -> LoadFit:
+    """The moved-load hypothesis on the shares alone (the throttle is free: an added mass moves it):
+    shares = baseline + a load's pattern (:func:`load_patterns`), on the same likelihood as
+    :func:`severity_fit` (``move``, ``sessions``: as there), averaged over the uniform disc prior
+    (``LOAD_MAX_SHARE``). Limits: a weight that also takes thrust from a rotor (under its disc)
+    looks like that rotor's loss, not like this."""
+    s, b, sig, rows, _, loglik = _share_likelihood(share, base_share, sigma, frame, None, THROTTLE_DRIFT_SIGMA, move)
+    n = len(s)
+    if sessions is not None:
+        def loglik(resid, thr_resid):  # noqa: F811 - the session drift's likelihood replaces the fixed noise
+            return sessions.loglik(resid, thr_resid, flight_pin)
+    pat = load_patterns(frame, n)
+    grid = _load_grid()
+    pred = b + grid @ pat  # (G, n)
+    ll = loglik(s - pred, None)
+    ll_h = float(loglik(s - b, None))
+    top = float(ll.max())
+    llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+    i = int(np.argmax(ll))
+    ax, ay = grid[i]
+    size = float(np.hypot(ax, ay))
+    toward = pat.T @ np.array([ax, ay])
+    chi2 = (sessions.chi2_equivalent(s - pred[i], None, flight_pin) if sessions is not None
+            else float(np.sum(((s - pred[i]) / sig) ** 2)))
+    return LoadFit(llr=llr, direction_deg=float(np.degrees(np.arctan2(ay, ax))), size=size,
+                   motor=int(np.argmax(toward)) + 1, chi2=float(chi2))
+
+
+def load_fit_for(ctx: Context) -> Optional[LoadFit]:
+    """The flight's :class:`LoadFit` on the shares alone, or None; once per diagnosis, after
+    :func:`fits_for` (the same inputs)."""
+    key = "commands.load"
+    if key not in ctx.memo:
+        inputs = ctx.memo.get(("commands.inputs", False)) if fits_for(ctx, False) else None
+        if inputs is None:
+            ctx.memo[key] = None
+        else:
+            shares, base, sig, _, _, profile, drift, pin = inputs
+            ctx.memo[key] = load_fit(shares, base, sig, ctx.frame, move=profile, sessions=drift, flight_pin=pin)
+    return ctx.memo[key]
 
 
 def fits_for(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[SeverityFit], np.ndarray]]:
@@ -507,6 +620,7 @@ class CommandShares(Analyzer):
         chi_h, fits, sig = plain
         full = fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None else plain
         chi_full, fits_full, _ = full
+        load = load_fit_for(ctx)  # weighed against each rotor by the decision (rotor_vs_load)
         findings = []
         for k, (m, f, ff) in enumerate(zip(share_fit.motors, fits, fits_full)):
             base = 1.0 if m.command_share_baseline is None else m.command_share_baseline  # no profile: even
@@ -519,6 +633,7 @@ class CommandShares(Analyzer):
         pairs_full = (pair_fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None
                       else pairs_plain) or []
         return CommandSharesResult(self.id, findings, pair_llrs={p.motors: p.llr for p in pairs_plain},
+                                   load=load, rotor_vs_load=[] if load is None else [f.llr_vs_load - load.llr for f in fits],
                                    pairs=list(pairs_full), baseline=share_fit.baseline, healthy_chi2=chi_full,
                                    fit_chi2=[f.chi2 for f in fits_full], share_sigma=float(np.mean(sig)),
                                    with_throttle=share_fit.throttle_ratio is not None,

@@ -10,10 +10,9 @@ damaged or stopped motor, or the one propeller an uncertain verdict asks to insp
 when it names none or two), ``verdict_motors`` (every propeller the verdict names, "1;4" when two
 lost thrust together; empty when none), ``flight`` (which take-off
 to landing of a log holding several the window lies in, "flight 2 of 5"; empty for a log's only
-one), ``flight_verdict`` (that flight's own status, else the log's) and ``verdict_cause`` (the
-named rotor's likely cause, as the JSON's ``verdict.cause``: ``propeller`` or ``motor_or_esc``; empty
-when the log cannot tell or no rotor is named: then a smoothed class k means rotor k lost thrust,
-cause unknown), then the per-motor view's
+one), ``flight_verdict`` (that flight's own status, else the log's), ``verdict_cause``
+(``propeller``, ``motor_or_esc``, ``load``: healthy propellers, a moved load; empty when unknown)
+and ``load_motor`` (with cause ``load``: the motor nearest the load), then the per-motor view's
 (:mod:`flightlog_fd.report.motor_view`) findings, also repeated on every row, one column per
 analyzer, finding and motor: ``<analyzer>_<name>_m<k>`` (e.g. ``commands_share_m1``,
 ``commands_thrust_m1``, ``model_vote_m1``, ``effectiveness_effectiveness_m1``; empty where an
@@ -34,7 +33,7 @@ from .motor_view import MotorView
 #: The window columns before the class probabilities, and after them.
 LEAD_COLUMNS = ("log", "t_start", "t_end", "class", "p_healthy")
 TAIL_COLUMNS = ("phase", "smoothed_class", "verdict", "verdict_motor", "verdict_motors", "flight", "flight_verdict",
-                "verdict_cause")
+                "verdict_cause", "load_motor")
 
 
 def _finding_keys(views: Sequence[MotorView]) -> list[tuple[str, str, int]]:
@@ -106,4 +105,4 @@ def _write(diagnoses: Sequence[Diagnosis], fh: TextIO) -> None:
                              *probs, *[""] * (n - len(probs)), w.phase, w.label, d.verdict.status,
                              d.verdict.motor or "", ";".join(str(k) for k in d.verdict.motors),
                              part[2] if part else "", part[3] if part else d.verdict.status, d.verdict.cause or "",
-                             *found, *weight])
+                             (d.verdict.load or {}).get("motor", ""), *found, *weight])

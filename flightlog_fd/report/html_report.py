@@ -238,6 +238,8 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("reason", v.reason))
     if v.cause_evidence:
         rows.append(("likely cause", f"{cause_words(v.cause).likely}: {v.cause_evidence['reason']}"))
+    elif v.cause == "load" and v.load:
+        rows.append(("likely cause", f"{cause_words('load').likely}: {v.load['words']}"))
     for i, a in enumerate(v.advice):
         rows.append(("to resolve it" if i == 0 else "", advice_line(a)))
     if d.timeline is not None and d.timeline.shortfall is None:

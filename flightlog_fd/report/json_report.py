@@ -32,11 +32,18 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                                              #   this log could not show damage (not a clearance); else null
                   "first_seen": seconds | null,   # start of the first window of the damaged run
                   "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
-                  "cause": "propeller" | "motor_or_esc" | null,   # the named rotor's likely cause
+                  "cause": "propeller" | "motor_or_esc" | "load" | null,   # the named rotor's likely cause,
+                                                     #   or "load": propellers healthy, a load explains it
                   "cause_evidence": {"motor": 1-n,                # null when no rotor is named
                                      "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
                                      "rpm_per_command": % | null, "current_per_rpm2": % | null,
                                      "reason": str} | null,       # why that cause, or why none
+                  "load": {"motor": 1-n,                          # cause "load": the motor nearest the load
+                           "position": str | null, "side": str,   # that motor's and the load's side in words
+                           "direction_deg": deg,                   # body frame: 0 forward, +90 right
+                           "size": share,                          # share change of a motor straight toward it
+                           "llr": nats,                            # the load against healthy, on the shares
+                           "words": str} | null,
                   "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "logging" |
                                       "esc_telemetry" | "manoeuvre",
                               "text": str,              # what to do, in words
@@ -126,7 +133,9 @@ propeller or its motor / ESC lost the thrust; null and the reason when the log c
 null for a pair); schema 7 gives ``confidence`` one meaning: the probability that this verdict is
 right, measured on real and simulated flights (never below 0.5 for a stated verdict; an uncertain
 verdict's is the probability that one of the propellers it names lost thrust, at most 0.8;
-``benchmarks/bench_confidence.py``, ``results/confidence.md``), and adds ``verdict.seen``.
+``benchmarks/bench_confidence.py``, ``results/confidence.md``), and adds ``verdict.seen``, ``"load"`` in ``verdict.cause`` (healthy propellers, a moved or added
+load explains the command pattern) and ``verdict.load`` (where the load sits and how much more the
+motor toward it carries; null otherwise).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -181,7 +190,7 @@ JSON_SCHEMA: dict = {
         "verdict": {
             "type": "object",
             "required": ["status", "motor", "motors", "positions", "pair", "position", "confidence", "first_seen",
-                         "reason", "advice", "cause", "cause_evidence", "seen"],
+                         "reason", "advice", "cause", "cause_evidence", "seen", "load"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
@@ -194,7 +203,13 @@ JSON_SCHEMA: dict = {
                 "seen": {"type": ["boolean", "null"]},
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
-                "cause": {"enum": ["propeller", "motor_or_esc", None]},
+                "cause": {"enum": ["propeller", "motor_or_esc", "load", None]},
+                "load": {"type": ["object", "null"],
+                         "required": ["motor", "position", "side", "direction_deg", "size", "llr", "words"],
+                         "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                        "position": _STR_OR_NULL, "side": {"type": "string"},
+                                        "direction_deg": _NUM, "size": _NUM, "llr": _NUM,
+                                        "words": {"type": "string"}}},
                 "cause_evidence": {"type": ["object", "null"],
                                    "required": ["motor", "llr", "rpm_per_command", "current_per_rpm2", "reason"],
                                    "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},

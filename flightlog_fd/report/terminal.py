@@ -88,11 +88,14 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         n = tl.n_windows if tl else len(diagnosis.windows)
         if v.seen is False:
             covered = tl.covered_s if tl else None
-            return f"Not seen: {not_seen_words(v.confidence, covered, diagnosis.log_kind)}; {conf}"
+            load = f"; {v.load['words']}" if v.cause == "load" and v.load else ""
+            return f"Not seen: {not_seen_words(v.confidence, covered, diagnosis.log_kind)}{load}; {conf}"
         seen = f"in {tl.covered_s:.0f} s of usable flight" if tl else "in the vibration (the only evidence this log has)"
         thin = ""
         if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
             thin = f" ({100 * tl.abstained_share:.0f} % of the model's windows uncertain: the other sources saw it, see below)"
+        if v.cause == "load" and v.load:
+            return f"No sign of propeller damage {seen}{thin}: {v.load['words']}, {conf}"
         return f"No sign of propeller damage {seen}{thin}, {conf}"
     if v.status == "uncertain":
         return f"Uncertain, {conf}: {v.reason}"

@@ -34,12 +34,17 @@ class CauseWords:
         return self.one.format(k=motor)
 
 
-#: Words per verdict cause (``decision.Verdict.cause``, ``cause.CAUSES``).
+#: Words per verdict cause (``decision.Verdict.cause``, ``cause.VERDICT_CAUSES``).
 CAUSE_WORDS: dict[str, CauseWords] = {
     "propeller": CauseWords(lost="propeller damaged", one="propeller {k} damaged", likely="the propeller",
                             short="prop", tag=""),
     "motor_or_esc": CauseWords(lost="motor or ESC weak", one="motor {k} or its ESC weak", likely="the motor or its ESC",
                                short="motor/ESC", tag="motor or ESC"),
+    # a healthy verdict whose commands a moved load explains: the rotors' classes keep the unknown
+    # cause's words (the model's classes are rotors); the likely-cause row and tag name the load
+    "load": CauseWords(lost="rotor lost thrust (propeller, motor or ESC)",
+                       one="rotor {k} lost thrust (propeller, motor or ESC)",
+                       likely="a moved or added load (the propellers are healthy)", short="rotor", tag="load"),
 }
 #: No cause known (no ESC rpm, a pair, a healthy verdict): what the windows and commands do say.
 UNKNOWN_CAUSE = CauseWords(lost="rotor lost thrust (propeller, motor or ESC)",
