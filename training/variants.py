@@ -1,0 +1,181 @@
+"""Model variants against the shipped recipe at reduced scale: same data, same seed, one table.
+
+    python -m flightlog_fd.training.variants simulate --flights 1600 --test-flights 320 --out build/variants
+    python -m flightlog_fd.training.variants train base --epochs 20 --out build/variants
+    python -m flightlog_fd.training.variants table --out build/variants
+
+``simulate`` flies ``--flights`` training quads (seed 0) and ``--test-flights`` held-out ones (seed
+1000) with the shipped model's distribution (``build_default.sim_kwargs``), in batches of 40 / 32 so
+that every mission x logging-profile pair is flown, and windows the same flights twice: the
+shipped 80-sample windows and 160-sample ones (3.2 s, a longer receptive field). ``train NAME``
+trains one variant (:data:`VARIANTS`) with ``build_default``'s optimiser (Adam 5e-4, batch 128,
+cross-entropy, lowest training loss kept), one torch thread, and writes its held-out figures
+(window accuracy, healthy windows called healthy, damaged windows right, the same without mild
+damage eta >= 0.9, training loss and accuracy per epoch, to see whether they still move) to
+``NAME.json``. ``table`` prints every variant measured. The paper's DCNN stays in
+``training/experiment.py``; these variants are DCNNs of other shapes (``DCNNConfig``), so
+``fdlog calibrate`` (``training/adapt.py``, dense layers) adapts any of them.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: name -> (window samples, DCNNConfig overrides, share of the training flights used; -1: all flights,
+#: every second window)
+VARIANTS = {
+    "base": (80, {}, 0.5),  # the shipped recipe on the first half of the flights
+    "quarter_data": (80, {}, 0.25),  # data volume: a quarter
+    "double_data": (80, {}, 1.0),  # data volume: all the flights (run it with half the epochs: same compute)
+    # twice the airframes, every second window of each (the base's window count and compute): windows of
+    # one flight share its airframe, so airframes, not windows, may be what the model lacks
+    "double_airframes": (80, {}, -1.0),
+    "kernel7": (80, {"kernel": 7}, 0.5),  # longer receptive field inside the 1.6 s window
+    "wide": (80, {"filters": 128, "dense": 256}, 0.5),  # capacity
+    "dropout": (80, {"dropout": 0.3}, 0.5),  # regularisation against memorised airframes
+    "win160": (160, {}, 0.5),  # 3.2 s windows (flight context by length)
+}
+
+
+def _paths(out: Path, window: int) -> tuple[Path, Path]:
+    return out / f"train_w{window}.npz", out / f"test_w{window}.npz"
+
+
+def simulate(out: Path, flights: int, test_flights: int) -> None:
+    from flightlog_fd.training.build_default import sim_kwargs
+    from flightlog_fd.training.data import simulate_window_sets
+    from flightlog_fd.windows import FeatureSpec
+
+    out.mkdir(parents=True, exist_ok=True)
+    specs = [FeatureSpec(window=80), FeatureSpec(window=160)]
+    t0 = time.time()
+    for n, seed, batch, which in ((flights, 0, 40, 0), (test_flights, 1000, 32, 1)):
+        sets = simulate_window_sets(n, specs, seed=seed, batch=batch, duration_s=50.0, **sim_kwargs(),
+                                    progress=lambda d, m: print(f"seed {seed}: {d}/{m} flights ({time.time() - t0:.0f} s)",
+                                                                flush=True))
+        for spec, ws in zip(specs, sets):
+            ws.save(_paths(out, spec.window)[which])
+            print(f"window {spec.window}: {len(ws)} windows", flush=True)
+
+
+def train(name: str, out: Path, epochs: int, seed: int = 0, tag: str = "") -> dict:
+    import torch
+
+    from flightlog_fd.training.data import WindowSet
+    from flightlog_fd.training.dcnn import DCNNConfig, count_parameters
+    from flightlog_fd.training.train import predict_proba, train_dcnn
+    from flightlog_fd.windows import FeatureSpec
+
+    window, overrides, share = VARIANTS[name]
+    tr_path, te_path = _paths(out, window)
+    train_ws, test_ws = WindowSet.load(tr_path), WindowSet.load(te_path)
+    if share < 0:  # every flight, every second window
+        keep = np.zeros(len(train_ws), bool)
+        keep[::2] = True
+    elif share < 1.0:
+        keep = np.isin(train_ws.flight, np.unique(train_ws.flight)[: int(share * (train_ws.flight.max() + 1))])
+    if share != 1.0:
+        train_ws = WindowSet(train_ws.X[keep], train_ws.y[keep], train_ws.flight[keep], train_ws.t_start[keep],
+                             train_ws.t_end[keep], train_ws.eta[keep], train_ws.names)
+    spec = FeatureSpec(window=window).fit(train_ws.X)
+    Xtr, Xte, y = spec.normalise(train_ws.X), spec.normalise(test_ws.X), test_ws.y
+    mild = (y > 0) & (test_ws.eta >= 0.9)
+    cfg = DCNNConfig(in_channels=7, window=window, **overrides)
+    per_epoch = []
+
+    def progress(e):
+        print(f"{name} epoch {e.epoch} loss {e.loss:.4f} train acc {e.accuracy:.3f} ({e.seconds:.0f} s)", flush=True)
+        per_epoch.append({"epoch": e.epoch, "loss": round(e.loss, 4), "train_acc": round(e.accuracy, 4),
+                          "seconds": round(e.seconds, 1)})
+
+    t0 = time.time()
+    res = train_dcnn(Xtr, train_ws.y, None, config=cfg, max_epochs=epochs, patience=epochs, seed=seed,
+                     progress=progress)
+    P = predict_proba(res.model, Xte)
+    pred = P.argmax(1)
+    d = y > 0
+    out_d = {
+        "name": name + tag, "window": window, "config": cfg.to_dict(), "parameters": count_parameters(res.model),
+        "train_windows": int(len(train_ws)), "train_flights": int(len(np.unique(train_ws.flight))),
+        "test_windows": int(len(y)), "epochs": epochs, "best_epoch": res.best_epoch, "seed": seed,
+        "train_seconds": round(time.time() - t0, 1),
+        "window_accuracy": float((pred == y).mean()),
+        "healthy_called_healthy": float((pred[y == 0] == 0).mean()),
+        "damaged_right": float((pred[d] == y[d]).mean()),
+        "accuracy_without_mild": float((pred[~mild] == y[~mild]).mean()),
+        "damaged_right_without_mild": float((pred[d & ~mild] == y[d & ~mild]).mean()),
+        "history": per_epoch,
+    }
+    torch.save({"state": res.model.state_dict(), "config": cfg.to_dict(), "spec": spec.to_dict()}, out / f"{name}{tag}.pt")
+    out_d["targets"] = targets(res.model, spec)
+    (out / f"{name}{tag}.json").write_text(json.dumps(out_d, indent=1))
+    print(json.dumps({k: v for k, v in out_d.items() if k != "history"}), flush=True)
+    return out_d
+
+
+def targets(model, spec) -> dict:
+    """Window accuracy without calibration on the labelled real-format sets (build_default's)."""
+    from flightlog_fd.training.build_default import evaluate_targets
+
+    return evaluate_targets(model, spec)
+
+
+def evaluate_saved(name: str, out: Path) -> None:
+    """Add the real-format sets' figures to a variant trained before they were measured."""
+    import torch
+
+    from flightlog_fd.training.dcnn import DCNN, DCNNConfig
+    from flightlog_fd.windows import FeatureSpec
+
+    saved = torch.load(out / f"{name}.pt")
+    model = DCNN(DCNNConfig.from_dict(saved["config"]))
+    model.load_state_dict(saved["state"])
+    model.eval()
+    r = json.loads((out / f"{name}.json").read_text())
+    r["targets"] = targets(model, FeatureSpec.from_dict(saved["spec"]))
+    (out / f"{name}.json").write_text(json.dumps(r, indent=1))
+    print(json.dumps(r["targets"]))
+
+
+def table(out: Path) -> None:
+    print("| variant | window | parameters | train flights / windows | epochs | train s | held-out window acc | "
+          "healthy->healthy | damaged right | acc without eta>=0.9 | final train loss / acc | px4_sih_dev | crazypad_e9 |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for p in sorted(out.glob("*.json")):
+        r = json.loads(p.read_text())
+        h = r["history"][-1]
+        print(f"| {r['name']} | {r['window']} | {r['parameters']} | {r['train_flights']} / {r['train_windows']} | "
+              f"{r['epochs']} | {r['train_seconds']:.0f} | {100 * r['window_accuracy']:.1f} % | "
+              f"{100 * r['healthy_called_healthy']:.1f} % | {100 * r['damaged_right']:.1f} % | "
+              f"{100 * r['accuracy_without_mild']:.1f} % | {h['loss']:.3f} / {100 * h['train_acc']:.1f} % | "
+              + " | ".join(f"{100 * t['window_accuracy']:.1f} %" if t else "-"
+                           for t in (r.get("targets", {}).get(k) for k in ("px4_sih_dev", "crazypad_e9"))) + " |")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("cmd", choices=("simulate", "train", "table", "evaluate"))
+    ap.add_argument("name", nargs="?", default="base")
+    ap.add_argument("--flights", type=int, default=1600)
+    ap.add_argument("--test-flights", type=int, default=320)
+    ap.add_argument("--epochs", type=int, default=20)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=Path("build/variants"))
+    ap.add_argument("--tag", default="", help="suffix of the result files (e.g. the epochs of a rerun)")
+    a = ap.parse_args(argv)
+    if a.cmd == "simulate":
+        simulate(a.out, a.flights, a.test_flights)
+    elif a.cmd == "train":
+        train(a.name, a.out, a.epochs, a.seed, a.tag)
+    elif a.cmd == "evaluate":
+        evaluate_saved(a.name, a.out)
+    else:
+        table(a.out)
+
+
+if __name__ == "__main__":
+    main()
