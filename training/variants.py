@@ -38,10 +38,11 @@ VARIANTS = {
     "wide": (80, {"filters": 128, "dense": 256}, 0.5),  # capacity
     "dropout": (80, {"dropout": 0.3}, 0.5),  # regularisation against memorised airframes
     "win160": (160, {}, 0.5),  # 3.2 s windows (flight context by length)
+    "loads": ("80_loads", {}, 1.0),  # the base's 800 flights' worth, half of them carrying random loads
 }
 
 
-def _paths(out: Path, window: int) -> tuple[Path, Path]:
+def _paths(out: Path, window) -> tuple[Path, Path]:
     return out / f"train_w{window}.npz", out / f"test_w{window}.npz"
 
 
@@ -62,6 +63,63 @@ def simulate(out: Path, flights: int, test_flights: int) -> None:
             print(f"window {spec.window}: {len(ws)} windows", flush=True)
 
 
+#: Share of the flights that carry a random load (sim/loads.py random_loads: fixed point loads, a
+#: moved battery, a swinging payload) in the ``--loads`` sets.
+LOADED_FRACTION = 0.5
+
+
+def simulate_loads(out: Path, flights: int, test_flights: int) -> None:
+    """Training (seed 0) and held-out (seed 1000) 80-sample windows like :func:`simulate`, with
+    LOADED_FRACTION of the airframes carrying a random flyable load (drawn with the airframe's
+    damage and imbalance, so that it can hover): ``train_w80_loads.npz`` / ``test_w80_loads.npz``."""
+    from flightlog_fd.prepared import PreparedFlight
+    from flightlog_fd.sim.airframe import random_airframes
+    from flightlog_fd.sim.api import simulate_flights
+    from flightlog_fd.sim.damage import random_damages
+    from flightlog_fd.sim.imbalance import random_imbalances
+    from flightlog_fd.sim.loads import random_loads
+    from flightlog_fd.training.build_default import (ETA_RANGE, HEALTHY_FRACTION, MILD_FRACTION, NOISE,
+                                                     TORQUE_EXPONENT_RANGE, TRAIN_PROFILES)
+    from flightlog_fd.training.data import DEFAULT_MISSIONS, WindowSet, flight_windows
+    from flightlog_fd.windows import FeatureSpec
+
+    spec = FeatureSpec()
+    t0 = time.time()
+    for n_all, seed, batch, name in ((flights, 0, 40, "train"), (test_flights, 1000, 32, "test")):
+        sets, done, b, refused = [], 0, 0, 0
+        while done < n_all:
+            n = min(batch, n_all - done)
+            mission = DEFAULT_MISSIONS[b % len(DEFAULT_MISSIONS)]
+            profile = TRAIN_PROFILES[(b // len(DEFAULT_MISSIONS)) % len(TRAIN_PROFILES)]
+            afs = random_airframes(n, np.random.default_rng([seed, b, 11]))
+            imbs = random_imbalances(afs, np.random.default_rng([seed, b, 12]))
+            dmgs = random_damages(afs, np.full(n, 50.0), np.random.default_rng([seed, b, 13]),
+                                  healthy_fraction=HEALTHY_FRACTION, eta_range=ETA_RANGE, mild_fraction=MILD_FRACTION,
+                                  torque_exponent_range=TORQUE_EXPONENT_RANGE)
+            loads = random_loads(afs, np.random.default_rng([seed, b, 14]), loaded_fraction=LOADED_FRACTION,
+                                 damages=dmgs, imbalances=imbs)
+            kw = dict(airframes=afs, damages=dmgs, imbalance=imbs, mission=mission, duration_s=50.0, profile=profile,
+                      seed=int(np.random.default_rng([seed, b]).integers(2**31)), noise=NOISE, accelerometer=False)
+            refused_now = False
+            try:
+                fls = simulate_flights(n, loads=loads, **kw)
+            except ValueError as e:  # a load the flown damage cannot carry: this batch flies without
+                refused += 1
+                refused_now = True
+                print(f"batch {b}: {e}; flown without loads", flush=True)
+                fls = simulate_flights(n, **kw)
+            fls = [PreparedFlight(f) for f in fls]
+            loaded = [bool(ld) and not refused_now for ld in loads]  # names end -L (loaded) / -N
+            sets.append(flight_windows(fls, spec, names=[f"{name}{seed}-{b}-{i}-{'L' if loaded[i] else 'N'}"
+                                                         for i in range(n)]))
+            done += n
+            b += 1
+            print(f"{name} with loads: {done}/{n_all} flights ({time.time() - t0:.0f} s)", flush=True)
+        ws = WindowSet.concat(sets)
+        ws.save(out / f"{name}_w80_loads.npz")
+        print(f"{name}: {len(ws)} windows, {refused} batches flown without loads", flush=True)
+
+
 def train(name: str, out: Path, epochs: int, seed: int = 0, tag: str = "") -> dict:
     import torch
 
@@ -72,6 +130,7 @@ def train(name: str, out: Path, epochs: int, seed: int = 0, tag: str = "") -> di
 
     window, overrides, share = VARIANTS[name]
     tr_path, te_path = _paths(out, window)
+    window = int(str(window).split("_")[0])
     train_ws, test_ws = WindowSet.load(tr_path), WindowSet.load(te_path)
     if share < 0:  # every flight, every second window
         keep = np.zeros(len(train_ws), bool)
@@ -112,6 +171,7 @@ def train(name: str, out: Path, epochs: int, seed: int = 0, tag: str = "") -> di
     }
     torch.save({"state": res.model.state_dict(), "config": cfg.to_dict(), "spec": spec.to_dict()}, out / f"{name}{tag}.pt")
     out_d["targets"] = targets(res.model, spec)
+    out_d["loads_test"] = loaded_test(res.model, spec, out)
     (out / f"{name}{tag}.json").write_text(json.dumps(out_d, indent=1))
     print(json.dumps({k: v for k, v in out_d.items() if k != "history"}), flush=True)
     return out_d
@@ -122,6 +182,29 @@ def targets(model, spec) -> dict:
     from flightlog_fd.training.build_default import evaluate_targets
 
     return evaluate_targets(model, spec)
+
+
+def loaded_test(model, spec, out: Path) -> dict:
+    """Held-out figures on the loads set (``simulate-loads``), when it exists: all windows, and the
+    healthy windows of loaded and unloaded airframes apart."""
+    from flightlog_fd.training.data import WindowSet
+    from flightlog_fd.training.train import predict_proba
+
+    path = out / "test_w80_loads.npz"
+    if spec.window != 80 or not path.exists():
+        return {}
+    ws = WindowSet.load(path)
+    pred = predict_proba(model, spec.normalise(ws.X)).argmax(1)
+    y = ws.y
+    loaded = np.array([ws.names[f].endswith("-L") for f in ws.flight])
+    d = y > 0
+    r = {"window_accuracy": float((pred == y).mean()), "damaged_right": float((pred[d] == y[d]).mean()),
+         "windows": int(len(y))}
+    for tag, m in (("loaded", loaded), ("unloaded", ~loaded)):
+        h = m & (y == 0)
+        r[f"healthy_called_healthy_{tag}"] = float((pred[h] == 0).mean()) if h.any() else None
+        r[f"damaged_right_{tag}"] = float((pred[m & d] == y[m & d]).mean()) if (m & d).any() else None
+    return r
 
 
 def evaluate_saved(name: str, out: Path) -> None:
@@ -136,15 +219,52 @@ def evaluate_saved(name: str, out: Path) -> None:
     model.load_state_dict(saved["state"])
     model.eval()
     r = json.loads((out / f"{name}.json").read_text())
-    r["targets"] = targets(model, FeatureSpec.from_dict(saved["spec"]))
+    spec = FeatureSpec.from_dict(saved["spec"])
+    if "targets" not in r:
+        r["targets"] = targets(model, spec)
+    r["loads_test"] = loaded_test(model, spec, out)
     (out / f"{name}.json").write_text(json.dumps(r, indent=1))
-    print(json.dumps(r["targets"]))
+    print(json.dumps({k: r[k] for k in ("targets", "loads_test")}))
+
+
+def evaluate_shipped(out: Path) -> None:
+    """The shipped quad model (``models/default.pt``, 2400 flights, 20 epochs) on the same sets, as
+    the table's reference row ``shipped``."""
+    import torch
+
+    from flightlog_fd.model import FaultModel, default_model_path
+    from flightlog_fd.training.data import WindowSet
+    from flightlog_fd.training.dcnn import DCNN, DCNNConfig, count_parameters
+    from flightlog_fd.training.train import predict_proba
+    from flightlog_fd.windows import FeatureSpec
+
+    onnx = FaultModel(default_model_path())
+    spec = FeatureSpec.from_dict(onnx.feature_spec)
+    model = DCNN(DCNNConfig())
+    model.load_state_dict(torch.load(default_model_path().with_suffix(".pt")))
+    model.eval()
+    test = WindowSet.load(_paths(out, 80)[1])
+    pred = predict_proba(model, spec.normalise(test.X)).argmax(1)
+    y, d = test.y, test.y > 0
+    mild = d & (test.eta >= 0.9)
+    t = onnx.training
+    r = {"name": "shipped", "window": 80, "parameters": count_parameters(model),
+         "train_windows": int(sum(t["class_counts"])),
+         "train_flights": int(t["data"].split()[0]), "epochs": t["epochs"], "train_seconds": t["train_seconds"],
+         "window_accuracy": float((pred == y).mean()), "healthy_called_healthy": float((pred[y == 0] == 0).mean()),
+         "damaged_right": float((pred[d] == y[d]).mean()),
+         "accuracy_without_mild": float((pred[~mild] == y[~mild]).mean()),
+         "history": [{"loss": t["best_loss"], "train_acc": float("nan")}],
+         "targets": targets(model, spec), "loads_test": loaded_test(model, spec, out)}
+    (out / "shipped.json").write_text(json.dumps(r, indent=1))
+    print(json.dumps({k: v for k, v in r.items() if k != "history"}))
 
 
 def table(out: Path) -> None:
     print("| variant | window | parameters | train flights / windows | epochs | train s | held-out window acc | "
-          "healthy->healthy | damaged right | acc without eta>=0.9 | final train loss / acc | px4_sih_dev | crazypad_e9 |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "healthy->healthy | damaged right | acc without eta>=0.9 | final train loss / acc | px4_sih_dev | crazypad_e9 | "
+          "loads set: acc / loaded healthy->healthy / unloaded healthy->healthy |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for p in sorted(out.glob("*.json")):
         r = json.loads(p.read_text())
         h = r["history"][-1]
@@ -153,12 +273,15 @@ def table(out: Path) -> None:
               f"{100 * r['healthy_called_healthy']:.1f} % | {100 * r['damaged_right']:.1f} % | "
               f"{100 * r['accuracy_without_mild']:.1f} % | {h['loss']:.3f} / {100 * h['train_acc']:.1f} % | "
               + " | ".join(f"{100 * t['window_accuracy']:.1f} %" if t else "-"
-                           for t in (r.get("targets", {}).get(k) for k in ("px4_sih_dev", "crazypad_e9"))) + " |")
+                           for t in (r.get("targets", {}).get(k) for k in ("px4_sih_dev", "crazypad_e9"))) + " | "
+              + (" / ".join(f"{100 * x:.1f} %" for x in (lt["window_accuracy"], lt["healthy_called_healthy_loaded"],
+                                                          lt["healthy_called_healthy_unloaded"]))
+                 if (lt := r.get("loads_test")) else "-") + " |")
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("cmd", choices=("simulate", "train", "table", "evaluate"))
+    ap.add_argument("cmd", choices=("simulate", "simulate-loads", "train", "table", "evaluate", "evaluate-shipped"))
     ap.add_argument("name", nargs="?", default="base")
     ap.add_argument("--flights", type=int, default=1600)
     ap.add_argument("--test-flights", type=int, default=320)
@@ -171,6 +294,10 @@ def main(argv=None) -> None:
         simulate(a.out, a.flights, a.test_flights)
     elif a.cmd == "train":
         train(a.name, a.out, a.epochs, a.seed, a.tag)
+    elif a.cmd == "simulate-loads":
+        simulate_loads(a.out, a.flights, a.test_flights)
+    elif a.cmd == "evaluate-shipped":
+        evaluate_shipped(a.out)
     elif a.cmd == "evaluate":
         evaluate_saved(a.name, a.out)
     else:
