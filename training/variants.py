@@ -267,6 +267,7 @@ def table(out: Path) -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for p in sorted(out.glob("*.json")):
         r = json.loads(p.read_text())
+        r.update(r.get("plain_test", {}))  # a variant trained on another set, measured on the plain held-out one
         h = r["history"][-1]
         print(f"| {r['name']} | {r['window']} | {r['parameters']} | {r['train_flights']} / {r['train_windows']} | "
               f"{r['epochs']} | {r['train_seconds']:.0f} | {100 * r['window_accuracy']:.1f} % | "
