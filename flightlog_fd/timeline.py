@@ -66,6 +66,8 @@ WINDOW_MIN_PROB = 0.5
 #: Octo: healthy on top is a coin toss in every bin below 0.6 (46-56 %: the octo model calls most
 #: damaged windows healthy), so its windows are labelled healthy only from 0.60 (65 %, few); a
 #: motor from 0.50 53-64 % (47 % below; 30 % above 0.7).
+#: Measured with the shipped models; a user's or an adapted model is read with the same bars
+#: (re-measure them after retraining).
 LABEL_BARS = {5: (0.25, 0.40), 7: (0.25, 0.45), 9: (0.60, 0.50)}
 
 
