@@ -2,6 +2,7 @@
 
     python -m flightlog_fd.training.variants simulate --flights 1600 --test-flights 320 --out build/variants
     python -m flightlog_fd.training.variants train base --epochs 20 --out build/variants
+    python -m flightlog_fd.training.variants import-build candidate --build build/candidate/default.onnx --out build/variants
     python -m flightlog_fd.training.variants table --out build/variants
 
 ``simulate`` flies ``--flights`` training quads (seed 0) and ``--test-flights`` held-out ones (seed
@@ -207,6 +208,38 @@ def loaded_test(model, spec, out: Path) -> dict:
     return r
 
 
+def plain_test(model, spec, out: Path) -> dict:
+    """The held-out figures on the plain 80-sample test set (``test_w80.npz``)."""
+    from flightlog_fd.training.data import WindowSet
+    from flightlog_fd.training.train import predict_proba
+
+    te = WindowSet.load(_paths(out, 80)[1])
+    p = predict_proba(model, spec.normalise(te.X)).argmax(1)
+    y, d = te.y, te.y > 0
+    mild = d & (te.eta >= 0.9)
+    return {"window_accuracy": float((p == y).mean()), "healthy_called_healthy": float((p[y == 0] == 0).mean()),
+            "damaged_right": float((p[d] == y[d]).mean()), "accuracy_without_mild": float((p[~mild] == y[~mild]).mean())}
+
+
+def import_build(onnx_path: Path, name: str, out: Path) -> None:
+    """A model ``build_default`` wrote (its .onnx, .pt and .json) as variant ``name``, then measured
+    like the others (the table's ``candidate``)."""
+    import torch
+
+    from flightlog_fd.model import FaultModel
+    from flightlog_fd.training.dcnn import DCNNConfig
+
+    meta = FaultModel(onnx_path).metadata
+    torch.save({"state": torch.load(onnx_path.with_suffix(".pt")), "config": DCNNConfig().to_dict(),
+                "spec": meta["feature_spec"]}, out / f"{name}.pt")
+    t = meta["training"]
+    (out / f"{name}.json").write_text(json.dumps({
+        "name": name, "window": 80, "parameters": 96709, "train_windows": int(sum(t["class_counts"])),
+        "train_flights": int(t["data"].split()[0]), "epochs": t["epochs"], "train_seconds": t["train_seconds"],
+        "history": [{"loss": t["best_loss"], "train_acc": float("nan")}], "targets": t["targets"]}))
+    evaluate_saved(name, out)
+
+
 def evaluate_saved(name: str, out: Path) -> None:
     """Add the real-format sets' figures to a variant trained before they were measured."""
     import torch
@@ -223,6 +256,8 @@ def evaluate_saved(name: str, out: Path) -> None:
     if "targets" not in r:
         r["targets"] = targets(model, spec)
     r["loads_test"] = loaded_test(model, spec, out)
+    if VARIANTS.get(name.split("_s")[0], (80,))[0] != 80 or "window_accuracy" not in r:
+        r["plain_test"] = plain_test(model, spec, out)  # trained (or first measured) on another set
     (out / f"{name}.json").write_text(json.dumps(r, indent=1))
     print(json.dumps({k: r[k] for k in ("targets", "loads_test")}))
 
@@ -282,7 +317,9 @@ def table(out: Path) -> None:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("cmd", choices=("simulate", "simulate-loads", "train", "table", "evaluate", "evaluate-shipped"))
+    ap.add_argument("cmd", choices=("simulate", "simulate-loads", "train", "table", "evaluate", "evaluate-shipped",
+                                    "import-build"))
+    ap.add_argument("--build", type=Path, default=None, help="import-build: the .onnx build_default wrote")
     ap.add_argument("name", nargs="?", default="base")
     ap.add_argument("--flights", type=int, default=1600)
     ap.add_argument("--test-flights", type=int, default=320)
@@ -297,6 +334,8 @@ def main(argv=None) -> None:
         train(a.name, a.out, a.epochs, a.seed, a.tag)
     elif a.cmd == "simulate-loads":
         simulate_loads(a.out, a.flights, a.test_flights)
+    elif a.cmd == "import-build":
+        import_build(a.build, a.name, a.out)
     elif a.cmd == "evaluate-shipped":
         evaluate_shipped(a.out)
     elif a.cmd == "evaluate":
