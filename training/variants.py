@@ -14,9 +14,10 @@ cross-entropy, lowest training loss kept), one torch thread, and writes its held
 (window accuracy, healthy windows called healthy, damaged windows right, the same without mild
 damage eta >= 0.9, training loss and accuracy per epoch, to see whether they still move) to
 ``NAME.json``. ``table`` prints every variant measured. The paper's DCNN stays in
-``training/experiment.py``; these variants are DCNNs of other shapes (``DCNNConfig``), so
-``fdlog calibrate`` (``training/adapt.py``, dense layers) adapts any of them.
-"""
+``training/experiment.py``; these variants are DCNNs (``DCNNConfig``). ``fdlog calibrate``
+(``training/adapt.py``) builds the default DCNN shape for the model's window, so it adapts the
+variants of the shipped shape (data, epochs, dropout, loads, the candidate) as they are; kernel7,
+wide and win160 would need it to read the shape from the model's metadata."""
 from __future__ import annotations
 
 import argparse
