@@ -7,10 +7,12 @@ renormalised to sum to 1.
 
 1. **Smoothing.** Each window's probabilities are floored (``(1 - PROB_FLOOR_MIX) * p +
    PROB_FLOOR_MIX / (n + 1)``, so no window is ever certain) and averaged over the windows whose
-   centres lie within ``SMOOTH_SPAN_S`` of its own centre. A smoothed window's label is its most
-   probable class if that probability reaches ``WINDOW_MIN_PROB``, else ``UNCERTAIN_LABEL``: a
-   manoeuvre's few confident wrong windows are outvoted by their neighbours. These labels make
-   the timeline strip the reports draw.
+   centres lie within ``SMOOTH_SPAN_S`` of its own centre: a manoeuvre's few confident wrong
+   windows are outvoted by their neighbours. A smoothed window's label (the timeline strip the
+   reports draw) is its most probable class where that probability reaches the class's bar in
+   ``LABEL_BARS`` (where windows so labelled are right more often than not on held-out simulated
+   flights), else ``UNCERTAIN_LABEL`` ('?': the window cannot tell). The damage run below
+   counts labels at ``WINDOW_MIN_PROB`` instead, the bar its own thresholds were measured with.
 2. **Onset.** A propeller does not heal in flight, so the flight is modelled as "healthy until
    window j, then motor k to the end" (a one-way hidden Markov model with an absorbing state),
    whose most likely path is the best suffix sum of the windows' ``log(q_k / q_0)`` on the floored
@@ -48,9 +50,32 @@ PROB_FLOOR_MIX = 0.10
 #: Centred smoothing span in seconds: long enough to outvote a manoeuvre's few wrong windows,
 #: short enough (below MIN_RUN_S) that real onsets still show within a few seconds.
 SMOOTH_SPAN_S = 4.0
-#: A smoothed window votes for a class only if that class has at least this probability;
-#: below it the window abstains: 0.5 means "more likely than all others together".
+#: For the damage run's bars (RUN_MIN_SHARE, MOTOR_MIN_AGREEMENT, measured with it) a smoothed
+#: window names a class only if that class has at least this probability: 0.5 means "more likely
+#: than all others together". The timeline's own labels use LABEL_BARS instead.
 WINDOW_MIN_PROB = 0.5
+
+#: Bars of the timeline's labels, per class count (5 quad, 7 hexa, 9 octo): a smoothed window is
+#: labelled with its most probable class when that class's smoothed probability reaches the bar
+#: (healthy, motor), else '?'. Set from the reliability of the shipped models' smoothed windows on
+#: held-out simulated flights (benchmarks/model_why.py report): the lowest bin from which windows
+#: so labelled are right more often than not, with healthy and damaged windows weighed as equally
+#: common (results/model_why.md: 320 quad flights, 160 hexa and 160 octo, seed 1000). Quad: healthy
+#: on top from 0.25 right 60-75 % (0.20-0.25: 34 %), a motor from 0.40 right 53-88 % (0.35-0.40:
+#: 39 %). Hexa: healthy from 0.25 54-69 % (48 % below), a motor from 0.45 54-90 % (34 % below).
+#: Octo: healthy on top is a coin toss in every bin below 0.6 (46-56 %: the octo model calls most
+#: damaged windows healthy), so its windows are labelled healthy only from 0.60 (65 %, few); a
+#: motor from 0.50 53-64 % (47 % below; 30 % above 0.7).
+#: Measured with the shipped models; a user's or an adapted model is read with the same bars
+#: (re-measure them after retraining).
+LABEL_BARS = {5: (0.25, 0.40), 7: (0.25, 0.45), 9: (0.60, 0.50)}
+
+
+def label_bars(n_classes: int) -> tuple[float, float]:
+    """(healthy bar, motor bar) of the timeline's labels for ``n_classes`` classes
+    (:data:`LABEL_BARS`; another class count: 1.5 and 2 times chance)."""
+    return LABEL_BARS.get(int(n_classes), (1.5 / n_classes, 2.0 / n_classes))
+
 
 #: Fewer windows than this cannot support any verdict (too little flight to judge).
 MIN_WINDOWS = 8
@@ -208,13 +233,16 @@ def build(t_start, t_end, probs) -> Timeline:
     c_order = np.argsort(centres, kind="stable")  # centres follow starts except for odd window lengths
     smoothed = np.empty_like(q)
     smoothed[c_order] = smooth_probabilities(centres[c_order], q[c_order], SMOOTH_SPAN_S)
-    labels = np.where(smoothed.max(axis=1) >= WINDOW_MIN_PROB, smoothed.argmax(axis=1), UNCERTAIN_LABEL)
+    top, best = smoothed.max(axis=1), smoothed.argmax(axis=1)
+    labels = np.where(top >= WINDOW_MIN_PROB, best, UNCERTAIN_LABEL)  # the run's (module docstring)
+    healthy_bar, motor_bar = label_bars(n_classes)
+    shown = np.where(top >= np.where(best == HEALTHY, healthy_bar, motor_bar), best, UNCERTAIN_LABEL)
     raw_label = p[order].argmax(axis=1)
     window_labels = np.empty(n, dtype=int)
-    window_labels[order] = labels
+    window_labels[order] = shown
     tl = Timeline(n, covered, t_first, labels=window_labels.tolist(),
-                  smoothed_share=[float(np.mean(labels == k)) for k in range(n_classes)],
-                  abstained_share=float(np.mean(labels == UNCERTAIN_LABEL)))
+                  smoothed_share=[float(np.mean(shown == k)) for k in range(n_classes)],
+                  abstained_share=float(np.mean(shown == UNCERTAIN_LABEL)))
 
     log_q = np.log(q)
     candidates = []

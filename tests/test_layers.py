@@ -27,7 +27,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("diagnose",),                                                # one flight, end to end
     ("training",),                                                # model training and adaptation
     ("calibration", "batch", "store", "database", "drift", "history", "report", "watch"),
-    ("serve", "cli", "training.experiment", "training.build_default"),  # entry points
+    ("serve", "cli", "training.experiment", "training.build_default", "training.variants"),  # entry points
 ]
 
 

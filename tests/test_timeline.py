@@ -129,3 +129,32 @@ def test_short_damage_run_at_the_end_of_a_healthy_flight_is_not_an_onset():
     tl = build(ts, te, confident(np.where(ts >= 55.0, 3, 0), rng))
     assert tl.onset is not None and tl.onset.motor == 3
     assert abs(tl.onset.first_seen - 55.0) < 2.0
+
+
+def test_labels_follow_the_measured_bars_and_the_run_keeps_its_own():
+    """A flight like sample_logs/px4_healthy.ulg (healthy on top in every window at 0.3-0.5, the rest
+    spread over the motors) is labelled healthy, not '?'; a motor on top at 0.35, below its bar, is
+    '?'; the damage run still counts labels at WINDOW_MIN_PROB (0.5), so these flat windows make no
+    confirmed run."""
+    from flightlog_fd.timeline import LABEL_BARS, WINDOW_MIN_PROB, label_bars
+
+    healthy_bar, motor_bar = label_bars(5)
+    assert (healthy_bar, motor_bar) == LABEL_BARS[5] and healthy_bar < motor_bar < WINDOW_MIN_PROB
+    rng = np.random.default_rng(3)
+    ts, te = windows(60)
+    p = np.tile([0.40, 0.15, 0.15, 0.15, 0.15], (len(ts), 1)) + rng.uniform(-0.02, 0.02, (len(ts), 5))
+    tl = build(ts, te, p)
+    assert set(tl.labels) == {0} and tl.abstained_share == 0.0
+    assert tl.run is None or not tl.run.confirmed
+    q = np.tile([0.20, 0.35, 0.15, 0.15, 0.15], (len(ts), 1))  # motor 1 on top, 0.9 * 0.35 + 0.02 = 0.335
+    tl = build(ts, te, q)
+    assert set(tl.labels) == {UNCERTAIN_LABEL} and tl.abstained_share == 1.0
+    assert tl.run is None or not tl.run.confirmed
+    # above its bar a motor is labelled; the run, at 0.5, still sees '?' there and confirms nothing
+    r = np.tile([0.15, 0.45, 0.15, 0.125, 0.125], (len(ts), 1))  # smoothed 0.425
+    tl = build(ts, te, r)
+    assert set(tl.labels) == {1} and (tl.run is None or not tl.run.confirmed)
+    # octo: its healthy label needs 0.6 (the octo model's healthy windows are a coin toss below)
+    o = np.full((len(ts), 9), 0.5 / 8)
+    o[:, 0] = 0.5
+    assert set(build(ts, te, o).labels) == {UNCERTAIN_LABEL}

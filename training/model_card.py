@@ -116,6 +116,7 @@ def render(meta: dict, verdicts: dict | None = None) -> str:
               f"T = {cal['temperature']:.2f} (stored in the model's metadata and applied by `FaultModel`); "
               f"negative log-likelihood {cal['nll_before']:.3f} → {cal['nll_after']:.3f}, expected calibration "
               f"error (15 bins) {_pct(cal['ece_before'])} → {_pct(cal['ece_after'])}.", ""]
+    L += [WHAT_LIMITS_IT, "", TIMELINE_LABELS, ""]
     L += [
         "Confusion on the simulated test flights (rows truth, columns predicted):",
         "",
@@ -143,6 +144,13 @@ def render(meta: dict, verdicts: dict | None = None) -> str:
         "",
     ]
     return "\n".join(L)
+
+
+#: Measured on the shipped quad model by benchmarks/model_why.py (results/model_why.md); re-measure
+#: after retraining.
+WHAT_LIMITS_IT = "**What limits it (measured, `results/model_why.md`).** On 320 held-out simulated flights of every logging profile it is right on 64.0 % of windows. Mild damage (eta >= 0.9) is 30 % of the errors (13 % right), eta 0.85-0.9 another large share (36 % right); healthy windows called a motor name the motor running the highest thrust share 76 % of the time, and healthy windows are called healthy 87 % on airframes with little CoG offset but 48 % on the third with the most: without the airframe's own healthy level (a profile) a trim and a damaged propeller look alike in 1.6 s. A classifier on the window's four mean motor shares alone reaches 62.3 %, so the network adds little beyond the steady shares. It memorises its training airframes (83.1 % right on its own training flights), and a moved load makes it call healthy airframes damaged (simulated healthy flights with random loads: healthy windows called healthy 72 % -> 46 %). More airframes, not more epochs or capacity, is what helps (results/model_why.md section 4): a build on 4800 flights x 10 epochs (`python -m flightlog_fd.training.build_default --flights 4800 --test-flights 240 --epochs 10 --duration 50.0 --seed 0`, 13 min) reaches 67.3 % on the same held-out flights, 83.2 % of healthy windows, px4_sih_dev 90.0 % and crazypad_e9 51.6 % without calibration, but is not shipped: with the decision's tables measured for this model it turns 2 of 15 real healthy flights damaged."
+#: How the timeline reads this model's probabilities (flightlog_fd/timeline.py LABEL_BARS).
+TIMELINE_LABELS = "**Timeline labels.** The temperature T (fitted on one logging profile's held-out flights, pulled up by confidently wrong windows) leaves the window probabilities under-confident in the middle: a smoothed window whose top class has probability 0.3-0.5 is right 57-69 % of the time. The timeline therefore labels a window with its top class from the bar where such windows are right more often than not (`timeline.LABEL_BARS`: healthy 0.25, a motor 0.40 for this model) and shows `?` below it; the decision's inputs (window probabilities, the damage run at 0.5) are unchanged."
 
 
 #: The card's n-rotor section starts at this line; `--nrotor` rewrites only what follows it.
