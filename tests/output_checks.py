@@ -275,3 +275,31 @@ def cli_exit_problems(path: Path, tmp: Path) -> list[str]:
     if want != 2 and not (tmp / "r.html").is_file():
         bad.append("CLI: no HTML report written")
     return bad
+
+
+def dataset_tests(datasets: tuple[str, ...], cli_logs: tuple[str, ...]) -> tuple[Callable, Callable, Callable]:
+    """The three tests a ``tests/test_outputs_*.py`` file runs over its ../shared datasets, made once
+    here (the files exist only so ``pytest -n 2 --dist loadfile`` spreads the datasets over both
+    processes): every output of each log, then `fdlog history` and the fleet pages over the store
+    those logs filled (same file, same ``every_output`` fixture), and ``fdlog diagnose`` as a
+    process on ``cli_logs`` (paths under ../shared) for its exit code."""
+    import pytest
+
+    @pytest.mark.parametrize("path", shared_log_params(*datasets))
+    def test_every_output_of_the_log(path, every_output):
+        assert every_output.check(path) == []
+
+    def test_history_and_the_fleet_pages_of_those_logs(every_output):
+        logs = [p.values[0] for p in shared_log_params(*datasets) if p.values[0] is not None]
+        if not logs:
+            pytest.skip("../shared not available")
+        assert every_output.history_problems(logs) == []
+
+    @pytest.mark.parametrize("rel", cli_logs)
+    def test_the_cli_exit_code(rel, tmp_path):
+        path = SHARED / rel
+        if not path.is_file():
+            pytest.skip(f"../shared/{rel} not available")
+        assert cli_exit_problems(path, tmp_path) == []
+
+    return test_every_output_of_the_log, test_history_and_the_fleet_pages_of_those_logs, test_the_cli_exit_code

@@ -7,8 +7,7 @@ stopped motor, for its exit code; then `fdlog history` and the fleet pages over 
 filled. Skipped, saying so, where ../shared is absent."""
 from __future__ import annotations
 
-import pytest
-from output_checks import SHARED, cli_exit_problems, shared_log_params
+from output_checks import dataset_tests
 
 DATASETS = ('ardupilot_sitl_hexa', 'ardupilot_sitl_quad')
 #: Logs run through the installed CLI (a process each): a damaged verdict whose cause is the motor or ESC, and a stopped motor.
@@ -18,23 +17,5 @@ CLI_LOGS = (
 )
 
 
-@pytest.mark.parametrize("path", shared_log_params(*DATASETS))
-def test_every_output_of_the_log(path, every_output):
-    assert every_output.check(path) == []
-
-
-def test_history_and_the_fleet_pages_of_those_logs(every_output):
-    """After the logs above (same file, same store): `fdlog history` lists each, the fleet and
-    airframe pages draw."""
-    logs = [p.values[0] for p in shared_log_params(*DATASETS) if p.values[0] is not None]
-    if not logs:
-        pytest.skip("../shared not available")
-    assert every_output.history_problems(logs) == []
-
-
-@pytest.mark.parametrize("rel", CLI_LOGS)
-def test_the_cli_exit_code(rel, tmp_path):
-    path = SHARED / rel
-    if not path.is_file():
-        pytest.skip(f"../shared/{rel} not available")
-    assert cli_exit_problems(path, tmp_path) == []
+(test_every_output_of_the_log, test_history_and_the_fleet_pages_of_those_logs,
+ test_the_cli_exit_code) = dataset_tests(DATASETS, CLI_LOGS)
