@@ -4,7 +4,7 @@
 (autopilot, frame name, firmware, vehicle_id, rotor count), the learned values (trailing
 underscore: ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
 ``n_windows_``, ``rho_source_``, the command-share baseline ``baseline_``, the calibration
-sessions ``sessions_``), each analyzer's
+sessions ``sessions_``, the load configurations ``configurations_``), each analyzer's
 healthy baseline (``analyzers``), the streams' rates, the
 :class:`~flightlog_fd.windows.FeatureSpec` with the per-channel statistics of the healthy
 windows, the source logs (file name + sha256), creation time (UTC), tool version and an optional
@@ -15,6 +15,14 @@ validates everything and raises :class:`~flightlog_fd.errors.ProfileError` with 
 a HEALTHY flight (the paper's "adjusted simulation model"; a real quad never runs its motors
 alike: CG offset, motor/ESC/propeller spread, yaw trim). Measuring it, and the rest of the
 profile, is :mod:`flightlog_fd.calibration`'s work.
+
+Load configurations: the payloads the airframe flies with. ``baseline_`` and ``sessions_`` are the
+configuration it was first calibrated in (:data:`AS_CALIBRATED`); each ``configurations_`` entry
+(``name``, ``load``: where it sits against AS_CALIBRATED, ``sessions_``, ``baseline_``, and its own
+``analyzers`` baselines, e.g. the model votes') is a healthy flight with another payload added by
+``fdlog calibrate --add`` (:func:`flightlog_fd.calibration.add_sessions`). The diagnosis weighs a
+flight against the nearest one (:func:`flightlog_fd.analyzers.command_shares.nearest_configuration`),
+with the airframe's drift from the AS_CALIBRATED sessions.
 
 Limits: quadrotors, and hexa / octo frames laid out like the shipped n-rotor models' training
 tables (rho and shares then have n entries; ``rotor_count`` in PROFILE_ROTOR_COUNTS); one

@@ -598,9 +598,21 @@ def configuration_evidence(share_fit, frame: Optional[Frame]) -> float:
     return ll_h + top + float(np.log(np.mean(np.exp(llrs - top))))
 
 
+#: A load configuration replaces the profile's own ("as calibrated") only when its baseline explains
+#: the flight's commands better by this many nats (:func:`configuration_evidence`, a Bayes factor of
+#: e^3 = 20): a weak rotor's pattern can resemble another load's (a weak motor 1 raises motor 1 as a
+#: load toward it does), and a flight between the two is judged as without the configuration.
+#: Measured (benchmarks/bench_load_configurations.py, results/load_configurations.md): the loaded
+#: flights of a configuration beat "as calibrated" by 7.1 nats (px4_sih_dev_load com_m1 at 10 Hz
+#: against the com_m1 configuration); px4_sih_dev's 15 weak motors by +0.5 at most (sih_053, motor 1 at
+#: 80 %: against the motor-1 load it read as motor 2 lost thrust), 14 of them not at all.
+CONFIGURATION_MARGIN_NATS = 3.0
+
+
 def nearest_configuration(profile, fit, frame: Optional[Frame]) -> tuple:
     """(share fit, configuration) of the profile configuration whose baseline best explains the
-    flight's commands (:func:`configuration_evidence`). ``fit(baseline)`` makes the flight's share
+    flight's commands (:func:`configuration_evidence`; a load configuration by at least
+    ``CONFIGURATION_MARGIN_NATS`` over "as calibrated"). ``fit(baseline)`` makes the flight's share
     fit against one baseline (:func:`~flightlog_fd.analyzers.share_fit.fit_shares` with the
     flight's segments). ``configuration``: None for a profile of one configuration, else
     ``{"name", "load", "of", "analyzers", "evidence"}`` (``of``: how many it holds; ``analyzers``:
@@ -615,6 +627,8 @@ def nearest_configuration(profile, fit, frame: Optional[Frame]) -> tuple:
     fits = [first] + [fit(b) for _, _, b, _ in options[1:]]
     ev = [configuration_evidence(f, frame) for f in fits]
     i = int(np.argmax(ev)) if np.any(np.isfinite(ev)) else 0
+    if i and not ev[i] - ev[0] >= CONFIGURATION_MARGIN_NATS:
+        i = 0
     name, load, _, own = options[i]
     fits[i].configuration = {"name": name, "load": load, "of": len(options), "analyzers": own,
                              "evidence": {n: round(float(e), 2) for (n, _, _, _), e in zip(options, ev)}}
