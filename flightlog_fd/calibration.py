@@ -404,10 +404,31 @@ def check_sessions(flights: Sequence[Flight], groups: Sequence[Sequence[int]]) -
                            f"the other {len(groups) - 1} calibration session{'s' if len(groups) > 2 else ''}")
 
 
+#: A flight named as a load configuration (``calibrate --add --name``) that the decision calls
+#: damaged is taken as the payload the pilot says it carries only when its command shares fit a
+#: load toward some direction better than any single rotor's loss by this many nats
+#: (``CommandSharesResult.rotor_vs_load`` below minus this for every rotor). Measured against
+#: --no-adapt profiles of the healthy flight (benchmarks/bench_load_configurations.py,
+#: results/load_configurations.md): px4_sih_dev's 15 weak motors +4.3..+7.9 (the rotor fits
+#: better), px4_sih_dev_load's four moved centres of mass -5.6..-0.3, a simulated x500 with 15 %
+#: of its mass toward motor 2 -3.1 (called damaged: model and effectiveness read the load as motor 2).
+CONFIGURATION_LOAD_OVER_ROTOR = 0.0
+
+
+def _load_like(d) -> bool:
+    """The diagnosis's command shares fit a load better than any one rotor's loss
+    (``CONFIGURATION_LOAD_OVER_ROTOR``)."""
+    cmd = next((r for r in (d.decision.results if d.decision is not None else []) if r.analyzer == "commands"), None)
+    r = list(getattr(cmd, "rotor_vs_load", None) or [])
+    return bool(r) and getattr(cmd, "load", None) is not None and max(r) < -CONFIGURATION_LOAD_OVER_ROTOR
+
+
 def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, against: str,
-                       outcome: str = "not calibrated on") -> list:
+                       outcome: str = "not calibrated on", named: bool = False) -> list:
     """ProfileError when one of ``flights`` is diagnosed damaged or stopped against ``profile``
-    with ``model``; else their diagnoses (a moved load is healthy, ``cause`` = ``load``)."""
+    with ``model``; else their diagnoses (a moved load is healthy, ``cause`` = ``load``). ``named``:
+    the flights are a load configuration the pilot named, so a damaged verdict whose command shares
+    fit a load better than a rotor (:func:`_load_like`) is taken as that load."""
     from .diagnose import diagnose_flight
 
     verdicts = []
@@ -415,10 +436,16 @@ def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, again
         d = diagnose_flight(fl, model, profile, keep_flight=False)
         v = d.verdict
         verdicts.append(d)
+        if v.status == "damaged" and named and _load_like(d):
+            continue
         if v.status in ("damaged", "stopped"):
             what = (f"motor {v.motor} " + ("stopped" if v.status == "stopped" else "lost thrust")) if v.motor else "damaged"
+            hint = ("; if it carries a payload and the propellers are sound, add it as a load configuration "
+                    "(--name NAME): its commands fit a load better than a rotor"
+                    if v.status == "damaged" and outcome.startswith("not added") and _load_like(d) else "")
             raise ProfileError(fl.path, f"looks damaged against {against}: {what} (confidence {v.confidence:.2f}); "
-                                        f"{outcome}: inspect the propellers, and calibrate only on healthy flights")
+                                        f"{outcome}: inspect the propellers, and calibrate only on healthy flights"
+                                        f"{hint}")
     return verdicts
 
 
@@ -483,8 +510,10 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
     airframe's session drift; ``name`` puts all the flights in the configuration of that name (a new
     one, or more sessions of an existing one; :data:`~flightlog_fd.profile.AS_CALIBRATED` for the
     profile's own). A flight that fits the profile's nearest configuration is a session of it. A
-    flight whose commands fit a weak rotor (damaged, stopped, or uncertain naming a rotor without
-    the load) is refused as a configuration.
+    flight whose commands fit a weak rotor better than a load (damaged, stopped, or uncertain
+    naming a rotor without the load) is refused as a configuration; a named one the decision calls
+    damaged is taken when its command shares fit a load better than any rotor (:func:`_load_like`:
+    the model and the vibration cannot tell a payload from a weak rotor, the command pattern can).
 
     Each new session is first diagnosed against the profile with its own model; one that looks
     damaged (or a stopped motor) is refused (ProfileError, one line) and nothing is written, so
@@ -526,7 +555,7 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
     n_before = profile.n_sessions
     diagnoses = _refuse_if_damaged(flights, profile, model,
                                    f"the {n_before} session{'s' if n_before != 1 else ''} of {src.name}",
-                                   "not added, the profile is unchanged")
+                                   "not added, the profile is unchanged", named=name not in (None, AS_CALIBRATED))
     targets = [_target_configuration(profile, fl, d, name) for fl, d in zip(flights, diagnoses)]
     configured = [(fl, t) for fl, t in zip(flights, targets) if t != AS_CALIBRATED]
     flights = [fl for fl, t in zip(flights, targets) if t == AS_CALIBRATED]
@@ -576,7 +605,7 @@ def _target_configuration(profile: Profile, fl: Flight, d, name: Optional[str]) 
         target = _load_name(v.load)
     else:
         return nearest
-    if target != AS_CALIBRATED and v.status == "uncertain" and v.cause != "load" and v.motor:
+    if target != AS_CALIBRATED and v.status == "uncertain" and v.cause != "load" and v.motor and not _load_like(d):
         raise ProfileError(fl.path, f"its commands fit motor {v.motor} losing thrust as well as a load (uncertain, "
                                     f"confidence {v.confidence:.2f}): not added as a load configuration, the profile "
                                     f"is unchanged; inspect propeller {v.motor} and fly once without the payload")
