@@ -11,7 +11,7 @@ configuration's evidence; per set, the counts. Sets (each skips when ../shared l
 
 - ``sih``: px4_sih_dev sih_004, + px4_sih_dev_load A_default_com_m1; the other 3 moved centres of
   mass and the 15 weak-motor flights of px4_sih_dev.
-- ``sim``: simulated x500 (``fdlog simulate``): a healthy flight, + a flight with a point mass of
+- ``sim``: simulated x500 (``fdlog simulate``): a healthy flight, + (``--name``: the verdict calls it damaged) a flight with a point mass of
   15 % toward motor 2; the same load on another seed, a weak motor 2 / motor 4 (eta 0.75) with and
   without the load.
 - ``crazypad``: crazypad_e9 normal log00, + one crazypad_e9_load W1 flight (``--name "W1 near M3"``:
@@ -141,7 +141,7 @@ def sim(tmp, verbose, start=None):
             nm = f"weak m{motor} eta 0.75" + (" + load" if with_load else "")
             flights.append((nm, simulate(tmp / f"sim_weak{motor}_{int(with_load)}.ulg", "--seed", str(10 + motor),
                                          "--motor", str(motor), "--eta", "0.75", "--cause", "motor", *extra), motor, "weak+load" if with_load else "weak"))
-    run_set("sim", healthy, added, flights, tmp, verbose)
+    run_set("sim", healthy, added, flights, tmp, verbose, name="15 % at motor 2")
 
 
 def crazypad(tmp, verbose, start=None, added_kind="W1", name="W1 near M3"):

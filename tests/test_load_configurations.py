@@ -104,3 +104,28 @@ def test_an_old_profile_is_one_configuration_and_bad_configurations_are_refused(
         path.write_text(json.dumps(good | {"configurations_": [bad]}))
         with pytest.raises(ProfileError, match=words):
             Profile.load(path)
+
+
+def test_a_named_payload_the_decision_calls_damaged_is_taken_when_its_pattern_is_a_loads(tmp_path):
+    """A simulated x500 with 15 % of its mass toward motor 2 (model and effectiveness read it as
+    motor 2): without --name it is refused or, once the decision names the load, a configuration;
+    with --name the pattern (a load fits the shares better than any rotor) makes it one."""
+    logs = {}
+    for name, extra in (("healthy.ulg", ["--seed", "1"]), ("load.ulg", ["--seed", "2", "--load", "point:15%@motor2"])):
+        r = runner.invoke(app, ["simulate", "-o", str(tmp_path / name), "--duration", "40", *extra])
+        assert r.exit_code == 0, r.output
+        logs[name] = str(tmp_path / name)
+    prof = tmp_path / "x500.json"
+    assert runner.invoke(app, ["calibrate", "--no-adapt", logs["healthy.ulg"], "-o", str(prof)]).exit_code == 0
+    before = prof.read_bytes()
+    r = runner.invoke(app, ["calibrate", "--add", str(prof), logs["load.ulg"]])
+    if r.exit_code == 2:
+        assert "add it as a load configuration (--name NAME)" in r.output and prof.read_bytes() == before
+    else:
+        assert r.exit_code == 0 and "added load configuration 'load toward motor 2" in r.output, r.output
+        prof.write_bytes(before)
+    r = runner.invoke(app, ["calibrate", "--add", str(prof), logs["load.ulg"], "--name", "camera"])
+    assert r.exit_code == 0 and "added load configuration 'camera'" in r.output, r.output
+    d = json.loads(prof.read_text())
+    assert [c["name"] for c in d["configurations_"]] == ["camera"] and d["configurations_"][0]["load"]["motor"] == 2
+    assert d["sessions_"] == json.loads(before)["sessions_"]
