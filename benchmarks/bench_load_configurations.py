@@ -64,7 +64,7 @@ def run_set(label, calib, added, flights, tmp, verbose, name=None, start=None):
 
     base = tmp / f"{label}_base.json"
     if start is None:
-        calibrate([calib], adapt=False, output=base)
+        calibrate([calib], adapt=False, output=base, overwrite=True)
     else:  # the profile's model is named relative to its folder: it goes beside both copies
         shutil.copy(start, base)
         model = __import__("json").loads(Path(start).read_text()).get("model")
