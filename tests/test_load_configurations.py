@@ -129,3 +129,18 @@ def test_a_named_payload_the_decision_calls_damaged_is_taken_when_its_pattern_is
     d = json.loads(prof.read_text())
     assert [c["name"] for c in d["configurations_"]] == ["camera"] and d["configurations_"][0]["load"]["motor"] == 2
     assert d["sessions_"] == json.loads(before)["sessions_"]
+
+
+def test_a_flight_nearest_a_configuration_joins_it_and_a_healthy_one_joins_as_calibrated(loaded, tmp_path):
+    """The same load (10 Hz logging) added: a second session of its configuration; a healthy flight
+    of another day: a session of 'as calibrated', whose drift then comes from healthy flights only."""
+    _, prof, _ = loaded
+    p = tmp_path / "p.json"
+    shutil.copy(prof, p)
+    res = runner.invoke(app, ["calibrate", "--add", str(p), str(shared_path("px4_sih_dev_load", "A_default_com_m1_p1.ulg"))])
+    assert res.exit_code == 0 and "added 1 session to load configuration 'load toward motor 1" in res.output, res.output
+    res = runner.invoke(app, ["calibrate", "--add", str(p), str(shared_path("px4_sih_dev", "logs", "sih_039.ulg"))])
+    assert res.exit_code == 0 and "added session 2: sih_039.ulg" in res.output, res.output
+    d = json.loads(p.read_text())
+    assert len(d["sessions_"]) == 2 and [len(c["sessions_"]) for c in d["configurations_"]] == [2]
+    assert d["baseline_"]["spread"] is not None and max(d["baseline_"]["spread"]) < 0.05  # not the load's 0.2
