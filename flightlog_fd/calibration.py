@@ -59,7 +59,7 @@ from .checks import trained_layout
 from .errors import NotDiagnosableError, ProfileError, UnsupportedVehicleError
 from .flight import Flight
 from .hover import HOVER_MIN_DURATION_S, HoverSegment, hover_seconds, hover_segments
-from .profile import PROFILE_ROTOR_COUNTS, Profile
+from .profile import AS_CALIBRATED, MAX_CONFIGURATION_NAME, PROFILE_ROTOR_COUNTS, Profile
 from .streams import DEFAULT_RATE_HZ
 from .util import file_sha256
 from .windows import FeatureSpec, make_windows
@@ -404,20 +404,48 @@ def check_sessions(flights: Sequence[Flight], groups: Sequence[Sequence[int]]) -
                            f"the other {len(groups) - 1} calibration session{'s' if len(groups) > 2 else ''}")
 
 
+#: A flight named as a load configuration (``calibrate --add --name``) that the decision calls
+#: damaged is taken as the payload the pilot says it carries only when its command shares fit a
+#: load toward some direction better than any single rotor's loss by this many nats
+#: (``CommandSharesResult.rotor_vs_load`` below minus this for every rotor). Measured against
+#: --no-adapt profiles of the healthy flight (benchmarks/bench_load_configurations.py,
+#: results/load_configurations.md): px4_sih_dev's 15 weak motors +4.3..+7.9 (the rotor fits
+#: better), px4_sih_dev_load's four moved centres of mass -5.6..-0.3, a simulated x500 with 15 %
+#: of its mass toward motor 2 -3.1 (called damaged: model and effectiveness read the load as motor 2).
+CONFIGURATION_LOAD_OVER_ROTOR = 0.0
+
+
+def _load_like(d) -> bool:
+    """The diagnosis's command shares fit a load better than any one rotor's loss
+    (``CONFIGURATION_LOAD_OVER_ROTOR``)."""
+    cmd = next((r for r in (d.decision.results if d.decision is not None else []) if r.analyzer == "commands"), None)
+    r = list(getattr(cmd, "rotor_vs_load", None) or [])
+    return bool(r) and getattr(cmd, "load", None) is not None and max(r) < -CONFIGURATION_LOAD_OVER_ROTOR
+
+
 def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, against: str,
-                       outcome: str = "not calibrated on") -> list:
+                       outcome: str = "not calibrated on", named: bool = False) -> list:
     """ProfileError when one of ``flights`` is diagnosed damaged or stopped against ``profile``
-    with ``model``; else their verdicts (a moved load is healthy, ``cause`` = ``load``)."""
+    with ``model``; else their diagnoses (a moved load is healthy, ``cause`` = ``load``). ``named``:
+    the flights are a load configuration the pilot named, so a damaged verdict whose command shares
+    fit a load better than a rotor (:func:`_load_like`) is taken as that load."""
     from .diagnose import diagnose_flight
 
     verdicts = []
     for fl in flights:
-        v = diagnose_flight(fl, model, profile, keep_flight=False).verdict
-        verdicts.append(v)
+        d = diagnose_flight(fl, model, profile, keep_flight=False)
+        v = d.verdict
+        verdicts.append(d)
+        if v.status == "damaged" and named and _load_like(d):
+            continue
         if v.status in ("damaged", "stopped"):
             what = (f"motor {v.motor} " + ("stopped" if v.status == "stopped" else "lost thrust")) if v.motor else "damaged"
+            hint = ("; if it carries a payload and the propellers are sound, add it as a load configuration "
+                    "(--name NAME): its commands fit a load better than a rotor"
+                    if v.status == "damaged" and outcome.startswith("not added") and _load_like(d) else "")
             raise ProfileError(fl.path, f"looks damaged against {against}: {what} (confidence {v.confidence:.2f}); "
-                                        f"{outcome}: inspect the propellers, and calibrate only on healthy flights")
+                                        f"{outcome}: inspect the propellers, and calibrate only on healthy flights"
+                                        f"{hint}")
     return verdicts
 
 
@@ -470,11 +498,22 @@ class AddedSessions:
 
 
 def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLike, Flight]], *,
-                 one_session: bool = False, keep_previous: bool = True) -> AddedSessions:
+                 one_session: bool = False, keep_previous: bool = True, name: Optional[str] = None) -> AddedSessions:
     """Add HEALTHY flights to a profile as new calibration sessions (each log one session unless
     ``one_session``), in place: the previous file is kept beside it (``<stem>.sessions-<N>.json``,
     N its session count, never overwritten; ``keep_previous=False`` when the caller keeps it) and
     the new one replaces it atomically.
+
+    Load configurations: a flight the diagnosis finds carrying another load (``cause`` = ``load``)
+    becomes a load configuration of the profile (``configurations_``, its own command-share
+    baseline, named by the load, e.g. "load toward motor 1 +22 %") instead of widening the
+    airframe's session drift; ``name`` puts all the flights in the configuration of that name (a new
+    one, or more sessions of an existing one; :data:`~flightlog_fd.profile.AS_CALIBRATED` for the
+    profile's own). A flight that fits the profile's nearest configuration is a session of it. A
+    flight whose commands fit a weak rotor better than a load (damaged, stopped, or uncertain
+    naming a rotor without the load) is refused as a configuration; a named one the decision calls
+    damaged is taken when its command shares fit a load better than any rotor (:func:`_load_like`:
+    the model and the vibration cannot tell a payload from a weak rotor, the command pattern can).
 
     Each new session is first diagnosed against the profile with its own model; one that looks
     damaged (or a stopped motor) is refused (ProfileError, one line) and nothing is written, so
@@ -509,10 +548,23 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
             raise ProfileError(fl.path, f"is already one of {src.name}'s calibration logs")
     model = (FaultModel(profile.model_path(verify=True)) if profile.model
              else model_for_flight(FaultModel(default_model_path()), flights[0]))
+    if name is not None:
+        name = " ".join(str(name).split())
+        if not name or len(name) > MAX_CONFIGURATION_NAME:
+            raise ProfileError(src, f"a configuration name needs 1 to {MAX_CONFIGURATION_NAME} characters, not {name!r}")
     n_before = profile.n_sessions
-    verdicts = _refuse_if_damaged(flights, profile, model,
-                                  f"the {n_before} session{'s' if n_before != 1 else ''} of {src.name}",
-                                  "not added, the profile is unchanged")
+    diagnoses = _refuse_if_damaged(flights, profile, model,
+                                   f"the {n_before} session{'s' if n_before != 1 else ''} of {src.name}",
+                                   "not added, the profile is unchanged", named=name not in (None, AS_CALIBRATED))
+    targets = [_target_configuration(profile, fl, d, name) for fl, d in zip(flights, diagnoses)]
+    configured = [(fl, t) for fl, t in zip(flights, targets) if t != AS_CALIBRATED]
+    flights = [fl for fl, t in zip(flights, targets) if t == AS_CALIBRATED]
+    config_changes = _add_configurations(profile, configured, one_session, model)
+    if not flights:
+        previous = _keep_previous(src, n_before) if keep_previous else None
+        profile.save(src, overwrite=True)
+        changes = config_changes + ([f"the previous profile is kept as {previous.name}"] if previous else [])
+        return AddedSessions(profile=profile, path=src, previous=previous, changes=changes)
 
     groups = [flights] if one_session else [[fl] for fl in flights]
     new = [session_entry(g) for g in groups]
@@ -532,14 +584,98 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
                                                                             seen + [False] * len(added))}
     changes = _session_changes(old_base, profile.baseline_, new, votes, profile.analyzers.get("model"), sessions,
                                n_before)
-    changes += [f"{Path(str(fl.path)).name} carries another load than the profile's sessions: {v.load['words']} "
-                f"(healthy propellers; added as a session, its load now part of the airframe's drift)"
-                for fl, v in zip(flights, verdicts) if v.cause == "load" and v.load]
+    changes = config_changes + changes
     previous = _keep_previous(src, n_before) if keep_previous else None
     profile.save(src, overwrite=True)
     if previous is not None:
         changes.append(f"the previous profile is kept as {previous.name}")
     return AddedSessions(profile=profile, path=src, previous=previous, changes=changes)
+
+
+def _target_configuration(profile: Profile, fl: Flight, d, name: Optional[str]) -> str:
+    """The configuration a flight added to ``profile`` belongs to (:func:`add_sessions`), from its
+    diagnosis ``d`` against the profile; ProfileError for a flight whose commands fit a weak rotor
+    rather than a load, when it would start or join a load configuration."""
+    v = d.verdict
+    nearest = ((getattr(d.share_fit, "configuration", None) or {}).get("name") if d.share_fit is not None
+               else None) or AS_CALIBRATED
+    if name is not None:
+        target = name
+    elif v.cause == "load" and v.load:
+        target = _load_name(v.load)
+    else:
+        return nearest
+    if target != AS_CALIBRATED and v.status == "uncertain" and v.cause != "load" and v.motor and not _load_like(d):
+        raise ProfileError(fl.path, f"its commands fit motor {v.motor} losing thrust as well as a load (uncertain, "
+                                    f"confidence {v.confidence:.2f}): not added as a load configuration, the profile "
+                                    f"is unchanged; inspect propeller {v.motor} and fly once without the payload")
+    return target
+
+
+def _load_name(load: dict) -> str:
+    """A configuration's name from its load, e.g. "load toward motor 1 +22 %"."""
+    return f"load toward motor {int(load['motor'])} {100 * float(load['size']):+.0f} %"[:MAX_CONFIGURATION_NAME]
+
+
+def _configuration_load(profile: Profile, share: Sequence[float], frame) -> dict:
+    """The load that moves the profile's AS_CALIBRATED shares to a configuration's ``share``
+    (:func:`~flightlog_fd.analyzers.command_shares.load_fit` at the one-flight drift), as stored."""
+    from .analyzers.command_shares import DEFAULT_DRIFT_SIGMA, load_fit
+
+    n = profile.rotor_count
+    fit = load_fit(np.asarray(share, float), np.asarray(profile.baseline_["share"], float),
+                   np.full(n, DEFAULT_DRIFT_SIGMA), frame)
+    return {"motor": int(fit.motor), "direction_deg": round(float(fit.direction_deg), 1),
+            "size": round(float(fit.size), 4)}
+
+
+def _add_configurations(profile: Profile, configured: Sequence[tuple[Flight, str]], one_session: bool,
+                        model) -> list[str]:
+    """Add each (flight, configuration name) to ``profile.configurations_``: a new configuration's
+    command-share baseline is its flights' own (:func:`estimate_baseline`, :func:`baseline_of_sessions`),
+    and so is its model-vote baseline (its sessions' means with the profile's ``model``, weighed with
+    the AS_CALIBRATED sessions' spread: the model reads a load as a trim, the trim is the
+    configuration's); an existing one gains sessions. Returns what changed, in plain words."""
+    from .analyzers.model_votes import ModelVotes, combine_sessions
+
+    votes = profile.analyzers.get("model")
+    sha = str(getattr(model, "sha256", ""))
+    lines = []
+    for target in dict.fromkeys(t for _, t in configured):
+        fls = [fl for fl, t in configured if t == target]
+        groups = [fls] if one_session else [[fl] for fl in fls]
+        entries = [session_entry(g) for g in groups]
+        cfg = profile.configuration(target)
+        if cfg is None:
+            base = baseline_of_sessions(estimate_baseline(fls), entries)
+            load = _configuration_load(profile, base["share"], fls[0].frame)
+            cfg = {"name": target, "load": load, "created": entries[0]["created"], "sessions_": entries,
+                   "baseline_": base}
+            profile.configurations_ = list(profile.configurations_) + [cfg]
+            what = "added load configuration"
+        else:
+            cfg["sessions_"] = list(cfg["sessions_"]) + entries
+            cfg["baseline_"] = baseline_of_sessions(cfg["baseline_"], cfg["sessions_"])
+            cfg["load"] = _configuration_load(profile, cfg["baseline_"]["share"], fls[0].frame)
+            what = f"added {len(entries)} session{'s' if len(entries) != 1 else ''} to load configuration"
+        if votes and votes.get("model_sha256") == sha:
+            own = (cfg.get("analyzers") or {}).get("model")
+            earlier = [{"model_sha256": sha, "healthy_mean": m} for m in ((own or {}).get("sessions") or [])]
+            combined = combine_sessions(earlier + [ModelVotes().fit_baseline(g, model) for g in groups])
+            if combined is not None:
+                cfg["analyzers"] = {"model": {**combined, "spread": votes.get("spread"),
+                                              "n_flights": int(votes.get("n_flights", 1))}}
+        profile.source_logs = list(profile.source_logs) + [e for s in entries for e in s["logs"]]
+        ld = cfg["load"]
+        lines.append(f"{what} '{target}': {', '.join(e['name'] for s in entries for e in s['logs'])} "
+                     f"(load toward motor {ld['motor']}, {100 * ld['size']:+.0f} % of its share; throttle "
+                     f"{cfg['baseline_']['throttle_ref']:.3f}); its own command-share baseline: "
+                     + ", ".join(f"motor {k + 1} {x:.3f}" for k, x in enumerate(cfg["baseline_"]["share"])))
+    if lines:
+        lines.append(f"the profile now holds {len(profile.configuration_names())} configurations "
+                     f"({', '.join(repr(x) for x in profile.configuration_names())}); diagnose compares each "
+                     f"flight with the nearest; the {AS_CALIBRATED!r} sessions and their drift are unchanged")
+    return lines
 
 
 def _implicit_session(profile: Profile) -> dict:

@@ -518,6 +518,7 @@ def calibrate(
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Profile to write (JSON); the adapted model goes beside it (.onnx)."),
     add: Optional[Path] = typer.Option(None, "--add", help="Add the logs as new sessions to this existing profile (in place; the previous file is kept beside it)."),
     one_session: bool = typer.Option(False, "--one-session", help="The logs given are one calibration session (e.g. several short flights on one battery)."),
+    name: Optional[str] = typer.Option(None, "--name", help="With --add: the logs are a load configuration of this name (e.g. camera), a new one or more sessions of it; default: a flight carrying another load becomes a configuration named by its load."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing profile and model."),
     no_adapt: bool = typer.Option(False, "--no-adapt", help="Only measure the imbalance and statistics; keep the shipped model."),
     flights: Optional[int] = typer.Option(None, min=1, help="Airframes to simulate (those that fly like this one are adapted on); default: the calibration's own."),
@@ -530,7 +531,9 @@ def calibrate(
     Each log is one calibration session; from the second session on, the diagnosis weighs the
     commands against the airframe's own session-to-session drift. `--add PROFILE LOG` adds a
     healthy flight of another day or battery to an existing profile (no torch needed); a session
-    that looks damaged against the others is refused. Adapting needs the training extra (torch):
+    that looks damaged against the others is refused. A healthy flight carrying another payload
+    becomes a load configuration of the profile (`--name camera` names it); diagnose compares each
+    flight with the nearest configuration. Adapting needs the training extra (torch):
     pip install 'flightlog-fd\\[train]'.
     """
     from .logs import collect_logs
@@ -546,8 +549,11 @@ def calibrate(
         if output is not None or flight is not None:
             _fail("--add updates the profile in place: give no --output or --flight with it")
             raise typer.Exit(EXIT_INVALID)
-        _add_sessions(add, files, one_session)
+        _add_sessions(add, files, one_session, name)
         return
+    if name is not None:
+        _fail("--name names a load configuration added with --add PROFILE.json; the first calibration is 'as calibrated'")
+        raise typer.Exit(EXIT_INVALID)
     if output is None:
         _fail("give the profile to write (--output PROFILE.json), or --add PROFILE.json to add sessions to one")
         raise typer.Exit(EXIT_INVALID)
@@ -610,12 +616,13 @@ def calibrate(
     console.print(f"use it with: fdlog diagnose --profile {output} LOG", markup=False)
 
 
-def _add_sessions(profile: Path, files: list, one_session: bool) -> None:
-    """`fdlog calibrate --add`: add the logs as sessions, print what changed (exit 2 on refusal)."""
+def _add_sessions(profile: Path, files: list, one_session: bool, name: Optional[str] = None) -> None:
+    """`fdlog calibrate --add`: add the logs as sessions or load configurations, print what changed
+    (exit 2 on refusal)."""
     from .calibration import add_sessions
 
     try:
-        res = add_sessions(profile, files, one_session=one_session)
+        res = add_sessions(profile, files, one_session=one_session, name=name)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)

@@ -41,6 +41,7 @@ from .advice import advise, situation
 from .analyzers import REGISTRY, Context, run_analyzers
 from .analyzers.effectiveness_fit import estimate_effectiveness
 from .analyzers.reliability import log_kind
+from .analyzers.command_shares import nearest_configuration
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
@@ -363,8 +364,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     phases = window_phases(prepared, t_start, t_end)
     timeline = build_timeline(t_start, t_end, probs)
     onset = timeline.onset
-    baseline = profile.baseline() if profile is not None else None
-    share_fit = fit_shares(win.segments, probs, flight.frame, eff, baseline, since=onset.t_start if onset else None)
+    share_fit = _share_fit(win.segments, probs, flight.frame, eff, profile, onset.t_start if onset else None)
     results = []
     kind = None
     if timeline.shortfall is None:
@@ -374,6 +374,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
         kind = log_kind(flight, phases, ctx.covered_s, profile, common["model"].calibrated, probs.shape[1] - 1)
     verdict, decision = decide(probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops,
                                kind=kind)
+    _say_configuration(verdict, share_fit)
     order = np.argsort(t_start, kind="stable")
     # one conversion to Python numbers per array (not per window: 740 windows of a 600 s flight)
     starts, ends, probs_l = t_start[order].tolist(), t_end[order].tolist(), probs[order].tolist()
@@ -389,6 +390,21 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     if parts:
         whole = _per_flight(whole, parts, prepared, win, probs, timeline, profile, model, keep_flight)
     return whole
+
+
+def _share_fit(segments, probs: np.ndarray, frame: Any, eff: Any, profile: Any, since: Optional[float]) -> Any:
+    """The flight's share fit against the profile's nearest load configuration
+    (:func:`~flightlog_fd.analyzers.command_shares.nearest_configuration`), or without a profile."""
+    return nearest_configuration(profile, lambda b: fit_shares(segments, probs, frame, eff, b, since=since),
+                                 frame)[0]
+
+
+def _say_configuration(verdict: Verdict, share_fit: Any) -> None:
+    """Name the profile's load configuration the commands were weighed against in the verdict's
+    reason (a profile of two or more configurations)."""
+    words = share_fit.configuration_words() if share_fit is not None else None
+    if words and verdict.reason:
+        verdict.reason = f"{verdict.reason} ({words})"
 
 
 def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: Any, probs: np.ndarray,
@@ -423,13 +439,13 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
         spec = FeatureSpec.from_dict(model.feature_spec)
         eff = estimate_effectiveness(prepared, rate_hz=spec.rate_hz, savgol_window_s=spec.savgol_window_s,
                                      segments=segs)
-        ev = fit_shares(segs, probs[m], part.frame, eff, profile.baseline() if profile is not None else None,
-                        since=here.t_start if here else None)
+        ev = _share_fit(segs, probs[m], part.frame, eff, profile, here.t_start if here else None)
         pm = probs[m]
         ctx = _analyzer_context(part, t_start[m], t_end[m], pm, here, ev, profile, segs, sha)
         kind = replace(whole.log_kind, covered_s=ctx.covered_s) if whole.log_kind is not None else None
         v, dec = decide(pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops,
                         kind=kind)
+        _say_configuration(v, ev)
         sub_windows = [w for w in whole.windows if a - 1e-6 <= w.t_start and w.t_end <= b + 1e-6]
         subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, share_fit=ev, decision=dec,
                               timeline=tl, part=part.part, log_kind=kind, **facts_kw))

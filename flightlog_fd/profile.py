@@ -4,7 +4,7 @@
 (autopilot, frame name, firmware, vehicle_id, rotor count), the learned values (trailing
 underscore: ``rho_``, ``rho_spread_``, ``hover_throttle_``, ``hover_s_``, ``n_hover_segments_``,
 ``n_windows_``, ``rho_source_``, the command-share baseline ``baseline_``, the calibration
-sessions ``sessions_``), each analyzer's
+sessions ``sessions_``, the load configurations ``configurations_``), each analyzer's
 healthy baseline (``analyzers``), the streams' rates, the
 :class:`~flightlog_fd.windows.FeatureSpec` with the per-channel statistics of the healthy
 windows, the source logs (file name + sha256), creation time (UTC), tool version and an optional
@@ -16,6 +16,14 @@ a HEALTHY flight (the paper's "adjusted simulation model"; a real quad never run
 alike: CG offset, motor/ESC/propeller spread, yaw trim). Measuring it, and the rest of the
 profile, is :mod:`flightlog_fd.calibration`'s work.
 
+Load configurations: the payloads the airframe flies with. ``baseline_`` and ``sessions_`` are the
+configuration it was first calibrated in (:data:`AS_CALIBRATED`); each ``configurations_`` entry
+(``name``, ``load``: where it sits against AS_CALIBRATED, ``sessions_``, ``baseline_``, and its own
+``analyzers`` baselines, e.g. the model votes') is a healthy flight with another payload added by
+``fdlog calibrate --add`` (:func:`flightlog_fd.calibration.add_sessions`). The diagnosis weighs a
+flight against the nearest one (:func:`flightlog_fd.analyzers.command_shares.nearest_configuration`),
+with the airframe's drift from the AS_CALIBRATED sessions.
+
 Limits: quadrotors, and hexa / octo frames laid out like the shipped n-rotor models' training
 tables (rho and shares then have n entries; ``rotor_count`` in PROFILE_ROTOR_COUNTS); one
 airframe per profile.
@@ -26,7 +34,7 @@ import json
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 from typing import Optional, Union
 
@@ -44,9 +52,16 @@ from .windows import FeatureSpec
 #: ``hover_throttle_`` and ``feature_spec`` null: it holds only the analyzers' baselines the logs
 #: support, e.g. vibration; schema 5 adds ``baseline_.pin``: how well the calibration flights pin
 #: each share, without it the diagnosed flight's own figure stands in; schema 6 adds ``sessions_``:
-#: one entry per calibration session, without it the profile's flights are one session).
-PROFILE_SCHEMA = 6
-READABLE_SCHEMAS = (1, 2, 3, 4, 5, 6)
+#: one entry per calibration session, without it the profile's flights are one session; schema 7 adds
+#: ``configurations_``: the airframe's load configurations, without it the profile is one
+#: configuration, "as calibrated").
+PROFILE_SCHEMA = 7
+READABLE_SCHEMAS = (1, 2, 3, 4, 5, 6, 7)
+#: The name of the configuration the profile was first calibrated in (its ``baseline_`` and
+#: ``sessions_``); the others are ``configurations_`` entries.
+AS_CALIBRATED = "as calibrated"
+#: Longest configuration name (it is shown in one-line reasons).
+MAX_CONFIGURATION_NAME = 40
 AUTOPILOTS = ("px4", "ardupilot", "sim")
 #: Rotor counts a profile may describe: the quad and the frames with a shipped n-rotor model
 #: (flightlog_fd.models.MODEL_FILES); an n-rotor frame must be laid out like a trained table
@@ -59,7 +74,7 @@ _REQUIRED_KEYS = ("schema", "autopilot", "frame", "rotor_count", "rho_", "rho_sp
                   "feature_spec")
 _OPTIONAL_KEYS = ("firmware", "vehicle_id", "hover_s_", "n_hover_segments_", "n_windows_", "stream_rates",
                   "source_logs", "created", "tool_version", "model", "extra", "rho_source_", "baseline_",
-                  "analyzers", "lacks_", "sessions_")
+                  "analyzers", "lacks_", "sessions_", "configurations_")
 
 PathLike = Union[str, os.PathLike]
 
@@ -96,6 +111,11 @@ class Profile:
     #: airborne-mean command shares, throttle, pinning and seconds (:func:`session_entry` in
     #: calibration). [] in a profile older than schema 6: its flights are one session.
     sessions_: list = field(default_factory=list)
+    #: The airframe's other load configurations (a camera, a bigger battery, a payload): each
+    #: ``{"name", "load", "created", "sessions_", "baseline_", "analyzers"}``, its own command-share
+    #: baseline (and model-vote baseline, ``analyzers``) from its own sessions (:func:`~flightlog_fd.calibration.add_sessions` with a loaded flight).
+    #: [] in a profile older than schema 7: one configuration, :data:`AS_CALIBRATED`.
+    configurations_: list = field(default_factory=list)
     schema: int = PROFILE_SCHEMA
     path: Optional[str] = field(default=None, repr=False, compare=False)  # where it was loaded/saved
 
@@ -142,6 +162,7 @@ class Profile:
             "analyzers": self.analyzers,
             "lacks_": list(self.lacks_),
             "sessions_": list(self.sessions_),
+            "configurations_": list(self.configurations_),
         }
 
     def fit_analyzers(self, flights, model, sessions=None, adapted_on: bool = False) -> None:
@@ -178,8 +199,37 @@ class Profile:
         return SessionFigures(shares=[s["share"] for s in self.sessions_],
                               throttles=[s["throttle"] for s in self.sessions_], pins=pins)
 
+    def configuration_names(self) -> list[str]:
+        """The airframe's configurations: :data:`AS_CALIBRATED` first, then the added ones."""
+        return [AS_CALIBRATED] + [str(c["name"]) for c in self.configurations_]
+
+    def configuration(self, name: str) -> Optional[dict]:
+        """The ``configurations_`` entry called ``name`` (None for AS_CALIBRATED or an unknown name)."""
+        return next((c for c in self.configurations_ if c.get("name") == name), None)
+
+    def baselines(self) -> list[tuple[str, Optional[dict], object, dict]]:
+        """(name, load or None, :class:`~flightlog_fd.analyzers.share_fit.Baseline`, analyzer
+        baselines of its own ({} for AS_CALIBRATED, whose are ``analyzers``)) of every
+        configuration, AS_CALIBRATED first; [] for a profile without motor figures. A load
+        configuration's baseline is its own shares, throttle, slope and pinning, weighed with the
+        airframe's drift (the AS_CALIBRATED sessions': how far a session moves is the airframe's,
+        not the payload's)."""
+        first = self.baseline()
+        if first is None:
+            return []
+        out = [(AS_CALIBRATED, None, first, {})]
+        for c in self.configurations_:
+            b = c["baseline_"]
+            out.append((str(c["name"]), c.get("load"), replace(
+                first, share=np.asarray(b["share"], float), slope=np.asarray(b["slope"], float),
+                throttle_ref=float(b["throttle_ref"]), source=f"configuration {c['name']!r}",
+                pin=None if b.get("pin") is None else np.asarray(b["pin"], float),
+                throttle_range=_range(b.get("throttle_range"))), dict(c.get("analyzers") or {})))
+        return out
+
     def baseline(self):
-        """The healthy command-share baseline (:class:`~flightlog_fd.analyzers.share_fit.Baseline`); a
+        """The healthy command-share baseline of the configuration the profile was calibrated in
+        (:class:`~flightlog_fd.analyzers.share_fit.Baseline`); a
         schema-1 profile has none recorded, so it is derived from rho_ at the hover throttle; None
         for a profile without motor figures."""
         from .analyzers.share_fit import Baseline
@@ -291,6 +341,7 @@ class Profile:
             if ts is not None and (not _is_number(ts) or ts < 0):
                 raise bad("baseline_.throttle_spread must be null or a number >= 0")
         _check_sessions(d.get("sessions_"), n, bad)
+        _check_configurations(d.get("configurations_"), n, bad)
         if "rho_source_" in d and d["rho_source_"] not in ("hover", "steady flight", "airborne mean"):
             raise bad(f"rho_source_ must be hover, steady flight or airborne mean, not {d['rho_source_']!r}")
         kw = {k: d[k] for k in _REQUIRED_KEYS + _OPTIONAL_KEYS if k in d}
@@ -298,6 +349,8 @@ class Profile:
         kw["hover_throttle_"] = float(thr)
         if kw.get("sessions_") is None:
             kw["sessions_"] = []
+        if kw.get("configurations_") is None:
+            kw["configurations_"] = []
         for k in ("hover_s_",):
             if k in kw and not _is_number(kw[k]):
                 raise bad(f"{k} must be a number")
@@ -322,7 +375,10 @@ class Profile:
         kw["schema"] = PROFILE_SCHEMA
         if d.get("sessions_"):
             raise bad("a profile without motor figures has no command-share sessions (sessions_ must be [] or null)")
-        for k, empty in (("extra", {}), ("stream_rates", {}), ("source_logs", []), ("sessions_", [])):
+        if d.get("configurations_"):
+            raise bad("a profile without motor figures has no load configurations (configurations_ must be [] or null)")
+        for k, empty in (("extra", {}), ("stream_rates", {}), ("source_logs", []), ("sessions_", []),
+                         ("configurations_", [])):
             if kw.get(k) is None:
                 kw[k] = empty
         return cls(**kw, path=str(path) if path is not None else None)
@@ -443,3 +499,45 @@ def _check_sessions(v, n: int, bad) -> None:
         logs = sess.get("logs", [])
         if not isinstance(logs, list) or not all(isinstance(x, dict) and isinstance(x.get("name"), str) for x in logs):
             raise bad(f'{where}.logs must be a list of {{"name": ..., "sha256": ...}}')
+
+
+def _check_configurations(v, n: int, bad) -> None:
+    """Validate ``configurations_`` (null, or a list of load configurations of an n-rotor profile)."""
+    if v is None:
+        return
+    if not isinstance(v, list):
+        raise bad("configurations_ must be a list of configuration objects")
+    names = {AS_CALIBRATED}
+    for i, c in enumerate(v, 1):
+        where = f"configurations_[{i}]"
+        if not isinstance(c, dict):
+            raise bad(f"{where} must be an object")
+        name = c.get("name")
+        if not isinstance(name, str) or not name.strip() or len(name) > MAX_CONFIGURATION_NAME:
+            raise bad(f"{where}.name must be a non-empty name of at most {MAX_CONFIGURATION_NAME} characters")
+        if name in names:
+            raise bad(f"{where}.name {name!r} is used twice (or is the reserved {AS_CALIBRATED!r})")
+        names.add(name)
+        load = c.get("load")
+        if load is not None:
+            if not isinstance(load, dict) or not isinstance(load.get("motor"), int) or not 1 <= load["motor"] <= n \
+                    or not _is_number(load.get("direction_deg")) or not _is_number(load.get("size")):
+                raise bad(f"{where}.load must be null or {{\"motor\": 1..{n}, \"direction_deg\": ..., \"size\": ...}}")
+        sessions = c.get("sessions_")
+        if not isinstance(sessions, list) or not sessions:
+            raise bad(f"{where}.sessions_ must list its calibration sessions (at least one)")
+        _check_sessions(sessions, n, lambda m: bad(f"{where}.{m}"))
+        an = c.get("analyzers", {})
+        if not isinstance(an, dict) or not all(isinstance(x, dict) for x in an.values()):
+            raise bad(f"{where}.analyzers must map analyzer ids to objects")
+        base = c.get("baseline_")
+        if not isinstance(base, dict):
+            raise bad(f"{where}.baseline_ must be an object")
+        share = _number_list(base.get("share"), n, f"{where}.baseline_.share", bad)
+        _number_list(base.get("slope"), n, f"{where}.baseline_.slope", bad)
+        if not all(0.0 < x < 4.0 for x in share):
+            raise bad(f"{where}.baseline_.share values must be within 0..4, got {share}")
+        if not _is_number(base.get("throttle_ref")) or not 0.0 < base["throttle_ref"] <= 1.5:
+            raise bad(f"{where}.baseline_.throttle_ref must be a number in (0, 1.5]")
+        if base.get("pin") is not None and any(x < 0 for x in _number_list(base["pin"], n, f"{where}.baseline_.pin", bad)):
+            raise bad(f"{where}.baseline_.pin values must be >= 0")

@@ -115,7 +115,7 @@ def test_calibrate_no_adapt_writes_profile_and_refuses_overwrite(sim_logs, tmp_p
     res = runner.invoke(app, ["calibrate", "--no-adapt", str(ulg), "-o", str(out)])
     assert res.exit_code == 0, res.output
     prof = json.loads(out.read_text())
-    assert prof["schema"] == 6 and prof["autopilot"] == "px4"
+    assert prof["schema"] == 7 and prof["autopilot"] == "px4"
     assert prof["rho_"] == pytest.approx([1, 1, 1, 1], abs=0.02)  # the simulated f450 is balanced
     res = runner.invoke(app, ["calibrate", "--no-adapt", str(ulg), "-o", str(out)])
     assert res.exit_code == 2 and "already exists" in res.output
@@ -191,7 +191,7 @@ def test_diagnose_with_profile_compares_against_calibration_and_html_panel(tmp_p
     assert res.exit_code == 0, res.output
     assert "airborne mean" in res.output or "steady flight" in res.output or "hover" in res.output
     p = json.loads(prof.read_text())
-    assert p["schema"] == 6 and p["baseline_"]["seconds"] > 20 and len(p["baseline_"]["share"]) == 4
+    assert p["schema"] == 7 and p["baseline_"]["seconds"] > 20 and len(p["baseline_"]["share"]) == 4
     html = tmp_path / "r.html"
     res = runner.invoke(app, ["diagnose", "--profile", str(prof), "--json", "--html", str(html),
                               str(SAMPLES / "px4_motor1_damaged.ulg")])

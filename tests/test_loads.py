@@ -104,7 +104,8 @@ def test_drift_leaves_load_flights_out_of_the_command_pattern():
 
 def test_calibrate_add_takes_a_loaded_healthy_flight_and_says_so(moved, tmp_path):
     """Main refused it ("looks damaged against the 1 session ...: motor 1 lost thrust"): a flight
-    whose only change is its load is added as a session, the load named."""
+    whose only change is its load is added as a load configuration (its own baseline), the load
+    named, the profile's sessions unchanged (tests/test_load_configurations.py for the rest)."""
     import shutil
 
     log, _, _, _, prof = moved
@@ -112,5 +113,6 @@ def test_calibrate_add_takes_a_loaded_healthy_flight_and_says_so(moved, tmp_path
     shutil.copy(prof, p)
     res = runner.invoke(app, ["calibrate", "--add", str(p), str(log)])
     assert res.exit_code == 0, res.output
-    assert "carries another load than the profile's sessions: the load sits toward motor 1" in res.output
-    assert json.loads(p.read_text())["baseline_"]["n_sessions"] == 2
+    assert "added load configuration 'load toward motor 1" in res.output
+    d = json.loads(p.read_text())
+    assert len(d["sessions_"]) == 1 and len(d["configurations_"]) == 1

@@ -125,7 +125,7 @@ _SESSION = {"logs": [{"name": "a.ulg", "sha256": None}], "created": "2026-01-01T
 
 @pytest.mark.parametrize("mutate, message", [
     (lambda d: d.pop("schema"), 'no "schema" key'),
-    (lambda d: d.update(schema=7), "schema 7 is not supported"),
+    (lambda d: d.update(schema=8), "schema 8 is not supported"),
     (lambda d: d.update(sessions_={"share": [1.0] * 4}), "sessions_ must be a list"),
     (lambda d: d.update(sessions_=[_SESSION | {"share": [1.0] * 3}]), r"sessions_\[1\].share must be a list of 4"),
     (lambda d: d.update(sessions_=[_SESSION, _SESSION | {"throttle": 0}]), r"sessions_\[2\].throttle"),
@@ -236,7 +236,7 @@ def test_schema_6_sessions_read_back_and_schemas_5_and_4_are_one_session(tmp_pat
     """Schema 6's ``sessions_``: two or more give the Baseline the sessions' figures (the airframe's
     own drift is weighed); a schema-5 or -4 profile (no ``sessions_``) loads as one session."""
     d = _profile(tmp_path).to_dict()
-    assert d["schema"] == PROFILE_SCHEMA == 6 and len(d["sessions_"]) == 1
+    assert d["schema"] == PROFILE_SCHEMA == 7 and len(d["sessions_"]) == 1
     two = [_SESSION, _SESSION | {"share": [0.98, 1.02, 0.99, 1.01], "throttle": 0.52, "pin": None}]
     d["sessions_"] = two
     path = tmp_path / "p6.json"
@@ -252,4 +252,4 @@ def test_schema_6_sessions_read_back_and_schemas_5_and_4_are_one_session(tmp_pat
         q = Profile.load(path)
         assert q.n_sessions == 1 and q.sessions_ == [] and q.baseline().sessions is None
         assert q.baseline().n_sessions == 0  # pooled flights, not sessions
-        assert q.to_dict()["schema"] == 6  # read as the current schema, written back as it
+        assert q.to_dict()["schema"] == 7  # read as the current schema, written back as it

@@ -202,7 +202,7 @@ def test_calibration_jobs_keep_the_airframes_sessions(tmp_path):
         assert job["state"] == "done", job["error"]
         assert json.loads(job["args"]) == {"flights": [second], "adapt": False, "add_to": p1}
         p2 = store.airframes()[key]["profile_path"]
-        assert p2 != p1 and json.loads(open(p1).read())["schema"] == 6  # the earlier profile stays
+        assert p2 != p1 and json.loads(open(p1).read())["schema"] == 7  # the earlier profile stays
         assert len(json.loads(open(p2).read())["sessions_"]) == 2
         assert [(s["session"], s["flight_id"]) for s in store.calibration_sessions(key)] == [(1, first), (2, second)]
         page = c.get("/airframe", params={"key": key}).text

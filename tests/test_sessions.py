@@ -152,7 +152,7 @@ def test_calibrate_add_adds_a_session_and_keeps_the_previous_profile(tmp_path, x
     kept = tmp_path / "x500.sessions-1.json"
     assert kept.read_bytes() == before and "kept as x500.sessions-1.json" in r.output
     d = json.loads(prof.read_text())
-    assert d["schema"] == 6 and len(d["sessions_"]) == 2 and d["baseline_"]["n_sessions"] == 2
+    assert d["schema"] == 7 and len(d["sessions_"]) == 2 and d["baseline_"]["n_sessions"] == 2
     assert [e["name"] for e in d["source_logs"]] == ["px4_healthy.ulg", "healthy2.ulg"]
     assert [e["name"] for s in d["sessions_"] for e in s["logs"]] == ["px4_healthy.ulg", "healthy2.ulg"]
     assert len(d["analyzers"]["model"]["sessions"]) == 2 and d["analyzers"]["model"]["n_flights"] == 2
@@ -232,7 +232,7 @@ def test_a_schema_5_profile_is_one_session_and_takes_more(tmp_path, x500, one_se
     r = runner.invoke(app, ["calibrate", "--add", str(prof), str(x500["healthy2.ulg"])])
     assert r.exit_code == 0, r.output
     new = json.loads(prof.read_text())
-    assert new["schema"] == 6 and len(new["sessions_"]) == 2
+    assert new["schema"] == 7 and len(new["sessions_"]) == 2
     assert new["sessions_"][0]["share"] == d["baseline_"]["share"]  # the old profile's pooled baseline
     assert json.loads((tmp_path / "old.sessions-1.json").read_text())["schema"] == 5
 

@@ -168,7 +168,12 @@ class Context:
     memo: dict = field(default_factory=dict)
 
     def baseline_for(self, analyzer_id: str) -> Optional[dict]:
-        """This analyzer's healthy baseline from the profile (None without one)."""
+        """This analyzer's healthy baseline from the profile (None without one): the load
+        configuration's own when the commands are weighed against one that holds it."""
+        cfg = getattr(self.share_fit, "configuration", None) if self.share_fit is not None else None
+        own = ((cfg or {}).get("analyzers") or {}).get(analyzer_id)
+        if own is not None:
+            return own
         p = self.profile
         return (getattr(p, "analyzers", None) or {}).get(analyzer_id) if p is not None else None
 

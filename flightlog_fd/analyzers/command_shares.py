@@ -537,7 +537,20 @@ def fits_for(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[Se
 
 
 def _fits(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[SeverityFit], np.ndarray]]:
-    share_fit = ctx.share_fit
+    inputs = fit_inputs(ctx.share_fit, with_throttle)
+    if inputs is None:
+        return None
+    shares, base, sig, ratio, thr_sig, profile, drift, pin = inputs
+    chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile, sessions=drift,
+                               flight_pin=pin)
+    ctx.memo[("commands.inputs", with_throttle)] = inputs
+    return chi_h, fits, sig
+
+
+def fit_inputs(share_fit, with_throttle: bool) -> Optional[tuple]:
+    """What the fits weigh a share fit with: (shares, baseline shares, share sigma, throttle ratio or
+    None, throttle sigma, against a profile, the airframe's session drift or None, the flight's
+    pinning); None without finite shares."""
     if share_fit is None:
         return None
     shares = np.array([m.command_share for m in share_fit.motors], float)
@@ -557,10 +570,69 @@ def _fits(ctx: Context, with_throttle: bool) -> Optional[tuple[float, list[Sever
     drift = session_drift(share_fit) if profile else None
     if drift is not None:
         sig = drift.share_sigma(share_fit.pin)
-    chi_h, fits = severity_fit(shares, base, sig, ctx.frame, ratio, thr_sig, move=profile, sessions=drift,
-                               flight_pin=share_fit.pin)
-    ctx.memo[("commands.inputs", with_throttle)] = (shares, base, sig, ratio, thr_sig, profile, drift, share_fit.pin)
-    return chi_h, fits, sig
+    return shares, base, sig, ratio, thr_sig, profile, drift, share_fit.pin
+
+
+def configuration_evidence(share_fit, frame: Optional[Frame]) -> float:
+    """How well a profile configuration's baseline explains the flight's commands (log evidence,
+    nats): the shares and the throttle against it on the command analyzer's own likelihood
+    (:func:`severity_fit`: the profile's drift, the moved-load mixture, the airframe's session drift),
+    averaged over "healthy" and "rotor k lost thrust" for every k with equal prior weight. A load
+    relative to the configuration is not among the hypotheses: the configurations are the loads the
+    airframe is known to fly with, and a weak rotor against the right one still fits as a rotor.
+    -inf without finite shares."""
+    inputs = fit_inputs(share_fit, share_fit is not None and share_fit.throttle_ratio is not None)
+    if inputs is None:
+        return float("-inf")
+    shares, base, sig, ratio, thr_sig, profile, drift, pin = inputs
+    _, fits = severity_fit(shares, base, sig, frame, ratio, thr_sig, move=profile, sessions=drift, flight_pin=pin)
+    b = base / base.mean()
+    if drift is not None:
+        log_thr = None if ratio is None else float(np.log(max(ratio, 1e-9)))
+        ll_h = float(drift.loglik(shares - b, log_thr, pin))
+    else:
+        *_, loglik = _share_likelihood(shares, base, sig, frame, ratio, thr_sig, profile)
+        ll_h = float(loglik(shares - b, None if ratio is None else ratio - 1.0))
+    llrs = np.array([0.0] + [f.llr for f in fits])
+    top = float(llrs.max())
+    return ll_h + top + float(np.log(np.mean(np.exp(llrs - top))))
+
+
+#: A load configuration replaces the profile's own ("as calibrated") only when its baseline explains
+#: the flight's commands better by this many nats (:func:`configuration_evidence`, a Bayes factor of
+#: e^3 = 20): a weak rotor's pattern can resemble another load's (a weak motor 1 raises motor 1 as a
+#: load toward it does), and a flight between the two is judged as without the configuration.
+#: Measured (benchmarks/bench_load_configurations.py, results/load_configurations.md): the loaded
+#: flights of a configuration beat "as calibrated" by 7.1 nats (px4_sih_dev_load com_m1 at 10 Hz
+#: against the com_m1 configuration); px4_sih_dev's 15 weak motors by +0.5 at most (sih_053, motor 1 at
+#: 80 %: against the motor-1 load it read as motor 2 lost thrust), 14 of them not at all.
+CONFIGURATION_MARGIN_NATS = 3.0
+
+
+def nearest_configuration(profile, fit, frame: Optional[Frame]) -> tuple:
+    """(share fit, configuration) of the profile configuration whose baseline best explains the
+    flight's commands (:func:`configuration_evidence`; a load configuration by at least
+    ``CONFIGURATION_MARGIN_NATS`` over "as calibrated"). ``fit(baseline)`` makes the flight's share
+    fit against one baseline (:func:`~flightlog_fd.analyzers.share_fit.fit_shares` with the
+    flight's segments). ``configuration``: None for a profile of one configuration, else
+    ``{"name", "load", "of", "analyzers", "evidence"}`` (``of``: how many it holds; ``analyzers``:
+    the configuration's own analyzer baselines, e.g. the model votes'; ``evidence``: each one's log
+    evidence by name, nats). Without a profile (or motor figures): (fit(None), None)."""
+    options = profile.baselines() if profile is not None else []
+    if not options:
+        return fit(None), None
+    first = fit(options[0][2])
+    if len(options) == 1:
+        return first, None
+    fits = [first] + [fit(b) for _, _, b, _ in options[1:]]
+    ev = [configuration_evidence(f, frame) for f in fits]
+    i = int(np.argmax(ev)) if np.any(np.isfinite(ev)) else 0
+    if i and not ev[i] - ev[0] >= CONFIGURATION_MARGIN_NATS:
+        i = 0
+    name, load, _, own = options[i]
+    fits[i].configuration = {"name": name, "load": load, "of": len(options), "analyzers": own,
+                             "evidence": {n: round(float(e), 2) for (n, _, _, _), e in zip(options, ev)}}
+    return fits[i], fits[i].configuration
 
 
 def session_drift(share_fit) -> Optional[SessionDrift]:

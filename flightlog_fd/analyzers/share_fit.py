@@ -129,6 +129,21 @@ class ShareFit:
     onset_drift: Optional[np.ndarray] = None
     #: (n,) how well this flight pins its own shares (:func:`pin_spread`)
     pin: Optional[np.ndarray] = None
+    #: Against a profile of several load configurations, the one the baseline is
+    #: (:func:`~flightlog_fd.analyzers.command_shares.nearest_configuration`: name, load, of,
+    #: evidence); None otherwise.
+    configuration: Optional[dict] = None
+
+    def configuration_words(self) -> Optional[str]:
+        """e.g. "against configuration 'camera' (load toward motor 2, +18 %)", or None when the
+        profile holds one configuration."""
+        c = self.configuration
+        if not c:
+            return None
+        load = c.get("load")
+        what = (f" (load toward motor {load['motor']}, {100 * load['size']:+.0f} %)" if load
+                else " (the load the profile was calibrated with)" if c["name"] == "as calibrated" else "")
+        return f"against configuration '{c['name']}'{what}, the nearest of {c['of']}"
 
     def drifting(self) -> Optional[int]:
         """The motor whose command rose steadily after the onset rather than in one step, or None."""

@@ -234,6 +234,9 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("profile", "none" if d.profile is None else
                  f"{d.profile.path or 'in memory'} ({d.profile.sessions} calibration session"
                  f"{'s' if d.profile.sessions != 1 else ''})"))
+    words = d.share_fit.configuration_words() if d.profile is not None and d.share_fit is not None else None
+    if words:
+        rows.append(("configuration", words))
     v = d.verdict
     rows.append(("reason", v.reason))
     if v.cause_evidence:

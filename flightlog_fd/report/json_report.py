@@ -17,7 +17,10 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
       "duration_s": 123.4 | null, "airborne_s": 98.0 | null,
       "model": {"path": str|null, "version": str, "sha256": str, "calibrated": bool} | null,
       "profile": {"path": str|null, "model_path": str|null, "model_sha256": str|null,
-                  "sessions": int} | null,             # its calibration sessions (schema 6)
+                  "sessions": int,                   # its calibration sessions (schema 6)
+                  "configuration": {"name": str, "of": int,     # optional: the load configuration the
+                                    "load": {"motor": 1-n, "direction_deg": float, "size": float} | null}
+                                    | null} | null,  #   commands were weighed against (null: one configuration)
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
                   "motor": 1-n | null,               # the damaged (stopped) propeller, the first of two, or
                                                      #   the one an uncertain verdict asks to inspect first
@@ -135,7 +138,9 @@ right, measured on real and simulated flights (never below 0.5 for a stated verd
 verdict's is the probability that one of the propellers it names lost thrust, at most 0.8;
 ``benchmarks/bench_confidence.py``, ``results/confidence.md``), and adds ``verdict.seen``, ``"load"`` in ``verdict.cause`` (healthy propellers, a moved or added
 load explains the command pattern) and ``verdict.load`` (where the load sits and how much more the
-motor toward it carries; null otherwise).
+motor toward it carries; null otherwise); within schema 7, the optional ``profile.configuration``: the
+profile's load configuration the commands were weighed against (the nearest of two or more; null
+for a profile of one configuration).
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -186,7 +191,16 @@ JSON_SCHEMA: dict = {
                                  "sha256": {"type": "string"}, "calibrated": {"type": "boolean"}}},
         "profile": {"type": ["object", "null"], "required": ["path", "model_path", "model_sha256", "sessions"],
                     "properties": {"path": _STR_OR_NULL, "model_path": _STR_OR_NULL,
-                                   "model_sha256": _STR_OR_NULL, "sessions": {"type": "integer", "minimum": 1}}},
+                                   "model_sha256": _STR_OR_NULL, "sessions": {"type": "integer", "minimum": 1},
+                                   "configuration": {
+                                       "type": ["object", "null"], "required": ["name", "of", "load"],
+                                       "properties": {"name": {"type": "string"}, "of": {"type": "integer", "minimum": 2},
+                                                      "load": {"type": ["object", "null"],
+                                                               "required": ["motor", "direction_deg", "size"],
+                                                               "properties": {"motor": {"type": "integer", "minimum": 1,
+                                                                                        "maximum": MAX_ROTORS},
+                                                                              "direction_deg": {"type": "number"},
+                                                                              "size": {"type": "number"}}}}}}},
         "verdict": {
             "type": "object",
             "required": ["status", "motor", "motors", "positions", "pair", "position", "confidence", "first_seen",
@@ -356,6 +370,17 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
                 "pair": d.decision.pairs[0].as_dict() if d.decision.pairs else None}}
 
 
+def _configuration(d: Diagnosis) -> Optional[dict]:
+    """``profile.configuration``: the load configuration the commands were weighed against, or None."""
+    c = getattr(d.share_fit, "configuration", None) if d.share_fit is not None else None
+    if not c:
+        return None
+    load = c.get("load")
+    return {"name": c["name"], "of": int(c["of"]),
+            "load": None if not load else {"motor": int(load["motor"]), "direction_deg": float(load["direction_deg"]),
+                                           "size": float(load["size"])}}
+
+
 def to_dict(d: Diagnosis) -> dict:
     """The schema-6 object for one diagnosis (and, in ``flights``, each flight of its log)."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
@@ -373,7 +398,8 @@ def to_dict(d: Diagnosis) -> dict:
         "model": None if m is None else {"path": m.path, "version": m.version, "sha256": m.sha256,
                                          "calibrated": m.calibrated},
         "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
-                                           "model_sha256": p.model_sha256, "sessions": p.sessions},
+                                           "model_sha256": p.model_sha256, "sessions": p.sessions,
+                                           "configuration": _configuration(d)},
         "verdict": v.as_dict(),
         "evidence": None if ev is None or ev.n_windows == 0 else {
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),

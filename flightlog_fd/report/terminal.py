@@ -201,6 +201,9 @@ def facts_line(diagnosis: Diagnosis) -> str:
         parts.append(f"model {m.version or '?'}" + (" (calibrated)" if m.calibrated else ""))
     if diagnosis.profile is not None:
         parts.append(profile_words(diagnosis.profile))
+        words = diagnosis.share_fit.configuration_words() if diagnosis.share_fit is not None else None
+        if words:
+            parts.append(words)
     return " | ".join(parts)
 
 
