@@ -501,6 +501,32 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
             f"{TRIM_FREE_AGREE_LLR:.0f}; a rise of {rise:+.2f} share is within what a moved load makes")
 
 
+def _pattern_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: int) -> Optional[str]:
+    """Why the sources that read the command pattern (``PATTERN_SOURCES``) may not call motor
+    ``best`` (0-based) damaged alone, with or without a profile, or None when they may: no command
+    shares, a source that does not read the commands agrees (``TRIM_FREE_AGREE_LLR``), or the share
+    rose beyond what a load makes (``BEYOND_DRIFT_SHARE_RISE``). A load at a rotor's corner (a weight
+    in its wash, a payload under it) takes thrust from that rotor for its command as a damaged
+    propeller does: the commands, the throttle and the model (whose windows read the same
+    commands) cannot tell the two (results/decisive.md: crazypad_e9_load W3)."""
+    if cmd is None or cmd.abstained or cmd.analyzer not in sources:
+        return None
+    free = float(sum(v[best] for s, v in sources.items() if s not in PATTERN_SOURCES))
+    if free >= TRIM_FREE_AGREE_LLR:
+        return None
+    share = cmd.finding("share", best + 1)
+    pin = cmd.pin
+    noise = float(pin[best]) if pin and len(pin) == n else 0.0
+    rise = share.value - share.baseline if share is not None and share.baseline is not None else 0.0
+    if rise - PIN_Z * noise > BEYOND_DRIFT_SHARE_RISE:
+        return None
+    others = [s for s in sources if s not in PATTERN_SOURCES]
+    said = (f"the sources that do not read the commands ({', '.join(others)}) give {free:+.1f} nats, agreement "
+            f"needs {TRIM_FREE_AGREE_LLR:.0f}" if others else "the log has no source that does not read the commands "
+            "(no ESC telemetry, no vibration tied to a rotor, no effectiveness fit)")
+    return f"{said}; a rise of {rise:+.2f} share is within what a load makes"
+
+
 # ----------------------------------------------------------------------------- a load, not a rotor
 
 def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int,
@@ -857,6 +883,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     discounted = [v for s_, v in sources.items() if weights[s_].trust == "discounted"]
     decisive = total - np.sum(discounted, axis=0) if discounted else total
     trim_held = _trim_held(cmd, sources, int(np.argmax(total)), n)
+    pattern_held = None if load is not None else _pattern_held(cmd, sources, int(np.argmax(total)), n)
     # the stated probabilities: mild damage no source sees is never ruled out
     w = posterior(np.maximum(total, MILD_DAMAGE_LLR_FLOOR))
     motors = []
@@ -962,7 +989,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     throttle_fell = thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma
     # every bar of the single-rotor "damaged" below met
     single_damaged = (decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported
-                      and not throttle_fell and trim_held is None)
+                      and not throttle_fell and trim_held is None and pattern_held is None)
 
     # the pair-hypothesis step: two rotors that explain the evidence where no single one does; a
     # pair that misses a bar of "damaged" does not replace a single rotor that meets all of them
@@ -992,6 +1019,15 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     + f": {inspect_kb}; if nothing is found, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
                       f"(log-likelihood ratio, nats): {parts}", (kb,), cause)
+    if pattern_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
+        # only the sources that read the command pattern point at it: a rotor's loss or a load at its corner
+        sev = severity_words(kb)
+        return done("uncertain", None, w[kb],
+                    f"{_words(frame, kb)} lost thrust" + (f" (it {sev})" if sev else "")
+                    + f", or a load sits at its corner (a weight in its propeller's wash, a payload under it): "
+                      f"only the sources that read the command pattern point at it, and a load there moves them as a "
+                      f"damaged propeller does ({pattern_held}); {inspect_kb}; if it is sound, fly once without the "
+                      f"payload, or log ESC telemetry or vibration, to tell; {evidence_words(kb)}", (kb,), cause)
     if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
