@@ -100,7 +100,11 @@ def both(d):
     n = len(d.decision.motors)
     frame = d.flight.frame if d.flight is not None else None
     after, dec = decision.decide(n, frame, timeline=d.timeline, results=d.decision.results, kind=d.log_kind)
-    both.by_source = dec.motors[after.motor - 1].llr_by_source if dec is not None and after.motor else {}
+    both.by_source = dict(dec.motors[after.motor - 1].llr_by_source) if dec is not None and after.motor else {}
+    vib = decision._vibration(d.decision.results)
+    both.vib = None if vib is None else decision._vibration_llr(vib)
+    cmd = next((r for r in d.decision.results if r.analyzer == "commands"), None)
+    both.load = None if cmd is None or cmd.load is None else (cmd.load.llr, list(cmd.rotor_vs_load))
     keep = decision._pattern_held
     decision._pattern_held = lambda *a, **k: None
     try:
@@ -114,7 +118,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--profiles", type=Path, default=Path("build/golden_profiles"))
     ap.add_argument("--only", default="", help="comma list: e9load,sihload,sih,e9,rrc,healthy,apsitl,samples")
-    ap.add_argument("-v", "--verbose", action="store_true")
+    ap.add_argument("-v", "--verbose", action="count", default=0)
     a = ap.parse_args()
     a.profiles.mkdir(parents=True, exist_ok=True)
     from flightlog_fd.diagnose import diagnose_path, resolve_model
@@ -132,9 +136,14 @@ def main() -> None:
             d = diagnose_path(path, model, prof)
             b, v = both(d)
             rows.append((group, truth, b, v, majority(d)))
+            if a.verbose and a.verbose > 1:
+                print(f"      {name[:40]:40s} {v.status} m{v.motor} vib {both.vib}", flush=True)
             if a.verbose and (b.status, b.motor, tuple(b.inspect)) != (v.status, v.motor, tuple(v.inspect)):
                 print(f"    {label} {pn} {name[:40]:40s} {b.status} m{b.motor} -> {v.status} m{v.motor} "
-                      f"{list(v.inspect)} | " + ", ".join(f"{k} {x:+.1f}" for k, x in both.by_source.items()), flush=True)
+                      f"{list(v.inspect)} | " + ", ".join(f"{k} {x:+.1f}" for k, x in both.by_source.items())
+                      + (f", flight vibration {both.vib:+.1f}" if both.vib is not None else "")
+                      + (f" | load {both.load[0]:+.1f} rotor-vs-load " + ",".join(f"{x:+.1f}" for x in both.load[1])
+                         if both.load else ""), flush=True)
         print(f"\n{label}, profile {pn}")
         for g in dict.fromkeys(r[0] for r in rows):
             rs = [r for r in rows if r[0] == g]

@@ -883,7 +883,6 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     discounted = [v for s_, v in sources.items() if weights[s_].trust == "discounted"]
     decisive = total - np.sum(discounted, axis=0) if discounted else total
     trim_held = _trim_held(cmd, sources, int(np.argmax(total)), n)
-    pattern_held = None if load is not None else _pattern_held(cmd, sources, int(np.argmax(total)), n)
     # the stated probabilities: mild damage no source sees is never ruled out
     w = posterior(np.maximum(total, MILD_DAMAGE_LLR_FLOOR))
     motors = []
@@ -910,6 +909,10 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                         sources=list(sources), results=list(results), weights=weights)
     onset = timeline.onset
     first_seen = onset.first_seen if onset is not None else timeline.t_first
+    # a load carried from take-off makes its pattern from the first window: a change after a healthy
+    # stretch (the model's onset, on the leading motor) is not one
+    pattern_held = (None if load is not None or (onset is not None and onset.motor == kb)
+                    else _pattern_held(cmd, sources, best, n))
 
     def severity_words(k: int) -> str:
         m = motors[k - 1]
