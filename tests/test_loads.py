@@ -117,3 +117,18 @@ def test_calibrate_add_takes_a_loaded_healthy_flight_and_says_so(moved, tmp_path
     assert res.exit_code == 0, res.output
     assert "carries another load than the profile's sessions: the load sits toward motor 1" in res.output
     assert json.loads(p.read_text())["baseline_"]["n_sessions"] == 2
+
+
+def test_a_weight_in_a_rotors_wash_is_not_called_a_damaged_propeller():
+    """crazypad_e9_load W3: a heavier weight taped near PX4 motor 2, sound propellers. Its command
+    pattern is a rotor-2 loss (the weight sits in its wash) and the 100 Hz log has no ESC telemetry,
+    no usable vibration and no effectiveness fit: only the sources that read the commands speak.
+    Uncertain, naming motor 2 and the load at its corner and what tells them apart; exit 1."""
+    res = runner.invoke(app, ["diagnose", "--json", str(shared_path("crazypad_e9_load", "ulog",
+                                                                      "add_weight_W3_near_M3__E9_log01.ulg"))])
+    assert res.exit_code == 1, res.output
+    v = json.loads(res.stdout)["verdict"]
+    assert (v["status"], v["motor"], v["motors"]) == ("uncertain", 2, [2]), v["reason"]
+    assert "or a load sits at its corner" in v["reason"] and "fly once without the payload" in v["reason"]
+    assert "the log has no source that does not read the commands" in v["reason"]
+    assert 0.5 <= v["confidence"] <= 0.8
