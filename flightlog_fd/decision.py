@@ -28,9 +28,19 @@ drift is named for inspection first.
 
 Against a profile, the command shares and the throttle (``TRIM_SOURCES``: a moved load changes
 them as a weak rotor does) reach at most ``uncertain`` unless a source that does not read the
-trim agrees (``TRIM_FREE_AGREE_LLR``) or the rise is beyond any moved load
+trim (here the model counts) agrees (``TRIM_FREE_AGREE_LLR``) or the rise is beyond any moved load
 (``BEYOND_DRIFT_SHARE_RISE``), and never ``damaged`` with the throttle well below calibration
 (``THROTTLE_FELL_SIGMAS``); the reason then says what to inspect and when to re-calibrate.
+
+With or without a profile, the sources that read the command pattern (``PATTERN_SOURCES``: the
+commands, the throttle and the model, whose windows read the same commands) reach at most
+``uncertain`` together (:func:`_pattern_held`): a load at a rotor's corner (a weight in its wash, a
+payload under it) takes that rotor's thrust for its command as a damaged propeller does
+(crazypad_e9_load W3, results/decisive.md). The verdict then names the rotor and the load, and what
+tells them apart (inspect the propeller; fly once without the payload; ESC telemetry or vibration),
+unless a source that does not read the commands agrees (``TRIM_FREE_AGREE_LLR``), the share rose
+beyond what a load makes (``BEYOND_DRIFT_SHARE_RISE``) or the pattern began mid-flight (the model's
+onset on that motor: a load carried from take-off does not).
 
 Confidence (:data:`CONFIDENCE_MEANING`): the probability that the stated verdict is right, from
 the per-motor LLRs under ``PRIOR_DAMAGED`` (:func:`posterior`): healthy, P(no rotor lost thrust);
