@@ -492,6 +492,16 @@ def _airframe_changed(cmd: Optional[CommandSharesResult], thr: Optional[Throttle
     return text
 
 
+def _share_rise(cmd: CommandSharesResult, best: int, n: int) -> tuple[float, bool]:
+    """Motor ``best``'s (0-based) share rise over its baseline, and whether it is beyond what a load
+    makes (``BEYOND_DRIFT_SHARE_RISE``, clear of the flights' pinning noise by ``PIN_Z``)."""
+    share = cmd.finding("share", best + 1)
+    pin = cmd.pin
+    noise = float(pin[best]) if pin and len(pin) == n else 0.0
+    rise = share.value - share.baseline if share is not None and share.baseline is not None else 0.0
+    return rise, rise - PIN_Z * noise > BEYOND_DRIFT_SHARE_RISE
+
+
 def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: int) -> Optional[str]:
     """Why the trim sources alone may not call motor ``best`` (0-based) damaged, or None when
     they may: no profile baseline, a source that does not read the trim agrees, or the share rose
@@ -499,13 +509,8 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
     if cmd is None or cmd.abstained or cmd.baseline != "profile":
         return None
     free = float(sum(v[best] for s, v in sources.items() if s not in TRIM_SOURCES))
-    if free >= TRIM_FREE_AGREE_LLR:
-        return None
-    share = cmd.finding("share", best + 1)
-    pin = cmd.pin
-    noise = float(pin[best]) if pin and len(pin) == n else 0.0
-    rise = share.value - share.baseline if share is not None and share.baseline is not None else 0.0
-    if rise - PIN_Z * noise > BEYOND_DRIFT_SHARE_RISE:
+    rise, beyond = _share_rise(cmd, best, n)
+    if free >= TRIM_FREE_AGREE_LLR or beyond:
         return None
     return (f"the sources that do not read the trim give {free:+.1f} nats, agreement needs "
             f"{TRIM_FREE_AGREE_LLR:.0f}; a rise of {rise:+.2f} share is within what a moved load makes")
@@ -522,13 +527,8 @@ def _pattern_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, 
     if cmd is None or cmd.abstained or cmd.analyzer not in sources:
         return None
     free = float(sum(v[best] for s, v in sources.items() if s not in PATTERN_SOURCES))
-    if free >= TRIM_FREE_AGREE_LLR:
-        return None
-    share = cmd.finding("share", best + 1)
-    pin = cmd.pin
-    noise = float(pin[best]) if pin and len(pin) == n else 0.0
-    rise = share.value - share.baseline if share is not None and share.baseline is not None else 0.0
-    if rise - PIN_Z * noise > BEYOND_DRIFT_SHARE_RISE:
+    rise, beyond = _share_rise(cmd, best, n)
+    if free >= TRIM_FREE_AGREE_LLR or beyond:
         return None
     others = [s for s in sources if s not in PATTERN_SOURCES]
     said = (f"the sources that do not read the commands ({', '.join(others)}) give {free:+.1f} nats, agreement "
