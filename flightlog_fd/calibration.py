@@ -407,13 +407,21 @@ def check_sessions(flights: Sequence[Flight], groups: Sequence[Sequence[int]]) -
 def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, against: str,
                        outcome: str = "not calibrated on") -> list:
     """ProfileError when one of ``flights`` is diagnosed damaged or stopped against ``profile``
-    with ``model``; else their verdicts (a moved load is healthy, ``cause`` = ``load``)."""
+    with ``model``, or uncertain only because the command pattern alone points at a rotor (it, or a
+    load at its corner: ``Decision.pattern_held``; calibrating on it would take a damaged rotor for
+    the airframe's trim); else their verdicts (a moved load is healthy, ``cause`` = ``load``)."""
     from .diagnose import diagnose_flight
 
     verdicts = []
     for fl in flights:
-        v = diagnose_flight(fl, model, profile, keep_flight=False).verdict
+        d = diagnose_flight(fl, model, profile, keep_flight=False)
+        v = d.verdict
         verdicts.append(v)
+        held = d.decision.pattern_held if d.decision is not None and v.status == "uncertain" else None
+        if held is not None:
+            raise ProfileError(fl.path, f"looks damaged against {against}: motor {held} lost thrust, or a load sits at "
+                                        f"its corner (confidence {v.confidence:.2f}); {outcome}: inspect propeller "
+                                        f"{held}; if it is sound, calibrate on a flight without the payload")
         if v.status in ("damaged", "stopped"):
             what = (f"motor {v.motor} " + ("stopped" if v.status == "stopped" else "lost thrust")) if v.motor else "damaged"
             raise ProfileError(fl.path, f"looks damaged against {against}: {what} (confidence {v.confidence:.2f}); "

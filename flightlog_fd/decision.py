@@ -440,6 +440,9 @@ class Decision:
     sources: list[str] = field(default_factory=list)  # the analyzers that weighed in
     results: list[AnalyzerResult] = field(default_factory=list)
     weights: dict = field(default_factory=dict)  # analyzer id -> SourceWeight (how much it could give)
+    #: The motor (1-based) the sources would call damaged but only the command-pattern sources point
+    #: at (:func:`_pattern_held`: it or a load at its corner; the verdict is uncertain), else None
+    pattern_held: Optional[int] = None
 
 
 @dataclass(frozen=True)
@@ -1034,6 +1037,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                       f"(log-likelihood ratio, nats): {parts}", (kb,), cause)
     if pattern_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
         # only the sources that read the command pattern point at it: a rotor's loss or a load at its corner
+        decision.pattern_held = kb
         sev = severity_words(kb)
         return done("uncertain", None, w[kb],
                     f"{_words(frame, kb)} lost thrust" + (f" (it {sev})" if sev else "")
