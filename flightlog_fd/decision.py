@@ -28,9 +28,19 @@ drift is named for inspection first.
 
 Against a profile, the command shares and the throttle (``TRIM_SOURCES``: a moved load changes
 them as a weak rotor does) reach at most ``uncertain`` unless a source that does not read the
-trim agrees (``TRIM_FREE_AGREE_LLR``) or the rise is beyond any moved load
+trim (here the model counts) agrees (``TRIM_FREE_AGREE_LLR``) or the rise is beyond any moved load
 (``BEYOND_DRIFT_SHARE_RISE``), and never ``damaged`` with the throttle well below calibration
 (``THROTTLE_FELL_SIGMAS``); the reason then says what to inspect and when to re-calibrate.
+
+With or without a profile, the sources that read the command pattern (``PATTERN_SOURCES``: the
+commands, the throttle and the model, whose windows read the same commands) reach at most
+``uncertain`` together (:func:`_pattern_held`): a load at a rotor's corner (a weight in its wash, a
+payload under it) takes that rotor's thrust for its command as a damaged propeller does
+(crazypad_e9_load W3, results/decisive.md). The verdict then names the rotor and the load, and what
+tells them apart (inspect the propeller; fly once without the payload; ESC telemetry or vibration),
+unless a source that does not read the commands agrees (``TRIM_FREE_AGREE_LLR``), the share rose
+beyond what a load makes (``BEYOND_DRIFT_SHARE_RISE``) or the pattern began mid-flight (the model's
+onset on that motor: a load carried from take-off does not).
 
 Confidence (:data:`CONFIDENCE_MEANING`): the probability that the stated verdict is right, from
 the per-motor LLRs under ``PRIOR_DAMAGED`` (:func:`posterior`): healthy, P(no rotor lost thrust);
@@ -430,6 +440,9 @@ class Decision:
     sources: list[str] = field(default_factory=list)  # the analyzers that weighed in
     results: list[AnalyzerResult] = field(default_factory=list)
     weights: dict = field(default_factory=dict)  # analyzer id -> SourceWeight (how much it could give)
+    #: The motor (1-based) the sources would call damaged but only the command-pattern sources point
+    #: at (:func:`_pattern_held`: it or a load at its corner; the verdict is uncertain), else None
+    pattern_held: Optional[int] = None
 
 
 @dataclass(frozen=True)
@@ -482,6 +495,16 @@ def _airframe_changed(cmd: Optional[CommandSharesResult], thr: Optional[Throttle
     return text
 
 
+def _share_rise(cmd: CommandSharesResult, best: int, n: int) -> tuple[float, bool]:
+    """Motor ``best``'s (0-based) share rise over its baseline, and whether it is beyond what a load
+    makes (``BEYOND_DRIFT_SHARE_RISE``, clear of the flights' pinning noise by ``PIN_Z``)."""
+    share = cmd.finding("share", best + 1)
+    pin = cmd.pin
+    noise = float(pin[best]) if pin and len(pin) == n else 0.0
+    rise = share.value - share.baseline if share is not None and share.baseline is not None else 0.0
+    return rise, rise - PIN_Z * noise > BEYOND_DRIFT_SHARE_RISE
+
+
 def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: int) -> Optional[str]:
     """Why the trim sources alone may not call motor ``best`` (0-based) damaged, or None when
     they may: no profile baseline, a source that does not read the trim agrees, or the share rose
@@ -489,16 +512,32 @@ def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: 
     if cmd is None or cmd.abstained or cmd.baseline != "profile":
         return None
     free = float(sum(v[best] for s, v in sources.items() if s not in TRIM_SOURCES))
-    if free >= TRIM_FREE_AGREE_LLR:
-        return None
-    share = cmd.finding("share", best + 1)
-    pin = cmd.pin
-    noise = float(pin[best]) if pin and len(pin) == n else 0.0
-    rise = share.value - share.baseline if share is not None and share.baseline is not None else 0.0
-    if rise - PIN_Z * noise > BEYOND_DRIFT_SHARE_RISE:
+    rise, beyond = _share_rise(cmd, best, n)
+    if free >= TRIM_FREE_AGREE_LLR or beyond:
         return None
     return (f"the sources that do not read the trim give {free:+.1f} nats, agreement needs "
             f"{TRIM_FREE_AGREE_LLR:.0f}; a rise of {rise:+.2f} share is within what a moved load makes")
+
+
+def _pattern_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: int) -> Optional[str]:
+    """Why the sources that read the command pattern (``PATTERN_SOURCES``) may not call motor
+    ``best`` (0-based) damaged alone, with or without a profile, or None when they may: no command
+    shares, a source that does not read the commands agrees (``TRIM_FREE_AGREE_LLR``), or the share
+    rose beyond what a load makes (``BEYOND_DRIFT_SHARE_RISE``). A load at a rotor's corner (a weight
+    in its wash, a payload under it) takes thrust from that rotor for its command as a damaged
+    propeller does: the commands, the throttle and the model (whose windows read the same
+    commands) cannot tell the two (results/decisive.md: crazypad_e9_load W3)."""
+    if cmd is None or cmd.abstained or cmd.analyzer not in sources:
+        return None
+    free = float(sum(v[best] for s, v in sources.items() if s not in PATTERN_SOURCES))
+    rise, beyond = _share_rise(cmd, best, n)
+    if free >= TRIM_FREE_AGREE_LLR or beyond:
+        return None
+    others = [s for s in sources if s not in PATTERN_SOURCES]
+    said = (f"the sources that do not read the commands ({', '.join(others)}) give {free:+.1f} nats, agreement "
+            f"needs {TRIM_FREE_AGREE_LLR:.0f}" if others else "the log has no source that does not read the commands "
+            "(no ESC telemetry, no vibration tied to a rotor, no effectiveness fit)")
+    return f"{said}; a rise of {rise:+.2f} share is within what a load makes"
 
 
 # ----------------------------------------------------------------------------- a load, not a rotor
@@ -883,6 +922,10 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                         sources=list(sources), results=list(results), weights=weights)
     onset = timeline.onset
     first_seen = onset.first_seen if onset is not None else timeline.t_first
+    # a load carried from take-off makes its pattern from the first window: a change after a healthy
+    # stretch (the model's onset, on the leading motor) is not one
+    pattern_held = (None if load is not None or (onset is not None and onset.motor == kb)
+                    else _pattern_held(cmd, sources, best, n))
 
     def severity_words(k: int) -> str:
         m = motors[k - 1]
@@ -962,7 +1005,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     throttle_fell = thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma
     # every bar of the single-rotor "damaged" below met
     single_damaged = (decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported
-                      and not throttle_fell and trim_held is None)
+                      and not throttle_fell and trim_held is None and pattern_held is None)
 
     # the pair-hypothesis step: two rotors that explain the evidence where no single one does; a
     # pair that misses a bar of "damaged" does not replace a single rotor that meets all of them
@@ -992,6 +1035,16 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
                     + f": {inspect_kb}; if nothing is found, the load moved (battery, payload, centre of mass): "
                       f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
                       f"(log-likelihood ratio, nats): {parts}", (kb,), cause)
+    if pattern_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
+        # only the sources that read the command pattern point at it: a rotor's loss or a load at its corner
+        decision.pattern_held = kb
+        sev = severity_words(kb)
+        return done("uncertain", None, w[kb],
+                    f"{_words(frame, kb)} lost thrust" + (f" (it {sev})" if sev else "")
+                    + f", or a load sits at its corner (a weight in its propeller's wash, a payload under it): "
+                      f"only the sources that read the command pattern point at it, and a load there moves them as a "
+                      f"damaged propeller does ({pattern_held}); {inspect_kb}; if it is sound, fly once without the "
+                      f"payload, or log ESC telemetry or vibration, to tell; {evidence_words(kb)}", (kb,), cause)
     if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
         return done("uncertain", None, w[kb],
                     f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "

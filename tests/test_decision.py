@@ -93,9 +93,10 @@ def test_pooled_drift_sigma():
 BASE = np.array([0.95, 1.08, 0.92, 1.05])
 
 
-def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None):
+def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None, agree=None):
     """The decision from synthetic window probabilities and command shares, through the registered
-    analyzers (the flight's throttle is ``ratio`` times the profile's)."""
+    analyzers (the flight's throttle is ``ratio`` times the profile's); ``agree`` = (motor, nats): a
+    source that does not read the command pattern (an effectiveness-like result) for that motor."""
     shares = np.asarray(shares, float)
     b = None if base is None else base / base.mean()
     motors = [MotorShares(k + 1, Frame.quad_x().position(k + 1), float(shares[k]),
@@ -109,14 +110,19 @@ def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None)
         tl.run = DamageRun(motor=1, start_index=10, n_windows=len(probs) - 10, t_start=first_seen - 1.0,
                            covered_s=50.0, share=1.0, agreement=1.0, log_likelihood_ratio=10.0,
                            first_seen=first_seen, confirmed=True)
-    v, d = D.decide(4, Frame.quad_x(), timeline=tl, results=run_analyzers(ctx))
+    results = run_analyzers(ctx)
+    if agree is not None:
+        results.append(AnalyzerResult("effectiveness", [Finding("effectiveness", k + 1, "f", 0.0,
+                                                                llr=agree[1] if k + 1 == agree[0] else -1.0)
+                                                        for k in range(4)]))
+    v, d = D.decide(4, Frame.quad_x(), timeline=tl, results=results)
     return SimpleNamespace(**{**vars(v), "motors": d.motors, "named": v.motors}, pairs=d.pairs,
                            airframe_changed=d.airframe_changed, results=d.results)
 
 
 def test_branch_damaged_names_the_motor_its_severity_and_inspection():
     s, thr = damaged_shares(BASE, 3, 0.75, m=0.5)
-    d = decide(window_probs(3, 0.7), s, ratio=thr, first_seen=12.0)
+    d = decide(window_probs(3, 0.7), s, ratio=thr, first_seen=12.0, agree=(3, 3.5))
     assert d.status == "damaged" and d.motor == 3
     assert "motor 3 (front-left) lost thrust from t=12.0 s" in d.reason
     assert "about 75 % of its normal thrust" in d.reason and "inspect propeller 3" in d.reason
@@ -148,7 +154,7 @@ def test_branch_airframe_changed_only_when_no_rotor_explains_it():
     assert "no rotor explains the change" in d.reason
     # a throttle rise alone with one rotor's pattern is what a weak rotor does: not an airframe change
     s, thr = damaged_shares(BASE, 4, 0.7)
-    d = decide(window_probs(4, 0.7), s, ratio=thr)
+    d = decide(window_probs(4, 0.7), s, ratio=thr, agree=(4, 3.5))
     assert d.airframe_changed is None and d.status == "damaged" and d.motor == 4
     # the model's windows all confidently healthy outweigh the commands (each source is capped)
     assert decide(window_probs(0, 0.95), s, ratio=thr).status != "damaged"
@@ -167,7 +173,7 @@ def test_moved_load_is_healthy_with_cause_load_and_a_weak_rotor_is_not_a_load():
     d = decide(window_probs(0, 0.9), forward / forward.mean(), ratio=1.0)
     assert d.status == "healthy" and d.cause == "load" and d.load["side"] == "front"
     s, thr = damaged_shares(BASE, 1, 0.7)
-    d = decide(window_probs(1, 0.7), s, ratio=thr)
+    d = decide(window_probs(1, 0.7), s, ratio=thr, agree=(1, 3.5))
     assert d.status == "damaged" and d.motor == 1 and d.cause != "load" and d.load is None
     cmd = next(r for r in d.results if r.analyzer == "commands")
     assert cmd.rotor_vs_load[0] > D.LOAD_SEPARATION_LLR  # its yaw part: a rotor, not a load
@@ -183,7 +189,7 @@ def test_without_a_profile_a_trim_is_not_damage_but_a_large_one_motor_loss_is():
     d = decide(window_probs(1, 0.4), trim, base=None, kind="neighbours")
     assert d.status == "healthy", d.reason
     s, _ = damaged_shares(np.ones(4), 2, 0.65)
-    d = decide(window_probs(2, 0.7), s, base=None, kind="neighbours")
+    d = decide(window_probs(2, 0.7), s, base=None, kind="neighbours", agree=(2, 3.5))
     assert d.status == "damaged" and d.motor == 2
 
 
@@ -295,8 +301,12 @@ def test_commands_alone_against_a_profile_reach_at_most_uncertain_with_advice():
     assert "inspect propeller 4" in d.reason and "the load moved" in d.reason and "re-calibrate" in d.reason
     assert "the profile holds one calibration session" in d.reason and "fdlog calibrate --add" in d.reason
     assert d.confidence < 0.9  # the moved-load explanation keeps the stated probability modest
-    # the same pattern with the model's windows agreeing is damage
-    assert decide(window_probs(4, 0.7), s, ratio=thr).status == "damaged"
+    # the same pattern with the model's windows agreeing is still the command pattern alone (the
+    # model reads the same commands): uncertain, a rotor or a load at its corner; a source that does
+    # not read the commands agreeing makes it damage
+    d = decide(window_probs(4, 0.7), s, ratio=thr)
+    assert d.status == "uncertain" and d.motor == 4 and "or a load sits at its corner" in d.reason, d.reason
+    assert decide(window_probs(4, 0.7), s, ratio=thr, agree=(4, 3.5)).status == "damaged"
     # beyond any moved load (a rise far past BEYOND_DRIFT_SHARE_RISE), the commands may call it alone
     s2, thr2 = damaged_shares(BASE, 4, 0.40)
     assert s2[3] - BASE[3] / BASE.mean() > D.BEYOND_DRIFT_SHARE_RISE
@@ -336,7 +346,30 @@ def test_no_damage_against_a_profile_when_the_throttle_fell_below_its_drift():
     """A weak rotor makes the throttle rise with the same load; well below calibration the load or
     set-up changed, so the profile does not describe the flight: uncertain, re-calibrate."""
     s, thr = damaged_shares(BASE, 3, 0.7)
-    assert decide(window_probs(3, 0.8), s, ratio=thr).status == "damaged"
-    d = decide(window_probs(3, 0.8), s, ratio=0.75)
+    assert decide(window_probs(3, 0.8), s, ratio=thr, agree=(3, 3.5)).status == "damaged"
+    d = decide(window_probs(3, 0.8), s, ratio=0.75, agree=(3, 3.5))
     assert d.status == "uncertain" and "lower than at calibration" in d.reason, d.reason
     assert "inspect propeller 3" in d.reason and "re-calibrate" in d.reason
+
+
+def test_the_command_pattern_alone_names_the_rotor_or_a_load_at_its_corner():
+    """A weight in rotor 2's wash takes its thrust as a damaged propeller does (crazypad_e9_load W3):
+    with only the commands, the throttle and the model (whose windows read the same commands)
+    pointing at motor 2, with or without a profile, the verdict is uncertain naming motor 2 and the
+    load, and what tells them apart; a source that does not read the commands agreeing (from
+    TRIM_FREE_AGREE_LLR), a rise beyond any load, or a mid-flight onset keeps it damaged."""
+    for base, kind in ((BASE, "profile"), (None, "neighbours")):
+        s, thr = damaged_shares(np.ones(4) if base is None else base, 2, 0.65)
+        d = decide(window_probs(2, 0.8), s, base=base, kind=kind, ratio=thr)
+        assert (d.status, d.motor, d.inspect) == ("uncertain", 2, (2,)), d.reason
+        assert "or a load sits at its corner" in d.reason and "inspect propeller 2" in d.reason
+        assert "fly once without the payload" in d.reason and "ESC telemetry" in d.reason
+        assert 0.5 <= d.confidence <= D.UNCERTAIN_CONFIDENCE_CAP
+        just = decide(window_probs(2, 0.8), s, base=base, kind=kind, ratio=thr, agree=(2, D.TRIM_FREE_AGREE_LLR))
+        assert (just.status, just.motor) == ("damaged", 2), just.reason
+        short = decide(window_probs(2, 0.8), s, base=base, kind=kind, ratio=thr,
+                       agree=(2, D.TRIM_FREE_AGREE_LLR - 0.5))
+        assert short.status == "uncertain", short.reason
+    s, thr = damaged_shares(BASE, 2, 0.40)  # a rise beyond any load
+    assert s[1] - BASE[1] / BASE.mean() > D.BEYOND_DRIFT_SHARE_RISE
+    assert decide(window_probs(2, 0.8), s, ratio=thr).status == "damaged"

@@ -75,13 +75,16 @@ def test_csv_and_store_carry_the_load(moved, tmp_path):
 
 def test_weak_motor_is_not_a_load():
     """px4_sih_dev sih_051: motor 1 at 70 % thrust from take-off, no profile: its yaw part makes it
-    a rotor, well beyond what a load explains."""
+    a rotor, well beyond what a moved load explains; but only the command-pattern sources speak
+    (no ESC, no vibration tie, no effectiveness), and a load at rotor 1's corner (a weight in its
+    wash) would make the same pattern: uncertain, naming motor 1 and that load."""
     from flightlog_fd.decision import LOAD_SEPARATION_LLR
     from flightlog_fd.diagnose import diagnose_path, resolve_model
 
     d = diagnose_path(shared_path("px4_sih_dev", "logs", "sih_051.ulg"), resolve_model())
     cmd = next(r for r in d.decision.results if r.analyzer == "commands")
-    assert (d.verdict.status, d.verdict.motor) == ("damaged", 1) and d.verdict.cause != "load"
+    assert (d.verdict.status, d.verdict.motor) == ("uncertain", 1) and d.verdict.cause != "load"
+    assert "or a load sits at its corner" in d.verdict.reason and "inspect propeller 1" in d.verdict.reason
     assert d.verdict.load is None and cmd.rotor_vs_load[0] > LOAD_SEPARATION_LLR
 
 
@@ -116,3 +119,18 @@ def test_calibrate_add_takes_a_loaded_healthy_flight_and_says_so(moved, tmp_path
     assert "added load configuration 'load toward motor 1" in res.output
     d = json.loads(p.read_text())
     assert len(d["sessions_"]) == 1 and len(d["configurations_"]) == 1
+
+
+def test_a_weight_in_a_rotors_wash_is_not_called_a_damaged_propeller():
+    """crazypad_e9_load W3: a heavier weight taped near PX4 motor 2, sound propellers. Its command
+    pattern is a rotor-2 loss (the weight sits in its wash) and the 100 Hz log has no ESC telemetry,
+    no usable vibration and no effectiveness fit: only the sources that read the commands speak.
+    Uncertain, naming motor 2 and the load at its corner and what tells them apart; exit 1."""
+    res = runner.invoke(app, ["diagnose", "--json", str(shared_path("crazypad_e9_load", "ulog",
+                                                                      "add_weight_W3_near_M3__E9_log01.ulg"))])
+    assert res.exit_code == 1, res.output
+    v = json.loads(res.stdout)["verdict"]
+    assert (v["status"], v["motor"], v["motors"]) == ("uncertain", 2, [2]), v["reason"]
+    assert "or a load sits at its corner" in v["reason"] and "fly once without the payload" in v["reason"]
+    assert "the log has no source that does not read the commands" in v["reason"]
+    assert 0.5 <= v["confidence"] <= 0.8

@@ -96,7 +96,9 @@ def test_real_full_rate_flights_without_a_profile(shared):
             assert d.verdict.status == "healthy", d.verdict.reason
         else:
             assert int(np.argmax(llr)) + 1 == motor and llr[motor - 1] >= D.UNCERTAIN_LLR, (name, llr)
-            assert d.verdict.status == "damaged" and d.verdict.motor == motor, d.verdict.reason
+            # the model and the commands alone: the rotor, or a load at its corner (no ESC, no vibration tie)
+            assert (d.verdict.status, d.verdict.motor) == ("uncertain", motor), d.verdict.reason
+            assert "or a load sits at its corner" in d.verdict.reason
 
 
 

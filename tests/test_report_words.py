@@ -61,7 +61,7 @@ def test_every_cause_a_verdict_can_state_has_its_words():
 def test_legends_without_a_known_cause_do_not_say_propeller(model):
     """No ESC telemetry: the windows see rotor 1 lose thrust, not which part lost it."""
     d = diagnose_path(SAMPLES / "px4_motor1_damaged.ulg", model)
-    assert d.verdict.status == "damaged" and d.verdict.cause is None
+    assert (d.verdict.status, d.verdict.motor) == ("uncertain", 1) and d.verdict.cause is None
     assert _legend(_terminal(d)).split("1-4 ")[1].startswith(UNKNOWN)
     page = render_html(d)
     assert f"red {UNKNOWN}," in page and f"red {PROPELLER}" not in page

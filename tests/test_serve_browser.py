@@ -74,13 +74,14 @@ def test_browser_uploads_a_log_sees_its_verdict_and_zooms_the_flight_plot(tmp_pa
         WebDriverWait(driver, 120).until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "a.flight-link")) == 2)
         status = {a.find_element(By.XPATH, "..").text.split(":")[0]: a.get_attribute("data-status")
                   for a in driver.find_elements(By.CSS_SELECTOR, "a.flight-link")}
-        assert status == {"px4_motor1_damaged.ulg": "damaged", "ardupilot_healthy.bin": "healthy"}
+        # px4_motor1_damaged: uncertain naming rotor 1 (the command pattern alone)
+        assert status == {"px4_motor1_damaged.ulg": "uncertain", "ardupilot_healthy.bin": "healthy"}
         assert "motor 1" in driver.find_element(By.ID, "progress").text
         link = next(a for a in driver.find_elements(By.CSS_SELECTOR, "a.flight-link")
-                    if a.get_attribute("data-status") == "damaged")
+                    if a.get_attribute("data-status") == "uncertain")
         link.click()
         verdict = WebDriverWait(driver, 20).until(EC.presence_of_element_located((By.ID, "verdict")))
-        assert verdict.get_attribute("data-status") == "damaged"
+        assert verdict.get_attribute("data-status") == "uncertain"
         WebDriverWait(driver, 30).until(
             lambda d: d.execute_script("var p = document.getElementById('flightplot'); return !!(p && p._fullLayout);"))
         before = x_range(driver)
