@@ -20,7 +20,9 @@ from .report.words import cause_words
 from .store import TREND_FIGURES, UNKNOWN_VEHICLE
 
 def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
-    """JSON-ready: per vehicle its flights, drifts and whether its latest flight is damaged.
+    """JSON-ready: per vehicle its flights, drifts and whether its latest flight is damaged, or
+    uncertain naming propellers to inspect (``latest_inspect``: exit 1 as ``fdlog diagnose`` gives it;
+    a flight only the command pattern points at is uncertain, a rotor or a load at its corner).
 
     ``unknown`` (logs with no identity, no profile) is not one airframe: no drift there, and any
     damaged flight in it counts as a latest flight."""
@@ -42,18 +44,30 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
             "drift": [{"motor": d.motor, "figure": d.figure, "slope_z_per_flight": d.slope,
                        "latest_z": d.latest_z, "n_flights": d.n_flights, "text": d.describe()} for d in drifts],
             "latest_damaged": bool(latest and latest.status == "damaged"),
+            "latest_inspect": bool(latest and latest.status == "uncertain" and (latest.motor or latest.verdict_motors)),
             "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor,
                                                    "motors": _damaged_motors(latest), "cause": latest.cause},
         })
-    flagged = any(v["drift"] or v["latest_damaged"] for v in vehicles)
+    flagged = any(v["drift"] or v["latest_damaged"] or v["latest_inspect"] for v in vehicles)
     return {"schema": 1, "rule": {"min_flights": MIN_FLIGHTS, "drift_slope_min": DRIFT_SLOPE_MIN,
                                   "drift_z_min": DRIFT_Z_MIN, "floors": FIGURE_FLOORS},
             "vehicles": vehicles, "flagged": flagged}
 
 
 def _damaged_motors(f: FlightRecord) -> list[int]:
-    """The motors a flight's verdict calls damaged: both of a pair, else its motor."""
-    return list(f.verdict_motors) if f.pair and len(f.verdict_motors) > 1 else ([f.motor] if f.motor else [])
+    """The motors a flight's verdict names: both of a pair (or every propeller an uncertain verdict
+    names), else its motor."""
+    several = (f.pair or f.status == "uncertain") and len(f.verdict_motors) > 1
+    return list(f.verdict_motors) if several else ([f.motor] if f.motor else list(f.verdict_motors))
+
+
+def _inspect_words(latest: dict) -> str:
+    """"uncertain: inspect propeller 2" / "uncertain: inspect propellers 1 and 2" for the
+    latest-flight flag of an uncertain verdict."""
+    motors = latest.get("motors") or ([latest["motor"]] if latest.get("motor") else [])
+    named = (f"propellers {', '.join(map(str, motors[:-1]))} and {motors[-1]}" if len(motors) > 1
+             else f"propeller {motors[0]}" if motors else "the propellers")
+    return f"uncertain: inspect {named}"
 
 
 def _latest_words(latest: dict) -> str:
@@ -138,6 +152,9 @@ def render_html(summary: dict) -> str:
         if v["latest_damaged"]:
             f = v["latest"]
             out.append(f"<p class='flag'>latest flight: {e(_latest_words(f))} ({e(f['log'])})</p>")
+        elif v.get("latest_inspect"):
+            f = v["latest"]
+            out.append(f"<p class='flag'>latest flight: {e(_inspect_words(f))} ({e(f['log'])})</p>")
         out.append("<table><tr><th>#</th><th>start (UTC)</th><th>log</th><th>verdict</th><th>confidence</th>"
                    + "".join(f"<th>{html.escape(summary_header(k))}</th>" for k in _motor_numbers(v["flights"])) + "</tr>")
         for i, f in enumerate(v["flights"], 1):
@@ -198,6 +215,9 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
         if v["latest_damaged"]:
             f = v["latest"]
             yield f"  FLAG: latest flight has {_latest_words(f)} ({Path(f['log']).name})"
+        elif v.get("latest_inspect"):
+            f = v["latest"]
+            yield f"  FLAG: latest flight {_inspect_words(f)} ({Path(f['log']).name})"
         yield ""
 
 
