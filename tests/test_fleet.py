@@ -190,10 +190,11 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
         assert c.execute("SELECT COUNT(*) FROM motor_figure").fetchone()[0] == 12
 
     res = runner.invoke(app, ["history", "--db", str(db)])
-    # sim-12-0's latest (only) flight is uncertain (the command pattern alone: rotor 1 or a load at its
-    # corner), which history lists but does not flag: it flags a damaged latest flight or a drift
-    assert res.exit_code == 0, res.output
+    # sim-12-0's latest (only) flight is uncertain naming motor 1 (the command pattern alone: rotor 1 or
+    # a load at its corner): history flags it as diagnose's exit 1 does, asking to inspect propeller 1
+    assert res.exit_code == 1, res.output
     assert "sim-12-0" in res.stdout and "uncertain m1" in res.stdout
+    assert "FLAG: latest flight uncertain: inspect propeller 1 (px4_motor1_damaged.ulg)" in res.stdout
     res = runner.invoke(app, ["history", "--db", str(db), "--vehicle", "sim-11-0", "--json"])
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)
