@@ -64,6 +64,12 @@ class FakeProfile:
 
         return Baseline(share=np.ones(4), slope=np.zeros(4), throttle_ref=0.5, source="test")
 
+    def baselines(self):
+        """One configuration, as calibrated (``Profile.baselines``)."""
+        from flightlog_fd.profile import AS_CALIBRATED
+
+        return [(AS_CALIBRATED, None, self.baseline(), {})]
+
 
 def synthetic_flight(damaged_motor=None, onset_s=None, airborne=(2.0, 62.0), path="synthetic.ulg",
                      harder: float = 1.12) -> Flight:
