@@ -98,7 +98,7 @@ same commands the command analyzer weighs, which is why each source is capped).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -852,6 +852,77 @@ def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[T
     return verdict, decision
 
 
+@dataclass
+class DecisionInputs:
+    """What one flight's verdict is decided from, all of it (:func:`decide_flight`).
+
+    ``n_motors``: the rotors judged; ``timeline``: the model's windows (None when none were judged);
+    ``results``: the analyzers' (only those needing no motor outputs for a log judged from vibration
+    alone); ``stopped``: :class:`~flightlog_fd.stopped.StoppedMotor` s, earliest first;
+    ``not_diagnosable_reason``: why the pipeline could not judge the flight; ``kind``: the kind of
+    log the sources are weighed for; ``configuration_words``: the profile's load configuration the
+    commands were weighed against (a profile of two or more), named in the reason; ``log``: for one
+    flight of a log holding several, the whole log's verdict and decision, which the flight's
+    verdict is never worse than (:func:`capped_by_log`)."""
+
+    n_motors: int
+    frame: Optional[Frame] = None
+    timeline: Optional[Timeline] = None
+    results: Sequence[AnalyzerResult] = ()
+    stopped: Sequence = ()
+    not_diagnosable_reason: Optional[str] = None
+    kind: Optional[LogKind] = None
+    configuration_words: Optional[str] = None
+    log: Optional[tuple[Verdict, Optional[Decision]]] = None
+
+
+def decide_flight(inputs: DecisionInputs) -> tuple[Verdict, Optional[Decision]]:
+    """The one entry point of the diagnose pipeline for a flight's verdict: :func:`decide`, the
+    profile's load configuration named in the reason, and for one flight of several the cap by its
+    whole log (:func:`capped_by_log`). Returns the verdict and, when the evidence was weighed, its
+    :class:`Decision`."""
+    verdict, decision = decide(inputs.n_motors, inputs.frame, timeline=inputs.timeline, results=inputs.results,
+                               stopped=inputs.stopped, not_diagnosable_reason=inputs.not_diagnosable_reason,
+                               kind=inputs.kind)
+    if inputs.configuration_words and verdict.reason:
+        verdict.reason = f"{verdict.reason} ({inputs.configuration_words})"
+    if inputs.log is not None:
+        verdict = capped_by_log(verdict, *inputs.log)
+    return verdict, decision
+
+
+def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> Verdict:
+    """A flight's own verdict, no worse than its whole log's: the decision's thresholds were set on
+    whole logs, and a log of n flights gives n tries at a false alarm. A flight worse than the log
+    takes the log's status (a damaged flight naming another motor than the log's damaged one is
+    uncertain); its reason keeps what it said alone and the log's figure for that motor."""
+    rank = STATUS_RANK
+    if own.status in ("not_diagnosable", "stopped") or rank.get(own.status, 0) < rank.get(log.status, 0):
+        return own
+    same = sorted(own.motors) == sorted(log.motors)
+    if rank.get(own.status, 0) == rank.get(log.status, 0) and (own.motor is None or same
+                                                              or own.status != "damaged"):
+        return own
+    if own.status == "damaged" and log.status == "damaged" and same:
+        return own
+    status = log.status if rank.get(log.status, 0) < rank.get(own.status, 0) else "uncertain"
+    if status == "not_diagnosable":
+        status = "healthy"
+    said = own.status_words()
+    whole = ""
+    if own.motor and decision is not None and len(decision.motors) >= own.motor:
+        whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"
+    inspect = (own.inspect or ((own.motor,) if own.motor else ())) if status != "healthy" else ()
+    motor = named_motor(status, None, inspect)
+    return Verdict(status=status, motor=motor, position=own.position if motor is not None and motor == own.motor
+                   else None, confidence=log.confidence if status == log.status
+                   else min(own.confidence, UNCERTAIN_CONFIDENCE_CAP), first_seen=None, inspect=inspect,
+                   seen=log.seen if status == log.status else None,
+                   reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
+                          f"confirm it ({log.status}{whole}), so this flight is {status}")
+
+
+
 def uncertain_bar(kind: Optional[LogKind]) -> float:
     """The total LLR from which a flight of this kind is "uncertain": ``FULL_RATE_UNCERTAIN_LLR``
     for a quad at full rate without a profile, else ``UNCERTAIN_LLR`` (also when the kind of log
@@ -1257,6 +1328,16 @@ def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason
 def worst_flight(verdicts: Sequence[Verdict]) -> int:
     """Index of the worst of several flights' verdicts (``STATUS_RANK``, then confidence)."""
     return max(range(len(verdicts)), key=lambda i: (STATUS_RANK.get(verdicts[i].status, 0), verdicts[i].confidence))
+
+
+def decide_log(parts: Sequence[tuple[str, Verdict]], whole: Optional[Verdict] = None) -> Verdict:
+    """The verdict of a log holding several flights, from its flights' (``parts``: label, verdict).
+    ``whole``: the log judged as one (a log with motor outputs), which stays its verdict, the reason
+    listing each flight's status; without it (flights judged each on its own) the worst flight's
+    (:func:`log_verdict`)."""
+    if whole is None:
+        return log_verdict(parts)
+    return replace(whole, reason=whole.reason + "; " + "; ".join(f"{lab}: {v.status_words()}" for lab, v in parts))
 
 
 def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
