@@ -1,6 +1,16 @@
 """The flight's verdict, made here alone: from the timeline, the analyzers' results, the stopped
 motors and the reasons a flight cannot be judged (:func:`decide`).
 
+One pass down: the diagnose pipeline calls :func:`decide_flight` once per flight with its
+:class:`DecisionInputs` (which also name the profile configuration the commands were weighed
+against and, for one flight of a log holding several, the whole log's verdict it is never worse
+than, :func:`capped_by_log`), and :func:`decide_log` once for a log of several flights. The evidence
+is weighed in three parts (:func:`_weigh`): the table of hypotheses (:func:`_evidence` ->
+:class:`Evidence`: healthy, rotor k, rotors j and k, a load toward a direction), the ordered rules
+(:data:`RULES`, each a small named function returning a :class:`Statement` or None; the first that
+states wins; a new rule is one entry), and :func:`_done`, which states it (vibration's raise,
+``STATED_MIN_CONFIDENCE``, seen, notes, the load's words).
+
 Precedence: a motor that stopped in the air ("stopped", :mod:`flightlog_fd.stopped`) outranks
 everything; then a flight that cannot be judged (``not_diagnosable``: the pipeline's reason, or too
 little flight in the :class:`~flightlog_fd.timeline.Timeline`); then the evidence.

@@ -17,8 +17,11 @@ Steps (pure: nothing is printed, nothing imports torch):
    :mod:`flightlog_fd.analyzers.effectiveness_fit`) from
    the same resampled segments as the windows, and every registered analyzer's findings
    (:mod:`flightlog_fd.analyzers`).
-6. The verdict, from :func:`flightlog_fd.decision.decide` alone: stopped motors, the reason a
-   flight cannot be judged, the timeline and the analyzers' results.
+6. The verdict, from :func:`flightlog_fd.decision.decide_flight` alone, called once per flight
+   with its :class:`~flightlog_fd.decision.DecisionInputs` (stopped motors, the reason a flight
+   cannot be judged, the timeline, the analyzers' results, the profile configuration's words and,
+   for one flight of several, the whole log's verdict it is capped by); a log of several flights
+   gets its verdict from :func:`flightlog_fd.decision.decide_log`.
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
@@ -272,7 +275,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
 #: model +5.0, commands +2.3 nats against its first 30 s); only the whole log's onset, when it lies
 #: in that flight, splits its shares. A flight too short to judge alone (CrazyPAD's 8.6 s first hop:
 #: 7 windows) is reported as such and judged with the log. A flight is never worse than the whole
-#: log (:func:`capped_by_log`): uncapped, Erle 09-10-2014_31 flight 2 stays "damaged, motor 2" (model
+#: log (decision.capped_by_log): uncapped, Erle 09-10-2014_31 flight 2 stays "damaged, motor 2" (model
 #: +5.0, commands +1.0 nats on its 77 windows) and Erle 6-3-2014_6 flight 2 "uncertain" (commands
 #: +8.0) on real healthy logs whose whole verdicts are healthy (benchmarks/bench_several_flights.py).
 SEVERAL_FLIGHTS_NOTE = "each flight judged with the whole log as its context"
@@ -411,7 +414,8 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
     """Each flight of a log with motor outputs judged from the whole log's windows
     (``SEVERAL_FLIGHTS_NOTE``): its windows, its segments' command shares (split only at the whole
     log's onset when it lies in this flight), the analyzers on this flight; each flight's verdict no
-    worse than the whole log's (:func:`capped_by_log`). The log keeps the whole log's verdict, its
+    worse than the whole log's (:func:`flightlog_fd.decision.capped_by_log`, behind
+    ``decide_flight``). The log keeps the whole log's verdict, its
     reason listing the flights'."""
     t_start = np.asarray(win.t_start, dtype=np.float64)
     t_end = np.asarray(win.t_end, dtype=np.float64)
@@ -459,7 +463,7 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
 def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, log: str, facts_kw: dict,
                     keep_flight: bool) -> Diagnosis:
     """A flight the full diagnosis cannot take (no motor outputs, no damage model), judged by
-    :func:`decide` from the analyzers that need no motor outputs (vibration)."""
+    :func:`~flightlog_fd.decision.decide_flight` from the analyzers that need no motor outputs (vibration)."""
     if profile is not None:
         try:  # another airframe's baseline would judge nothing; softer mismatches are warnings
             facts_kw["warnings"].extend(profile.check_compatible(flight) or [])
