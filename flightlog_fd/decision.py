@@ -1,6 +1,16 @@
 """The flight's verdict, made here alone: from the timeline, the analyzers' results, the stopped
 motors and the reasons a flight cannot be judged (:func:`decide`).
 
+One pass down: the diagnose pipeline calls :func:`decide_flight` once per flight with its
+:class:`DecisionInputs` (which also name the profile configuration the commands were weighed
+against and, for one flight of a log holding several, the whole log's verdict it is never worse
+than, :func:`capped_by_log`), and :func:`decide_log` once for a log of several flights. The evidence
+is weighed in three parts (:func:`_weigh`): the table of hypotheses (:func:`_evidence` ->
+:class:`Evidence`: healthy, rotor k, rotors j and k, a load toward a direction), the ordered rules
+(:data:`RULES`, each a small named function returning a :class:`Statement` or None; the first that
+states wins; a new rule is one entry), and :func:`_done`, which states it (vibration's raise,
+``STATED_MIN_CONFIDENCE``, seen, notes, the load's words).
+
 Precedence: a motor that stopped in the air ("stopped", :mod:`flightlog_fd.stopped`) outranks
 everything; then a flight that cannot be judged (``not_diagnosable``: the pipeline's reason, or too
 little flight in the :class:`~flightlog_fd.timeline.Timeline`); then the evidence.
@@ -98,7 +108,7 @@ same commands the command analyzer weighs, which is why each source is capped).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -852,6 +862,77 @@ def decide(n_motors: int, frame: Optional[Frame] = None, *, timeline: Optional[T
     return verdict, decision
 
 
+@dataclass
+class DecisionInputs:
+    """What one flight's verdict is decided from, all of it (:func:`decide_flight`).
+
+    ``n_motors``: the rotors judged; ``timeline``: the model's windows (None when none were judged);
+    ``results``: the analyzers' (only those needing no motor outputs for a log judged from vibration
+    alone); ``stopped``: :class:`~flightlog_fd.stopped.StoppedMotor` s, earliest first;
+    ``not_diagnosable_reason``: why the pipeline could not judge the flight; ``kind``: the kind of
+    log the sources are weighed for; ``configuration_words``: the profile's load configuration the
+    commands were weighed against (a profile of two or more), named in the reason; ``log``: for one
+    flight of a log holding several, the whole log's verdict and decision, which the flight's
+    verdict is never worse than (:func:`capped_by_log`)."""
+
+    n_motors: int
+    frame: Optional[Frame] = None
+    timeline: Optional[Timeline] = None
+    results: Sequence[AnalyzerResult] = ()
+    stopped: Sequence = ()
+    not_diagnosable_reason: Optional[str] = None
+    kind: Optional[LogKind] = None
+    configuration_words: Optional[str] = None
+    log: Optional[tuple[Verdict, Optional[Decision]]] = None
+
+
+def decide_flight(inputs: DecisionInputs) -> tuple[Verdict, Optional[Decision]]:
+    """The one entry point of the diagnose pipeline for a flight's verdict: :func:`decide`, the
+    profile's load configuration named in the reason, and for one flight of several the cap by its
+    whole log (:func:`capped_by_log`). Returns the verdict and, when the evidence was weighed, its
+    :class:`Decision`."""
+    verdict, decision = decide(inputs.n_motors, inputs.frame, timeline=inputs.timeline, results=inputs.results,
+                               stopped=inputs.stopped, not_diagnosable_reason=inputs.not_diagnosable_reason,
+                               kind=inputs.kind)
+    if inputs.configuration_words and verdict.reason:
+        verdict.reason = f"{verdict.reason} ({inputs.configuration_words})"
+    if inputs.log is not None:
+        verdict = capped_by_log(verdict, *inputs.log)
+    return verdict, decision
+
+
+def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> Verdict:
+    """A flight's own verdict, no worse than its whole log's: the decision's thresholds were set on
+    whole logs, and a log of n flights gives n tries at a false alarm. A flight worse than the log
+    takes the log's status (a damaged flight naming another motor than the log's damaged one is
+    uncertain); its reason keeps what it said alone and the log's figure for that motor."""
+    rank = STATUS_RANK
+    if own.status in ("not_diagnosable", "stopped") or rank.get(own.status, 0) < rank.get(log.status, 0):
+        return own
+    same = sorted(own.motors) == sorted(log.motors)
+    if rank.get(own.status, 0) == rank.get(log.status, 0) and (own.motor is None or same
+                                                              or own.status != "damaged"):
+        return own
+    if own.status == "damaged" and log.status == "damaged" and same:
+        return own
+    status = log.status if rank.get(log.status, 0) < rank.get(own.status, 0) else "uncertain"
+    if status == "not_diagnosable":
+        status = "healthy"
+    said = own.status_words()
+    whole = ""
+    if own.motor and decision is not None and len(decision.motors) >= own.motor:
+        whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"
+    inspect = (own.inspect or ((own.motor,) if own.motor else ())) if status != "healthy" else ()
+    motor = named_motor(status, None, inspect)
+    return Verdict(status=status, motor=motor, position=own.position if motor is not None and motor == own.motor
+                   else None, confidence=log.confidence if status == log.status
+                   else min(own.confidence, UNCERTAIN_CONFIDENCE_CAP), first_seen=None, inspect=inspect,
+                   seen=log.seen if status == log.status else None,
+                   reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
+                          f"confirm it ({log.status}{whole}), so this flight is {status}")
+
+
+
 def uncertain_bar(kind: Optional[LogKind]) -> float:
     """The total LLR from which a flight of this kind is "uncertain": ``FULL_RATE_UNCERTAIN_LLR``
     for a quad at full rate without a profile, else ``UNCERTAIN_LLR`` (also when the kind of log
@@ -877,9 +958,96 @@ def source_weight(r: AnalyzerResult, kind: Optional[LogKind]) -> SourceWeight:
     return SourceWeight(cell, trust, max(cap, r.llr_cap) if trust == "trusted" else min(cap, r.llr_cap))
 
 
-def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
-           timeline: Timeline, kind: Optional[LogKind] = None) -> tuple[Verdict, Decision]:
-    """The verdict from the analyzers' evidence (module docstring)."""
+@dataclass
+class Statement:
+    """What a rule of :data:`RULES` states, before :func:`_done` states it (vibration's raise,
+    ``STATED_MIN_CONFIDENCE``, notes, the load's words): status, motor, confidence, reason, the
+    propellers to inspect, the cause named, the motors of a pair and whether it is one."""
+
+    status: str
+    motor: Optional[int]
+    confidence: float
+    reason: str
+    inspect: Sequence[int] = ()
+    named: Optional[Cause] = None
+    motors: Optional[list[int]] = None
+    pair: bool = False
+
+
+@dataclass
+class Evidence:
+    """The hypotheses of one flight and what each source says of them (:func:`_evidence`): healthy,
+    rotor k lost thrust (``total``, ``decisive``, ``w``, ``motors``), rotors j and k both
+    (``decision.pairs``, ``singles_for_pairs``), a load toward a direction (``load``, ``either``);
+    and the facts the rules test (the leading rotor ``kb``, its ``lead``, the holds ``trim_held``
+    and ``pattern_held``, ``unsupported``, ``throttle_fell``). Built once; :data:`RULES` read it."""
+
+    n: int
+    frame: Optional[Frame]
+    timeline: Timeline
+    kind: Optional[LogKind]
+    results: Sequence[AnalyzerResult]
+    sources: dict  # analyzer id -> (n,) nats, each clipped to its cap (held where a load explains the pattern)
+    weights: dict  # analyzer id -> SourceWeight
+    cmd: Optional[CommandSharesResult]
+    thr: Optional[ThrottleResult]
+    load: Optional[LoadFit]  # the load that explains the command pattern, or None
+    either: Optional[int]  # the rotor a load explains nearly as well, where it alone would make the flight damaged
+    total: np.ndarray  # (n,) nats per rotor
+    decisive: np.ndarray  # total without the discounted sources (what "damaged" needs)
+    trim_held: Optional[str]
+    w: np.ndarray  # (n + 1,) the stated probabilities (:func:`posterior`)
+    motors: list  # MotorDecision per rotor
+    best: int  # index of the leading rotor
+    second: Optional[int]
+    kb: int  # the leading rotor, 1-based
+    cause: Cause  # what to inspect first when the verdict names kb
+    inspect_kb: str
+    lead: float  # nats the leading rotor is ahead of the runner-up
+    notes: list
+    decision: Decision
+    onset: object
+    first_seen: Optional[float]
+    pattern_held: Optional[str]
+    vib: Optional[VibrationResult]
+    share: object  # the leading rotor's command-share finding, or None
+    unsupported: bool  # its command share did not rise against its baseline
+    throttle_fell: bool
+    single_damaged: bool  # every bar of the single-rotor "damaged" met
+    singles_for_pairs: dict
+
+    @property
+    def called(self) -> bool:
+        """The leading rotor reaches ``DAMAGED_LLR`` (decisive sources) and leads by ``SEPARATION_LLR``."""
+        return self.decisive[self.best] >= DAMAGED_LLR and self.lead >= SEPARATION_LLR
+
+    def severity_words(self, k: int) -> str:
+        m = self.motors[k - 1]
+        if m.eta_hat is None or m.eta_ci is None:
+            return ""
+        lo, hi = m.eta_ci
+        if lo <= 0.0:  # the fit reached the bottom of its grid: only an upper bound is known
+            return f"gives at most {100 * hi:.0f} % of its normal thrust"
+        return f"gives about {100 * m.eta_hat:.0f} % of its normal thrust [{100 * lo:.0f}-{100 * hi:.0f} %]"
+
+    def evidence_words(self, k: int) -> str:
+        parts = [f"{s} {v[k - 1]:+.1f}" for s, v in self.sources.items()]
+        cmd = self.cmd
+        cite = f"it {cmd.words[k - 1]}; " if cmd is not None and cmd.analyzer in self.sources and cmd.words else ""
+        return cite + "evidence for it (log-likelihood ratio, nats): " + ", ".join(parts)
+
+    def discounted_words(self, k: int) -> str:
+        """", +2.4 of them from commands, discounted on this kind of log" ("" when none gave any)."""
+        low = [s_ for s_, wt in self.weights.items() if wt.trust == "discounted" and self.sources[s_][k - 1] > 0]
+        part = float(sum(self.sources[s_][k - 1] for s_ in low))
+        return f", {part:+.1f} of them from {', '.join(low)}, discounted on this kind of log" if low else ""
+
+
+def _evidence(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame], timeline: Timeline,
+              kind: Optional[LogKind]) -> Evidence:
+    """The table of hypotheses (:class:`Evidence`) from the analyzers' results: each source's LLRs
+    capped by its measured reliability on this kind of log, a load that explains the pattern holding
+    what reads it, the per-rotor totals and posterior, the pairs, and the holds."""
     weights = {r.analyzer: source_weight(r, kind) for r in results}
     sources = {r.analyzer: r.llr(n, weights[r.analyzer].cap) for r in results}
     sources = {k: v for k, v in sources.items() if v is not None}
@@ -887,7 +1055,7 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     cmd = next((r for r in results if isinstance(r, CommandSharesResult)), None)
     thr = next((r for r in results if isinstance(r, ThrottleResult)), None)
     load = _load_explains(cmd, sources, n, results, weights)
-    either = None  # the rotor a load explains nearly as well, where it alone would make the flight damaged
+    either = None
     if load is not None:  # the load stands for the pattern: what reads it says little of a rotor
         either = _rotor_or_load(cmd, sources, weights)
         sources = _held_for_load(sources)
@@ -909,192 +1077,249 @@ def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
     best = int(order[0])
     second = int(order[1]) if n > 1 else None
     kb = best + 1
-    cause = judge_cause(results, kb)  # what to inspect first when the verdict names motor kb
-    inspect_kb = f"{cause.words}; {cause.advice}"
+    cause = judge_cause(results, kb)
     lead = float(total[best] - (total[second] if second is not None else -np.inf))
     airframe_changed = _airframe_changed(cmd, thr, n, best)
     if load is not None and load.chi2 / max(n - 3, 1) <= AIRFRAME_CHANGE_CHI2_PER_DOF:
         airframe_changed = None  # the load explains the change since calibration
-    notes = [note for r in results for note in r.notes]
     decision = Decision(motors=motors, airframe_changed=airframe_changed,
                         healthy_chi2=None if cmd is None else cmd.healthy_chi2,
                         share_sigma=None if cmd is None else cmd.share_sigma,
                         sources=list(sources), results=list(results), weights=weights)
     onset = timeline.onset
-    first_seen = onset.first_seen if onset is not None else timeline.t_first
     # a load carried from take-off makes its pattern from the first window: a change after a healthy
     # stretch (the model's onset, on the leading motor) is not one
     pattern_held = (None if load is not None or (onset is not None and onset.motor == kb)
                     else _pattern_held(cmd, sources, best, n))
-
-    def severity_words(k: int) -> str:
-        m = motors[k - 1]
-        if m.eta_hat is None or m.eta_ci is None:
-            return ""
-        lo, hi = m.eta_ci
-        if lo <= 0.0:  # the fit reached the bottom of its grid: only an upper bound is known
-            return f"gives at most {100 * hi:.0f} % of its normal thrust"
-        return f"gives about {100 * m.eta_hat:.0f} % of its normal thrust [{100 * lo:.0f}-{100 * hi:.0f} %]"
-
-    def evidence_words(k: int) -> str:
-        parts = [f"{s} {v[k - 1]:+.1f}" for s, v in sources.items()]
-        cite = f"it {cmd.words[k - 1]}; " if cmd is not None and cmd.analyzer in sources and cmd.words else ""
-        return cite + "evidence for it (log-likelihood ratio, nats): " + ", ".join(parts)
-
-    def discounted_words(k: int) -> str:
-        """", +2.4 of them from commands, discounted on this kind of log" ("" when none gave any)."""
-        low = [s_ for s_, wt in weights.items() if wt.trust == "discounted" and sources[s_][k - 1] > 0]
-        part = float(sum(sources[s_][k - 1] for s_ in low))
-        return f", {part:+.1f} of them from {', '.join(low)}, discounted on this kind of log" if low else ""
-
-    vib = _vibration(results)
-
-    def done(status: str, motor: Optional[int], confidence: float, reason: str,
-             inspect: Sequence[int] = (), named: Optional[Cause] = None, motors: Optional[list[int]] = None,
-             pair: bool = False) -> tuple[Verdict, Decision]:
-        raised = _raised_by_vibration(vib, status)
-        if raised is not None:
-            named = None  # the vibration's verdict names no rotor
-            status, motor, motors, pair = raised, None, None, False
-            inspect = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted else ()
-            confidence = _p_imbalance(vib)
-            reason = (f"a propeller is {'likely damaged' if status == 'damaged' else 'possibly out of balance'}: "
-                      f"{vib.level_words}; {_vibration_advice(vib, status, frame)}; "
-                      f"the per-rotor evidence alone said: {reason}")
-        if raised is None:  # the per-rotor statement: never stated below STATED_MIN_CONFIDENCE
-            status, inspect, confidence, reason, restated = _stated(status, tuple(inspect), confidence, reason, w,
-                                                                    decision.motors, pair, frame)
-            if restated:
-                named = cause if tuple(inspect) == (kb,) else None
-                motor, motors = None, None
-        if status == "uncertain":
-            confidence = min(confidence, UNCERTAIN_CONFIDENCE_CAP)
-        seen = None
-        if status == "healthy":
-            seen = bool(confidence >= SEEN_HEALTHY_P and timeline.covered_s >= SEEN_MIN_COVERED_S)
-            if not seen:
-                reason = f"{not_seen_words(confidence, timeline.covered_s, kind)}; {reason}"
-        for note in notes:
-            reason += f"; {note}"
-        one = _one_flight_note(cmd) if status != "healthy" else None
-        if one:
-            reason += f"; {one}"
-        load_dict = None
-        if load is not None and status == "healthy" and raised is None and load.llr >= LOAD_NAMED_LLR:
-            load_dict = load_verdict_fields(load, frame, cmd)
-            reason = f"propellers healthy: {load_dict['words']}; {reason}"
-            named = None
-        elif load is not None and status == "uncertain" and raised is None and either is None:
-            reason += (f"; or no rotor lost thrust and {load_verdict_fields(load, frame, cmd)['words']}: "
-                       f"inspect the propeller, fly once without the payload, or turn on ESC telemetry to tell")
-        inspect = tuple(inspect) if status != "healthy" else ()
-        motor = named_motor(status, motor, inspect)
-        motors = list(motors) if motors is not None else ([motor] if motor else [])
-        return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
-                       else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
-                       first_seen=first_seen if status == "damaged" else None, reason=reason,
-                       inspect=inspect, motors=motors, pair=pair,
-                       positions=[frame.position(k) if frame is not None else None for k in motors],
-                       cause="load" if load_dict else (named.cause if named else None),
-                       cause_evidence=named.evidence() if named else None,
-                       seen=seen, load=load_dict), decision
-
     share = cmd.finding("share", kb) if cmd is not None else None
     unsupported = share is not None and share.baseline is not None and share.value <= share.baseline
     thr_sigma = (cmd.throttle_sigma if cmd is not None else None) or THROTTLE_DRIFT_SIGMA
     throttle_fell = thr is not None and thr.ratio is not None and thr.ratio < 1.0 - THROTTLE_FELL_SIGMAS * thr_sigma
-    # every bar of the single-rotor "damaged" below met
     single_damaged = (decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported
                       and not throttle_fell and trim_held is None and pattern_held is None)
-
-    # the pair-hypothesis step: two rotors that explain the evidence where no single one does; a
-    # pair that misses a bar of "damaged" does not replace a single rotor that meets all of them
     decision.pairs, singles_for_pairs = _pairs(results, sources, weights, cmd, n)
-    single_weights = [m.weight for m in motors]
-    call = None if load is not None else _pair_step(decision.pairs, singles_for_pairs, motors, cmd, thr, n, frame, onset)
-    if call is not None and not (call[0] == "uncertain" and single_damaged):
-        status, motor, confidence, reason, inspect, pair_motors, pair = call
-        return done(status, motor, confidence, reason, inspect, None, pair_motors, pair)
-    for m, wt in zip(motors, single_weights):
-        m.weight = wt
+    return Evidence(
+        n=n, frame=frame, timeline=timeline, kind=kind, results=results, sources=sources, weights=weights, cmd=cmd,
+        thr=thr, load=load, either=either, total=total, decisive=decisive, trim_held=trim_held, w=w, motors=motors,
+        best=best, second=second, kb=kb, cause=cause, inspect_kb=f"{cause.words}; {cause.advice}", lead=lead,
+        notes=[note for r in results for note in r.notes], decision=decision, onset=onset,
+        first_seen=onset.first_seen if onset is not None else timeline.t_first, pattern_held=pattern_held,
+        vib=_vibration(results), share=share, unsupported=unsupported, throttle_fell=throttle_fell,
+        single_damaged=single_damaged, singles_for_pairs=singles_for_pairs)
 
-    if (throttle_fell and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported):
-        return done("uncertain", None, w[kb],
-                    f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but the throttle is "
-                    f"{100 * (1 - thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot do "
-                    f"with the same load: the load or the set-up changed since calibration; {inspect_kb}, "
-                    f"then re-calibrate on a healthy flight; {evidence_words(kb)}", (kb,), cause)
-    if trim_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
-        # commands against another session's calibration alone: at most uncertain
-        sev = severity_words(kb)
-        rise = 100 * (share.value / share.baseline - 1) if share is not None and share.baseline else float("nan")
-        parts = ", ".join(f"{s_} {v[kb - 1]:+.1f}" for s_, v in sources.items())
-        return done("uncertain", None, w[kb],
-                    f"{_words(frame, kb)} needs {rise:.0f} % more command than at calibration"
-                    + (f" (if its propeller were the cause, it {sev})" if sev else "")
-                    + f": {inspect_kb}; if nothing is found, the load moved (battery, payload, centre of mass): "
-                      f"re-calibrate. Only the commands point at it: {trim_held}; evidence for it "
-                      f"(log-likelihood ratio, nats): {parts}", (kb,), cause)
-    if pattern_held is not None and decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and not unsupported:
-        # only the sources that read the command pattern point at it: a rotor's loss or a load at its corner
-        decision.pattern_held = kb
-        sev = severity_words(kb)
-        return done("uncertain", None, w[kb],
-                    f"{_words(frame, kb)} lost thrust" + (f" (it {sev})" if sev else "")
-                    + f", or a load sits at its corner (a weight in its propeller's wash, a payload under it): "
-                      f"only the sources that read the command pattern point at it, and a load there moves them as a "
-                      f"damaged propeller does ({pattern_held}); {inspect_kb}; if it is sound, fly once without the "
-                      f"payload, or log ESC telemetry or vibration, to tell; {evidence_words(kb)}", (kb,), cause)
-    if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR and unsupported:
-        return done("uncertain", None, w[kb],
-                    f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats), but its command share "
-                    f"did not rise as a rotor that lost thrust must ({share.value:.3f} against {share.baseline:.3f}); "
-                    f"{evidence_words(kb)}; {inspect_kb}, and the others", (kb,), cause)
-    if decisive[best] >= DAMAGED_LLR and lead >= SEPARATION_LLR:
-        since = f" from t={onset.first_seen:.1f} s" if onset is not None else ""
-        sev = severity_words(kb)
-        return done("damaged", kb, w[kb], f"{_words(frame, kb)} lost thrust{since}" + (f": it {sev}" if sev else "")
-                    + f"; {evidence_words(kb)}; {inspect_kb}", (kb,), cause)
-    if either is not None:
-        ke = either
-        gap = cmd.rotor_vs_load[ke - 1]
-        return done("uncertain", None, w[ke],
-                    f"{_words(frame, ke)} lost thrust, or no rotor did and "
-                    f"{load_verdict_fields(load, frame, cmd)['words']}: the command pattern fits a weak rotor {ke} "
-                    f"only {gap:+.1f} nats better than the load (it needs {load_separation(cmd):.0f} to tell); "
-                    f"inspect propeller {ke}; if it is sound, fly once without the payload (or turn on ESC "
-                    f"telemetry) to tell; {evidence_words(ke)}", (ke,), cause if ke == kb else None)
-    bar = uncertain_bar(kind)
-    if total[best] >= bar:
-        named: tuple[int, ...] = (kb,)
-        named_cause: Optional[Cause] = None
-        if lead < SEPARATION_LLR and second is not None and total[second] >= bar:
-            k2 = second + 1
-            named = (kb, k2)
-            confidence = w[kb] + w[k2]
-            reason = (f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats) or "
-                      f"{_words(frame, k2)} ({total[second]:+.1f}) and cannot tell them apart; "
-                      f"inspect propellers {kb} and {k2}")
-        else:
-            sev = severity_words(kb)
-            confidence = w[kb]
-            reason = (f"{_words(frame, kb)} may have lost thrust" + (f" (it {sev})" if sev else "")
-                      + f", but the evidence is too weak to call ({total[best]:+.1f} nats{discounted_words(kb)}; "
-                        f"damage needs {DAMAGED_LLR:.0f}); {evidence_words(kb)}; {inspect_kb}")
-            named_cause = cause
-            if cmd is not None and cmd.baseline == "profile":
-                reason += "; if nothing is found, the load moved since calibration (battery, payload): re-calibrate"
-        if airframe_changed:
-            reason += f"; also {airframe_changed}: after the inspection, re-calibrate"
-        return done("uncertain", None, confidence, reason, named, named_cause)
-    if airframe_changed:
-        return done("uncertain", None, w[0],
-                    f"no rotor explains the change since calibration ({airframe_changed}): the airframe itself "
-                    f"changed (payload, battery, a re-trim); check the propellers, then re-calibrate on a "
-                    f"healthy flight")
-    return done("healthy", None, w[0], f"no rotor lost thrust: the strongest case is {_words(frame, kb)} at "
-                                       f"{total[best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})"
-                + _thin_timeline_words(timeline, weights, cmd))
+
+# The rules, in precedence order: each states the verdict (a Statement) or passes (None).
+
+def _rule_pair(ev: Evidence) -> Optional[Statement]:
+    """Two rotors explain the evidence where no single one does (:func:`_pair_step`); an uncertain
+    pair does not replace a single rotor that meets every bar of "damaged". Not with a load."""
+    single_weights = [m.weight for m in ev.motors]
+    call = None if ev.load is not None else _pair_step(ev.decision.pairs, ev.singles_for_pairs, ev.motors, ev.cmd,
+                                                        ev.thr, ev.n, ev.frame, ev.onset)
+    if call is not None and not (call[0] == "uncertain" and ev.single_damaged):
+        status, motor, confidence, reason, inspect, pair_motors, pair = call
+        return Statement(status, motor, confidence, reason, inspect, None, pair_motors, pair)
+    for m, wt in zip(ev.motors, single_weights):  # the pair step's weights are the pair's only
+        m.weight = wt
+    return None
+
+
+def _rule_throttle_fell(ev: Evidence) -> Optional[Statement]:
+    """Called, but the throttle fell well below calibration: the load or set-up changed."""
+    if not (ev.throttle_fell and ev.called and not ev.unsupported):
+        return None
+    kb, frame = ev.kb, ev.frame
+    return Statement("uncertain", None, ev.w[kb],
+                     f"the evidence points at {_words(frame, kb)} ({ev.total[ev.best]:+.1f} nats), but the throttle is "
+                     f"{100 * (1 - ev.thr.ratio):.0f} % lower than at calibration, which a rotor that lost thrust cannot "
+                     f"do with the same load: the load or the set-up changed since calibration; {ev.inspect_kb}, "
+                     f"then re-calibrate on a healthy flight; {ev.evidence_words(kb)}", (kb,), ev.cause)
+
+
+def _rule_trim_held(ev: Evidence) -> Optional[Statement]:
+    """Called, but only the commands against another session's calibration point at it (:func:`_trim_held`)."""
+    if not (ev.trim_held is not None and ev.called and not ev.unsupported):
+        return None
+    kb, frame, share = ev.kb, ev.frame, ev.share
+    sev = ev.severity_words(kb)
+    rise = 100 * (share.value / share.baseline - 1) if share is not None and share.baseline else float("nan")
+    parts = ", ".join(f"{s_} {v[kb - 1]:+.1f}" for s_, v in ev.sources.items())
+    return Statement("uncertain", None, ev.w[kb],
+                     f"{_words(frame, kb)} needs {rise:.0f} % more command than at calibration"
+                     + (f" (if its propeller were the cause, it {sev})" if sev else "")
+                     + f": {ev.inspect_kb}; if nothing is found, the load moved (battery, payload, centre of mass): "
+                       f"re-calibrate. Only the commands point at it: {ev.trim_held}; evidence for it "
+                       f"(log-likelihood ratio, nats): {parts}", (kb,), ev.cause)
+
+
+def _rule_pattern_held(ev: Evidence) -> Optional[Statement]:
+    """Called, but only the sources that read the command pattern point at it (:func:`_pattern_held`):
+    a rotor's loss or a load at its corner."""
+    if not (ev.pattern_held is not None and ev.called and not ev.unsupported):
+        return None
+    kb, frame = ev.kb, ev.frame
+    ev.decision.pattern_held = kb
+    sev = ev.severity_words(kb)
+    return Statement("uncertain", None, ev.w[kb],
+                     f"{_words(frame, kb)} lost thrust" + (f" (it {sev})" if sev else "")
+                     + f", or a load sits at its corner (a weight in its propeller's wash, a payload under it): "
+                       f"only the sources that read the command pattern point at it, and a load there moves them as a "
+                       f"damaged propeller does ({ev.pattern_held}); {ev.inspect_kb}; if it is sound, fly once without "
+                       f"the payload, or log ESC telemetry or vibration, to tell; {ev.evidence_words(kb)}", (kb,),
+                     ev.cause)
+
+
+def _rule_share_did_not_rise(ev: Evidence) -> Optional[Statement]:
+    """Called, but the rotor's command share did not rise as a weak rotor's must."""
+    if not (ev.called and ev.unsupported):
+        return None
+    kb, share = ev.kb, ev.share
+    return Statement("uncertain", None, ev.w[kb],
+                     f"the evidence points at {_words(ev.frame, kb)} ({ev.total[ev.best]:+.1f} nats), but its command "
+                     f"share did not rise as a rotor that lost thrust must ({share.value:.3f} against "
+                     f"{share.baseline:.3f}); {ev.evidence_words(kb)}; {ev.inspect_kb}, and the others", (kb,), ev.cause)
+
+
+def _rule_damaged(ev: Evidence) -> Optional[Statement]:
+    """Every bar of "damaged" met: rotor kb lost thrust."""
+    if not ev.called:
+        return None
+    kb = ev.kb
+    since = f" from t={ev.onset.first_seen:.1f} s" if ev.onset is not None else ""
+    sev = ev.severity_words(kb)
+    return Statement("damaged", kb, ev.w[kb], f"{_words(ev.frame, kb)} lost thrust{since}"
+                     + (f": it {sev}" if sev else "") + f"; {ev.evidence_words(kb)}; {ev.inspect_kb}", (kb,), ev.cause)
+
+
+def _rule_rotor_or_load(ev: Evidence) -> Optional[Statement]:
+    """A rotor that alone would make the flight damaged, which a load explains nearly as well."""
+    if ev.either is None:
+        return None
+    ke, cmd = ev.either, ev.cmd
+    gap = cmd.rotor_vs_load[ke - 1]
+    return Statement("uncertain", None, ev.w[ke],
+                     f"{_words(ev.frame, ke)} lost thrust, or no rotor did and "
+                     f"{load_verdict_fields(ev.load, ev.frame, cmd)['words']}: the command pattern fits a weak rotor "
+                     f"{ke} only {gap:+.1f} nats better than the load (it needs {load_separation(cmd):.0f} to tell); "
+                     f"inspect propeller {ke}; if it is sound, fly once without the payload (or turn on ESC "
+                     f"telemetry) to tell; {ev.evidence_words(ke)}", (ke,), ev.cause if ke == ev.kb else None)
+
+
+def _rule_weak(ev: Evidence) -> Optional[Statement]:
+    """The leading rotor reaches :func:`uncertain_bar`: it, or the two it cannot tell apart."""
+    bar = uncertain_bar(ev.kind)
+    total, best, second, kb, frame, w = ev.total, ev.best, ev.second, ev.kb, ev.frame, ev.w
+    if not total[best] >= bar:
+        return None
+    named: tuple[int, ...] = (kb,)
+    named_cause: Optional[Cause] = None
+    if ev.lead < SEPARATION_LLR and second is not None and total[second] >= bar:
+        k2 = second + 1
+        named = (kb, k2)
+        confidence = w[kb] + w[k2]
+        reason = (f"the evidence points at {_words(frame, kb)} ({total[best]:+.1f} nats) or "
+                  f"{_words(frame, k2)} ({total[second]:+.1f}) and cannot tell them apart; "
+                  f"inspect propellers {kb} and {k2}")
+    else:
+        sev = ev.severity_words(kb)
+        confidence = w[kb]
+        reason = (f"{_words(frame, kb)} may have lost thrust" + (f" (it {sev})" if sev else "")
+                  + f", but the evidence is too weak to call ({total[best]:+.1f} nats{ev.discounted_words(kb)}; "
+                    f"damage needs {DAMAGED_LLR:.0f}); {ev.evidence_words(kb)}; {ev.inspect_kb}")
+        named_cause = ev.cause
+        if ev.cmd is not None and ev.cmd.baseline == "profile":
+            reason += "; if nothing is found, the load moved since calibration (battery, payload): re-calibrate"
+    if ev.decision.airframe_changed:
+        reason += f"; also {ev.decision.airframe_changed}: after the inspection, re-calibrate"
+    return Statement("uncertain", None, confidence, reason, named, named_cause)
+
+
+def _rule_airframe_changed(ev: Evidence) -> Optional[Statement]:
+    """The shares moved beyond the drift and no rotor explains it."""
+    changed = ev.decision.airframe_changed
+    if not changed:
+        return None
+    return Statement("uncertain", None, ev.w[0],
+                     f"no rotor explains the change since calibration ({changed}): the airframe itself "
+                     f"changed (payload, battery, a re-trim); check the propellers, then re-calibrate on a "
+                     f"healthy flight")
+
+
+def _rule_healthy(ev: Evidence) -> Statement:
+    """No rotor lost thrust (the last rule: it always states)."""
+    return Statement("healthy", None, ev.w[0], f"no rotor lost thrust: the strongest case is {_words(ev.frame, ev.kb)} "
+                                               f"at {ev.total[ev.best]:+.1f} nats (damage needs {DAMAGED_LLR:.0f})"
+                     + _thin_timeline_words(ev.timeline, ev.weights, ev.cmd))
+
+
+#: The rules in precedence order; the first that states wins. A new rule is one entry here.
+RULES = (_rule_pair, _rule_throttle_fell, _rule_trim_held, _rule_pattern_held, _rule_share_did_not_rise,
+         _rule_damaged, _rule_rotor_or_load, _rule_weak, _rule_airframe_changed, _rule_healthy)
+
+
+def _weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame],
+           timeline: Timeline, kind: Optional[LogKind] = None) -> tuple[Verdict, Decision]:
+    """The verdict from the analyzers' evidence (module docstring): the hypotheses' table
+    (:func:`_evidence`), the first of :data:`RULES` that states, stated by :func:`_done`."""
+    ev = _evidence(results, n, frame, timeline, kind)
+    statement = next(s for s in (rule(ev) for rule in RULES) if s is not None)
+    return _done(ev, statement)
+
+
+def _done(ev: Evidence, st: Statement) -> tuple[Verdict, Decision]:
+    """The verdict as stated: raised by the flight-level vibration finding, else never below
+    ``STATED_MIN_CONFIDENCE`` (:func:`_stated`); an uncertain one at most ``UNCERTAIN_CONFIDENCE_CAP``;
+    a healthy one seen or not (``SEEN_HEALTHY_P``); the analyzers' notes, the one-session note and
+    the load's words added."""
+    status, motor, confidence, reason = st.status, st.motor, st.confidence, st.reason
+    inspect, named, motors, pair = st.inspect, st.named, st.motors, st.pair
+    vib, frame, load, cmd, timeline = ev.vib, ev.frame, ev.load, ev.cmd, ev.timeline
+    raised = _raised_by_vibration(vib, status)
+    if raised is not None:
+        named = None  # the vibration's verdict names no rotor
+        status, motor, motors, pair = raised, None, None, False
+        inspect = (vib.line_motor,) if vib.line_motor is not None and vib.tie_trusted else ()
+        confidence = _p_imbalance(vib)
+        reason = (f"a propeller is {'likely damaged' if status == 'damaged' else 'possibly out of balance'}: "
+                  f"{vib.level_words}; {_vibration_advice(vib, status, frame)}; "
+                  f"the per-rotor evidence alone said: {reason}")
+    if raised is None:  # the per-rotor statement: never stated below STATED_MIN_CONFIDENCE
+        status, inspect, confidence, reason, restated = _stated(status, tuple(inspect), confidence, reason, ev.w,
+                                                                ev.decision.motors, pair, frame)
+        if restated:
+            named = ev.cause if tuple(inspect) == (ev.kb,) else None
+            motor, motors = None, None
+    if status == "uncertain":
+        confidence = min(confidence, UNCERTAIN_CONFIDENCE_CAP)
+    seen = None
+    if status == "healthy":
+        seen = bool(confidence >= SEEN_HEALTHY_P and timeline.covered_s >= SEEN_MIN_COVERED_S)
+        if not seen:
+            reason = f"{not_seen_words(confidence, timeline.covered_s, ev.kind)}; {reason}"
+    for note in ev.notes:
+        reason += f"; {note}"
+    one = _one_flight_note(cmd) if status != "healthy" else None
+    if one:
+        reason += f"; {one}"
+    load_dict = None
+    if load is not None and status == "healthy" and raised is None and load.llr >= LOAD_NAMED_LLR:
+        load_dict = load_verdict_fields(load, frame, cmd)
+        reason = f"propellers healthy: {load_dict['words']}; {reason}"
+        named = None
+    elif load is not None and status == "uncertain" and raised is None and ev.either is None:
+        reason += (f"; or no rotor lost thrust and {load_verdict_fields(load, frame, cmd)['words']}: "
+                   f"inspect the propeller, fly once without the payload, or turn on ESC telemetry to tell")
+    inspect = tuple(inspect) if status != "healthy" else ()
+    motor = named_motor(status, motor, inspect)
+    motors = list(motors) if motors is not None else ([motor] if motor else [])
+    return Verdict(status=status, motor=motor, position=frame.position(motor) if (frame is not None and motor)
+                   else None, confidence=float(np.clip(confidence, 0.0, 1.0)),
+                   first_seen=ev.first_seen if status == "damaged" else None, reason=reason,
+                   inspect=inspect, motors=motors, pair=pair,
+                   positions=[frame.position(k) if frame is not None else None for k in motors],
+                   cause="load" if load_dict else (named.cause if named else None),
+                   cause_evidence=named.evidence() if named else None,
+                   seen=seen, load=load_dict), ev.decision
 
 
 def not_seen_words(p_healthy: float, covered_s: Optional[float], kind: Optional[LogKind]) -> str:
@@ -1257,6 +1482,16 @@ def _vibration_only(vib: VibrationResult, n: int, frame: Optional[Frame], reason
 def worst_flight(verdicts: Sequence[Verdict]) -> int:
     """Index of the worst of several flights' verdicts (``STATUS_RANK``, then confidence)."""
     return max(range(len(verdicts)), key=lambda i: (STATUS_RANK.get(verdicts[i].status, 0), verdicts[i].confidence))
+
+
+def decide_log(parts: Sequence[tuple[str, Verdict]], whole: Optional[Verdict] = None) -> Verdict:
+    """The verdict of a log holding several flights, from its flights' (``parts``: label, verdict).
+    ``whole``: the log judged as one (a log with motor outputs), which stays its verdict, the reason
+    listing each flight's status; without it (flights judged each on its own) the worst flight's
+    (:func:`log_verdict`)."""
+    if whole is None:
+        return log_verdict(parts)
+    return replace(whole, reason=whole.reason + "; " + "; ".join(f"{lab}: {v.status_words()}" for lab, v in parts))
 
 
 def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:

@@ -17,8 +17,11 @@ Steps (pure: nothing is printed, nothing imports torch):
    :mod:`flightlog_fd.analyzers.effectiveness_fit`) from
    the same resampled segments as the windows, and every registered analyzer's findings
    (:mod:`flightlog_fd.analyzers`).
-6. The verdict, from :func:`flightlog_fd.decision.decide` alone: stopped motors, the reason a
-   flight cannot be judged, the timeline and the analyzers' results.
+6. The verdict, from :func:`flightlog_fd.decision.decide_flight` alone, called once per flight
+   with its :class:`~flightlog_fd.decision.DecisionInputs` (stopped motors, the reason a flight
+   cannot be judged, the timeline, the analyzers' results, the profile configuration's words and,
+   for one flight of several, the whole log's verdict it is capped by); a log of several flights
+   gets its verdict from :func:`flightlog_fd.decision.decide_log`.
 
 Anything wrong with the input (a :class:`~flightlog_fd.errors.FlightLogError`) becomes a
 ``not_diagnosable`` Diagnosis with the one-line reason and exit code 2, so a batch of logs
@@ -45,8 +48,8 @@ from .analyzers.command_shares import nearest_configuration
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
-from .decision import (STATUS_RANK, UNCERTAIN_CONFIDENCE_CAP, Decision, Verdict, decide, log_verdict, named_motor,
-                       not_diagnosable, worst_flight)
+from .decision import Decision, DecisionInputs, Verdict, decide_flight, decide_log, worst_flight
+from .decision import capped_by_log  # noqa: F401  (its home was here; callers import it from diagnose)
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .flights import split_flights
@@ -272,7 +275,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
 #: model +5.0, commands +2.3 nats against its first 30 s); only the whole log's onset, when it lies
 #: in that flight, splits its shares. A flight too short to judge alone (CrazyPAD's 8.6 s first hop:
 #: 7 windows) is reported as such and judged with the log. A flight is never worse than the whole
-#: log (:func:`capped_by_log`): uncapped, Erle 09-10-2014_31 flight 2 stays "damaged, motor 2" (model
+#: log (decision.capped_by_log): uncapped, Erle 09-10-2014_31 flight 2 stays "damaged, motor 2" (model
 #: +5.0, commands +1.0 nats on its 77 windows) and Erle 6-3-2014_6 flight 2 "uncertain" (commands
 #: +8.0) on real healthy logs whose whole verdicts are healthy (benchmarks/bench_several_flights.py).
 SEVERAL_FLIGHTS_NOTE = "each flight judged with the whole log as its context"
@@ -298,7 +301,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     for p, d in zip(parts, subs):
         d.part = p.part
     w = subs[worst_flight([d.verdict for d in subs])]
-    verdict = log_verdict([(d.part, d.verdict) for d in subs])
+    verdict = decide_log([(d.part, d.verdict) for d in subs])
     return replace(w, verdict=verdict, facts=FlightFacts.from_flight(flight), part="", flights=subs,
                    flight=flight if keep_flight else None, warnings=list(flight.warnings) + [
                        x for d in subs for x in d.warnings if x not in flight.warnings])
@@ -323,7 +326,8 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     facts_kw = dict(stopped=stops, diagnosability_facts=dict(check.facts), **common)
 
     def cannot_judge(reason: str) -> Diagnosis:
-        verdict, _ = decide(n_motors, flight.frame, stopped=stops, not_diagnosable_reason=reason)
+        verdict, _ = decide_flight(DecisionInputs(n_motors, flight.frame, stopped=stops,
+                                                  not_diagnosable_reason=reason))
         return Diagnosis(log=log, verdict=verdict, **facts_kw)
 
     if not check.ok:
@@ -372,9 +376,9 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
                                 str(getattr(model, "sha256", "") or ""))
         results = run_analyzers(ctx)
         kind = log_kind(flight, phases, ctx.covered_s, profile, common["model"].calibrated, probs.shape[1] - 1)
-    verdict, decision = decide(probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops,
-                               kind=kind)
-    _say_configuration(verdict, share_fit)
+    verdict, decision = decide_flight(DecisionInputs(
+        probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops, kind=kind,
+        configuration_words=_configuration_words(share_fit)))
     order = np.argsort(t_start, kind="stable")
     # one conversion to Python numbers per array (not per window: 740 windows of a 600 s flight)
     starts, ends, probs_l = t_start[order].tolist(), t_end[order].tolist(), probs[order].tolist()
@@ -399,12 +403,10 @@ def _share_fit(segments, probs: np.ndarray, frame: Any, eff: Any, profile: Any, 
                                  frame)[0]
 
 
-def _say_configuration(verdict: Verdict, share_fit: Any) -> None:
-    """Name the profile's load configuration the commands were weighed against in the verdict's
-    reason (a profile of two or more configurations)."""
-    words = share_fit.configuration_words() if share_fit is not None else None
-    if words and verdict.reason:
-        verdict.reason = f"{verdict.reason} ({words})"
+def _configuration_words(share_fit: Any) -> Optional[str]:
+    """The profile's load configuration the commands were weighed against, in words (a profile of
+    two or more configurations), else None."""
+    return share_fit.configuration_words() if share_fit is not None else None
 
 
 def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: Any, probs: np.ndarray,
@@ -412,7 +414,8 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
     """Each flight of a log with motor outputs judged from the whole log's windows
     (``SEVERAL_FLIGHTS_NOTE``): its windows, its segments' command shares (split only at the whole
     log's onset when it lies in this flight), the analyzers on this flight; each flight's verdict no
-    worse than the whole log's (:func:`capped_by_log`). The log keeps the whole log's verdict, its
+    worse than the whole log's (:func:`flightlog_fd.decision.capped_by_log`, behind
+    ``decide_flight``). The log keeps the whole log's verdict, its
     reason listing the flights'."""
     t_start = np.asarray(win.t_start, dtype=np.float64)
     t_end = np.asarray(win.t_end, dtype=np.float64)
@@ -430,7 +433,8 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
         tl = build_timeline(t_start[m], t_end[m], probs[m])
         if tl.shortfall is not None:
             reason = f"too short to judge alone ({tl.shortfall}): judged with the whole log"
-            v, _ = decide(probs.shape[1] - 1, part.frame, stopped=stops, not_diagnosable_reason=reason)
+            v, _ = decide_flight(DecisionInputs(probs.shape[1] - 1, part.frame, stopped=stops,
+                                                not_diagnosable_reason=reason, log=(whole.verdict, whole.decision)))
             subs.append(Diagnosis(log=whole.log, verdict=v, timeline=tl, part=part.part, **facts_kw))
             continue
         here = onset if (onset is not None and a <= onset.t_start <= b) else None
@@ -443,68 +447,35 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
         pm = probs[m]
         ctx = _analyzer_context(part, t_start[m], t_end[m], pm, here, ev, profile, segs, sha)
         kind = replace(whole.log_kind, covered_s=ctx.covered_s) if whole.log_kind is not None else None
-        v, dec = decide(pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops,
-                        kind=kind)
-        _say_configuration(v, ev)
+        v, dec = decide_flight(DecisionInputs(
+            pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops, kind=kind,
+            configuration_words=_configuration_words(ev), log=(whole.verdict, whole.decision)))
         sub_windows = [w for w in whole.windows if a - 1e-6 <= w.t_start and w.t_end <= b + 1e-6]
         subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, share_fit=ev, decision=dec,
                               timeline=tl, part=part.part, log_kind=kind, **facts_kw))
-    for d in subs:
-        d.verdict = capped_by_log(d.verdict, whole.verdict, whole.decision)
     listing = ", ".join(p.part.split(", ", 1)[1] for p in parts)
     whole.warnings.append(f"this log holds {len(parts)} flights ({listing}): {SEVERAL_FLIGHTS_NOTE}")
     whole.flights = subs
-    whole.verdict = replace(whole.verdict, reason=whole.verdict.reason + "; " + "; ".join(
-        f"{d.part.split(',')[0]}: {d.verdict.status_words()}" for d in subs))
+    whole.verdict = decide_log([(d.part.split(',')[0], d.verdict) for d in subs], whole=whole.verdict)
     return whole
-
-
-def capped_by_log(own: Verdict, log: Verdict, decision: Optional[Decision]) -> Verdict:
-    """A flight's own verdict, no worse than its whole log's: the decision's thresholds were set on
-    whole logs, and a log of n flights gives n tries at a false alarm. A flight worse than the log
-    takes the log's status (a damaged flight naming another motor than the log's damaged one is
-    uncertain); its reason keeps what it said alone and the log's figure for that motor."""
-    rank = STATUS_RANK
-    if own.status in ("not_diagnosable", "stopped") or rank.get(own.status, 0) < rank.get(log.status, 0):
-        return own
-    same = sorted(own.motors) == sorted(log.motors)
-    if rank.get(own.status, 0) == rank.get(log.status, 0) and (own.motor is None or same
-                                                              or own.status != "damaged"):
-        return own
-    if own.status == "damaged" and log.status == "damaged" and same:
-        return own
-    status = log.status if rank.get(log.status, 0) < rank.get(own.status, 0) else "uncertain"
-    if status == "not_diagnosable":
-        status = "healthy"
-    said = own.status_words()
-    whole = ""
-    if own.motor and decision is not None and len(decision.motors) >= own.motor:
-        whole = f", motor {own.motor} {decision.motors[own.motor - 1].llr:+.1f} nats over the whole log"
-    inspect = (own.inspect or ((own.motor,) if own.motor else ())) if status != "healthy" else ()
-    motor = named_motor(status, None, inspect)
-    return Verdict(status=status, motor=motor, position=own.position if motor is not None and motor == own.motor
-                   else None, confidence=log.confidence if status == log.status
-                   else min(own.confidence, UNCERTAIN_CONFIDENCE_CAP), first_seen=None, inspect=inspect,
-                   seen=log.seen if status == log.status else None,
-                   reason=f"judged alone this flight would be {said}: {own.reason}; the whole log does not "
-                          f"confirm it ({log.status}{whole}), so this flight is {status}")
 
 
 def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, log: str, facts_kw: dict,
                     keep_flight: bool) -> Diagnosis:
     """A flight the full diagnosis cannot take (no motor outputs, no damage model), judged by
-    :func:`decide` from the analyzers that need no motor outputs (vibration)."""
+    :func:`~flightlog_fd.decision.decide_flight` from the analyzers that need no motor outputs (vibration)."""
     if profile is not None:
         try:  # another airframe's baseline would judge nothing; softer mismatches are warnings
             facts_kw["warnings"].extend(profile.check_compatible(flight) or [])
         except FlightLogError as e:
-            verdict, _ = decide(n_motors, flight.frame, stopped=facts_kw["stopped"], not_diagnosable_reason=e.message)
+            verdict, _ = decide_flight(DecisionInputs(n_motors, flight.frame, stopped=facts_kw["stopped"],
+                                                      not_diagnosable_reason=e.message))
             return Diagnosis(log=log, verdict=verdict, **facts_kw)
     ctx = Context(flight=flight, frame=flight.frame, n_motors=n_motors, probs=np.zeros((0, n_motors + 1)),
                   covered_s=0.0, profile=profile)
     results = run_analyzers(ctx, [a for a in REGISTRY if not a.needs_motor_outputs])
-    verdict, decision = decide(n_motors, flight.frame, results=results, stopped=facts_kw["stopped"],
-                               not_diagnosable_reason=reason)
+    verdict, decision = decide_flight(DecisionInputs(n_motors, flight.frame, results=results,
+                                                     stopped=facts_kw["stopped"], not_diagnosable_reason=reason))
     return Diagnosis(log=log, verdict=verdict, decision=decision, part=flight.part, **facts_kw)
 
 
@@ -531,5 +502,5 @@ def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = 
     try:
         flight = load_flight(path)
     except FlightLogError as e:
-        return Diagnosis(log=str(path), verdict=not_diagnosable(e.message))
+        return Diagnosis(log=str(path), verdict=decide_flight(DecisionInputs(0, not_diagnosable_reason=e.message))[0])
     return diagnose_flight(flight, model, profile, keep_flight=keep_flight)
