@@ -29,7 +29,7 @@ from .analyzers.reliability import FULL_RATE_HZ, LogKind
 from .decision import THIN_TIMELINE_SHARE
 
 #: Every kind of advice, in the order a pilot acts on them.
-ADVICE_KINDS = ("inspect", "add_session", "calibrate", "logging", "esc_telemetry", "manoeuvre")
+ADVICE_KINDS = ("inspect", "add_session", "calibrate", "without_payload", "logging", "esc_telemetry", "manoeuvre")
 
 LOGGING = {
     "px4": ("SDLOG_PROFILE", "set SDLOG_PROFILE to include its high-rate bit (16; e.g. 17 = the default set "
@@ -81,6 +81,10 @@ class Situation:
     cause: Optional[str] = None  # the named rotor's likely cause (flightlog_fd.cause): its motor / ESC first
     pair: bool = False  # the verdict is that two propellers lost thrust together (``inspect`` holds both)
     seen: Optional[bool] = None  # a healthy verdict: False when this log could not show damage
+    #: The motor the command pattern alone points at (``Decision.pattern_held``: that rotor lost
+    #: thrust, or a load sits at its corner); calibration refuses such a flight, so the advice is to
+    #: fly once without the payload instead of calibrating on it.
+    pattern_held: Optional[int] = None
 
 
 def advice_line(a: Advice) -> str:
@@ -136,7 +140,14 @@ def advise(s: Situation) -> list[Advice]:
         else:
             out.append(Advice("inspect", "inspect every propeller (cracks, chips, a loose or bent blade)"))
         log = _quote(s.log, "LOG")
-        if s.profile:
+        if s.pattern_held is not None:
+            k = s.pattern_held
+            out.append(Advice("without_payload", f"if propeller {k} is sound and the aircraft carried a payload, a "
+                                                 f"camera or a weight near motor {k}, fly once without it and "
+                                                 f"diagnose that flight: the two explanations then part (this "
+                                                 f"flight cannot be a calibration: its commands look like rotor "
+                                                 f"{k} lost thrust)", (k,)))
+        elif s.profile:
             cmd = f"fdlog calibrate --add {_quote(s.profile, 'PROFILE')} {log}"
             out.append(Advice("add_session", "if the propellers are sound, add this flight to the airframe's "
                                              "profile as a session, so its normal spread is known next time",
@@ -186,4 +197,5 @@ def situation(diagnosis: Any, flight: Any) -> Situation:
         little_manoeuvring=bool(eff is not None and (eff.reason or "").startswith(LITTLE_MANOEUVRING)),
         timeline_uncertain=float(tl.abstained_share) if tl is not None and tl.n_windows else 0.0,
         positions={k: frame.position(k) for k in range(1, frame.rotor_count + 1)} if frame is not None else {},
-        cause=v.cause, pair=bool(getattr(v, "pair", False)), seen=getattr(v, "seen", None))
+        cause=v.cause, pair=bool(getattr(v, "pair", False)), seen=getattr(v, "seen", None),
+        pattern_held=getattr(diagnosis.decision, "pattern_held", None) if v.status == "uncertain" else None)

@@ -145,6 +145,18 @@ def test_an_uncertain_verdict_says_what_to_inspect_and_how_to_resolve_it():
     assert all(a.kind in ADVICE_KINDS for a in out + ap)
 
 
+def test_a_flight_only_the_command_pattern_points_at_is_not_offered_as_a_calibration():
+    """Uncertain because only the sources that read the commands point at rotor 3 (it, or a load at
+    its corner): calibration and ``--add`` refuse such a flight, so the advice is to fly once without
+    the payload, never to calibrate on it or add it as a session."""
+    for profile in ("/p/x500.json", None):
+        out = advise(_situation(pattern_held=3, profile=profile))
+        kinds = [a.kind for a in out]
+        assert kinds == ["inspect", "without_payload", "logging", "esc_telemetry"], kinds
+        assert out[1].motors == (3,) and "fly once without it" in out[1].text and out[1].command is None
+        assert not {"add_session", "calibrate"} & set(kinds)
+
+
 def test_nothing_to_resolve_on_a_clear_verdict_and_why_on_a_thin_one():
     assert advise(_situation(status="healthy")) == []
     assert advise(_situation(status="damaged")) == []

@@ -47,10 +47,10 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                            "size": share,                          # share change of a motor straight toward it
                            "llr": nats,                            # the load against healthy, on the shares
                            "words": str} | null,
-                  "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "logging" |
-                                      "esc_telemetry" | "manoeuvre",
+                  "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "without_payload" |
+                                      "logging" | "esc_telemetry" | "manoeuvre",
                               "text": str,              # what to do, in words
-                              "motors": [1-n],          # inspect: the propellers, first first
+                              "motors": [1-n],          # inspect: the propellers, first first; without_payload: the motor
                               "command": str | null,    # add_session / calibrate: the fdlog command
                               "setting": str | null}]}, # logging / esc_telemetry: the autopilot parameter
       "evidence": {"n_windows": int, "covered_s": float,
