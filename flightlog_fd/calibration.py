@@ -433,11 +433,11 @@ def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, again
     whose command shares fit a load better than a rotor (:func:`_load_like`) is taken as that load."""
     from .diagnose import diagnose_flight
 
-    verdicts = []
+    diagnoses = []
     for fl in flights:
         d = diagnose_flight(fl, model, profile, keep_flight=False)
         v = d.verdict
-        verdicts.append(d)
+        diagnoses.append(d)
         if v.status in ("damaged", "uncertain") and named and _load_like(d):
             continue
         held = d.decision.pattern_held if d.decision is not None and v.status == "uncertain" else None
@@ -453,7 +453,7 @@ def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, again
             raise ProfileError(fl.path, f"looks damaged against {against}: {what} (confidence {v.confidence:.2f}); "
                                         f"{outcome}: inspect the propellers, and calibrate only on healthy flights"
                                         f"{hint}")
-    return verdicts
+    return diagnoses
 
 
 #: What a profile from logs without motor outputs cannot hold (its ``lacks_``).
@@ -632,8 +632,7 @@ def _configuration_load(profile: Profile, share: Sequence[float], frame) -> dict
     n = profile.rotor_count
     fit = load_fit(np.asarray(share, float), np.asarray(profile.baseline_["share"], float),
                    np.full(n, DEFAULT_DRIFT_SIGMA), frame)
-    return {"motor": int(fit.motor), "direction_deg": round(float(fit.direction_deg), 1),
-            "size": round(float(fit.size), 4)}
+    return {k: v for k, v in fit.as_dict().items() if k != "llr"}
 
 
 def _add_configurations(profile: Profile, configured: Sequence[tuple[Flight, str]], one_session: bool,

@@ -323,23 +323,7 @@ class Profile:
         if base is not None:
             if not isinstance(base, dict):
                 raise bad("baseline_ must be null or an object")
-            share = _number_list(base.get("share"), n, "baseline_.share", bad)
-            _number_list(base.get("slope"), n, "baseline_.slope", bad)
-            if not all(0.0 < x < 4.0 for x in share):
-                raise bad(f"baseline_.share values must be within 0..4, got {share}")
-            if not _is_number(base.get("throttle_ref")) or not 0.0 < base["throttle_ref"] <= 1.5:
-                raise bad("baseline_.throttle_ref must be a number in (0, 1.5]")
-            if base.get("spread") is not None:
-                spread_v = _number_list(base.get("spread"), n, "baseline_.spread", bad)
-                if any(x < 0 for x in spread_v):
-                    raise bad("baseline_.spread values must be >= 0")
-            if base.get("pin") is not None:
-                pin_v = _number_list(base.get("pin"), n, "baseline_.pin", bad)
-                if any(x < 0 for x in pin_v):
-                    raise bad("baseline_.pin values must be >= 0")
-            ts = base.get("throttle_spread")
-            if ts is not None and (not _is_number(ts) or ts < 0):
-                raise bad("baseline_.throttle_spread must be null or a number >= 0")
+            _check_baseline(base, n, "baseline_", bad)
         _check_sessions(d.get("sessions_"), n, bad)
         _check_configurations(d.get("configurations_"), n, bad)
         if "rho_source_" in d and d["rho_source_"] not in ("hover", "steady flight", "airborne mean"):
@@ -501,6 +485,23 @@ def _check_sessions(v, n: int, bad) -> None:
             raise bad(f'{where}.logs must be a list of {{"name": ..., "sha256": ...}}')
 
 
+def _check_baseline(base: dict, n: int, where: str, bad) -> None:
+    """Validate a command-share baseline object (the profile's ``baseline_`` or a configuration's)
+    of an n-rotor profile; ``where`` names it in the error."""
+    share = _number_list(base.get("share"), n, f"{where}.share", bad)
+    _number_list(base.get("slope"), n, f"{where}.slope", bad)
+    if not all(0.0 < x < 4.0 for x in share):
+        raise bad(f"{where}.share values must be within 0..4, got {share}")
+    if not _is_number(base.get("throttle_ref")) or not 0.0 < base["throttle_ref"] <= 1.5:
+        raise bad(f"{where}.throttle_ref must be a number in (0, 1.5]")
+    for key in ("spread", "pin"):
+        if base.get(key) is not None and any(x < 0 for x in _number_list(base[key], n, f"{where}.{key}", bad)):
+            raise bad(f"{where}.{key} values must be >= 0")
+    ts = base.get("throttle_spread")
+    if ts is not None and (not _is_number(ts) or ts < 0):
+        raise bad(f"{where}.throttle_spread must be null or a number >= 0")
+
+
 def _check_configurations(v, n: int, bad) -> None:
     """Validate ``configurations_`` (null, or a list of load configurations of an n-rotor profile)."""
     if v is None:
@@ -533,11 +534,4 @@ def _check_configurations(v, n: int, bad) -> None:
         base = c.get("baseline_")
         if not isinstance(base, dict):
             raise bad(f"{where}.baseline_ must be an object")
-        share = _number_list(base.get("share"), n, f"{where}.baseline_.share", bad)
-        _number_list(base.get("slope"), n, f"{where}.baseline_.slope", bad)
-        if not all(0.0 < x < 4.0 for x in share):
-            raise bad(f"{where}.baseline_.share values must be within 0..4, got {share}")
-        if not _is_number(base.get("throttle_ref")) or not 0.0 < base["throttle_ref"] <= 1.5:
-            raise bad(f"{where}.baseline_.throttle_ref must be a number in (0, 1.5]")
-        if base.get("pin") is not None and any(x < 0 for x in _number_list(base["pin"], n, f"{where}.baseline_.pin", bad)):
-            raise bad(f"{where}.baseline_.pin values must be >= 0")
+        _check_baseline(base, n, f"{where}.baseline_", bad)

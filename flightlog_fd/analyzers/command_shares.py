@@ -29,7 +29,7 @@ import numpy as np
 
 from ..flight import Frame
 from .base import PAIR_ROTOR_COUNTS, Analyzer, AnalyzerResult, Context, Finding
-from .session_drift import SessionDrift
+from .session_drift import SessionDrift, log_mean_exp
 
 #: Thrust-efficiency grid of the damage hypothesis (uniform prior). 0.4: below it a quad cannot
 #: hold yaw and the flight ends; 0.99: damage too small to matter is still "damage" here but
@@ -337,8 +337,7 @@ def pair_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame
         pred = u / mean_u[..., None]
         thr_resid = thr_resid_of(mean_u)
         ll = loglik(s - pred, thr_resid)
-        top = ll.max()
-        llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+        llr = log_mean_exp(ll) - ll_h
         i, j, k = np.unravel_index(int(np.argmax(ll)), ll.shape)
         chi = float(chi_at(s - pred[i, j, k], None if thr_resid is None else thr_resid[i, j, k]))
         hat = tuple(1.0 if x >= PAIR_ETA_GRID[-1] else float(x) for x in (PAIR_ETA_GRID[i], PAIR_ETA_GRID[j]))
@@ -374,10 +373,8 @@ def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
     """One motor's :class:`SeverityFit` from its log-likelihood over the eta/m grid (``ll`` (E, M))
     and the healthy one; ``chi_at(a, bm)``: the chi-square at the best grid point."""
     top = ll.max()
-    llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
-    yawed = ll[:, M_GRID >= DAMAGE_MIN_M]
-    top_y = yawed.max()
-    llr_yawed = float(top_y + np.log(np.mean(np.exp(yawed - top_y))) - ll_h)
+    llr = log_mean_exp(ll) - ll_h
+    llr_yawed = log_mean_exp(ll[:, M_GRID >= DAMAGE_MIN_M]) - ll_h
     post_eta = np.exp(ll - top).sum(axis=1)
     cdf = np.cumsum(post_eta / post_eta.sum())
     ia = min(int(np.searchsorted(cdf, 0.05)), len(ETA_GRID) - 1)
@@ -501,8 +498,7 @@ def load_fit(share: np.ndarray, base_share: np.ndarray, sigma: np.ndarray, frame
     pred = b + grid @ pat  # (G, n)
     ll = loglik(s - pred, None)
     ll_h = float(loglik(s - b, None))
-    top = float(ll.max())
-    llr = float(top + np.log(np.mean(np.exp(ll - top))) - ll_h)
+    llr = log_mean_exp(ll) - ll_h
     i = int(np.argmax(ll))
     ax, ay = grid[i]
     size = float(np.hypot(ax, ay))
@@ -593,9 +589,7 @@ def configuration_evidence(share_fit, frame: Optional[Frame]) -> float:
     else:
         *_, loglik = _share_likelihood(shares, base, sig, frame, ratio, thr_sig, profile)
         ll_h = float(loglik(shares - b, None if ratio is None else ratio - 1.0))
-    llrs = np.array([0.0] + [f.llr for f in fits])
-    top = float(llrs.max())
-    return ll_h + top + float(np.log(np.mean(np.exp(llrs - top))))
+    return ll_h + log_mean_exp([0.0] + [f.llr for f in fits])
 
 
 #: A load configuration replaces the profile's own ("as calibrated") only when its baseline explains

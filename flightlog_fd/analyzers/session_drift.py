@@ -189,6 +189,14 @@ def log_prior(grid: np.ndarray, dof: float, tau: float) -> np.ndarray:
     return a * np.log(a * tau ** 2) - gammaln(a) - a * np.log(grid) - a * tau ** 2 / grid
 
 
+def log_mean_exp(a) -> float:
+    """log(mean(exp(a))) over all of ``a`` without overflow: a likelihood averaged over a uniform
+    prior grid (the command analyzer's eta, drag exponent and load grids)."""
+    a = np.asarray(a, float)
+    top = a.max()
+    return float(top + np.log(np.mean(np.exp(a - top))))
+
+
 def logsumexp(a, axis=None) -> np.ndarray:
     """log(sum(exp(a))) along ``axis``, without overflow."""
     a = np.asarray(a, float)
