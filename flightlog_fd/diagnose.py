@@ -49,7 +49,6 @@ from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
 from .decision import Decision, DecisionInputs, Verdict, decide_flight, decide_log, worst_flight
-from .decision import capped_by_log  # noqa: F401  (its home was here; callers import it from diagnose)
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .flights import split_flights

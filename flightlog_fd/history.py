@@ -46,7 +46,7 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
             "latest_damaged": bool(latest and latest.status == "damaged"),
             "latest_inspect": bool(latest and latest.status == "uncertain" and (latest.motor or latest.verdict_motors)),
             "latest": None if latest is None else {"log": latest.log_path, "motor": latest.motor,
-                                                   "motors": _damaged_motors(latest), "cause": latest.cause},
+                                                   "motors": _named_motors(latest), "cause": latest.cause},
         })
     flagged = any(v["drift"] or v["latest_damaged"] or v["latest_inspect"] for v in vehicles)
     return {"schema": 1, "rule": {"min_flights": MIN_FLIGHTS, "drift_slope_min": DRIFT_SLOPE_MIN,
@@ -54,7 +54,7 @@ def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
             "vehicles": vehicles, "flagged": flagged}
 
 
-def _damaged_motors(f: FlightRecord) -> list[int]:
+def _named_motors(f: FlightRecord) -> list[int]:
     """The motors a flight's verdict names: both of a pair (or every propeller an uncertain verdict
     names), else its motor."""
     several = (f.pair or f.status == "uncertain") and len(f.verdict_motors) > 1

@@ -15,8 +15,7 @@ from typer.testing import CliRunner
 
 from conftest import shared_path
 from flightlog_fd.cli import app
-from flightlog_fd.decision import Verdict
-from flightlog_fd.diagnose import capped_by_log
+from flightlog_fd.decision import Verdict, capped_by_log
 from flightlog_fd.report.json_report import validate
 from flightlog_fd.store import SCHEMA_VERSION, Store, load_history
 

@@ -459,7 +459,7 @@ def test_a_weak_motor_or_esc_is_not_made_a_pair_by_its_neighbours_esc_offsets():
 
 
 def test_several_flights_and_stopped_motors_keep_every_named_motor():
-    from flightlog_fd.diagnose import capped_by_log
+    from flightlog_fd.decision import capped_by_log
 
     pair = D.Verdict("damaged", motor=1, motors=[1, 4], pair=True, positions=["front-right", "rear-right"],
                      confidence=0.9, reason="two")
