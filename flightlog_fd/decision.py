@@ -515,13 +515,19 @@ def _share_rise(cmd: CommandSharesResult, best: int, n: int) -> tuple[float, boo
     return rise, rise - PIN_Z * noise > BEYOND_DRIFT_SHARE_RISE
 
 
+def _support_outside(sources: dict, best: int, readers: Sequence[str]) -> float:
+    """The evidence (nats) for motor ``best`` (0-based) from the sources that are not ``readers``
+    (``TRIM_SOURCES`` or ``PATTERN_SOURCES``): what agrees without reading the trim or the pattern."""
+    return float(sum(v[best] for s, v in sources.items() if s not in readers))
+
+
 def _trim_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, n: int) -> Optional[str]:
     """Why the trim sources alone may not call motor ``best`` (0-based) damaged, or None when
     they may: no profile baseline, a source that does not read the trim agrees, or the share rose
     beyond what a moved load makes."""
     if cmd is None or cmd.abstained or cmd.baseline != "profile":
         return None
-    free = float(sum(v[best] for s, v in sources.items() if s not in TRIM_SOURCES))
+    free = _support_outside(sources, best, TRIM_SOURCES)
     rise, beyond = _share_rise(cmd, best, n)
     if free >= TRIM_FREE_AGREE_LLR or beyond:
         return None
@@ -539,7 +545,7 @@ def _pattern_held(cmd: Optional[CommandSharesResult], sources: dict, best: int, 
     commands) cannot tell the two (results/decisive.md: crazypad_e9_load W3)."""
     if cmd is None or cmd.abstained or cmd.analyzer not in sources:
         return None
-    free = float(sum(v[best] for s, v in sources.items() if s not in PATTERN_SOURCES))
+    free = _support_outside(sources, best, PATTERN_SOURCES)
     rise, beyond = _share_rise(cmd, best, n)
     if free >= TRIM_FREE_AGREE_LLR or beyond:
         return None
@@ -565,7 +571,7 @@ def _load_explains(cmd: Optional[CommandSharesResult], sources: dict, n: int,
     separation = load_separation(cmd)
     if max(cmd.load.llr, rotor) < LOAD_NAMED_LLR or cmd.rotor_vs_load[best] >= separation:
         return None
-    free = float(sum(v[best] for s_, v in sources.items() if s_ not in PATTERN_SOURCES))
+    free = _support_outside(sources, best, PATTERN_SOURCES)
     if free >= TRIM_FREE_AGREE_LLR:
         return None
     if any(v >= TRIM_FREE_AGREE_LLR for v in _pair_agreement(cmd, results, sources, weights, n).values()):
