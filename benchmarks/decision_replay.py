@@ -50,11 +50,18 @@ def truth_table() -> dict[str, object]:
         out[str(p.resolve())] = None if "healthy" in p.name else (1,)
     for p in sorted((SHARED / "ardupilot_sitl_hexa").glob("*.bin")):
         out[str(p.resolve())] = "stopped"
+    for name, rows in bc.sim_sets(SIM_FOLDER).items():
+        if name.startswith("sim "):
+            for p, t in rows:
+                out[str(p.resolve())] = t
     return out
 
 
 def set_of(path: str) -> str:
     p = Path(path)
+    if SIM_FOLDER.resolve() in p.parents:
+        return next((name for name, *_ in sorted(bc.SIM_SETS, key=lambda x: -len(x[0]))
+                     if p.name.startswith(name.replace(" ", "_") + "_")), "sim")
     try:
         rel = p.relative_to(SHARED.resolve())
         return rel.parts[0] if rel.parts[0] not in ("real_damaged", "real_vibration") else rel.parts[1]
@@ -78,6 +85,26 @@ def cases() -> list[tuple[str, list[Path], bool, list[Path]]]:
                 extra.append((name, cal, adapt, logs))
     return out + [(n, c, a, ls) for n, c, a, ls in extra]
 
+
+#: The simulated batch of benchmarks/bench_confidence.py (random quads at three logging profiles,
+#: random hexas, a preset x500 with a profile of its first healthy flight), written once here.
+SIM_FOLDER = ROOT / "build" / "confidence_sim2"
+
+
+def sim_cases() -> list[tuple[str, list[Path], bool, list[Path]]]:
+    """The simulated batch without a profile, and the x500 set against its healthy flight's profile."""
+    bc.make_sim(SIM_FOLDER)
+    sets = bc.sim_sets(SIM_FOLDER)
+    out = []
+    logs = [p for name, rows in sets.items() if name.startswith("sim ") for p, _ in rows]
+    out.append(("", [], False, logs))
+    for name, rows in sets.items():
+        if not name.startswith("sim "):
+            continue
+        for pname, cal, prows in bc.profile_groups(name, rows):
+            out.append((f"{pname}_noadapt", [cal], False, [p for p, _ in prows]))
+    return out
+
 def capture(folder: Path, profiles: Path) -> None:
     from flightlog_fd import diagnose as dg
     from flightlog_fd.profile import Profile
@@ -93,9 +120,10 @@ def capture(folder: Path, profiles: Path) -> None:
 
     dg.decide_flight = hooked
     t0 = time.perf_counter()
-    todo = cases()
+    todo = cases() + [(n or "sim", c, a, ls) if n else ("", c, a, ls) for n, c, a, ls in sim_cases()]
     for i, (name, cal, adapt, logs) in enumerate(todo, 1):
         tag = "+load" if logs and "_load" in logs[0].parent.as_posix().split("shared/")[-1] else ""
+        tag = "+sim" if logs and SIM_FOLDER.resolve() in logs[0].resolve().parents else tag
         out = folder / f"{name or 'no_profile'}{tag}.pkl"
         if out.exists():
             continue
