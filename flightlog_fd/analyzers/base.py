@@ -15,6 +15,20 @@ SOURCE_LLR_CAP = 8.0
 #: quads, where it is measured (benchmarks/bench_two_props.py). A hexa's or octo's allocator has
 #: more freedom than the four force rows, so a pair there is a hypothesis nobody has measured.
 PAIR_ROTOR_COUNTS = (4,)
+#: Thrust-efficiency grid of the damage hypothesis "rotor k gives eta of its normal thrust",
+#: shared by every source that can say how much (uniform prior over it). 0.4: below it a quad
+#: cannot hold yaw and the flight ends; 0.99: damage too small to matter is still "damage" here but
+#: carries no evidence (its pattern equals healthy). The decision integrates eta once, jointly,
+#: over the sources' profiles on this grid (:meth:`AnalyzerResult.eta_profile`).
+ETA_GRID = np.round(np.arange(0.40, 0.995, 0.01), 3)
+
+
+def log_mean_exp(x: np.ndarray, axis=None) -> np.ndarray:
+    """log(mean(exp(x))) along ``axis`` without overflow (the marginal over a uniform grid)."""
+    x = np.asarray(x, float)
+    top = np.max(x, axis=axis, keepdims=True)
+    out = top + np.log(np.mean(np.exp(x - top), axis=axis, keepdims=True))
+    return np.squeeze(out, axis=axis) if axis is not None else float(out.squeeze())
 
 
 @dataclass
@@ -73,6 +87,11 @@ class AnalyzerResult:
     #: a < b), before the cap, for a source whose per-motor figures are not independent of each
     #: other; empty: :meth:`pair_llr` sums the two motors' findings
     pair_llrs: dict = field(default_factory=dict)
+    #: {motor (1-based): (len(ETA_GRID),) nats}: this source's evidence for "rotor k gives eta of its
+    #: normal thrust" against healthy at each eta of :data:`ETA_GRID`, before the cap; the motor's
+    #: weighed finding is its marginal over the grid (:func:`log_mean_exp`). Empty: the source says
+    #: the same at every eta (or cannot say how much), and :meth:`eta_profile` is None.
+    eta_llrs: dict = field(default_factory=dict)
 
     def finding(self, name: str, motor: int) -> Optional[Finding]:
         """Its finding ``name`` about ``motor`` (1-based), or None."""
@@ -122,6 +141,21 @@ class AnalyzerResult:
         elif self.cap_keeps_order:
             out = out - max(float(out.max()) - cap, 0.0)
         return np.clip(out, -cap, cap)
+
+    def eta_profile(self, n_motors: int, cap: Optional[float] = None) -> Optional[np.ndarray]:
+        """(n, len(ETA_GRID)) nats: each motor's :attr:`eta_llrs` shifted so its marginal over the
+        grid equals the capped LLR :meth:`llr` gives (the cap bounds how much the source says, the
+        profile keeps where on the grid it says it); a motor without a profile is flat at its capped
+        LLR. None when the source gives no profile or weighs nothing."""
+        capped = self.llr(n_motors, cap)
+        if capped is None or not self.eta_llrs:
+            return None
+        out = np.repeat(capped[:, None], len(ETA_GRID), axis=1)
+        for k, prof in self.eta_llrs.items():
+            prof = np.asarray(prof, float)
+            if 1 <= k <= n_motors and prof.shape == ETA_GRID.shape and np.all(np.isfinite(prof)):
+                out[k - 1] = prof + (capped[k - 1] - log_mean_exp(prof))
+        return out
 
     def pair_llr(self, n_motors: int, cap: Optional[float] = None) -> Optional[dict]:
         """{(a, b): nats} for every pair of motors, clipped like :meth:`llr` to +-``cap`` (default

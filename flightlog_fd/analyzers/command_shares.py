@@ -28,13 +28,9 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..flight import Frame
-from .base import PAIR_ROTOR_COUNTS, Analyzer, AnalyzerResult, Context, Finding
-from .session_drift import SessionDrift, log_mean_exp
+from .base import ETA_GRID, PAIR_ROTOR_COUNTS, Analyzer, AnalyzerResult, Context, Finding, log_mean_exp
+from .session_drift import SessionDrift
 
-#: Thrust-efficiency grid of the damage hypothesis (uniform prior). 0.4: below it a quad cannot
-#: hold yaw and the flight ends; 0.99: damage too small to matter is still "damage" here but
-#: carries no evidence (its pattern equals healthy).
-ETA_GRID = np.round(np.arange(0.40, 0.995, 0.01), 3)
 #: Drag-torque exponent grid (torque per command scales as eta**m). Physics: at a fixed rotor
 #: speed a shortened blade keeps thrust ~ D^4 and torque ~ D^5 (m = 1.25), and the lighter load
 #: lets the motor spin faster at the same command, which lowers m towards 0 for motors whose
@@ -87,6 +83,9 @@ class SeverityFit:
     #: the LLR over the drag-torque exponents of measured damage only (``M_GRID`` >= ``DAMAGE_MIN_M``):
     #: what "rotor k" is weighed with against a moved load (:func:`load_fit`)
     llr_vs_load: float = float("nan")
+    #: (len(ETA_GRID),) the LLR at each eta (marginal over the drag-torque exponents): ``llr`` is its
+    #: mean over the grid in the exp domain
+    eta_llr: Optional[np.ndarray] = None
 
 
 #: Thrust-efficiency grid of the two-rotor hypothesis (uniform prior over both rotors): the
@@ -388,7 +387,7 @@ def _fit_from_grid(ll: np.ndarray, ll_h: float, chi_at) -> SeverityFit:
     if eta_hat >= ETA_GRID[-1]:
         eta_hat, hi = 1.0, 1.0
     return SeverityFit(llr=llr, eta_hat=eta_hat, eta_ci=(lo, hi), m_hat=float(M_GRID[bm]), chi2=float(chi_at(a, bm)),
-                       llr_vs_load=llr_yawed)
+                       llr_vs_load=llr_yawed, eta_llr=log_mean_exp(ll, axis=1) - ll_h)
 
 
 def pooled_sigma(measured: Optional[float], n_flights: int, prior: float) -> float:
@@ -699,6 +698,7 @@ class CommandShares(Analyzer):
         pairs_full = (pair_fits_for(ctx, with_throttle=True) if share_fit.throttle_ratio is not None
                       else pairs_plain) or []
         return CommandSharesResult(self.id, findings, pair_llrs={p.motors: p.llr for p in pairs_plain},
+                                   eta_llrs={k + 1: f.eta_llr for k, f in enumerate(fits) if f.eta_llr is not None},
                                    load=load, rotor_vs_load=[] if load is None else [f.llr_vs_load - load.llr for f in fits],
                                    pairs=list(pairs_full), baseline=share_fit.baseline, healthy_chi2=chi_full,
                                    fit_chi2=[f.chi2 for f in fits_full], share_sigma=float(np.mean(sig)),

@@ -16,8 +16,8 @@ from typing import Optional
 
 import numpy as np
 
-from .base import Analyzer, AnalyzerResult, Context, Finding
-from .command_shares import ETA_GRID, PAIR_ETA_GRID, all_pairs
+from .base import ETA_GRID, Analyzer, AnalyzerResult, Context, Finding, log_mean_exp
+from .command_shares import PAIR_ETA_GRID, all_pairs
 from .effectiveness_fit import relative_to_others
 
 #: Floor on the estimate's standard deviation: its closed-loop bias toward 1 (~0.05 on simulated
@@ -33,17 +33,11 @@ def effectiveness_usable(eff) -> bool:
                 and np.all(np.isfinite(eff.values)) and np.all(eff.values > EFFECTIVENESS_SANE_MIN))
 
 
-def _log_mean_exp_half_neg(chi: np.ndarray) -> float:
-    """log(mean(exp(-chi / 2))) without underflow."""
-    top = -0.5 * float(np.min(chi))
-    return top + float(np.log(np.mean(np.exp(-0.5 * chi - top))))
-
-
-def effectiveness_llr(eff, frame=None) -> Optional[np.ndarray]:
-    """(n,) LLR per motor from an informative effectiveness fit, or None when it says nothing:
-    "rotor k at eta" (uniform on ETA_GRID) against healthy, every motor's value predicted through
-    the estimator's own normalisation (:func:`.effectiveness_fit.relative_to_others`): on a quad X
-    the others read 1 either way; on a quad + the weak rotor's partner on its axis reads 1/eta."""
+def effectiveness_eta_llr(eff, frame=None) -> Optional[np.ndarray]:
+    """(n, len(ETA_GRID)) LLR of "rotor k at eta" against healthy at each eta, from an informative
+    effectiveness fit, or None when it says nothing: every motor's value predicted through the
+    estimator's own normalisation (:func:`.effectiveness_fit.relative_to_others`): on a quad X the
+    others read 1 either way; on a quad + the weak rotor's partner on its axis reads 1/eta."""
     if not effectiveness_usable(eff):
         return None
     v = np.asarray(eff.values, float)
@@ -56,8 +50,16 @@ def effectiveness_llr(eff, frame=None) -> Optional[np.ndarray]:
         e = np.ones((len(ETA_GRID), n))
         e[:, k] = ETA_GRID
         chi = np.sum(((v - relative_to_others(e, frame)) / sd) ** 2, axis=-1)
-        out.append(_log_mean_exp_half_neg(chi) + 0.5 * healthy_chi)
+        out.append(-0.5 * chi + 0.5 * healthy_chi)
     return np.array(out)
+
+
+def effectiveness_llr(eff, frame=None) -> Optional[np.ndarray]:
+    """(n,) LLR per motor from an informative effectiveness fit, or None when it says nothing:
+    "rotor k at eta" (uniform on ETA_GRID) against healthy (:func:`effectiveness_eta_llr`
+    marginalised over the grid)."""
+    per_eta = effectiveness_eta_llr(eff, frame)
+    return None if per_eta is None else log_mean_exp(per_eta, axis=1)
 
 
 def effectiveness_pair_llrs(eff, frame=None) -> dict:
@@ -83,7 +85,7 @@ def effectiveness_pair_llrs(eff, frame=None) -> dict:
         e[..., b - 1] = eb
         pred = relative_to_others(e, frame)  # (E, E, n)
         chi = np.sum(((v - pred) / sd) ** 2, axis=-1)
-        out[(a, b)] = _log_mean_exp_half_neg(chi) + 0.5 * healthy_chi
+        out[(a, b)] = log_mean_exp(-0.5 * chi) + 0.5 * healthy_chi
     return out
 
 
@@ -101,7 +103,8 @@ class Effectiveness(Analyzer):
             return AnalyzerResult(self.id, abstained=self.missing(ctx.flight) or why or "no effectiveness fit")
         if not eff.informative:
             return AnalyzerResult(self.id, abstained=eff.reason)
-        llr = effectiveness_llr(eff, ctx.frame)
+        per_eta = effectiveness_eta_llr(eff, ctx.frame)
+        llr = None if per_eta is None else log_mean_exp(per_eta, axis=1)
         if llr is None:
             return AnalyzerResult(self.id, abstained=f"the fit is physically inconsistent (a motor below "
                                                      f"{EFFECTIVENESS_SANE_MIN})")
@@ -109,7 +112,8 @@ class Effectiveness(Analyzer):
             Finding(self.id, k + 1, "effectiveness", float(m.effectiveness), "of neighbours",
                     (float(m.ci[0]), float(m.ci[1])), 1.0, "down", float(llr[k]),
                     f"{m.effectiveness:.2f} {_short(m.ci[0])}-{_short(m.ci[1])}")
-            for k, m in enumerate(eff.motors)], pair_llrs=effectiveness_pair_llrs(eff, ctx.frame))
+            for k, m in enumerate(eff.motors)], pair_llrs=effectiveness_pair_llrs(eff, ctx.frame),
+            eta_llrs={k + 1: per_eta[k] for k in range(len(eff.motors))})
 
 
 def _short(x: float) -> str:

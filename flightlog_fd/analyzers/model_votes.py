@@ -42,7 +42,7 @@ import math
 import numpy as np
 
 from ..timeline import floored  # the same floor the timeline's votes use
-from .base import Analyzer, AnalyzerResult, Context, Finding
+from .base import ETA_GRID, Analyzer, AnalyzerResult, Context, Finding, log_mean_exp
 from .reliability import flight_rate_class
 
 #: Healthy flights: mean and between-flight standard deviation of a motor's flight-mean window
@@ -414,6 +414,23 @@ def adapted_session_reference(base: dict, offset: float = ADAPTED_LOW_RATE_SESSI
     return SessionReference(level.mean(axis=0), max(sigma, MODEL_MIN_HEALTHY_SIGMA))
 
 
+#: How much of its vote evidence the model has for a rotor at each thrust efficiency eta: the share
+#: of held-out simulated windows naming the right motor above chance (7 %: the healthy windows that
+#: name some motor, 27.8 %, over four motors), by the damaged propeller's eta (results/model_why.md
+#: section 1, shipped model: 0.50-0.65 100 %, 0.65-0.75 96.2 %, 0.75-0.85 73.5 %, 0.85-0.90 36.2 %,
+#: 0.90-0.97 13.3 %), at the bins' centres and 0 at eta 1 (healthy), linear between. The vote LLR the
+#: statistics give is the evidence at severe damage; at eta the model has this fraction of it, so
+#: "the model sees no damage" says little against a 10 % loss the commands can see, and a vote for
+#: a motor points at severe damage (:attr:`AnalyzerResult.eta_llrs`).
+MODEL_ETA_SENSITIVITY = np.interp(ETA_GRID, [0.575, 0.70, 0.80, 0.875, 0.935, 1.0],
+                                  [1.0, 0.96, 0.71, 0.31, 0.07, 0.0])
+
+
+def vote_eta_llrs(llr: np.ndarray) -> np.ndarray:
+    """(n, len(ETA_GRID)): each motor's vote LLR at each eta (:data:`MODEL_ETA_SENSITIVITY`)."""
+    return np.outer(np.asarray(llr, float), MODEL_ETA_SENSITIVITY)
+
+
 class ModelVotes(Analyzer):
     id = "model"
     description = "the model's window votes (mean probability per motor), weighed as one flight"
@@ -479,6 +496,8 @@ class ModelVotes(Analyzer):
             llr = vote_share_llr(p, ctx.covered_s, shares, rate) if shares is not None else model_llr(p, ctx.covered_s)
             pairs = model_pair_llrs(p, ctx.covered_s, single=llr)
         votes = p[:, 1:].mean(axis=0)
+        per_eta = vote_eta_llrs(llr)
+        marginal = log_mean_exp(per_eta, axis=1)  # the vote's evidence over the shared eta prior
         return AnalyzerResult(self.id, [Finding(self.id, k + 1, "vote", float(votes[k]), "", None, None, "up",
-                                                float(llr[k]), f"{votes[k]:.2f}") for k in range(len(llr))],
-                              notes=notes, pair_llrs=pairs)
+                                                float(marginal[k]), f"{votes[k]:.2f}") for k in range(len(llr))],
+                              notes=notes, pair_llrs=pairs, eta_llrs={k + 1: per_eta[k] for k in range(len(llr))})

@@ -33,6 +33,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+
 #: Strength of the population-drift prior on an airframe's session scale, in pseudo-sessions (a
 #: session gives n degrees of freedom on an n-rotor: its n - 1 free shares and its throttle).
 #: Chosen by maximum marginal likelihood over the six airframes with repeated healthy flights
@@ -187,14 +188,6 @@ def log_prior(grid: np.ndarray, dof: float, tau: float) -> np.ndarray:
 
     a = 0.5 * dof
     return a * np.log(a * tau ** 2) - gammaln(a) - a * np.log(grid) - a * tau ** 2 / grid
-
-
-def log_mean_exp(a) -> float:
-    """log(mean(exp(a))) over all of ``a`` without overflow: a likelihood averaged over a uniform
-    prior grid (the command analyzer's eta, drag exponent and load grids)."""
-    a = np.asarray(a, float)
-    top = a.max()
-    return float(top + np.log(np.mean(np.exp(a - top))))
 
 
 def logsumexp(a, axis=None) -> np.ndarray:
