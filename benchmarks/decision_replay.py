@@ -149,8 +149,9 @@ def capture(folder: Path, profiles: Path) -> None:
 
 # ----------------------------------------------------------------------------- score
 
-def replay(calls: list):
-    """The log's final verdict decided again from its captured inputs (the whole log first)."""
+def replay(calls: list, prior: float | None = None):
+    """The log's final verdict decided again from its captured inputs (the whole log first), under
+    ``prior`` (the decision's default when None)."""
     from dataclasses import replace
 
     from flightlog_fd.decision import decide_flight, decide_log
@@ -160,6 +161,8 @@ def replay(calls: list):
     whole = None
     parts = []
     for inputs in calls:
+        if prior is not None:
+            inputs = replace(inputs, prior=prior)
         if inputs.log is not None and whole is not None:
             inputs = replace(inputs, log=whole)
         v, d = decide_flight(inputs)
@@ -183,7 +186,7 @@ def right(status: str, named: list, truth) -> bool:
     return not truth or not named or bool(set(named) & set(truth))
 
 
-def records(folder: Path) -> list[dict]:
+def records(folder: Path, prior: float | None = None) -> list[dict]:
     truth = truth_table()
     out = []
     for f in sorted(folder.glob("*.pkl")):
@@ -191,7 +194,7 @@ def records(folder: Path) -> list[dict]:
         for log, case in doc["logs"].items():
             if case["calibration_flight"]:
                 continue
-            v = replay(case["calls"])
+            v = replay(case["calls"], prior)
             if v is None:
                 continue
             named = list(v.motors) or list(v.inspect)
@@ -318,11 +321,12 @@ def main() -> None:
     s.add_argument("folder", type=Path)
     s.add_argument("-v", action="store_true", help="one line per flight")
     s.add_argument("--out", type=Path, help="write the records (JSON)")
+    s.add_argument("--prior", type=float, help="decide under this prior of damage (default: the decision's)")
     args = ap.parse_args()
     if args.cmd == "capture":
         capture(args.folder, args.profiles)
         return
-    recs = records(args.folder)
+    recs = records(args.folder, args.prior)
     if args.out:
         args.out.write_text(json.dumps(recs, indent=0, default=str))
     print("| target | measured | goal |\n|---|---|---|")
