@@ -436,10 +436,11 @@ def hypotheses(results: Sequence[AnalyzerResult], n: int, kind: Optional[LogKind
             v = r.llr(n, w.cap)
         if v is None:
             continue
-        weights[r.analyzer], sources[r.analyzer] = w, np.asarray(v, float)
         prof = r.eta_profile(n, w.cap) if r is not vib else None
-        if prof is not None:
+        if prof is not None:  # a source that says how much: its tempered profile and marginal
             profiles[r.analyzer] = prof
+            v = log_mean_exp(prof, axis=1)
+        weights[r.analyzer], sources[r.analyzer] = w, np.asarray(v, float)
     flat = sum((v for s, v in sources.items() if s not in profiles), np.zeros(n))
     eta_post = None
     if profiles:

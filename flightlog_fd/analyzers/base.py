@@ -143,19 +143,33 @@ class AnalyzerResult:
         return np.clip(out, -cap, cap)
 
     def eta_profile(self, n_motors: int, cap: Optional[float] = None) -> Optional[np.ndarray]:
-        """(n, len(ETA_GRID)) nats: each motor's :attr:`eta_llrs` shifted so its marginal over the
-        grid equals the capped LLR :meth:`llr` gives (the cap bounds how much the source says, the
-        profile keeps where on the grid it says it); a motor without a profile is flat at its capped
-        LLR. None when the source gives no profile or weighs nothing."""
-        capped = self.llr(n_motors, cap)
-        if capped is None or not self.eta_llrs:
+        """(n, len(ETA_GRID)) nats: each motor's :attr:`eta_llrs` (a motor without one is flat at its
+        raw LLR), tempered when the source says more than ``cap`` allows (default ``llr_cap``): every
+        motor's profile is multiplied by one factor in (0, 1], the one that brings the most extreme
+        motor's marginal over the grid to +-cap. A tempered likelihood is how far a source is
+        believed; it keeps where on the grid the source speaks and the order of the motors, and unlike
+        shifting or clipping it never turns a strong "here" into a "not there" elsewhere on the grid.
+        None when the source gives no profile or weighs nothing."""
+        raw = self.raw_llr(n_motors)
+        if raw is None or not self.eta_llrs:
             return None
-        out = np.repeat(capped[:, None], len(ETA_GRID), axis=1)
+        out = np.repeat(raw[:, None], len(ETA_GRID), axis=1)
         for k, prof in self.eta_llrs.items():
             prof = np.asarray(prof, float)
             if 1 <= k <= n_motors and prof.shape == ETA_GRID.shape and np.all(np.isfinite(prof)):
-                out[k - 1] = prof + (capped[k - 1] - log_mean_exp(prof))
-        return out
+                out[k - 1] = prof
+        cap = self.llr_cap if cap is None else cap
+
+        def extreme(alpha: float) -> float:
+            return float(np.max(np.abs(log_mean_exp(alpha * out, axis=1))))
+
+        if extreme(1.0) <= cap:
+            return out
+        lo, hi = 0.0, 1.0  # extreme(0) = 0 <= cap < extreme(1)
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if extreme(mid) <= cap else (lo, mid)
+        return lo * out
 
     def pair_llr(self, n_motors: int, cap: Optional[float] = None) -> Optional[dict]:
         """{(a, b): nats} for every pair of motors, clipped like :meth:`llr` to +-``cap`` (default
