@@ -480,8 +480,13 @@ def hypotheses(results: Sequence[AnalyzerResult], n: int, kind: Optional[LogKind
     load = cmd.load if cmd is not None and cmd.load is not None and len(cmd.rotor_vs_load) == n else None
     load_llr = None
     if load is not None:
+        # the other pattern sources read the load's pattern as the commands read it: rotor k at the
+        # eta the commands' own fit of rotor k gives it (a small load reads as mild damage, which the
+        # model hardly votes for)
         k = load.motor - 1
-        pattern = sum(float(v[k]) for s, v in sources.items() if s in PATTERN_SOURCES and s != cmd.analyzer)
+        i_eq = int(np.argmax(profiles[cmd.analyzer][k])) if cmd.analyzer in profiles else len(ETA_GRID) // 2
+        pattern = sum(float(profiles[s][k, i_eq] if s in profiles else v[k])
+                      for s, v in sources.items() if s in PATTERN_SOURCES and s != cmd.analyzer)
         load_llr = float(sources[cmd.analyzer][k] - cmd.rotor_vs_load[k] + pattern)
     logp = _prior(n, prior, against_profile, load is not None)
     logw = dict(logp)
