@@ -249,9 +249,14 @@ def estimate_imbalance(flights: Iterable[Flight], min_hover_s: float = MIN_HOVER
 
 
 def _source_entry(fl: Flight) -> dict:
+    """A calibration log as the profile records it: its name, sha256 and, when the log has GPS/UTC
+    time, when it flew (``utc_start``, POSIX s: a later flight of the same session is weighed
+    against it with the session's own small drift, :func:`~flightlog_fd.analyzers.reliability.same_session`)."""
+    utc = getattr(fl, "utc_start", None)
+    when = {"utc_start": float(utc)} if utc is not None and np.isfinite(utc) else {}
     if fl.path and Path(fl.path).is_file():
-        return {"name": Path(fl.path).name, "sha256": file_sha256(fl.path)}
-    return {"name": Path(fl.path).name if fl.path else "<in-memory flight>", "sha256": None}
+        return {"name": Path(fl.path).name, "sha256": file_sha256(fl.path), **when}
+    return {"name": Path(fl.path).name if fl.path else "<in-memory flight>", "sha256": None, **when}
 
 
 def _stream_rates(flights: Sequence[Flight]) -> dict[str, float]:

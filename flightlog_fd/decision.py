@@ -105,6 +105,17 @@ PAIR_LOG_PRIOR_ODDS = {"profile": -3.5, "none": -5.0}
 #: collective command stays (px4_sih_dev_load against sih_004: -0.3..+0.5 nats), while a rotor that
 #: lost thrust raises it.
 PATTERN_SOURCES = ("commands", "model")
+#: The sources a profile from another session can mislead: the command shares and the throttle move
+#: with the trim between sessions (Erle boards A and B: RMS share change 0.13-0.33 between sessions,
+#: benchmarks/bench_cross_session.py), and the model reads the same commands. Against a profile not
+#: known to be of the flight's session (:attr:`~flightlog_fd.analyzers.reliability.LogKind.same_session`)
+#: they are one source together, tempered to the "corroborating" cap: alone they ask for an
+#: inspection, and a source that does not read the commands must agree for "damaged" (real healthy
+#: cross-session pairs: Erle 15-10-2014_42 against board A's profiles gets commands +3.7, throttle
+#: +1.5, model +2.3 for rotor 3). Within a known session the shares' drift is the re-flight spread
+#: (RMS 0.008-0.041), so the commands and the throttle are trusted there.
+SESSION_SOURCES = ("commands", "throttle")
+SESSION_GROUP = ("commands", "throttle", "model")
 #: Of the rotors that lose thrust, the share whose damage also unbalances the propeller (a chip, an
 #: asymmetric cut or crack) and so shakes the frame once per revolution; the rest (a symmetric cut,
 #: a weak motor or ESC, a weight in the wash) do not (rrc_straight's symmetric 5-25 mm cuts: level
@@ -148,7 +159,8 @@ def evidence_bars(n: int, prior: float = PRIOR_DAMAGE) -> tuple[float, float]:
 #: "trusted" up to its own cap (at least SOURCE_LLR_CAP, 8), so it may make a damaged verdict alone;
 #: "corroborating" a nat below the damaged bar of a quad, so another source must agree;
 #: "discounted" a nat below the uncertain bar, so alone it cannot even ask for an inspection.
-TRUST_CAPS = {"trusted": SOURCE_LLR_CAP, "corroborating": 5.0, "discounted": 2.5}
+TRUST_CAPS = {"trusted": SOURCE_LLR_CAP, "corroborating": evidence_bars(4)[1] - 1.0,
+              "discounted": evidence_bars(4)[0] - 1.0}
 
 
 @dataclass
@@ -352,6 +364,8 @@ def source_weight(r: AnalyzerResult, kind: Optional[LogKind]) -> SourceWeight:
         return SourceWeight("", None, r.llr_cap)
     cell = cell_of(r.reliability_keys, kind)
     trust = trust_of(r.analyzer, cell)
+    if kind.same_session and r.analyzer in SESSION_SOURCES:  # measured across sessions; within one, its drift is small
+        return SourceWeight(f"{cell}, same session", "trusted", max(TRUST_CAPS["trusted"], r.llr_cap))
     if trust is None:
         return SourceWeight(cell, None, r.llr_cap)
     cap = TRUST_CAPS[trust]
@@ -441,6 +455,8 @@ def hypotheses(results: Sequence[AnalyzerResult], n: int, kind: Optional[LogKind
             profiles[r.analyzer] = prof
             v = log_mean_exp(prof, axis=1)
         weights[r.analyzer], sources[r.analyzer] = w, np.asarray(v, float)
+    if kind is not None and kind.profile != "none" and not kind.same_session:
+        _temper_group(sources, profiles, SESSION_GROUP, TRUST_CAPS["corroborating"])
     flat = sum((v for s, v in sources.items() if s not in profiles), np.zeros(n))
     eta_post = None
     if profiles:
@@ -509,6 +525,35 @@ def hypotheses(results: Sequence[AnalyzerResult], n: int, kind: Optional[LogKind
     p_damage = float(sum(v for h, v in post.items() if h.startswith("rotor")))
     return Hypotheses(n=n, sources=sources, weights=weights, rotor=rotor, eta_post=eta_post, pairs=pairs, load=load,
                       load_llr=load_llr, log_prior=logp, posterior=post, p_damage=p_damage, marginal=marginal)
+
+
+def _temper_group(sources: dict, profiles: dict, group: Sequence[str], cap: float) -> None:
+    """Temper the sources of ``group`` together (one factor on all their evidence, in place) so that
+    what they say jointly of any rotor stays within ``cap`` nats: sources that read one thing are
+    one source (:meth:`~flightlog_fd.analyzers.base.AnalyzerResult.eta_profile`)."""
+    members = [s for s in group if s in sources]
+    if len(members) < 1:
+        return
+    n = len(next(iter(sources.values())))
+
+    def joint(alpha: float) -> float:
+        tot = np.zeros((n, len(ETA_GRID)))
+        for s in members:
+            tot += alpha * (profiles[s] if s in profiles else sources[s][:, None])
+        return float(np.max(log_mean_exp(tot, axis=1)))
+
+    if joint(1.0) <= cap:
+        return
+    lo, hi = 0.0, 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if joint(mid) <= cap else (lo, mid)
+    for s in members:
+        if s in profiles:
+            profiles[s] = lo * profiles[s]
+            sources[s] = log_mean_exp(profiles[s], axis=1)
+        else:
+            sources[s] = lo * sources[s]
 
 
 def eta_estimate(profile: Optional[np.ndarray]) -> tuple[Optional[float], Optional[tuple[float, float]]]:

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any, Optional, Sequence
 
+import numpy as np
+
 #: Profile kinds: no profile; a profile whose model is the shipped one (``--no-adapt``); a profile
 #: whose model was adapted to the airframe (the default ``fdlog calibrate``).
 PROFILE_KINDS = ("none", "profile", "adapted")
@@ -25,6 +27,10 @@ class LogKind:
     manoeuvre_share: float
     profile: str  # one of PROFILE_KINDS
     n_motors: int = 4
+    #: Against a profile: True when the flight is known to be of a calibration session (its UTC start
+    #: within SAME_SESSION_S of a calibration log's), False when known to be of another, None unknown
+    #: (no profile, or a log without GPS/UTC time)
+    same_session: Optional[bool] = None
 
     @property
     def stream_hz(self) -> float:
@@ -49,7 +55,32 @@ def log_kind(flight: Any, phases: Sequence[str], covered_s: float, profile: Any,
     kind = "none" if profile is None else ("adapted" if adapted else "profile")
     return LogKind(motors_hz=float(motors.rate_hz) if motors is not None else 0.0,
                    rates_hz=float(rates.rate_hz) if rates is not None else 0.0,
-                   covered_s=float(covered_s), manoeuvre_share=float(man), profile=kind, n_motors=int(n_motors))
+                   covered_s=float(covered_s), manoeuvre_share=float(man), profile=kind, n_motors=int(n_motors),
+                   same_session=same_session(flight, profile))
+
+
+#: Two flights within this many seconds of each other (UTC starts) are one session: one battery
+#: swap to the next, the same day's set-up. Within a session a healthy airframe's command shares
+#: move by their re-flight spread (RMS 0.008-0.041 on the real rrc_straight, px4_sih_dev and
+#: CrazyPAD re-flights, benchmarks/bench_cross_session.py); across sessions by up to 0.13-0.33
+#: (Erle boards A and B), as a moved load or a re-trim does.
+SAME_SESSION_S = 6 * 3600.0
+
+
+def same_session(flight: Any, profile: Any) -> Optional[bool]:
+    """Whether ``flight`` flew in one of ``profile``'s calibration sessions (:data:`SAME_SESSION_S`),
+    from the UTC starts the log and the profile's calibration logs record; None when either lacks
+    them (or there is no profile)."""
+    utc = getattr(flight, "utc_start", None)
+    if profile is None or utc is None or not np.isfinite(utc):
+        return None
+    logs = list(getattr(profile, "source_logs", None) or [])
+    for sess in getattr(profile, "sessions_", None) or []:
+        logs += list(sess.get("logs", []) if isinstance(sess, dict) else [])
+    times = [float(e["utc_start"]) for e in logs if isinstance(e, dict) and e.get("utc_start") is not None]
+    if not times:
+        return None
+    return bool(min(abs(float(utc) - t) for t in times) <= SAME_SESSION_S)
 
 
 #: Below this the slower of the motor-output and rate streams is "low": PX4's default
