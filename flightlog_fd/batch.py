@@ -120,9 +120,10 @@ _READ_LOCK = threading.Lock()
 
 
 def diagnose_one(index: int, path, model: Any, profile: Any = None, keep_flight: bool = False,
-                 read_lock: Optional[Any] = None) -> LogResult:
+                 read_lock: Optional[Any] = None, prior: Optional[float] = None) -> LogResult:
     """Load and diagnose one log; never raises for a bad log (it becomes an error row).
-    ``read_lock``: held while the log is read (threaded workers; see ``_READ_LOCK``)."""
+    ``read_lock``: held while the log is read (threaded workers; see ``_READ_LOCK``); ``prior``: the
+    prior of damage (None: the profile's or the decision's)."""
     import contextlib
 
     from . import load_flight
@@ -145,7 +146,7 @@ def diagnose_one(index: int, path, model: Any, profile: Any = None, keep_flight:
                                                              f"{type(e).__name__}: {str(e)[:200]}"),
                          log_sha256=sha, elapsed_s=time.perf_counter() - t0)
     try:
-        d = diagnose_flight(flight, model, profile, keep_flight=keep_flight)
+        d = diagnose_flight(flight, model, profile, keep_flight=keep_flight, prior=prior)
         # The per-motor evidence carries the command shares; measure them here only for a flight
         # that got none (not diagnosable), so the store still has a figure for it.
         share = None if d.motors else airborne_shares(flight)
@@ -163,23 +164,24 @@ def diagnose_one(index: int, path, model: Any, profile: Any = None, keep_flight:
 _pool_state: dict = {}
 
 
-def _init_pool_worker(model_path: str, profile: Any) -> None:
+def _init_pool_worker(model_path: str, profile: Any, prior: Optional[float] = None) -> None:
     """Pool initializer: build the onnxruntime session once per worker process."""
     from .model import FaultModel
 
-    _pool_state.update(model=FaultModel(model_path), profile=profile)
+    _pool_state.update(model=FaultModel(model_path), profile=profile, prior=prior)
 
 
 def _pool_task(index: int, path: str, keep_flight: bool) -> LogResult:
-    return diagnose_one(index, path, _pool_state["model"], _pool_state["profile"], keep_flight)
+    return diagnose_one(index, path, _pool_state["model"], _pool_state["profile"], keep_flight,
+                        prior=_pool_state.get("prior"))
 
 
 def _run_processes(files: list[str], model: Any, profile: Any, jobs: int, keep_flight: bool,
-                   emit: Callable[[LogResult], None]) -> None:
+                   emit: Callable[[LogResult], None], prior: Optional[float] = None) -> None:
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from concurrent.futures.process import BrokenProcessPool
 
-    init = (str(model.path), profile)
+    init = (str(model.path), profile, prior)
     broken: list[int] = []
     with ProcessPoolExecutor(max_workers=jobs, initializer=_init_pool_worker, initargs=init) as pool:
         futures = {pool.submit(_pool_task, i, f, keep_flight): i for i, f in enumerate(files)}
@@ -210,6 +212,7 @@ class ModelPayload:
     model_sha256: str
     model_path: str
     profile: Any
+    prior: Optional[float] = None
 
 
 #: Per worker process: model sha256 -> FaultModel (one onnxruntime session per worker and model).
@@ -245,7 +248,8 @@ def _dask_task(index: int, path: str, payload: ModelPayload, keep_flight: bool) 
         model = _cached_model(payload)
     except FlightLogError as e:
         return error_result(index, path, f"worker could not load the model: {e.message}")
-    return diagnose_one(index, path, model, payload.profile, keep_flight, read_lock=_READ_LOCK)
+    return diagnose_one(index, path, model, payload.profile, keep_flight, read_lock=_READ_LOCK,
+                        prior=payload.prior)
 
 
 def _dask_client(scheduler: str, jobs: Optional[int], processes: bool):
@@ -263,14 +267,15 @@ def _dask_client(scheduler: str, jobs: Optional[int], processes: bool):
 
 
 def _run_dask(files: list[str], model: Any, profile: Any, scheduler: str, jobs: Optional[int],
-              keep_flight: bool, emit: Callable[[LogResult], None], processes: bool) -> None:
+              keep_flight: bool, emit: Callable[[LogResult], None], processes: bool,
+              prior: Optional[float] = None) -> None:
     import uuid
 
     from dask.distributed import as_completed
 
     client, cluster = _dask_client(scheduler, jobs, processes)
     try:
-        payload = ModelPayload(Path(model.path).read_bytes(), str(model.sha256), str(model.path), profile)
+        payload = ModelPayload(Path(model.path).read_bytes(), str(model.sha256), str(model.path), profile, prior)
         scattered = client.scatter(payload, broadcast=True, hash=False)
         run = uuid.uuid4().hex[:8]
         futures = {client.submit(_dask_task, i, f, scattered, keep_flight, key=f"fdlog-{run}-{i}", pure=False): i
@@ -312,13 +317,14 @@ def engine_name(jobs: int, scheduler: Optional[str], n_files: int) -> str:
 def run_batch(files: Sequence, model: Any, profile: Any = None, *, jobs: Optional[int] = None,
               scheduler: Optional[str] = None, keep_flight: bool = False,
               on_result: Optional[Callable[[LogResult], None]] = None,
-              processes: Optional[bool] = None) -> list[LogResult]:
+              processes: Optional[bool] = None, prior: Optional[float] = None) -> list[LogResult]:
     """Diagnose ``files`` with ``model`` (a FaultModel) and ``profile``; results in input order.
 
     ``scheduler``: None (this machine: serial, or ``jobs`` processes; None means 1), ``"local"`` (a
     LocalCluster of ``jobs`` workers, None: one per core) or a Dask scheduler address. ``processes=False`` runs
     LocalCluster workers as threads of this process (tests). ``on_result`` is called here for each
-    log as it finishes. Raises FlightLogError only for a scheduler that cannot be reached.
+    log as it finishes; ``prior``: the prior of damage (None: the profile's or the decision's).
+    Raises FlightLogError only for a scheduler that cannot be reached.
     """
     paths = [str(Path(f).resolve()) if scheduler else str(f) for f in files]
     out: list[Optional[LogResult]] = [None] * len(paths)
@@ -337,12 +343,12 @@ def run_batch(files: Sequence, model: Any, profile: Any = None, *, jobs: Optiona
         processes = LOCAL_CLUSTER_PROCESSES
     engine = engine_name(jobs or 1, scheduler, len(paths))
     if engine == "dask":
-        _run_dask(paths, model, profile, scheduler, jobs, keep_flight, emit, processes)
+        _run_dask(paths, model, profile, scheduler, jobs, keep_flight, emit, processes, prior)
     elif engine == "processes":
-        _run_processes(paths, model, profile, jobs, keep_flight, emit)
+        _run_processes(paths, model, profile, jobs, keep_flight, emit, prior)
     else:
         for i, f in enumerate(paths):
-            emit(diagnose_one(i, f, model, profile, keep_flight))
+            emit(diagnose_one(i, f, model, profile, keep_flight, prior=prior))
     for i, r in enumerate(out):  # cannot happen unless an engine lost a future: still one row each
         if r is None:
             emit(error_result(i, paths[i], "no result came back for this log"))

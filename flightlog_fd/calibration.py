@@ -430,10 +430,9 @@ def _load_like(d) -> bool:
 
 def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, against: str,
                        outcome: str = "not calibrated on", named: bool = False) -> list:
-    """ProfileError when one of ``flights`` is diagnosed damaged or stopped against ``profile``
-    with ``model``, or uncertain only because the command pattern alone points at a rotor (it, or a
-    load at its corner: ``Decision.pattern_held``; calibrating on it would take a damaged rotor for
-    the airframe's trim); else their diagnoses (a moved load is healthy, ``cause`` = ``load``).
+    """ProfileError when one of ``flights`` is diagnosed damaged (a rotor lost thrust, whatever the
+    cause: calibrating on it would take the loss for the airframe's trim) or stopped against
+    ``profile`` with ``model``; else their diagnoses (a moved load is healthy, ``cause`` = ``load``).
     ``named``: the flights are a load configuration the pilot named, so a damaged or held verdict
     whose command shares fit a load better than a rotor (:func:`_load_like`) is taken as that load."""
     from .diagnose import diagnose_flight
@@ -445,11 +444,6 @@ def _refuse_if_damaged(flights: Sequence[Flight], profile: Profile, model, again
         diagnoses.append(d)
         if v.status in ("damaged", "uncertain") and named and _load_like(d):
             continue
-        held = d.decision.pattern_held if d.decision is not None and v.status == "uncertain" else None
-        if held is not None:
-            raise ProfileError(fl.path, f"looks damaged against {against}: motor {held} lost thrust, or a load sits at "
-                                        f"its corner (confidence {v.confidence:.2f}); {outcome}: inspect propeller "
-                                        f"{held}; if it is sound, calibrate on a flight without the payload")
         if v.status in ("damaged", "stopped"):
             what = (f"motor {v.motor} " + ("stopped" if v.status == "stopped" else "lost thrust")) if v.motor else "damaged"
             hint = ("; if it carries a payload and the propellers are sound, add it as a load configuration "

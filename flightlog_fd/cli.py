@@ -240,8 +240,9 @@ def diagnose(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Run the batch on Dask: 'local' (a LocalCluster here) or a scheduler address tcp://HOST:8786 (needs flightlog-fd\\[fleet])."),
     db: Optional[str] = typer.Option(None, "--db", help="Write every diagnosis to this store: a SQLite file or a postgresql:// URL (see `fdlog history`, `fdlog serve --db`)."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing --csv / --html files."),
+    prior_damage: Optional[float] = typer.Option(None, "--prior-damage", min=0.001, max=0.999, help="Your fleet's probability that a diagnosed flight has a rotor that lost thrust, before its log is read (default: the profile's, else 0.10); every verdict and confidence is decided under it."),
 ) -> None:
-    """Diagnose logs: per-window timeline, flight verdict (healthy / propeller k damaged / uncertain) and reports.
+    """Diagnose logs: per-window timeline, flight verdict (healthy / rotor k lost thrust / uncertain) and reports.
 
     Exit code: 0 every log healthy, 1 damage found or uncertain, 2 invalid input or not diagnosable.
     """
@@ -260,13 +261,13 @@ def diagnose(
         raise typer.Exit(EXIT_INVALID)
     raise typer.Exit(_diagnose_files(files, bool(errors), profile=profile, model=model, as_json=as_json,
                                      csv_out=csv_out, html_out=html_out, windows=windows, jobs=jobs,
-                                     scheduler=scheduler, db=db))
+                                     scheduler=scheduler, db=db, prior=prior_damage))
 
 
 def _diagnose_files(files: list, had_errors: bool, *, profile: Optional[Path], model: Optional[Path] = None,
                     as_json: bool = False, csv_out: Optional[Path] = None, html_out: Optional[Path] = None,
                     windows: bool = False, jobs: Optional[int] = None, scheduler: Optional[str] = None,
-                    db: Optional[str] = None) -> int:
+                    db: Optional[str] = None, prior: Optional[float] = None) -> int:
     """Diagnose ``files`` and print / write the reports: `fdlog diagnose`'s work after it found the
     logs, shared with `fdlog pull`. Returns the exit code (``had_errors``: some input already failed)."""
     from .batch import run_batch
@@ -315,7 +316,7 @@ def _diagnose_files(files: list, had_errors: bool, *, profile: Optional[Path], m
             bar.advance(task)
 
         try:
-            batch = run_batch(files, fault_model, prof, jobs=jobs, scheduler=scheduler, keep_flight=keep,
+            batch = run_batch(files, fault_model, prof, jobs=jobs, scheduler=scheduler, keep_flight=keep, prior=prior,
                               on_result=on_result)
         except FlightLogError as e:
             _fail(e)
@@ -520,6 +521,7 @@ def calibrate(
     one_session: bool = typer.Option(False, "--one-session", help="The logs given are one calibration session (e.g. several short flights on one battery)."),
     name: Optional[str] = typer.Option(None, "--name", help="With --add: the logs are a load configuration of this name (e.g. camera), a new one or more sessions of it; default: a flight carrying another load becomes a configuration named by its load."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing profile and model."),
+    prior_damage: Optional[float] = typer.Option(None, "--prior-damage", min=0.001, max=0.999, help="Store your fleet's prior of damage (P(a rotor lost thrust) per diagnosed flight) in the profile: diagnoses with it decide under it."),
     no_adapt: bool = typer.Option(False, "--no-adapt", help="Only measure the imbalance and statistics; keep the shipped model."),
     flights: Optional[int] = typer.Option(None, min=1, help="Airframes to simulate (those that fly like this one are adapted on); default: the calibration's own."),
     epochs: Optional[int] = typer.Option(None, min=1, help="At most this many training epochs (training stops earlier once it has converged); default: the calibration's own."),
@@ -591,6 +593,9 @@ def calibrate(
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)
+    if prior_damage is not None:
+        profile.prior_damage = float(prior_damage)
+        profile.save(output, overwrite=True)
     if profile.measures_motors:
         rho = ", ".join(f"{x:.3f}" for x in profile.rho_)
         console.print(f"wrote {output}: {profile.autopilot} {profile.frame}, rho = [{rho}], "

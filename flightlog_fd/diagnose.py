@@ -48,7 +48,7 @@ from .analyzers.command_shares import nearest_configuration
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
 from .analyzers.vibration import vibration_can_judge
-from .decision import Decision, DecisionInputs, Verdict, decide_flight, decide_log, worst_flight
+from .decision import PRIOR_DAMAGE, Decision, DecisionInputs, Verdict, decide_flight, decide_log, worst_flight
 from .errors import FlightLogError, ModelError
 from .flight import Flight
 from .flights import split_flights
@@ -253,7 +253,8 @@ def _check_model_classes(model: Any, n_motors: int) -> None:
                          f"(healthy + {n_motors} motors)")
 
 
-def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_flight: bool = True) -> Diagnosis:
+def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_flight: bool = True,
+                    prior: Optional[float] = None) -> Diagnosis:
     """Diagnose one loaded flight with ``model`` (a FaultModel or any object with the same
     ``feature_spec``, ``standardise`` and ``predict_proba``) and an optional calibration profile.
 
@@ -261,7 +262,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
     send back from a worker process when many logs are diagnosed in parallel).
     Runs with at most ``DIAGNOSE_BLAS_THREADS`` BLAS threads."""
     with blas_threads(DIAGNOSE_BLAS_THREADS):
-        d = _diagnose_flight(flight, model, profile, keep_flight=keep_flight)
+        d = _diagnose_flight(flight, model, profile, keep_flight=keep_flight, prior=prior_damage(profile, prior))
     for x in [d, *d.flights]:  # what would resolve each verdict (the flight's streams decide the settings)
         x.verdict.advice = advise(situation(x, flight))
     return d
@@ -280,7 +281,7 @@ def diagnose_flight(flight: Flight, model: Any, profile: Any = None, *, keep_fli
 SEVERAL_FLIGHTS_NOTE = "each flight judged with the whole log as its context"
 
 
-def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: bool) -> Diagnosis:
+def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: bool, prior: float) -> Diagnosis:
     """A log holding several take-offs to landings (:func:`flightlog_fd.flights.split_flights`):
     each flight gets its own Diagnosis (``Diagnosis.flights``). A log with what the full diagnosis
     needs is judged as one and each flight from the same windows (``SEVERAL_FLIGHTS_NOTE``; the
@@ -291,12 +292,13 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
 
     parts = split_flights(flight)
     if len(parts) == 1:
-        return _diagnose_one(flight, model, profile, keep_flight=keep_flight)
+        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, prior=prior)
     spec = model_for_flight(model, flight).feature_spec
     prepared = PreparedFlight(flight)  # the check's segments are the diagnosis's
     if diagnosability(prepared, spec).ok:
-        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts, prepared=prepared)
-    subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight) for p in parts]
+        return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts, prepared=prepared,
+                             prior=prior)
+    subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight, prior=prior) for p in parts]
     for p, d in zip(parts, subs):
         d.part = p.part
     w = subs[worst_flight([d.verdict for d in subs])]
@@ -307,7 +309,8 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
 
 
 def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool,
-                  parts: Optional[list] = None, prepared: Optional[PreparedFlight] = None) -> Diagnosis:
+                  parts: Optional[list] = None, prepared: Optional[PreparedFlight] = None,
+                  prior: float = PRIOR_DAMAGE) -> Diagnosis:
     from .model import model_for_flight
 
     model = model_for_flight(model, flight)  # the shipped quad model -> the one for the flight's rotor count
@@ -326,7 +329,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
 
     def cannot_judge(reason: str) -> Diagnosis:
         verdict, _ = decide_flight(DecisionInputs(n_motors, flight.frame, stopped=stops,
-                                                  not_diagnosable_reason=reason))
+                                                  not_diagnosable_reason=reason, prior=prior))
         return Diagnosis(log=log, verdict=verdict, **facts_kw)
 
     if not check.ok:
@@ -334,7 +337,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
         if flight.frame is not None and flight.frame.rotor_count > 4 and not flight.frame.unplaced:
             reason += "; no motor stopped while airborne"
         if flight.vibration is not None and flight.airborne and vibration_can_judge(check.reasons):
-            return _vibration_only(flight, profile, n_motors, reason, log, facts_kw, keep_flight)
+            return _vibration_only(flight, profile, n_motors, reason, log, facts_kw, keep_flight, prior)
         return cannot_judge(reason)
     if profile is None:  # only worth saying when a verdict follows
         warnings.append(NO_PROFILE_WARNING if is_shipped_model(model) else NO_PROFILE_OWN_MODEL_WARNING)
@@ -377,7 +380,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
         kind = log_kind(flight, phases, ctx.covered_s, profile, common["model"].calibrated, probs.shape[1] - 1)
     verdict, decision = decide_flight(DecisionInputs(
         probs.shape[1] - 1, flight.frame, timeline=timeline, results=results, stopped=stops, kind=kind,
-        configuration_words=_configuration_words(share_fit)))
+        configuration_words=_configuration_words(share_fit), prior=prior))
     order = np.argsort(t_start, kind="stable")
     # one conversion to Python numbers per array (not per window: 740 windows of a 600 s flight)
     starts, ends, probs_l = t_start[order].tolist(), t_end[order].tolist(), probs[order].tolist()
@@ -391,7 +394,7 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
     whole = Diagnosis(log=log, verdict=verdict, windows=windows, share_fit=share_fit, decision=decision,
                       timeline=timeline, log_kind=kind, **facts_kw)
     if parts:
-        whole = _per_flight(whole, parts, prepared, win, probs, timeline, profile, model, keep_flight)
+        whole = _per_flight(whole, parts, prepared, win, probs, timeline, profile, model, keep_flight, prior)
     return whole
 
 
@@ -409,7 +412,7 @@ def _configuration_words(share_fit: Any) -> Optional[str]:
 
 
 def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: Any, probs: np.ndarray,
-                timeline: Timeline, profile: Any, model: Any, keep_flight: bool) -> Diagnosis:
+                timeline: Timeline, profile: Any, model: Any, keep_flight: bool, prior: float) -> Diagnosis:
     """Each flight of a log with motor outputs judged from the whole log's windows
     (``SEVERAL_FLIGHTS_NOTE``): its windows, its segments' command shares (split only at the whole
     log's onset when it lies in this flight), the analyzers on this flight; each flight's verdict no
@@ -433,7 +436,8 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
         if tl.shortfall is not None:
             reason = f"too short to judge alone ({tl.shortfall}): judged with the whole log"
             v, _ = decide_flight(DecisionInputs(probs.shape[1] - 1, part.frame, stopped=stops,
-                                                not_diagnosable_reason=reason, log=(whole.verdict, whole.decision)))
+                                                not_diagnosable_reason=reason, log=(whole.verdict, whole.decision),
+                                                prior=prior))
             subs.append(Diagnosis(log=whole.log, verdict=v, timeline=tl, part=part.part, **facts_kw))
             continue
         here = onset if (onset is not None and a <= onset.t_start <= b) else None
@@ -448,7 +452,7 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
         kind = replace(whole.log_kind, covered_s=ctx.covered_s) if whole.log_kind is not None else None
         v, dec = decide_flight(DecisionInputs(
             pm.shape[1] - 1, part.frame, timeline=tl, results=run_analyzers(ctx), stopped=stops, kind=kind,
-            configuration_words=_configuration_words(ev), log=(whole.verdict, whole.decision)))
+            configuration_words=_configuration_words(ev), log=(whole.verdict, whole.decision), prior=prior))
         sub_windows = [w for w in whole.windows if a - 1e-6 <= w.t_start and w.t_end <= b + 1e-6]
         subs.append(Diagnosis(log=whole.log, verdict=v, windows=sub_windows, share_fit=ev, decision=dec,
                               timeline=tl, part=part.part, log_kind=kind, **facts_kw))
@@ -460,7 +464,7 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
 
 
 def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, log: str, facts_kw: dict,
-                    keep_flight: bool) -> Diagnosis:
+                    keep_flight: bool, prior: float) -> Diagnosis:
     """A flight the full diagnosis cannot take (no motor outputs, no damage model), judged by
     :func:`~flightlog_fd.decision.decide_flight` from the analyzers that need no motor outputs (vibration)."""
     if profile is not None:
@@ -468,13 +472,14 @@ def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, lo
             facts_kw["warnings"].extend(profile.check_compatible(flight) or [])
         except FlightLogError as e:
             verdict, _ = decide_flight(DecisionInputs(n_motors, flight.frame, stopped=facts_kw["stopped"],
-                                                      not_diagnosable_reason=e.message))
+                                                      not_diagnosable_reason=e.message, prior=prior))
             return Diagnosis(log=log, verdict=verdict, **facts_kw)
     ctx = Context(flight=flight, frame=flight.frame, n_motors=n_motors, probs=np.zeros((0, n_motors + 1)),
                   covered_s=0.0, profile=profile)
     results = run_analyzers(ctx, [a for a in REGISTRY if not a.needs_motor_outputs])
     verdict, decision = decide_flight(DecisionInputs(n_motors, flight.frame, results=results,
-                                                     stopped=facts_kw["stopped"], not_diagnosable_reason=reason))
+                                                     stopped=facts_kw["stopped"], not_diagnosable_reason=reason,
+                                                     prior=prior))
     return Diagnosis(log=log, verdict=verdict, decision=decision, part=flight.part, **facts_kw)
 
 
@@ -494,7 +499,18 @@ def _analyzer_context(flight: Flight, t_start: np.ndarray, t_end: np.ndarray, pr
                    profile=profile, model_sha256=model_sha256)
 
 
-def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = True) -> Diagnosis:
+def prior_damage(profile: Any = None, prior: Optional[float] = None) -> float:
+    """The prior of damage a diagnosis decides under: ``prior`` (``fdlog diagnose --prior-damage``),
+    else the profile's own (a fleet's, ``fdlog calibrate --prior-damage``), else
+    :data:`~flightlog_fd.decision.PRIOR_DAMAGE`."""
+    if prior is not None:
+        return float(prior)
+    own = getattr(profile, "prior_damage", None) if profile is not None else None
+    return float(own) if own is not None else PRIOR_DAMAGE
+
+
+def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = True,
+                  prior: Optional[float] = None) -> Diagnosis:
     """Load ``path`` and diagnose it; a bad file gives a not_diagnosable Diagnosis (exit 2)."""
     from . import load_flight
 
@@ -502,4 +518,4 @@ def diagnose_path(path, model: Any, profile: Any = None, *, keep_flight: bool = 
         flight = load_flight(path)
     except FlightLogError as e:
         return Diagnosis(log=str(path), verdict=decide_flight(DecisionInputs(0, not_diagnosable_reason=e.message))[0])
-    return diagnose_flight(flight, model, profile, keep_flight=keep_flight)
+    return diagnose_flight(flight, model, profile, keep_flight=keep_flight, prior=prior)

@@ -74,7 +74,7 @@ _REQUIRED_KEYS = ("schema", "autopilot", "frame", "rotor_count", "rho_", "rho_sp
                   "feature_spec")
 _OPTIONAL_KEYS = ("firmware", "vehicle_id", "hover_s_", "n_hover_segments_", "n_windows_", "stream_rates",
                   "source_logs", "created", "tool_version", "model", "extra", "rho_source_", "baseline_",
-                  "analyzers", "lacks_", "sessions_", "configurations_")
+                  "analyzers", "lacks_", "sessions_", "configurations_", "prior_damage")
 
 PathLike = Union[str, os.PathLike]
 
@@ -116,6 +116,9 @@ class Profile:
     #: baseline (and model-vote baseline, ``analyzers``) from its own sessions (:func:`~flightlog_fd.calibration.add_sessions` with a loaded flight).
     #: [] in a profile older than schema 7: one configuration, :data:`AS_CALIBRATED`.
     configurations_: list = field(default_factory=list)
+    #: The fleet's own prior of damage for this airframe (P(a rotor lost thrust) per diagnosed
+    #: flight, before its log is read), or None for the decision's (:data:`flightlog_fd.decision.PRIOR_DAMAGE`)
+    prior_damage: Optional[float] = None
     schema: int = PROFILE_SCHEMA
     path: Optional[str] = field(default=None, repr=False, compare=False)  # where it was loaded/saved
 
@@ -163,6 +166,7 @@ class Profile:
             "lacks_": list(self.lacks_),
             "sessions_": list(self.sessions_),
             "configurations_": list(self.configurations_),
+            "prior_damage": self.prior_damage,
         }
 
     def fit_analyzers(self, flights, model, sessions=None, adapted_on: bool = False) -> None:
@@ -279,6 +283,10 @@ class Profile:
         lacks = d.get("lacks_", [])
         if not isinstance(lacks, list) or not all(isinstance(x, str) for x in lacks):
             raise bad("lacks_ must be a list of strings")
+        prior = d.get("prior_damage")
+        if prior is not None and (isinstance(prior, bool) or not isinstance(prior, (int, float))
+                                  or not 0.0 < float(prior) < 1.0):
+            raise bad(f"prior_damage must be null or a probability strictly between 0 and 1, not {prior!r}")
         motorless = [k for k in ("rho_", "rho_spread_", "hover_throttle_", "feature_spec") if d[k] is None]
         if motorless:
             if len(motorless) != 4 or not lacks or d.get("baseline_") is not None or d.get("model") is not None:
