@@ -34,6 +34,10 @@ SHARED = ROOT.parent / "shared"
 
 # ----------------------------------------------------------------------------- truth
 
+#: The truth of CrazyPAD's heavy weight taped near PX4 motor 2: right when healthy, or when rotor 2
+#: is named with a cause other than the propeller.
+WASH = "wash:2"
+
 def truth_table() -> dict[str, object]:
     """{resolved path: truth}: None healthy, a tuple of damaged motors (() = damaged, rotor not stated),
     "load" for sound propellers carrying a load, "stopped" for a motor stopped mid-flight."""
@@ -43,7 +47,9 @@ def truth_table() -> dict[str, object]:
             out[str(p.resolve())] = t
     for name in ("crazypad_e9_load", "px4_sih_dev_load"):
         for p in sorted((SHARED / name).rglob("*.ulg")):
-            out[str(p.resolve())] = "load"
+            # the heavy taped weight sits in PX4 motor 2's wash and takes its thrust (README): "rotor 2
+            # lost thrust" is true of it, a propeller cause is not
+            out[str(p.resolve())] = WASH if p.name.startswith("add_weight_W3") else "load"
     for p, t in bc.sim_sets(ROOT / "build" / "no_sim").get("sample_logs", []):
         out[str(p.resolve())] = t
     for p in sorted((SHARED / "ardupilot_sitl_quad").glob("*.BIN")):
@@ -176,7 +182,9 @@ def replay(calls: list, prior: float | None = None):
     return verdict
 
 
-def right(status: str, named: list, truth) -> bool:
+def right(status: str, named: list, truth, cause=None) -> bool:
+    if truth == WASH:
+        return status == "healthy" or (status in ("damaged", "uncertain") and named == [2] and cause != "propeller")
     if truth is None or truth == "load":
         return status == "healthy"
     if truth == "stopped":
@@ -203,7 +211,7 @@ def records(folder: Path, prior: float | None = None) -> list[dict]:
                         "set": set_of(log), "name": Path(log).name, "truth": t, "status": v.status,
                         "motor": v.motor, "named": named, "confidence": float(v.confidence), "cause": v.cause,
                         "headline": getattr(v, "headline", ""), "reason": v.reason,
-                        "right": None if t == "?" else right(v.status, named, t)})
+                        "right": None if t == "?" else right(v.status, named, t, v.cause)})
     return out
 
 
@@ -228,7 +236,7 @@ def _counts(rs) -> str:
 
 
 def _damaged_right(rs) -> int:
-    return sum(r["status"] == "damaged" and r["truth"] not in (None, "load", "stopped", "?")
+    return sum(r["status"] == "damaged" and r["truth"] not in (None, "load", "stopped", "?", WASH)
                and (not r["truth"] or set(r["named"]) & set(r["truth"])) for r in rs)
 
 
@@ -296,19 +304,36 @@ def targets(recs: list[dict]) -> list[tuple[str, str, str]]:
     return out
 
 
-def per_set(recs: list[dict]) -> None:
+def reweighted(rs: list[dict], prior: float) -> float | None:
+    """The share right among ``rs`` with each flight weighed so the set's damaged flights hold
+    ``prior`` of the weight and its healthy ones (sound propellers, loads) the rest: what the
+    stated confidence means on a fleet with that base rate. None when ``rs`` is empty."""
+    dmg = [r for r in rs if r["truth"] not in (None, "load", WASH)]
+    ok = [r for r in rs if r["truth"] in (None, "load", WASH)]
+    if not rs:
+        return None
+    w_d = prior / len(dmg) if dmg and ok else (1.0 / len(dmg) if dmg else 0.0)
+    w_h = (1 - prior) / len(ok) if dmg and ok else (1.0 / len(ok) if ok else 0.0)
+    tot = sum(w_d if r in dmg else w_h for r in rs)
+    return sum((w_d if r in dmg else w_h) * bool(r["right"]) for r in rs) / tot
+
+
+def per_set(recs: list[dict], prior: float) -> None:
     keyed = defaultdict(list)
     for r in recs:
         kind = "none" if r["profile"] == "none" else ("adapted" if r["adapted"] else "no-adapt")
         keyed[(r["set"], kind)].append(r)
-    print("\n| set | profile | h/u/d/s/nd | right | uncertain | stated >= 0.9 right |")
-    print("|---|---|---|---|---|---|")
+    print(f"\nstated >= 0.9: right / stated, and the share right with the set reweighted to a prior of {prior:.2f}")
+    print("\n| set | profile | h/u/d/s/nd | right | uncertain | stated >= 0.9 right | reweighted |")
+    print("|---|---|---|---|---|---|---|")
     for (s, kind), rs in sorted(keyed.items()):
-        known = [r for r in rs if r["right"] is not None]
+        known = [r for r in rs if r["right"] is not None and r["truth"] != "stopped"]
         hi = [r for r in known if r["confidence"] >= 0.9 and r["status"] != "not_diagnosable"]
         ok = sum(r["right"] for r in hi)
+        rw = reweighted(hi, prior)
         print(f"| {s} | {kind} | {_counts(rs)} | {sum(r['right'] for r in known)}/{len(known)} | "
-              f"{sum(r['status'] == 'uncertain' for r in rs)} | {ok}/{len(hi)}{' !' if hi and ok < 0.9 * len(hi) else ''} |")
+              f"{sum(r['status'] == 'uncertain' for r in rs)} | {ok}/{len(hi)} | "
+              f"{'-' if rw is None else f'{100 * rw:.0f} %'}{' !' if rw is not None and rw < 0.9 else ''} |")
 
 
 def main() -> None:
@@ -332,7 +357,9 @@ def main() -> None:
     print("| target | measured | goal |\n|---|---|---|")
     for t, m, g in targets(recs):
         print(f"| {t} | {m} | {g} |")
-    per_set(recs)
+    from flightlog_fd.decision import PRIOR_DAMAGE
+
+    per_set(recs, args.prior if args.prior is not None else PRIOR_DAMAGE)
     if args.v:
         for r in recs:
             print(f"{r['profile']:>32} {r['set']:>18} {r['name'][:40]:40} truth={str(r['truth']):8} "

@@ -455,8 +455,6 @@ def hypotheses(results: Sequence[AnalyzerResult], n: int, kind: Optional[LogKind
             profiles[r.analyzer] = prof
             v = log_mean_exp(prof, axis=1)
         weights[r.analyzer], sources[r.analyzer] = w, np.asarray(v, float)
-    if kind is not None and kind.profile != "none" and not kind.same_session:
-        _temper_group(sources, profiles, SESSION_GROUP, TRUST_CAPS["corroborating"])
     flat = sum((v for s, v in sources.items() if s not in profiles), np.zeros(n))
     eta_post = None
     if profiles:
