@@ -83,15 +83,17 @@ PRIOR_DAMAGE = 0.10
 #: uncertain; at 3, 18 of 18 and 4 %, three px4_sih_dev weak motors without a profile called healthy
 #: (not seen) instead of uncertain.
 MISS_COST = 3.0
-#: A moved load (a battery slid, a payload added or moved: the centre of mass off the baseline's)
-#: before the log is read: one flight in five. Against an even split (no profile) it is the
-#: airframe's own trim. The load and a rotor's loss share the command pattern at the load's corner,
-#: and the commands' shares part them (``rotor_vs_load``): with this prior a rotor is the likelier
-#: only where its fit beats the load's by log(PRIOR_LOAD (1 - PRIOR_DAMAGE) n / PRIOR_DAMAGE) = 2.0
-#: nats on a quad, which is what was measured between them (results/load_vs_damage.md): the
-#: px4_sih_dev_load moved centres of mass at most +1.5 without a profile and -0.3 with one; the
-#: px4_sih_dev weak motors from +2.3 without one, the rrc_straight 20/25 mm cuts from +2.6 with one.
-PRIOR_LOAD = 0.20
+#: A moved load before the log is read, per baseline: with a profile, the load or the centre of mass
+#: moved since calibration (a battery slid, a payload added or moved); without one, the airframe's
+#: own trim against an even split, which most airframes have. The load and a rotor's loss share the
+#: command pattern at the load's corner, and the commands' shares part them (``rotor_vs_load``):
+#: with these priors a rotor is the likelier only where its fit beats the load's by
+#: log(PRIOR_LOAD (1 - PRIOR_DAMAGE) n / PRIOR_DAMAGE) nats on a quad, 1.0 with a profile and 2.0
+#: without, the middle of the gap measured between them where the pattern is strong
+#: (benchmarks/decision_replay.py; results/load_vs_damage.md): px4_sih_dev_load's moved centres of
+#: mass at most -0.3 with a profile and +1.5 without; the weak motors and cuts with strong evidence
+#: (px4_sih_dev, rrc_straight 20/25 mm) from +2.5 with one and +2.3 without.
+PRIOR_LOAD = {"profile": 0.075, "none": 0.20}
 #: Log prior odds of one given pair of rotors against one given rotor, per baseline: two damaged
 #: propellers must earn their second free efficiency. Measured (benchmarks/bench_two_props.py):
 #: the best pair's excess over the best single rotor on one-propeller and healthy flights reaches
@@ -99,12 +101,12 @@ PRIOR_LOAD = 0.20
 #: Erle board B), so a pair is named only beyond those.
 PAIR_LOG_PRIOR_ODDS = {"profile": -3.5, "none": -5.0}
 #: The sources that read the motor commands' pattern, which a load at a rotor's corner moves as that
-#: rotor's loss does: the command shares and the model's windows (its features carry each motor's
+#: rotor's loss does: the command shares, the model's windows (its features carry each motor's
 #: command; against px4_sih_dev_load's moved centres of mass it gives +7.1..+8.0 to the motor toward
-#: the load). Not the throttle: a moved centre of mass changes no rotor's efficiency, so the
-#: collective command stays (px4_sih_dev_load against sih_004: -0.3..+0.5 nats), while a rotor that
-#: lost thrust raises it.
-PATTERN_SOURCES = ("commands", "model")
+#: the load) and the throttle, whose figure is what the throttle adds to the shares' fit
+#: (:mod:`~flightlog_fd.analyzers.throttle`): a pattern explained without a moved load predicts the
+#: throttle tightly, and a load that moved the centre of mass keeps it as that fit does.
+PATTERN_SOURCES = ("commands", "throttle", "model")
 #: The sources a profile from another session can mislead: the command shares and the throttle move
 #: with the trim between sessions (Erle boards A and B: RMS share change 0.13-0.33 between sessions,
 #: benchmarks/bench_cross_session.py), and the model reads the same commands. Against a profile not
@@ -422,7 +424,7 @@ def _prior(n: int, prior: float, against_profile: bool, with_load: bool) -> dict
     w_one = 1.0
     w_pair = float(np.exp(pair_odds))
     total = n * w_one + len(pairs) * w_pair
-    load = PRIOR_LOAD if with_load else 0.0
+    load = PRIOR_LOAD["profile" if against_profile else "none"] if with_load else 0.0
     out = {"healthy": np.log((1 - prior) * (1 - load))}
     if with_load:
         out["load"] = np.log((1 - prior) * load)

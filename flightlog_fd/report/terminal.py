@@ -89,7 +89,7 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
         if v.seen is False:
             covered = tl.covered_s if tl else None
             load = f"; {v.load['words']}" if v.cause == "load" and v.load else ""
-            return f"Not seen: {not_seen_words(v.confidence, covered, diagnosis.log_kind)}{load}; {conf}"
+            return f"Not seen: {not_seen_words(covered, diagnosis.log_kind)}{load}; {conf}"
         seen = f"in {tl.covered_s:.0f} s of usable flight" if tl else "in the vibration (the only evidence this log has)"
         thin = ""
         if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
