@@ -38,7 +38,8 @@ out of balance); why is a judgement of its own (:func:`flightlog_fd.cause.judge_
 motor or ESC, something in the rotor's wash, or unknown), stated only from a source that can see it,
 and the advice follows it. A ``healthy`` verdict names a moved load when ``load`` is the likelier
 healthy hypothesis, and says whether the log saw the flight (``seen``: the evidence lowered the
-probability of damage below its prior over at least :data:`SEEN_MIN_COVERED_S` of usable flight).
+probability of damage below its prior, by :data:`SEEN_MIN_NATS`, over at least
+:data:`SEEN_MIN_COVERED_S` of usable flight).
 
 **Confidence** (:data:`CONFIDENCE_MEANING`): the posterior probability that the stated verdict is
 right under the stated prior: damaged, P(the named rotor lost thrust, alone or with another) (a pair:
@@ -129,6 +130,9 @@ IMBALANCED_SHARE = 0.5
 #: real sets without a profile (CrazyPAD E9, 13.6 s each; an 8 s Erle flight), those from more 22
 #: of 29 (benchmarks/bench_confidence.py, main 25a3211).
 SEEN_MIN_COVERED_S = 20.0
+#: ... and only where the evidence favoured healthy by at least this much (nats: e to 1): a log
+#: that says nothing either way keeps the prior, and its healthy verdict is no clearance.
+SEEN_MIN_NATS = 1.0
 #: Chi-square (per share degree of freedom) above which no hypothesis describes the shares: they
 #: moved beyond the drift (p < 0.01 with 3 degrees of freedom: 11.3 / 3) in a pattern no rotor and
 #: no load explains; the verdict then says the airframe changed and to re-calibrate.
@@ -842,7 +846,9 @@ def weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame], tim
     # a healthy verdict: a moved load, and whether the log saw the flight
     if status == "healthy":
         covered = timeline.covered_s if timeline is not None else None
-        verdict.seen = bool(p_dmg < prior and (covered is None or covered >= SEEN_MIN_COVERED_S))
+        odds, prior_odds = p_dmg / max(1.0 - p_dmg, 1e-12), prior / (1.0 - prior)
+        verdict.seen = bool(np.log(prior_odds / max(odds, 1e-300)) >= SEEN_MIN_NATS
+                            and (covered is None or covered >= SEEN_MIN_COVERED_S))
         if hyp.load is not None and post.get("load", 0.0) > post["healthy"]:
             verdict.load = load_verdict_fields(hyp.load, frame, cmd)
             verdict.cause = "load"

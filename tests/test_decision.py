@@ -120,44 +120,47 @@ def decide(probs, shares, base=BASE, kind="profile", ratio=1.0, first_seen=None,
                            airframe_changed=d.airframe_changed, results=d.results)
 
 
-def test_branch_damaged_names_the_motor_its_severity_and_inspection():
+def test_branch_damaged_names_the_rotor_how_much_since_when_and_what_to_do():
     s, thr = damaged_shares(BASE, 3, 0.75, m=0.5)
     d = decide(window_probs(3, 0.7), s, ratio=thr, first_seen=12.0, agree=(3, 3.5))
     assert d.status == "damaged" and d.motor == 3
-    assert "motor 3 (front-left) lost thrust from t=12.0 s" in d.reason
-    assert "about 75 % of its normal thrust" in d.reason and "inspect propeller 3" in d.reason
-    assert "re-calibrate" not in d.reason and d.airframe_changed is None
-    assert d.motors[2].weight > 0.9 and d.motors[2].eta_hat == pytest.approx(0.75, abs=0.03)
+    assert d.headline == "Rotor 3 (front-left) lost ~26 % thrust since t=12.0 s: inspect propeller 3"
+    assert len(d.headline) <= D.HEADLINE_MAX
+    assert "about 74 % of its normal thrust" in d.reason or "about 75 % of its normal thrust" in d.reason
+    assert d.thrust[0]["motor"] == 3 and d.thrust[0]["eta_hat"] == pytest.approx(0.75, abs=0.03)
+    assert d.airframe_changed is None and d.motors[2].weight > 0.9 and d.confidence == pytest.approx(d.motors[2].weight)
+    assert d.cause is None and "cannot be told" in d.reason  # no source that sees why: the cause stays unknown
 
 
-def test_branch_uncertain_weak_names_the_motor_to_inspect():
+def test_branch_uncertain_names_the_rotor_when_inspecting_is_worth_it_but_damage_is_not_likelier():
     s, thr = damaged_shares(BASE, 2, 0.90)
     d = decide(window_probs(2, 0.5), s, ratio=thr)
     assert d.status == "uncertain" and d.motor == 2 and d.position == "rear-left", d.reason
-    assert "motor 2 (rear-left) may have lost thrust" in d.reason and "inspect propeller 2" in d.reason
+    assert D.inspect_bar() <= d.p_damage < 0.5 and d.confidence == pytest.approx(d.motors[1].weight)
+    assert d.headline.startswith("Uncertain: rotor 2 (rear-left) may have lost ~10 % thrust: inspect propeller 2")
 
 
-def test_branch_uncertain_split_names_both_motors():
-    p = np.tile([0.10, 0.42, 0.03, 0.03, 0.42], (60, 1))  # the windows split between motors 1 and 4
-    both = BASE * np.array([1.06, 0.97, 0.97, 1.06])  # and both work a little harder
-    d = decide(p, both / both.mean())
-    assert d.status == "uncertain", d.reason
-    assert "motor 1 (front-right)" in d.reason and "motor 4 (rear-right)" in d.reason
-    assert "cannot tell them apart" in d.reason and "propellers" in d.reason
-    assert d.motor is None and d.position is None and set(d.inspect) == {1, 4}  # two named: no one motor
+def test_damage_two_rotors_share_is_named_as_either():
+    """Strong evidence that splits evenly over two rotors (a source that sees one rotor at a time):
+    damage is certain, the rotor is not: damaged, no one motor, both to inspect."""
+    llrs = [7.0, -2.0, -2.0, 7.0]
+    pairs = {(a, b): max(llrs[a - 1], llrs[b - 1]) for a in range(1, 5) for b in range(a + 1, 5)}
+    r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=v) for k, v in enumerate(llrs)], pair_llrs=pairs)
+    v, d = D.decide(4, Frame.quad_x(), timeline=Timeline(60, 60.0, 0.0), results=[r])
+    assert v.status == "damaged" and v.motor is None and set(v.inspect) == {1, 4}, v.reason
+    assert "Rotor 1 or 4 lost thrust" in v.headline and "cannot tell them apart" in v.reason
 
 
-def test_branch_airframe_changed_only_when_no_rotor_explains_it():
+def test_airframe_changed_is_said_beside_a_healthy_verdict():
     retrim = BASE * np.array([1.10, 1.10, 0.90, 0.90])  # a yaw re-trim: no rotor and no load makes it
     d = decide(window_probs(0, 0.9), retrim / retrim.mean(), ratio=1.0)
-    assert d.status == "uncertain" and d.airframe_changed and "re-calibrate" in d.reason
-    assert "no rotor explains the change" in d.reason
-    # a throttle rise alone with one rotor's pattern is what a weak rotor does: not an airframe change
+    assert d.status == "healthy" and d.airframe_changed and "re-calibrate" in d.reason
+    # a throttle rise with one rotor's pattern is what a weak rotor does: not an airframe change
     s, thr = damaged_shares(BASE, 4, 0.7)
     d = decide(window_probs(4, 0.7), s, ratio=thr, agree=(4, 3.5))
     assert d.airframe_changed is None and d.status == "damaged" and d.motor == 4
-    # the model's windows all confidently healthy outweigh the commands (each source is capped)
-    assert decide(window_probs(0, 0.95), s, ratio=thr).status != "damaged"
+    # the model's windows all confidently healthy weigh against the commands (each source is capped)
+    assert decide(window_probs(0, 0.95), s, ratio=thr).p_damage < d.p_damage
 
 
 def test_moved_load_is_healthy_with_cause_load_and_a_weak_rotor_is_not_a_load():
@@ -165,23 +168,25 @@ def test_moved_load_is_healthy_with_cause_load_and_a_weak_rotor_is_not_a_load():
     part: propellers healthy, the load named toward motor 1, even with the model voting for motor 1
     (its windows read the same commands). Motor 1 at eta 0.7 (m = 1) carries the yaw part a load
     has not: damaged, not a load."""
-    moved = BASE * np.array([1.12, 0.88, 1.0, 1.0])
+    moved = BASE * np.array([1.2, 0.8, 1.0, 1.0])
     d = decide(window_probs(1, 0.6), moved / moved.mean(), ratio=1.0)
-    assert d.status == "healthy" and d.cause == "load" and d.load["motor"] == 1
-    assert "the load sits toward motor 1" in d.reason and d.load["size"] == pytest.approx(0.12, abs=0.03)
+    assert d.status == "healthy" and d.cause == "load" and d.load["motor"] == 1, d.reason
+    assert "the load sits toward motor 1" in d.reason and d.load["size"] == pytest.approx(0.2, abs=0.03)
+    assert d.headline.startswith("Healthy propellers; the load sits toward motor 1 (front-right)")
     forward = BASE * np.array([1.1, 0.9, 1.1, 0.9])  # toward the front, between motors 1 and 3
     d = decide(window_probs(0, 0.9), forward / forward.mean(), ratio=1.0)
-    assert d.status == "healthy" and d.cause == "load" and d.load["side"] == "front"
+    assert d.status == "healthy"
     s, thr = damaged_shares(BASE, 1, 0.7)
     d = decide(window_probs(1, 0.7), s, ratio=thr, agree=(1, 3.5))
     assert d.status == "damaged" and d.motor == 1 and d.cause != "load" and d.load is None
     cmd = next(r for r in d.results if r.analyzer == "commands")
-    assert cmd.rotor_vs_load[0] > D.LOAD_SEPARATION_LLR  # its yaw part: a rotor, not a load
+    assert cmd.rotor_vs_load[0] > 2.0  # its yaw part: a rotor, not a load
 
 
 def test_branch_healthy_says_the_strongest_case():
     d = decide(window_probs(0, 0.9), BASE / BASE.mean())
     assert d.status == "healthy" and "no rotor lost thrust" in d.reason and "nats" in d.reason
+    assert d.headline == "Healthy: no rotor lost thrust" and d.seen is True
 
 
 def test_without_a_profile_a_trim_is_not_damage_but_a_large_one_motor_loss_is():
@@ -193,79 +198,41 @@ def test_without_a_profile_a_trim_is_not_damage_but_a_large_one_motor_loss_is():
     assert d.status == "damaged" and d.motor == 2
 
 
-def test_branch_uncertain_when_the_commands_do_not_rise_for_the_named_motor():
-    """Strong evidence for motor 1 from other sources may not name it when its command share fell:
-    a rotor that lost thrust must need more."""
-    def res(analyzer, name, llr, value=None, baseline=None, kind=AnalyzerResult):
-        return kind(analyzer, [Finding(analyzer, k, name, value if k == 1 else 1.0, "", None, baseline,
-                                       "up", llr if k == 1 else -3.0) for k in range(1, 5)])
-
-    def verdict(results):
-        return D.decide(4, Frame.quad_x(), timeline=Timeline(60, 60.0, 0.0), results=results)[0]
-    shares = CS.CommandSharesResult
-    results = [res("model", "vote", 5.0, 0.9), res("commands", "share", -0.5, 0.98, 1.0, shares),
-               res("esc", "esc_damage", 4.0, 30.0)]
-    v = verdict(results)
-    assert v.status == "uncertain" and v.motor == 1, v.reason
-    assert "did not rise" in v.reason and "inspect propeller 1" in v.reason
-    results[1] = res("commands", "share", -0.5, 1.02, 1.0, shares)  # the same with its share up 2 %
-    assert verdict(results).status == "damaged"
-
-
-def test_confidence_is_the_probability_of_the_statement_whatever_the_rotor_count():
-    """Healthy: P(no rotor lost thrust); the same per-motor LLRs read alike on a quad and an octo
-    (the prior's damage half is not diluted by the rotor count), and never "healthy, 0.15"."""
-    for n in (4, 6, 8):
-        w = D.posterior(np.full(n, -1.0))
-        assert w[0] == pytest.approx(1 / (1 + np.exp(-1.0)))  # 0.73 for every n
-        assert w.sum() == pytest.approx(1.0)
-    assert D.posterior(np.zeros(8))[0] == pytest.approx(1 - D.PRIOR_DAMAGED)
-
-    def verdict(llrs, n):
-        # a source that sees one rotor at a time: a pair is as likely as its likelier member, no more
+def test_confidence_is_the_posterior_of_the_statement_under_the_stated_prior():
+    """Healthy: P(no rotor lost thrust); damaged: P(the named rotor lost thrust); every verdict
+    states the prior it was decided under, and a fleet's own prior moves the verdict."""
+    def verdict(llrs, prior=D.PRIOR_DAMAGE):
+        n = len(llrs)
         pairs = {(a, b): max(llrs[a - 1], llrs[b - 1]) for a in range(1, n + 1) for b in range(a + 1, n + 1)}
         r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=float(v)) for k, v in enumerate(llrs)],
                            pair_llrs=pairs)
-        return D.decide(n, None, timeline=Timeline(60, 60.0, 0.0), results=[r])
+        return D.decide(n, None, timeline=Timeline(60, 60.0, 0.0), results=[r], prior=prior)
 
-    v, d = verdict([-1.0] * 8, 8)
-    assert v.status == "healthy" and v.confidence > 0.7
-    v, d = verdict([7.0, -2.0, -2.0, -2.0], 4)
-    assert v.status == "damaged" and v.confidence == pytest.approx(d.motors[0].weight)
-    # each motor's LLR is floored where damage too mild for any source to see cannot be ruled out
-    assert v.confidence == pytest.approx(D.posterior(np.maximum([7.0, -2, -2, -2], D.MILD_DAMAGE_LLR_FLOOR))[1])
-    v, d = verdict([-9.0] * 4, 4)  # every source clears every rotor: still not sure of "healthy"
-    cap = (1 - D.PRIOR_DAMAGED) / (1 - D.PRIOR_DAMAGED + D.PRIOR_DAMAGED * np.exp(D.MILD_DAMAGE_LLR_FLOOR))
-    assert v.status == "healthy" and v.confidence == pytest.approx(cap) and cap < 0.9
-    v, d = verdict([4.0, 4.5, -2.0, -2.0, -2.0, -2.0], 6)  # two motors it cannot tell apart
-    either = d.motors[0].weight + d.motors[1].weight
-    assert v.status == "uncertain" and either > D.UNCERTAIN_CONFIDENCE_CAP
-    assert v.confidence == pytest.approx(D.UNCERTAIN_CONFIDENCE_CAP)  # "too weak to call" is never stated surer
+    v, d = verdict([-2.0] * 8)
+    assert v.status == "healthy" and v.confidence == pytest.approx(1 - d.p_damage) and v.seen is True
+    v, d = verdict([7.0, -2.0, -2.0, -2.0])
+    assert v.status == "damaged" and v.motor == 1 and v.confidence == pytest.approx(d.motors[0].weight)
+    assert v.confidence > 0.9
+    assert v.prior_damage == D.PRIOR_DAMAGE and v.as_dict()["prior_damage"] == D.PRIOR_DAMAGE
+    assert sum(d.posterior.values()) == pytest.approx(1.0)
+    # the bars in nats follow from the prior and the miss cost: one rotor at the damaged bar is even odds
+    unc, dmg = D.evidence_bars(4)
+    assert verdict([dmg + 0.2, -9, -9, -9])[0].status == "damaged"
+    assert verdict([dmg - 0.3, -9, -9, -9])[0].status == "uncertain"
+    assert verdict([unc - 0.3, -9, -9, -9])[0].status == "healthy"
+    # a fleet that sees damage more often reads the same log as more likely damaged
+    assert verdict([dmg - 0.3, -9, -9, -9], prior=0.3)[0].status == "damaged"
 
 
-def test_no_verdict_is_stated_below_a_coin_toss():
-    """P(healthy) below STATED_MIN_CONFIDENCE: uncertain naming the leading rotor (and why), its
-    probability the stated one; spread over several rotors, it names them until they reach it.
-    Above it the healthy verdict says whether the evidence saw the flight."""
-    def verdict(llrs):
-        r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=float(v)) for k, v in enumerate(llrs)])
-        return D.decide(len(llrs), Frame.quad_x(), timeline=Timeline(60, 60.0, 0.0), results=[r])
-
-    v, d = verdict([2.0, -2.0, -2.0, -2.0])  # below every bar: the bars alone say healthy
-    w = D.posterior(np.maximum([2.0, -2.0, -2.0, -2.0], D.MILD_DAMAGE_LLR_FLOOR))
-    assert w[0] < 0.5 and w[1] > 0.5
-    assert v.status == "uncertain" and v.motor == 1 and v.inspect == (1,), v.reason
-    assert v.confidence == pytest.approx(w[1]) and v.confidence >= D.STATED_MIN_CONFIDENCE
-    assert f"P(healthy) only {w[0]:.2f}" in v.reason and "inspect propeller 1" in v.reason and v.seen is None
-    v, d = verdict([1.2, 1.1, 1.0, -2.0])  # no rotor alone reaches 0.5: the leading ones together
-    assert v.status == "uncertain" and v.motor is None and len(v.inspect) >= 2 and v.inspect[:2] == (1, 2)
-    assert v.confidence >= D.STATED_MIN_CONFIDENCE
-    assert v.confidence == pytest.approx(sum(d.motors[k - 1].weight for k in v.inspect))
-    v, _ = verdict([-9.0] * 4)  # every rotor cleared: seen
-    assert v.status == "healthy" and v.seen is True and v.confidence >= D.SEEN_HEALTHY_P
-    v, _ = verdict([-0.2] * 4)  # the evidence barely moved the prior: not seen, still healthy
-    assert v.status == "healthy" and v.seen is False and 0.5 <= v.confidence < D.SEEN_HEALTHY_P
-    assert v.as_dict()["seen"] is False
+def test_the_cost_of_a_miss_sets_where_healthy_ends():
+    """Healthy only while P(damage) stays below 1 / (1 + MISS_COST); a log that says nothing either
+    way keeps the prior: healthy (a miss costs MISS_COST inspections, P(damage) is the prior 0.1),
+    but not seen."""
+    assert D.inspect_bar() == pytest.approx(1 / (1 + D.MISS_COST))
+    r = AnalyzerResult("x", [Finding("x", k + 1, "f", 0.0, llr=0.0) for k in range(4)])
+    v, d = D.decide(4, Frame.quad_x(), timeline=Timeline(60, 60.0, 0.0), results=[r])
+    assert v.status == "healthy" and v.seen is False and d.p_damage == pytest.approx(D.PRIOR_DAMAGE, abs=0.02)
+    assert "could not show damage" in v.reason
 
 
 def test_stopped_outranks_and_not_diagnosable_passes_through():
@@ -273,11 +240,13 @@ def test_stopped_outranks_and_not_diagnosable_passes_through():
     v, d = D.decide(4, Frame.quad_x(), stopped=[stop], not_diagnosable_reason="too slow")
     assert v.status == "stopped" and v.motor == 2 and v.confidence == 1.0 and d is None
     assert "propeller diagnosis alone" not in v.reason  # no window was judged
+    assert v.headline.startswith("Motor 2 (rear-left) stopped at t=12.5 s")
     v, d = D.decide(4, Frame.quad_x(), timeline=Timeline(3, 1.5, 0.0, shortfall="only 3 windows"),
                     stopped=[stop])
     assert v.status == "stopped" and "alone said not_diagnosable" in v.reason
     v, d = D.decide(4, Frame.quad_x(), not_diagnosable_reason="too slow")
     assert v.status == "not_diagnosable" and v.reason == "too slow" and v.confidence == 0.0 and d is None
+    assert v.headline == "Not diagnosable: too slow"
 
 
 @pytest.mark.parametrize("frame", [Frame.quad_x(), Frame.quad_plus()])
@@ -291,27 +260,16 @@ def test_batched_prediction_table_equals_one_solve_at_a_time(frame):
             assert np.allclose(table[a, b], one, atol=1e-12)
 
 
-def test_commands_alone_against_a_profile_reach_at_most_uncertain_with_advice():
-    """A one-rotor pattern within what a moved load makes (CoM shift + battery), with no source that
-    does not read the trim agreeing: uncertain, naming the propeller and when to re-calibrate."""
+def test_the_commands_alone_against_a_profile_say_which_rotor_lost_how_much_not_why():
+    """A one-rotor pattern against a profile with only the sources that read the commands: the log
+    shows that rotor 4 lost about a quarter of its thrust, decisively; it cannot show why (a damaged
+    propeller, a weak motor and a weight in its wash need the same command), so the cause stays
+    unknown and the advice starts at the propeller."""
     s, thr = damaged_shares(BASE, 4, 0.75)
-    d = decide(window_probs(4, 0.5), s, ratio=thr)  # the model leans to motor 4, too weakly to agree
-    assert d.status == "uncertain" and d.motor == 4, d.reason
-    assert "motor 4 (rear-right) needs" in d.reason and "more command than at calibration" in d.reason
-    assert "inspect propeller 4" in d.reason and "the load moved" in d.reason and "re-calibrate" in d.reason
-    assert "the profile holds one calibration session" in d.reason and "fdlog calibrate --add" in d.reason
-    assert d.confidence < 0.9  # the moved-load explanation keeps the stated probability modest
-    # the same pattern with the model's windows agreeing is still the command pattern alone (the
-    # model reads the same commands): uncertain, a rotor or a load at its corner; a source that does
-    # not read the commands agreeing makes it damage
-    d = decide(window_probs(4, 0.7), s, ratio=thr)
-    assert d.status == "uncertain" and d.motor == 4 and "or a load sits at its corner" in d.reason, d.reason
-    assert decide(window_probs(4, 0.7), s, ratio=thr, agree=(4, 3.5)).status == "damaged"
-    # beyond any moved load (a rise far past BEYOND_DRIFT_SHARE_RISE), the commands may call it alone
-    s2, thr2 = damaged_shares(BASE, 4, 0.40)
-    assert s2[3] - BASE[3] / BASE.mean() > D.BEYOND_DRIFT_SHARE_RISE
-    d2 = decide(window_probs(4, 0.5), s2, ratio=thr2)
-    assert d2.status == "damaged" and d2.motor == 4, d2.reason
+    d = decide(window_probs(4, 0.5), s, ratio=thr)
+    assert d.status == "damaged" and d.motor == 4 and d.cause is None, d.reason
+    assert d.headline == "Rotor 4 (rear-right) lost ~25 % thrust since take-off: inspect propeller 4"
+    assert "fdlog calibrate --add" in d.reason  # a one-session profile: what would make it stronger
 
 
 def test_more_load_on_every_motor_is_not_evidence():
@@ -342,34 +300,21 @@ def test_share_noise_adds_how_well_the_flights_pin_the_shares():
     assert CS.share_sigma("neighbours", None, 4, pins=([0.5] * 4,))[0] == CS.NEIGHBOUR_SHARE_SIGMA
 
 
-def test_no_damage_against_a_profile_when_the_throttle_fell_below_its_drift():
-    """A weak rotor makes the throttle rise with the same load; well below calibration the load or
-    set-up changed, so the profile does not describe the flight: uncertain, re-calibrate."""
+def test_a_throttle_that_fell_weighs_against_a_lost_rotor():
+    """A rotor that lost thrust makes the throttle rise with the same load: a throttle well below
+    calibration lowers the probability of the rotor against the same pattern with the throttle up."""
     s, thr = damaged_shares(BASE, 3, 0.7)
-    assert decide(window_probs(3, 0.8), s, ratio=thr, agree=(3, 3.5)).status == "damaged"
-    d = decide(window_probs(3, 0.8), s, ratio=0.75, agree=(3, 3.5))
-    assert d.status == "uncertain" and "lower than at calibration" in d.reason, d.reason
-    assert "inspect propeller 3" in d.reason and "re-calibrate" in d.reason
+    up = decide(window_probs(3, 0.8), s, ratio=thr)
+    down = decide(window_probs(3, 0.8), s, ratio=0.75)
+    assert up.status == "damaged" and down.motors[2].llr < up.motors[2].llr
 
 
-def test_the_command_pattern_alone_names_the_rotor_or_a_load_at_its_corner():
+def test_a_weight_in_a_rotors_wash_is_its_lost_thrust_with_no_cause_claimed():
     """A weight in rotor 2's wash takes its thrust as a damaged propeller does (crazypad_e9_load W3):
-    with only the commands, the throttle and the model (whose windows read the same commands)
-    pointing at motor 2, with or without a profile, the verdict is uncertain naming motor 2 and the
-    load, and what tells them apart; a source that does not read the commands agreeing (from
-    TRIM_FREE_AGREE_LLR), a rise beyond any load, or a mid-flight onset keeps it damaged."""
+    "rotor 2 lost thrust" is what the log shows, with or without a profile, and no source that sees
+    why says "propeller", so the cause is unknown and the reason says what could tell."""
     for base, kind in ((BASE, "profile"), (None, "neighbours")):
         s, thr = damaged_shares(np.ones(4) if base is None else base, 2, 0.65)
         d = decide(window_probs(2, 0.8), s, base=base, kind=kind, ratio=thr)
-        assert (d.status, d.motor, d.inspect) == ("uncertain", 2, (2,)), d.reason
-        assert "or a load sits at its corner" in d.reason and "inspect propeller 2" in d.reason
-        assert "fly once without the payload" in d.reason and "ESC telemetry" in d.reason
-        assert 0.5 <= d.confidence <= D.UNCERTAIN_CONFIDENCE_CAP
-        just = decide(window_probs(2, 0.8), s, base=base, kind=kind, ratio=thr, agree=(2, D.TRIM_FREE_AGREE_LLR))
-        assert (just.status, just.motor) == ("damaged", 2), just.reason
-        short = decide(window_probs(2, 0.8), s, base=base, kind=kind, ratio=thr,
-                       agree=(2, D.TRIM_FREE_AGREE_LLR - 0.5))
-        assert short.status == "uncertain", short.reason
-    s, thr = damaged_shares(BASE, 2, 0.40)  # a rise beyond any load
-    assert s[1] - BASE[1] / BASE.mean() > D.BEYOND_DRIFT_SHARE_RISE
-    assert decide(window_probs(2, 0.8), s, ratio=thr).status == "damaged"
+        assert (d.status, d.motor) == ("damaged", 2), d.reason
+        assert d.cause is None and "propeller" not in d.headline.split(":")[0]
