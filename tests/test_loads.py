@@ -75,17 +75,16 @@ def test_csv_and_store_carry_the_load(moved, tmp_path):
 
 def test_weak_motor_is_not_a_load():
     """px4_sih_dev sih_051: motor 1 at 70 % thrust from take-off, no profile: its yaw part makes it
-    a rotor, well beyond what a moved load explains; but only the command-pattern sources speak
-    (no ESC, no vibration tie, no effectiveness), and a load at rotor 1's corner (a weight in its
-    wash) would make the same pattern: uncertain, naming motor 1 and that load."""
-    from flightlog_fd.decision import LOAD_SEPARATION_LLR
+    a rotor, well beyond what a moved load explains. Only the command-pattern sources speak (no ESC,
+    no vibration tie, no effectiveness): the log shows that rotor 1 lost thrust, not why, so the
+    verdict is damaged, motor 1, its cause unknown."""
     from flightlog_fd.diagnose import diagnose_path, resolve_model
 
     d = diagnose_path(shared_path("px4_sih_dev", "logs", "sih_051.ulg"), resolve_model())
     cmd = next(r for r in d.decision.results if r.analyzer == "commands")
-    assert (d.verdict.status, d.verdict.motor) == ("uncertain", 1) and d.verdict.cause != "load"
-    assert "or a load sits at its corner" in d.verdict.reason and "inspect propeller 1" in d.verdict.reason
-    assert d.verdict.load is None and cmd.rotor_vs_load[0] > LOAD_SEPARATION_LLR
+    assert (d.verdict.status, d.verdict.motor) == ("damaged", 1) and d.verdict.cause is None, d.verdict.reason
+    assert d.verdict.load is None and cmd.rotor_vs_load[0] > 2.0
+    assert d.verdict.headline.startswith("Rotor 1 (front-right) lost ~") and "inspect propeller 1" in d.verdict.headline
 
 
 def test_drift_leaves_load_flights_out_of_the_command_pattern():
@@ -125,12 +124,10 @@ def test_a_weight_in_a_rotors_wash_is_not_called_a_damaged_propeller():
     """crazypad_e9_load W3: a heavier weight taped near PX4 motor 2, sound propellers. Its command
     pattern is a rotor-2 loss (the weight sits in its wash) and the 100 Hz log has no ESC telemetry,
     no usable vibration and no effectiveness fit: only the sources that read the commands speak.
-    Uncertain, naming motor 2 and the load at its corner and what tells them apart; exit 1."""
+    Rotor 2 lost thrust is what the log shows; the cause is never "propeller"; exit 1."""
     res = runner.invoke(app, ["diagnose", "--json", str(shared_path("crazypad_e9_load", "ulog",
                                                                       "add_weight_W3_near_M3__E9_log01.ulg"))])
     assert res.exit_code == 1, res.output
     v = json.loads(res.stdout)["verdict"]
-    assert (v["status"], v["motor"], v["motors"]) == ("uncertain", 2, [2]), v["reason"]
-    assert "or a load sits at its corner" in v["reason"] and "fly once without the payload" in v["reason"]
-    assert "the log has no source that does not read the commands" in v["reason"]
-    assert 0.5 <= v["confidence"] <= 0.8
+    assert (v["status"], v["motor"], v["motors"]) == ("damaged", 2, [2]), v["reason"]
+    assert v["cause"] != "propeller" and "propeller" not in v["headline"].split(":")[0]
