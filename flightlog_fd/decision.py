@@ -110,15 +110,10 @@ PAIR_LOG_PRIOR_ODDS = {"profile": -3.5, "none": -5.0}
 PATTERN_SOURCES = ("commands", "throttle", "model")
 #: The sources a profile from another session can mislead: the command shares and the throttle move
 #: with the trim between sessions (Erle boards A and B: RMS share change 0.13-0.33 between sessions,
-#: benchmarks/bench_cross_session.py), and the model reads the same commands. Against a profile not
-#: known to be of the flight's session (:attr:`~flightlog_fd.analyzers.reliability.LogKind.same_session`)
-#: they are one source together, tempered to the "corroborating" cap: alone they ask for an
-#: inspection, and a source that does not read the commands must agree for "damaged" (real healthy
-#: cross-session pairs: Erle 15-10-2014_42 against board A's profiles gets commands +3.7, throttle
-#: +1.5, model +2.3 for rotor 3). Within a known session the shares' drift is the re-flight spread
-#: (RMS 0.008-0.041), so the commands and the throttle are trusted there.
+#: benchmarks/bench_cross_session.py), which is what their reliability cells measured. Within a
+#: session known from the logs' UTC times (:attr:`~flightlog_fd.analyzers.reliability.LogKind.same_session`)
+#: the shares' drift is the re-flight spread (RMS 0.008-0.041), so they are trusted there.
 SESSION_SOURCES = ("commands", "throttle")
-SESSION_GROUP = ("commands", "throttle", "model")
 #: Of the rotors that lose thrust, the share whose damage also unbalances the propeller (a chip, an
 #: asymmetric cut or crack) and so shakes the frame once per revolution; the rest (a symmetric cut,
 #: a weak motor or ESC, a weight in the wash) do not (rrc_straight's symmetric 5-25 mm cuts: level
@@ -529,35 +524,6 @@ def hypotheses(results: Sequence[AnalyzerResult], n: int, kind: Optional[LogKind
     p_damage = float(sum(v for h, v in post.items() if h.startswith("rotor")))
     return Hypotheses(n=n, sources=sources, weights=weights, rotor=rotor, eta_post=eta_post, pairs=pairs, load=load,
                       load_llr=load_llr, log_prior=logp, posterior=post, p_damage=p_damage, marginal=marginal)
-
-
-def _temper_group(sources: dict, profiles: dict, group: Sequence[str], cap: float) -> None:
-    """Temper the sources of ``group`` together (one factor on all their evidence, in place) so that
-    what they say jointly of any rotor stays within ``cap`` nats: sources that read one thing are
-    one source (:meth:`~flightlog_fd.analyzers.base.AnalyzerResult.eta_profile`)."""
-    members = [s for s in group if s in sources]
-    if len(members) < 1:
-        return
-    n = len(next(iter(sources.values())))
-
-    def joint(alpha: float) -> float:
-        tot = np.zeros((n, len(ETA_GRID)))
-        for s in members:
-            tot += alpha * (profiles[s] if s in profiles else sources[s][:, None])
-        return float(np.max(log_mean_exp(tot, axis=1)))
-
-    if joint(1.0) <= cap:
-        return
-    lo, hi = 0.0, 1.0
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if joint(mid) <= cap else (lo, mid)
-    for s in members:
-        if s in profiles:
-            profiles[s] = lo * profiles[s]
-            sources[s] = log_mean_exp(profiles[s], axis=1)
-        else:
-            sources[s] = lo * sources[s]
 
 
 def eta_estimate(profile: Optional[np.ndarray]) -> tuple[Optional[float], Optional[tuple[float, float]]]:

@@ -144,12 +144,13 @@ class AnalyzerResult:
 
     def eta_profile(self, n_motors: int, cap: Optional[float] = None) -> Optional[np.ndarray]:
         """(n, len(ETA_GRID)) nats: each motor's :attr:`eta_llrs` (a motor without one is flat at its
-        raw LLR), tempered when the source says more than ``cap`` allows (default ``llr_cap``): every
-        motor's profile is multiplied by one factor in (0, 1], the one that brings the most extreme
-        motor's marginal over the grid to +-cap. A tempered likelihood is how far a source is
-        believed; it keeps where on the grid the source speaks and the order of the motors, and unlike
-        shifting or clipping it never turns a strong "here" into a "not there" elsewhere on the grid.
-        None when the source gives no profile or weighs nothing."""
+        raw LLR), bounded by ``cap`` (default ``llr_cap``) as :meth:`llr` bounds the flat figures:
+        when a motor's evidence for damage (its marginal over the grid) exceeds the cap, every
+        motor's profile is multiplied by the one factor in (0, 1] that brings the largest to the cap
+        (a tempered likelihood: it keeps where on the grid the source speaks and the order of the
+        motors, and unlike shifting it never turns a strong "here" into a "not there" elsewhere on
+        the grid); evidence against damage is bounded at -cap at every eta. None when the source
+        gives no profile or weighs nothing."""
         raw = self.raw_llr(n_motors)
         if raw is None or not self.eta_llrs:
             return None
@@ -160,16 +161,16 @@ class AnalyzerResult:
                 out[k - 1] = prof
         cap = self.llr_cap if cap is None else cap
 
-        def extreme(alpha: float) -> float:
-            return float(np.max(np.abs(log_mean_exp(alpha * out, axis=1))))
+        def top(alpha: float) -> float:
+            return float(np.max(log_mean_exp(alpha * out, axis=1)))
 
-        if extreme(1.0) <= cap:
-            return out
-        lo, hi = 0.0, 1.0  # extreme(0) = 0 <= cap < extreme(1)
-        for _ in range(40):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if extreme(mid) <= cap else (lo, mid)
-        return lo * out
+        if top(1.0) > cap:
+            lo, hi = 0.0, 1.0  # top(0) = 0 <= cap < top(1)
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if top(mid) <= cap else (lo, mid)
+            out = lo * out
+        return np.maximum(out, -cap)
 
     def pair_llr(self, n_motors: int, cap: Optional[float] = None) -> Optional[dict]:
         """{(a, b): nats} for every pair of motors, clipped like :meth:`llr` to +-``cap`` (default
