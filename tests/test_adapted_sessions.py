@@ -59,20 +59,25 @@ def test_a_session_shift_like_erle_a_stays_below_agreement_but_a_large_one_is_da
     cut = va.analyze(_ctx(_probs(np.array([4.6, 1.1, 0.9, 1.1]), mean), 10.0, base=base))
     e = [f.llr for f in erle.findings]
     c = [f.llr for f in cut.findings]
-    from flightlog_fd.decision import TRIM_FREE_AGREE_LLR
+    # the vote's evidence as the decision reads it (over the shared eta grid): Erle's shift alone stays
+    # below the uncertain bar of a quad, the cut's reaches the damaged bar
+    from flightlog_fd.decision import evidence_bars
 
-    assert max(e) < TRIM_FREE_AGREE_LLR  # the commands stay held: at most uncertain
-    assert int(np.argmax(c)) == 0 and c[0] > TRIM_FREE_AGREE_LLR
+    uncertain_bar, damaged_bar = evidence_bars(4)
+    assert max(e) < uncertain_bar
+    assert int(np.argmax(c)) == 0 and c[0] > damaged_bar
     # the same Erle shift weighed as before (the in-sample baseline, 0.55 spread) reads as damage
     old = MV.model_llr(_probs(np.array([0.26, 0.26, 2.28, -0.23]), mean), 45.0, mean, MV.MODEL_MIN_HEALTHY_SIGMA)
-    assert old[2] > TRIM_FREE_AGREE_LLR
+    assert old[2] > uncertain_bar
 
 
 def test_full_rate_and_shipped_model_keep_the_plain_baseline():
     mean = np.array([-1.57, -1.70, -1.64, -1.53])
     base = {"model_sha256": "sha", "healthy_mean": mean.tolist(), "n_flights": 1}
     p = _probs(np.array([0.26, 0.26, 2.28, -0.23]), mean)
-    plain = MV.model_llr(p, 45.0, mean, MV.MODEL_MIN_HEALTHY_SIGMA)
+    from flightlog_fd.analyzers.base import log_mean_exp
+
+    plain = log_mean_exp(MV.vote_eta_llrs(MV.model_llr(p, 45.0, mean, MV.MODEL_MIN_HEALTHY_SIGMA)), axis=1)
     for hz, model in ((250.0, "adapted.onnx"), (10.0, None)):
         got = [f.llr for f in MV.ModelVotes().analyze(_ctx(p, hz, profile_model=model, base=base)).findings]
         assert np.allclose(got, plain), (hz, model)
