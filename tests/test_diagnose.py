@@ -121,7 +121,7 @@ def test_damage_from_mid_flight_found_with_onset():
     assert v.motor == 3 and v.position == "front-left"
     assert 28.0 <= v.first_seen <= 33.0
     assert d.exit_code == EXIT_DAMAGED_OR_UNCERTAIN
-    assert "motor 3 (front-left)" in v.reason
+    assert v.headline.startswith("Rotor 3 (front-left) lost") and "since t=" in v.headline
     late = [w for w in d.windows if w.t_start > 35.0]
     assert late and all(w.cls == 3 and w.label == 3 for w in late)
 
@@ -211,7 +211,7 @@ def test_keep_flight_false_drops_the_flight_but_keeps_the_result():
 
     d = diagnose_flight(synthetic_flight(damaged_motor=1, onset_s=0.0, harder=1.45), ShareModel(), keep_flight=False)
     assert d.flight is None
-    assert (d.verdict.status, d.verdict.motor, d.verdict.position) == ("uncertain", 1, "front-right")
+    assert (d.verdict.status, d.verdict.motor, d.verdict.position) == ("damaged", 1, "front-right")
     page = render_html(d)
     assert page.count("<svg") == 1  # only the probabilities plot without the flight's streams
 
@@ -280,14 +280,14 @@ def test_evidence_decides_between_model_and_airframe_trim():
     """A motor 12 % high from take-off: with a profile whose baseline is even, named and the
     reason cites the command change against calibration and the rotor's thrust; a strong
     one-motor pattern (45 %) is named without a profile, cited against the neighbours, with a
-    lower eta-hat. The commands and the model alone: uncertain, the rotor or a load at its corner."""
+    lower eta-hat. The commands and the model alone say which rotor, not why: the cause unknown."""
     mild = synthetic_flight(damaged_motor=2, onset_s=0.0)
     d = diagnose_flight(mild, ShareModel(), FakeProfile())
-    assert (d.verdict.status, d.verdict.motor) == ("uncertain", 2) and "or a load sits at its corner" in d.verdict.reason
+    assert (d.verdict.status, d.verdict.motor, d.verdict.cause) == ("damaged", 2, None), d.verdict.reason
     assert "against calibration" in d.verdict.reason and "of its normal thrust" in d.verdict.reason
     assert d.motors[1].command_share_baseline == pytest.approx(1.0)
     strong = diagnose_flight(synthetic_flight(damaged_motor=2, onset_s=0.0, harder=1.45), ShareModel())
-    assert (strong.verdict.status, strong.verdict.motor) == ("uncertain", 2)
+    assert (strong.verdict.status, strong.verdict.motor) == ("damaged", 2)
     assert "against its neighbours" in strong.verdict.reason
     assert strong.motors[1].command_change > 0.3 and strong.share_fit.baseline == "neighbours"
     assert strong.decision.motors[1].eta_hat < d.decision.motors[1].eta_hat < 1.0
