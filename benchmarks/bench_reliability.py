@@ -382,7 +382,9 @@ def table(cases: list[dict], out_md: Path | None = None) -> str:
     """The measured table (module docstring), the level the rule gives each cell, and the level
     the code holds (flightlog_fd/analyzers/reliability.RELIABILITY), flagging any difference."""
     from flightlog_fd.analyzers.reliability import EXCEPTIONS, cell_trust, trust_level, trust_of
-    from flightlog_fd.decision import DAMAGED_LLR, UNCERTAIN_LLR
+    from flightlog_fd.decision import evidence_bars
+
+    UNCERTAIN_LLR, DAMAGED_LLR = evidence_bars(4)  # the quad's bars under the stated prior
 
     from flightlog_fd.analyzers import REGISTRY
 
@@ -502,8 +504,8 @@ BAR_HEALTHY_SHARE = 0.05
 
 
 def bars(cases: list[dict]) -> None:
-    """The uncertain bar per rate class without a profile (decision.FULL_RATE_UNCERTAIN_LLR,
-    UNCERTAIN_LLR): the decision as the code makes it now on the cached cases; per rotor count,
+    """The uncertain bar per rate class without a profile (decision.evidence_bars: one bar for every
+    rate, from the prior and the miss cost): the decision as the code makes it now on the cached cases; per rotor count,
     rate class and origin, the healthy flights' leading total LLR (largest over the motors, every
     source capped as the decision caps it), how many reach each bar from 2.0 to 3.5 nats, and how
     many damaged flights (simulated: eta <= 0.8; real: every damaged flight whose motor is known)
@@ -511,7 +513,7 @@ def bars(cases: list[dict]) -> None:
     BAR_HEALTHY_SHARE of the simulated healthy flights and none of the real ones reach. Figures only."""
     from flightlog_fd.analyzers import REGISTRY
     from flightlog_fd.analyzers.reliability import rate_class
-    from flightlog_fd.decision import decide, uncertain_bar
+    from flightlog_fd.decision import decide, evidence_bars
 
     keys = {a.id: tuple(a.reliability_keys) for a in REGISTRY}
     healthy, damaged, code_bar = defaultdict(list), defaultdict(list), {}
@@ -529,7 +531,7 @@ def bars(cases: list[dict]) -> None:
         total = np.array([m.llr for m in dec.motors])
         key = ("quad" if n == 4 else "n-rotor", rate_class(kind.stream_hz),
                "sim" if c["set"].startswith("sim") else "real")
-        code_bar[key[:2]] = uncertain_bar(kind)
+        code_bar[key[:2]] = evidence_bars(n)[0]
         if c["truth"] == 0:
             healthy[key].append(float(total.max()))
         elif key[2] == "real" or (c["eta"] is not None and c["eta"] <= VOTE_FIT_ETA + 1e-9):
@@ -652,7 +654,9 @@ def votes() -> None:
     and for the vote share with the code's and the fitted figures. Figures only."""
     from flightlog_fd.analyzers import model_votes as mv
     from flightlog_fd.analyzers.reliability import MIN_MEASURED
-    from flightlog_fd.decision import DAMAGED_LLR, UNCERTAIN_LLR
+    from flightlog_fd.decision import evidence_bars
+
+    UNCERTAIN_LLR, DAMAGED_LLR = evidence_bars(4)  # the quad's bars under the stated prior
     from flightlog_fd.timeline import floored
 
     def flights(which):
