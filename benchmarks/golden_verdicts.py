@@ -2,6 +2,7 @@
 
     python benchmarks/golden_verdicts.py write OUT.json [--profiles DIR] [--no-adapted]
     python benchmarks/golden_verdicts.py compare BEFORE.json AFTER.json
+    python benchmarks/golden_verdicts.py moves BEFORE.json AFTER.json   # every status move, by truth
 
 ``write`` runs the installed ``fdlog`` (the CLI is the contract a move must keep) on every log in
 ``sample_logs/`` and in ``../shared`` without a profile, and on each calibration set with the
@@ -13,7 +14,10 @@ confidence, reason), the exit code, per motor the LLR (total and by source), eta
 interval, weight, command share and effectiveness, every analyzer finding's value and LLR, and the
 windows' smoothed labels; numbers rounded to 6 decimals.
 
-``compare`` prints every difference, case by case, and exits 1 when there is any.
+``compare`` prints every difference, case by case, and exits 1 when there is any. ``moves`` names
+every status move against the flight's truth (benchmarks/decision_replay.py's table): per move,
+set and profile, how many, on which truth (healthy, a load, damaged) and whether the rotor the new
+verdict names is a damaged one; then each case.
 """
 from __future__ import annotations
 
@@ -201,6 +205,39 @@ def compare(before: Path, after: Path) -> int:
     return 1 if n_diff else 0
 
 
+def moves(before: Path, after: Path) -> None:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import decision_replay as dr
+
+    truth = dr.truth_table()
+    a, b = json.loads(before.read_text()), json.loads(after.read_text())
+    groups: dict[tuple, list] = {}
+    for key in sorted(set(a) & set(b)):
+        sa, sb = a[key].get("status"), b[key].get("status")
+        if sa == sb:
+            continue
+        prof, log = [x.strip() for x in key.split("|", 1)]
+        path = str((SHARED / log[len("shared/"):]).resolve()) if log.startswith("shared/") else str((ROOT / log).resolve())
+        t = truth.get(path, "?")
+        kind = ("healthy" if t is None else "load" if t == "load" else "taped weight (wash)" if t == dr.WASH
+                else "stopped" if t == "stopped" else "unknown" if t == "?" else "damaged")
+        motor = b[key].get("motor")
+        rotor = "" if kind != "damaged" or motor is None else (" right rotor" if (not t or motor in t) else " wrong rotor")
+        where = "no profile" if prof == "no_profile" else "profile"
+        groups.setdefault((f"{sa} -> {sb}", kind + rotor, where), []).append((prof, log, motor))
+    print("| move | truth | profile | cases | sets |\n|---|---|---|---|---|")
+    for (move, kind, where), rows in sorted(groups.items()):
+        sets: dict[str, int] = {}
+        for _, log, _ in rows:
+            name = log.split("/")[1] if log.startswith("shared/") else "sample_logs"
+            sets[name] = sets.get(name, 0) + 1
+        print(f"| {move} | {kind} | {where} | {len(rows)} | " + ", ".join(f"{k} {v}" for k, v in sorted(sets.items())) + " |")
+    print()
+    for (move, kind, where), rows in sorted(groups.items()):
+        for prof, log, motor in rows:
+            print(f"{move:24s} {kind:22s} {prof:32s} {log} {'' if motor is None else motor}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -211,9 +248,14 @@ def main() -> None:
     c = sub.add_parser("compare")
     c.add_argument("before", type=Path)
     c.add_argument("after", type=Path)
+    m = sub.add_parser("moves")
+    m.add_argument("before", type=Path)
+    m.add_argument("after", type=Path)
     args = ap.parse_args()
     if args.cmd == "write":
         write(args.out, args.profiles, not args.no_adapted)
+    elif args.cmd == "moves":
+        moves(args.before, args.after)
     else:
         sys.exit(compare(args.before, args.after))
 
