@@ -588,8 +588,10 @@ def headline(v: Verdict, since: str = "", frame: Optional[Frame] = None) -> str:
         return fit(f"Motor {name(v.motor)} stopped{when}: check motor {v.motor}, its ESC and wiring")
     if v.status == "healthy":
         if v.load:
-            return fit(f"Healthy propellers; the load sits toward motor {v.load['motor']}"
-                       + (f" ({v.load['position']})" if v.load.get("position") else "") + ": re-balance or re-calibrate")
+            where = f"motor {v.load['motor']}" + (f" ({v.load['position']})" if v.load.get("position") else "")
+            if v.seen is False:  # the log did not rule a rotor out: the load is the likelier, not shown
+                return fit(f"No lost rotor shown; the pattern fits a load toward {where}: not a clearance")
+            return fit(f"Healthy propellers; the load sits toward {where}: re-balance or re-calibrate")
         if v.seen is False:
             return fit("Healthy as far as this log shows, but it could not show damage: not a clearance")
         return fit("Healthy: no rotor lost thrust")
