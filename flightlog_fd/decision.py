@@ -629,8 +629,8 @@ def headline(v: Verdict, since: str = "", frame: Optional[Frame] = None) -> str:
             a, b = v.motors
             return fit(f"Rotors {name(a)} and {name(b)} lost thrust{when}: inspect propellers {a} and {b}")
         if v.motor is not None:
-            if v.cause == "propeller" and not loss(v.motor):
-                return fit(f"Propeller {name(v.motor)} is damaged (out of balance): inspect propeller {v.motor}")
+            if v.cause == "propeller" and not loss(v.motor):  # ESC rpm or a vibration line, not the thrust
+                return fit(f"Propeller {name(v.motor)} is damaged: inspect propeller {v.motor}")
             return fit(f"Rotor {name(v.motor)} lost{loss(v.motor)} thrust{when}: {_first_step(v.cause, v.motor)}")
         if v.inspect:
             ks = " or ".join(map(str, v.inspect))
