@@ -632,6 +632,9 @@ def headline(v: Verdict, since: str = "", frame: Optional[Frame] = None) -> str:
             if v.cause == "propeller" and not loss(v.motor):  # ESC rpm or a vibration line, not the thrust
                 return fit(f"Propeller {name(v.motor)} is damaged: inspect propeller {v.motor}")
             return fit(f"Rotor {name(v.motor)} lost{loss(v.motor)} thrust{when}: {_first_step(v.cause, v.motor)}")
+        if len(v.inspect) == 1:  # one rotor, alone or with another
+            k = int(v.inspect[0])
+            return fit(f"Rotor {k} lost{loss(k)} thrust{when}: {_first_step(v.cause, k)}")
         if v.inspect:
             ks = " or ".join(map(str, v.inspect))
             return fit(f"Rotor {ks} lost thrust{when}: inspect propellers {', '.join(map(str, v.inspect))}")
@@ -886,8 +889,11 @@ def _reason(v: Verdict, hyp: Hypotheses, cmd, vib, cause: Optional[Cause], decis
         if v.status == "uncertain" and hyp.load is not None and hyp.posterior.get("load", 0) > 0.05:
             parts.append(f"or no rotor lost thrust and {load_verdict_fields(hyp.load, None, cmd)['words']}")
     elif v.status in ("damaged", "uncertain"):
-        parts.append("the evidence points at " + " or ".join(f"rotor {k}" for k in v.inspect) + " and cannot tell "
-                     "them apart" if v.inspect else "a propeller is out of balance but no rotor can be named")
+        if len(v.inspect) == 1:
+            parts.append(f"the evidence points at rotor {v.inspect[0]}, alone or with another rotor")
+        else:
+            parts.append("the evidence points at " + " or ".join(f"rotor {k}" for k in v.inspect) + " and cannot "
+                         "tell them apart" if v.inspect else "a propeller is out of balance but no rotor can be named")
         if vib is not None and vib.level_words:
             parts.append(vib.level_words)
         why = getattr(vib, "why_untied", "") if vib is not None else ""
