@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any, Optional, Sequence
 
 from .analyzers.reliability import FULL_RATE_HZ, LogKind
-from .decision import THIN_TIMELINE_SHARE
+from .decision import HEADLINE_ROTORS_NAMED, THIN_TIMELINE_SHARE
 
 #: Every kind of advice, in the order a pilot acts on them.
 #: ``without_payload``: re-balance a moved load a healthy verdict names.
@@ -148,9 +148,9 @@ def _and(items: Sequence[str]) -> str:
 def inspect_steps(motors: Sequence[int], cause: Optional[str], positions: dict) -> list[Advice]:
     """The "inspect" advice for the named rotors: propeller, motor and ESC, what sits under it, one
     item each in the order the cause makes likely (:data:`INSPECT_ORDER`); every propeller when
-    none is named."""
+    none is named, or as many as the headline names none of (``HEADLINE_ROTORS_NAMED``)."""
     motors = tuple(int(m) for m in motors)
-    if not motors:
+    if not motors or len(motors) >= HEADLINE_ROTORS_NAMED:  # as many as the headline names none of
         return [Advice("inspect", "inspect every propeller: " + PARTS["propeller"].split(": ", 1)[1]),
                 Advice("inspect", "then every motor and its ESC: " + PARTS["motor"].split(": ", 1)[1])]
     many = len(motors) > 1

@@ -242,7 +242,8 @@ def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table
     """Per-motor findings table: what the verdict rests on, in numbers a pilot can check. A dash's
     reason is among the notes under it."""
     view = view or MotorView.of(diagnosis)
-    t = Table(title=f"per-motor findings (commands against {view.against})", title_justify="left", box=None,
+    against = f" (commands against {view.against})" if view.against else ""
+    t = Table(title=f"per-motor findings{against}", title_justify="left", box=None,
               padding=(0, 0, 0, 1), pad_edge=False, title_style="dim")
     header, rows = view.table(narrow=True)
     for h in header:
