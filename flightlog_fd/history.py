@@ -215,7 +215,7 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
             yield f"  FLAG: {d['text']}"
         if v["latest_damaged"]:
             f = v["latest"]
-            yield f"  FLAG: latest flight has {_latest_words(f)} ({Path(f['log']).name})"
+            yield f"  FLAG: latest flight: {_latest_words(f)} ({Path(f['log']).name})"
         elif v.get("latest_inspect"):
             f = v["latest"]
             yield f"  FLAG: latest flight {_inspect_words(f)} ({Path(f['log']).name})"
