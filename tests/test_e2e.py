@@ -97,9 +97,9 @@ def test_sample_log_verdict(sample_reports, name):
         # damaged, or (the command-pattern sources alone) uncertain naming the rotor and a load at its corner
         assert v["status"] == "damaged" or (v["status"] == "uncertain" and "or a load sits at its corner" in v["reason"]), v
         assert v["motor"] == truth
-        assert v["position"] in v["reason"]
+        assert v["position"] in v["headline"]
     assert validate(d) == []
-    assert d["schema"] == 7 and len(d["windows"]) >= 8
+    assert d["schema"] == 8 and len(d["windows"]) >= 8
     w = d["windows"][0]
     assert w["t_end"] > w["t_start"] and len(w["probabilities"]) == 5
     assert sum(w["probabilities"]) == pytest.approx(1.0, abs=1e-3)
