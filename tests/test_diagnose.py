@@ -211,7 +211,7 @@ def test_keep_flight_false_drops_the_flight_but_keeps_the_result():
 
     d = diagnose_flight(synthetic_flight(damaged_motor=1, onset_s=0.0, harder=1.45), ShareModel(), keep_flight=False)
     assert d.flight is None
-    assert (d.verdict.status, d.verdict.motor, d.verdict.position) == ("uncertain", 1, "front-right")
+    assert (d.verdict.status, d.verdict.motor, d.verdict.position) == ("damaged", 1, "front-right")
     page = render_html(d)
     assert page.count("<svg") == 1  # only the probabilities plot without the flight's streams
 

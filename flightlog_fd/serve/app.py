@@ -584,7 +584,7 @@ def create_app(cfg: ServeConfig):
                               "rotor_word": cause_words(((doc or {}).get("verdict") or {}).get("cause")).short},
                     airframe=airframe, parts=store.flight_parts(fid),
                     part_headlines=[((x.get("verdict") or {}).get("headline") if isinstance(x, dict) else None)
-                                    for x in (doc or {}).get("flights") or []] + [None] * 64,
+                                    for x in (doc or {}).get("flights") or []],
                     has_html=data.report_path(f["sha256"], "html").exists(),
                     has_csv=data.report_path(f["sha256"], "csv").exists())
 
