@@ -175,7 +175,7 @@ import numpy as np
 
 from .. import __version__
 from ..advice import ADVICE_KINDS
-from ..decision import CONFIDENCE_MEANING, HEADLINE_MAX
+from ..decision import CONFIDENCE_MEANING, HEADLINE_MAX, headline
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
@@ -434,7 +434,7 @@ def to_dict(d: Diagnosis) -> dict:
         "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
                                            "model_sha256": p.model_sha256, "sessions": p.sessions,
                                            "configuration": _configuration(d)},
-        "verdict": v.as_dict(),
+        "verdict": {**v.as_dict(), "headline": v.headline or headline(v)},  # (a verdict made without one)
         "evidence": None if ev is None or ev.n_windows == 0 else {
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),
             "share": [round(x, PROB_DECIMALS) for x in ev.smoothed_share],

@@ -242,9 +242,9 @@ def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table
     """Per-motor findings table: what the verdict rests on, in numbers a pilot can check. A dash's
     reason is among the notes under it."""
     view = view or MotorView.of(diagnosis)
-    against = f" (commands against {view.against})" if view.against else ""
-    t = Table(title=f"per-motor findings{against}", title_justify="left", box=None,
-              padding=(0, 0, 0, 1), pad_edge=False, title_style="dim")
+    title = "per-motor findings" + (f" (commands against {view.against})" if view.against else "")
+    t = Table(title=title, title_justify="left", box=None, padding=(0, 0, 0, 1), pad_edge=False, title_style="dim",
+              min_width=len(title))  # a narrow table (weights only) would fold its title
     header, rows = view.table(narrow=True)
     for h in header:
         t.add_column(h, justify="left" if h in ("pos", "share", "thrust %", "effect.") else "right", no_wrap=True)

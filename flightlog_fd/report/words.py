@@ -107,10 +107,10 @@ def cause_line(v: Any) -> str:
 
 def evidence_clauses(v: Any) -> list[str]:
     """The clauses of the verdict's reason, each once, without the cause clause (:func:`cause_line`
-    says it) and without the reason of a not-diagnosable verdict (its headline says it)."""
+    says it); a not-diagnosable verdict's reason only when its headline cut it short."""
     reason = _get(v, "reason") or ""
-    if _get(v, "status") == "not_diagnosable":
-        return []
+    if _get(v, "status") == "not_diagnosable":  # the headline says why, unless it had to cut the reason short
+        return [] if reason in (_get(v, "headline") or "") else [reason]
     ev = _get(v, "cause_evidence") or {}
     cause_said = {f"cause: {ev.get('reason')}", ev.get("reason")} if ev.get("reason") else set()
     out: list[str] = []
