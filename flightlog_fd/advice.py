@@ -1,13 +1,25 @@
-"""What would resolve a verdict: the propellers to inspect, the command that adds this flight to the
-airframe's profile as a session when they are sound, and the logging settings that would let a
-source that could not weigh in decide next time.
+"""What to do after a verdict: what to inspect, in the order the cause makes likely, the command
+that adds this flight to the airframe's profile as a session when the propellers are sound, and the
+logging settings that would let a source that could not weigh in decide next time.
 
 :func:`advise` turns a verdict, the kind of log (:class:`~flightlog_fd.analyzers.reliability.LogKind`)
 and the analyzers' abstentions into a list of :class:`Advice` (the JSON report's
-``verdict.advice``; every report prints it). Advice is given for an ``uncertain`` verdict, and for a
-``healthy`` one resting on thin evidence (a mostly uncertain timeline, a log that could not show
-damage: ``Verdict.seen`` False, or a source held back by the log's rates): what to inspect and what
-to log. A ``damaged`` verdict names its propeller in its reason; a ``stopped`` one its motor.
+``verdict.advice``; every report prints it under the cause and the evidence):
+
+- ``damaged`` or ``uncertain`` naming rotor k: inspect propeller k, then motor k and its ESC, then
+  what sits under rotor k (in its wash), in the order the cause (:mod:`flightlog_fd.cause`) makes
+  likely: a motor or ESC cause puts the motor first, something in the wash what sits under it
+  first; a propeller cause or none keeps that order. Two rotors: both, in the same order; no rotor
+  named: every propeller. A damaged verdict whose cause is unknown asks for ESC telemetry (it tells
+  a propeller from a motor or ESC next time);
+- ``uncertain``: then what resolves it (add the flight as a session, or calibrate on it, when
+  the propellers are sound; the logging settings a source lacked);
+- ``healthy`` naming a moved load (cause ``load``): re-balance it, or re-calibrate with it;
+- ``healthy`` resting on thin evidence (a mostly uncertain timeline, a log that could not show
+  damage: ``Verdict.seen`` False, or a source held back by the log's rates): what to inspect and
+  what to log;
+- ``stopped`` and ``not_diagnosable``: nothing here (the headline says what to check; the
+  reason why the log cannot be judged).
 
 Settings named (the autopilots' own parameters):
 - PX4: ``SDLOG_PROFILE`` bit 4 "high rate" (value 16; 17 = the default set plus high rate) logs
@@ -26,9 +38,10 @@ from pathlib import Path
 from typing import Any, Optional, Sequence
 
 from .analyzers.reliability import FULL_RATE_HZ, LogKind
-from .decision import THIN_TIMELINE_SHARE
+from .decision import HEADLINE_ROTORS_NAMED, THIN_TIMELINE_SHARE
 
 #: Every kind of advice, in the order a pilot acts on them.
+#: ``without_payload``: re-balance a moved load a healthy verdict names.
 ADVICE_KINDS = ("inspect", "add_session", "calibrate", "without_payload", "logging", "esc_telemetry", "manoeuvre")
 
 LOGGING = {
@@ -48,10 +61,28 @@ ESC_TELEMETRY = {
 }
 
 
+#: What to look at on each part that can take a rotor's thrust; {r} "propeller 2 (rear-left)" or
+#: "propellers 1 (front-right) and 4 (rear-right)", {m} "motor 2" / "motors 1 and 4", {u} "rotor 2".
+PARTS = {
+    "propeller": "{r}: chips, cracks (flex each blade), a cut or worn tip, a bent blade, a loose hub or nut",
+    "motor": "{m} and {its} ESC{s}: spin by hand (roughness, play, heat after flight), wires, connectors, "
+             "solder joints",
+    "wash": "what sits under {u}: a camera, a leg, a cable, tape or a payload in {its} wash",
+}
+#: The order the parts are inspected in, per cause (``Verdict.cause``; None: unknown): the likely
+#: part first, the propeller next (the commonest and cheapest to check), what sits under it last.
+INSPECT_ORDER = {
+    None: ("propeller", "motor", "wash"),
+    "propeller": ("propeller", "motor", "wash"),
+    "motor_or_esc": ("motor", "propeller", "wash"),
+    "wash": ("wash", "propeller", "motor"),
+}
+
+
 @dataclass(frozen=True)
 class Advice:
-    """One thing to do: ``kind`` ("inspect", "add_session", "calibrate", "logging", "esc_telemetry",
-    "manoeuvre"), the words, and where it applies the motors, the command or the autopilot setting."""
+    """One thing to do: ``kind`` (:data:`ADVICE_KINDS`), the words, and where it applies the motors,
+    the command or the autopilot setting."""
 
     kind: str
     text: str
@@ -69,7 +100,7 @@ class Situation:
     """What :func:`advise` reads about one diagnosis."""
 
     status: str
-    inspect: Sequence[int] = ()  # the propellers the verdict names to inspect, first first
+    inspect: Sequence[int] = ()  # the rotors the verdict names to inspect, first first
     kind: Optional[LogKind] = None
     autopilot: str = ""
     log: Optional[str] = None
@@ -78,13 +109,10 @@ class Situation:
     little_manoeuvring: bool = False  # the effectiveness fit said the flight did not manoeuvre enough
     timeline_uncertain: float = 0.0  # share of '?' windows
     positions: dict = field(default_factory=dict)  # motor -> position words
-    cause: Optional[str] = None  # the named rotor's likely cause (flightlog_fd.cause): its motor / ESC first
-    pair: bool = False  # the verdict is that two propellers lost thrust together (``inspect`` holds both)
+    cause: Optional[str] = None  # the named rotor's likely cause (flightlog_fd.cause), or "load"
+    pair: bool = False  # the verdict is that two rotors lost thrust together (``inspect`` holds both)
     seen: Optional[bool] = None  # a healthy verdict: False when this log could not show damage
-    #: The motor the command pattern alone points at (``Decision.pattern_held``: that rotor lost
-    #: thrust, or a load sits at its corner); calibration refuses such a flight, so the advice is to
-    #: fly once without the payload instead of calibrating on it.
-    pattern_held: Optional[int] = None
+    load: Optional[dict] = None  # a healthy verdict naming a moved load: ``Verdict.load``
 
 
 def advice_line(a: Advice) -> str:
@@ -113,48 +141,61 @@ def _calibrate(s: Situation, text: str) -> Advice:
                                              f"{shlex.quote(_profile_for(s.log))}")
 
 
+def _and(items: Sequence[str]) -> str:
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + f" and {items[-1]}"
+
+
+def inspect_steps(motors: Sequence[int], cause: Optional[str], positions: dict) -> list[Advice]:
+    """The "inspect" advice for the named rotors: propeller, motor and ESC, what sits under it, one
+    item each in the order the cause makes likely (:data:`INSPECT_ORDER`); every propeller when
+    none is named, or as many as the headline names none of (``HEADLINE_ROTORS_NAMED``)."""
+    motors = tuple(int(m) for m in motors)
+    if not motors or len(motors) >= HEADLINE_ROTORS_NAMED:  # as many as the headline names none of
+        return [Advice("inspect", "inspect every propeller: " + PARTS["propeller"].split(": ", 1)[1]),
+                Advice("inspect", "then every motor and its ESC: " + PARTS["motor"].split(": ", 1)[1])]
+    many = len(motors) > 1
+    named = _and([f"{k} ({positions[k]})" if positions.get(k) else f"{k}" for k in motors])
+    ks = _and([str(k) for k in motors])
+    words = {"r": f"propeller{'s' if many else ''} {named}", "m": f"motor{'s' if many else ''} {ks}",
+             "u": f"rotor{'s' if many else ''} {ks}", "its": "their" if many else "its", "s": "s" if many else ""}
+    order = INSPECT_ORDER.get(cause, INSPECT_ORDER[None])
+    return [Advice("inspect", ("inspect " if i == 0 else "then ") + PARTS[part].format(**words), motors)
+            for i, part in enumerate(order)]
+
+
+def _resolve(s: Situation, found: str) -> Optional[Advice]:
+    """The profile step when the inspection finds nothing: add the flight as a session, or calibrate."""
+    if s.profile:
+        return Advice("add_session", f"{found}, add this flight to the airframe's profile as a session, so its "
+                                     f"normal spread is known next time",
+                      command=f"fdlog calibrate --add {_quote(s.profile, 'PROFILE')} {_quote(s.log, 'LOG')}")
+    return _calibrate(s, f"{found}, calibrate this airframe on this flight and diagnose the next flights with "
+                         f"the profile (--profile)")
+
+
 def advise(s: Situation) -> list[Advice]:
-    """The advice for one verdict (module docstring); [] when there is nothing to resolve."""
+    """The advice for one verdict (module docstring); [] when there is nothing to do."""
     thin = s.status == "healthy" and (s.timeline_uncertain >= THIN_TIMELINE_SHARE or s.seen is False)
-    if s.status != "uncertain" and not thin:
+    load = s.status == "healthy" and s.cause == "load" and bool(s.load)
+    if s.status not in ("uncertain", "damaged") and not thin and not load:
         return []
     out: list[Advice] = []
+    autopilot = s.autopilot if s.autopilot in LOGGING else ""
+    if s.status in ("uncertain", "damaged"):
+        out += inspect_steps(s.inspect, s.cause if len(s.inspect) == 1 else None, s.positions)
+    if s.status == "damaged":
+        if s.cause is None and len(s.inspect) == 1 and not s.has_esc and autopilot:
+            setting, text = ESC_TELEMETRY[autopilot]
+            out.append(Advice("esc_telemetry", text, setting=setting))
+        return out
     if s.status == "uncertain":
-        motors = tuple(int(m) for m in s.inspect)
-        if len(motors) == 1 and s.cause == "motor_or_esc":
-            k = motors[0]
-            name = f"{k}" + (f" ({s.positions[k]})" if s.positions.get(k) else "")
-            out.append(Advice("inspect", f"inspect motor {name} and its ESC first (bearings, windings, wiring and "
-                                         f"solder joints, the ESC): ESC rpm shows it turning slower for its command; "
-                                         f"then propeller {k}", motors))
-        elif motors:
-            names = " and ".join(f"{m}" + (f" ({s.positions[m]})" if s.positions.get(m) else "") for m in motors)
-            if s.pair and len(motors) == 2:
-                out.append(Advice("inspect", f"inspect both propellers, {names}: the evidence fits the two having "
-                                             f"lost thrust together (cracks, chips, a loose or bent blade, their "
-                                             f"motors turning freely)", motors))
-            else:
-                out.append(Advice("inspect", f"inspect propeller{'s' if len(motors) > 1 else ''} {names} first "
-                                             f"(cracks, chips, a loose or bent blade, its motor turning freely)",
-                                  motors))
-        else:
-            out.append(Advice("inspect", "inspect every propeller (cracks, chips, a loose or bent blade)"))
-        log = _quote(s.log, "LOG")
-        if s.pattern_held is not None:
-            k = s.pattern_held
-            out.append(Advice("without_payload", f"if propeller {k} is sound and the aircraft carried a payload, a "
-                                                 f"camera or a weight near motor {k}, fly once without it and "
-                                                 f"diagnose that flight: the two explanations then part (this "
-                                                 f"flight cannot be a calibration: its commands look like rotor "
-                                                 f"{k} lost thrust)", (k,)))
-        elif s.profile:
-            cmd = f"fdlog calibrate --add {_quote(s.profile, 'PROFILE')} {log}"
-            out.append(Advice("add_session", "if the propellers are sound, add this flight to the airframe's "
-                                             "profile as a session, so its normal spread is known next time",
-                              command=cmd))
-        else:
-            out.append(_calibrate(s, "if the propellers are sound, calibrate this airframe on this flight and "
-                                     "diagnose the next flights with the profile (--profile)"))
+        out.append(_resolve(s, "if nothing is found"))
+    elif load:
+        k = int(s.load["motor"])
+        where = f"motor {k}" + (f" ({s.positions[k]})" if s.positions.get(k) else "")
+        out.append(Advice("without_payload", f"re-balance: the load sits toward {where}; move the battery, camera "
+                                             f"or payload back toward the centre", (k,)))
+        out.append(_resolve(s, "or, if the aircraft flies with this load from now on"))
     elif not s.profile:
         # The command calibrates on this very flight, which may carry damage the model could not
         # see: so the advice asks for the inspection first (a profile made on a damaged propeller
@@ -164,7 +205,6 @@ def advise(s: Situation) -> list[Advice]:
         out.append(_calibrate(s, f"{why}: inspect the propellers, and if they are sound, calibrate this airframe on "
                                  f"this flight so its command pattern weighs in fully next time (--profile)"))
     kind = s.kind
-    autopilot = s.autopilot if s.autopilot in LOGGING else ""
     slow = kind is not None and kind.stream_hz < FULL_RATE_HZ
     if slow and autopilot:
         setting, text = LOGGING[autopilot]
@@ -190,7 +230,7 @@ def situation(diagnosis: Any, flight: Any) -> Situation:
     tl = diagnosis.timeline
     v = diagnosis.verdict
     return Situation(
-        status=v.status, inspect=tuple(v.inspect), kind=diagnosis.log_kind,
+        status=v.status, inspect=tuple(v.inspect) or tuple(v.motors), kind=diagnosis.log_kind,
         autopilot=f.autopilot if f else "", log=diagnosis.log,
         profile=diagnosis.profile.path if diagnosis.profile is not None else None,
         has_esc=getattr(flight, "esc", None) is not None,
@@ -198,4 +238,4 @@ def situation(diagnosis: Any, flight: Any) -> Situation:
         timeline_uncertain=float(tl.abstained_share) if tl is not None and tl.n_windows else 0.0,
         positions={k: frame.position(k) for k in range(1, frame.rotor_count + 1)} if frame is not None else {},
         cause=v.cause, pair=bool(getattr(v, "pair", False)), seen=getattr(v, "seen", None),
-        pattern_held=getattr(diagnosis.decision, "pattern_held", None) if v.status == "uncertain" else None)
+        load=getattr(v, "load", None))

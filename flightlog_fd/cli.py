@@ -333,11 +333,12 @@ def _diagnose_files(files: list, had_errors: bool, *, profile: Optional[Path], m
 
         typer.echo(render_json(results[0] if len(results) == 1 else results))
     else:
-        for d in results:
-            terminal.render(d, console, show_windows=windows)
+        for d in results:  # several logs: the confidence legend once, under their summary
+            terminal.render(d, console, show_windows=windows, with_legend=len(results) == 1)
             console.print()
         if len(results) > 1:
             console.print(terminal.summary_table(results))
+            console.print(terminal.legend())
     for d in results:
         if d.verdict.status == "not_diagnosable":
             _fail(f"{d.log}: not diagnosable: {d.verdict.reason}")

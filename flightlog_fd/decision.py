@@ -549,6 +549,10 @@ def eta_estimate(profile: Optional[np.ndarray]) -> tuple[Optional[float], Option
 #: The headline's most characters: a pilot reads it in five seconds, on an 80-column terminal in
 #: two lines at most.
 HEADLINE_MAX = 100
+#: From this many rotors the verdict cannot tell apart, the headline names none ("inspect every
+#: propeller"): four are every rotor of a quad, and "rotor 1 or 2 or 3 or 4 or 5 ..." no longer
+#: reads in a glance (an octo judged from vibration alone covers all eight).
+HEADLINE_ROTORS_NAMED = 4
 
 
 def _where(frame: Optional[Frame], k: int) -> str:
@@ -601,13 +605,16 @@ def headline(v: Verdict, since: str = "", frame: Optional[Frame] = None) -> str:
             a, b = v.motors
             return fit(f"Rotors {name(a)} and {name(b)} lost thrust{when}: inspect propellers {a} and {b}")
         if v.motor is not None:
-            if v.cause == "propeller" and not loss(v.motor):  # seen by a source that sees propellers, not by the thrust
+            if v.cause == "propeller" and not loss(v.motor):  # ESC rpm or a vibration line, not the thrust
                 return fit(f"Propeller {name(v.motor)} is damaged: inspect propeller {v.motor}")
             return fit(f"Rotor {name(v.motor)} lost{loss(v.motor)} thrust{when}: {_first_step(v.cause, v.motor)}")
-        if v.inspect:
+        if len(v.inspect) == 1:  # one rotor, alone or with another
+            k = int(v.inspect[0])
+            return fit(f"Rotor {k} lost{loss(k)} thrust{when}: {_first_step(v.cause, k)}")
+        if v.inspect and len(v.inspect) < HEADLINE_ROTORS_NAMED:
             ks = " or ".join(map(str, v.inspect))
             return fit(f"Rotor {ks} lost thrust{when}: inspect propellers {', '.join(map(str, v.inspect))}")
-        return fit("A propeller is damaged (no rotor named): inspect all propellers")
+        return fit(f"Damage{when} on a rotor the log cannot name: inspect every propeller")
     # uncertain
     if v.pair and len(v.motors) == 2:
         a, b = v.motors
@@ -615,10 +622,10 @@ def headline(v: Verdict, since: str = "", frame: Optional[Frame] = None) -> str:
     if v.motor is not None:
         return fit(f"Uncertain: rotor {name(v.motor)} may have lost{loss(v.motor)} thrust: "
                    f"{_first_step(v.cause, v.motor)}")
-    if v.inspect:
+    if v.inspect and len(v.inspect) < HEADLINE_ROTORS_NAMED:
         return fit(f"Uncertain: rotor {' or '.join(map(str, v.inspect))} may have lost thrust: inspect "
                    f"propellers {', '.join(map(str, v.inspect))}")
-    return fit("Uncertain: a propeller may be damaged: inspect all propellers")
+    return fit("Uncertain: a rotor the log cannot name may be damaged: inspect every propeller")
 
 
 def _airframe_changed(cmd: Optional[CommandSharesResult], thr: Optional[ThrottleResult], n: int,
@@ -860,8 +867,13 @@ def _reason(v: Verdict, hyp: Hypotheses, cmd, vib, cause: Optional[Cause], decis
         if v.status == "uncertain" and hyp.load is not None and hyp.posterior.get("load", 0) > 0.05:
             parts.append(f"or no rotor lost thrust and {load_verdict_fields(hyp.load, None, cmd)['words']}")
     elif v.status in ("damaged", "uncertain"):
-        parts.append("the evidence points at " + " or ".join(f"rotor {k}" for k in v.inspect) + " and cannot tell "
-                     "them apart" if v.inspect else "a propeller is out of balance but no rotor can be named")
+        if len(v.inspect) == 1:
+            parts.append(f"the evidence points at rotor {v.inspect[0]}, alone or with another rotor")
+        elif len(v.inspect) >= HEADLINE_ROTORS_NAMED:
+            parts.append(f"no rotor can be named: the evidence points at {len(v.inspect)} rotors alike")
+        else:
+            parts.append("the evidence points at " + " or ".join(f"rotor {k}" for k in v.inspect) + " and cannot "
+                         "tell them apart" if v.inspect else "a propeller is out of balance but no rotor can be named")
         if vib is not None and vib.level_words:
             parts.append(vib.level_words)
         why = getattr(vib, "why_untied", "") if vib is not None else ""

@@ -71,11 +71,12 @@ def _inspect_words(latest: dict) -> str:
 
 
 def _latest_words(latest: dict) -> str:
-    """"propeller 3 damaged" / "propellers 1 and 4 damaged" / "motor 2 or its ESC weak" / "rotor 3
-    lost thrust (propeller, motor or ESC)" (no cause known) for the latest-flight flag."""
+    """"propeller 3 damaged" / "rotors 1 and 4 lost thrust" / "motor 2 or its ESC weak" / "rotor 3
+    lost thrust (propeller, motor or ESC, or something in its wash)" (no cause known) for the
+    latest-flight flag: a propeller only where the verdict's cause says so."""
     motors = latest.get("motors") or ([latest["motor"]] if latest.get("motor") else [])
     if len(motors) > 1:
-        return f"propellers {', '.join(map(str, motors[:-1]))} and {motors[-1]} damaged"
+        return f"rotors {', '.join(map(str, motors[:-1]))} and {motors[-1]} lost thrust"
     motor = motors[0] if motors else latest.get("motor")
     return cause_words(latest.get("cause")).named(motor)
 
@@ -214,7 +215,7 @@ def iter_text_lines(summary: dict) -> Iterable[str]:
             yield f"  FLAG: {d['text']}"
         if v["latest_damaged"]:
             f = v["latest"]
-            yield f"  FLAG: latest flight has {_latest_words(f)} ({Path(f['log']).name})"
+            yield f"  FLAG: latest flight: {_latest_words(f)} ({Path(f['log']).name})"
         elif v.get("latest_inspect"):
             f = v["latest"]
             yield f"  FLAG: latest flight {_inspect_words(f)} ({Path(f['log']).name})"

@@ -58,7 +58,8 @@ def output_problems(res: Any, store: Any = None, run: Any = None) -> list[str]:
     from flightlog_fd.report.csv_report import render_csv
     from flightlog_fd.report.html_report import render_html
     from flightlog_fd.report.json_report import render_json, validate
-    from flightlog_fd.report.words import cause_words
+    from flightlog_fd.decision import CONFIDENCE_MEANING, HEADLINE_MAX
+    from flightlog_fd.report.words import cause_words, evidence_clauses
 
     d = res.diagnosis
     v = d.verdict
@@ -73,32 +74,47 @@ def output_problems(res: Any, store: Any = None, run: Any = None) -> list[str]:
         terminal.render(d, con, show_windows=True)
         return con.file.getvalue()
 
+    head = terminal.verdict_sentence(d)
+    flat = lambda t: " ".join(t.split())  # noqa: E731  (the words, whatever the wrapping)
+    if not head or len(head) > HEADLINE_MAX:
+        bad.append(f"headline: {len(head)} characters (at most {HEADLINE_MAX}): {head!r}")
     text = _attempt(bad, "terminal", term)
     if text is not None:
-        if " ".join(terminal.verdict_sentence(d).split()) not in " ".join(text.split()):
-            bad.append("terminal: no verdict sentence")
-        if d.windows and f"{lost}   ? uncertain" not in text:
+        lines = text.splitlines()
+        if not flat("\n".join(lines[:2])).startswith(flat(head)):
+            bad.append("terminal: the first line is not the headline")
+        if max(len(ln) for ln in lines) > 80:
+            bad.append("terminal: a line over 80 columns")
+        if d.windows and f"1-{terminal.LABEL_CHARS[len(d.windows[0].probabilities) - 1]} {lost}" not in flat(text):
             bad.append(f"terminal: the timeline legend does not say {lost!r} (cause {v.cause})")
+        paragraphs = [flat(c) for c in evidence_clauses(v) if len(c) > 40]
+        if any(flat(text).count(c) > 1 for c in paragraphs):
+            bad.append("terminal: an evidence clause said twice")
     doc = _attempt(bad, "json", lambda: json.loads(render_json(d)))
     if doc is not None:
         errs = validate(doc)
         if errs:
             bad.append(f"json: invalid: {errs[:2]}")
         jv = doc["verdict"]
-        if (jv["status"], jv["motor"], jv["cause"]) != (*want, v.cause):
+        if (jv["status"], jv["motor"], jv["cause"], jv["headline"]) != (*want, v.cause, head):
             bad.append(f"json: verdict {jv['status']} {jv['motor']} {jv['cause']} != {want} {v.cause}")
     rows = _attempt(bad, "csv", lambda: list(csv.reader(io.StringIO(render_csv(d)))))
     if rows:
         if {len(r) for r in rows} != {len(rows[0])}:
             bad.append("csv: rows of different widths")
         h = rows[0]
-        got = {(r[h.index("verdict")], r[h.index("verdict_motor")], r[h.index("verdict_cause")]) for r in rows[1:]}
-        if len(rows) != len(d.windows) + 1 or (got and got != {(v.status, str(v.motor or ""), v.cause or "")}):
+        got = {(r[h.index("verdict")], r[h.index("verdict_motor")], r[h.index("verdict_cause")],
+                r[h.index("verdict_headline")]) for r in rows[1:]}
+        if len(rows) != len(d.windows) + 1 or (got and got != {(v.status, str(v.motor or ""), v.cause or "", head)}):
             bad.append(f"csv: {len(rows) - 1} rows for {len(d.windows)} windows, verdict {got} != {want} {v.cause}")
     page = _attempt(bad, "html", lambda: render_html(d))
     if page is not None:
-        if html.escape(terminal.verdict_sentence(d), quote=True) not in page:
-            bad.append("html: the verdict sentence is not the terminal's")
+        body = page[page.index("<body>"):]
+        first = re.search(r"<h1[^>]*>(.*?)</h1>", body, re.S)
+        if first is None or html.unescape(first.group(1)) != head:
+            bad.append("html: the first line is not the headline")
+        if v.status != "not_diagnosable" and body.count(html.escape(CONFIDENCE_MEANING, quote=True)) != 1:
+            bad.append("html: the confidence legend not said once")
         if d.windows and f"red {html.escape(lost, quote=True)}," not in page:
             bad.append(f"html: the background legend does not say {lost!r}")
         fl = d.flight
@@ -143,6 +159,7 @@ class FlightPages:
 
     def problems(self, res: Any, path: Path) -> list[str]:
         """What is wrong with the flight page of ``res`` (a LogResult of ``path``)."""
+        from flightlog_fd.report import terminal
         from flightlog_fd.report.words import cause_words
         from flightlog_fd.serve.worker import task_result
 
@@ -168,6 +185,9 @@ class FlightPages:
         m = re.search(r'data-status="([^"]*)"', r.text)
         if m is None or m.group(1) != v.status:
             bad.append(f"flight page: status {m.group(1) if m else None} != {v.status}")
+        first = re.search(r"<h1[^>]*>(.*?)</h1>", r.text, re.S)
+        if first is None or html.unescape(first.group(1)) != (v.headline or terminal.verdict_sentence(d)):
+            bad.append("flight page: the first line is not the headline")
         row = self.store.flight(fid)
         if (row["status"], row["motor"]) != (v.status, v.motor):
             bad.append(f"flight page store: {row['status']} {row['motor']} != {v.status} {v.motor}")

@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from flightlog_fd.cli import app
 from flightlog_fd.batch import diagnose_one
+from flightlog_fd.decision import HEADLINE_MAX
 from flightlog_fd.diagnose import resolve_model
 from flightlog_fd.report import terminal
 from flightlog_fd.report.csv_report import render_csv
@@ -122,6 +123,35 @@ def test_every_output_of_a_sample(name, diagnoses):
     table = re.search(r'<table class="motor-panel">(.*?)</table>', page, re.S).group(1)
     assert table.count("<tr") == n + 1
     assert f"<th>p m{n}</th>" in page and f"<th>p m{n + 1}</th>" not in page
+
+
+def test_every_headline_is_at_most_100_characters(diagnoses):
+    """The first line a pilot reads (issue 37: the status, the rotor, how much and what to do, in
+    five seconds), on every sample and each flight of a log holding several."""
+    for name, d in diagnoses.items():
+        for x in [d, *d.flights]:
+            head = x.verdict.headline
+            assert head and len(head) <= HEADLINE_MAX, (name, head)
+            assert terminal.verdict_sentence(x) == head
+
+
+def test_the_terminal_at_80_columns_starts_with_the_headline_and_has_no_longer_line(diagnoses):
+    """Every sample at 80 columns (rich wraps it there): the headline first, no line over 80
+    characters, and in the summary of them all every file name whole on one line."""
+    flat = lambda t: " ".join(t.split())  # noqa: E731
+    for name, d in diagnoses.items():
+        console = Console(file=io.StringIO(), width=80, color_system=None)
+        terminal.render(d, console)
+        text = console.file.getvalue()
+        assert flat(text).startswith(flat(d.verdict.headline)), name
+        assert max(len(ln) for ln in text.splitlines()) <= 80, name
+        assert text.count("confidence: the probability") == 1  # the legend, once
+    console = Console(file=io.StringIO(), width=80, color_system=None)
+    console.print(terminal.summary_table(list(diagnoses.values())))
+    text = console.file.getvalue()
+    assert max(len(ln) for ln in text.splitlines()) <= 80
+    for name in diagnoses:
+        assert re.search(rf"^ ?{re.escape(name)} ", text, re.M), name  # not folded onto two lines
 
 
 def test_one_csv_of_every_rotor_count_keeps_its_width(diagnoses):

@@ -58,7 +58,7 @@ def test_a_registered_analyzer_reaches_every_report_and_the_store(registered, tm
     silent = next(a for a in doc["analyzers"] if a["analyzer"] == "silent")
     assert silent["abstained"] == "the log has no no_such_stream stream" and silent["findings"] == []
     # weighs nothing: the decision is the registry's without it
-    assert (doc["verdict"]["status"], doc["verdict"]["motor"]) == ("uncertain", 1)  # the command pattern alone
+    assert (doc["verdict"]["status"], doc["verdict"]["motor"]) == ("damaged", 1)  # rotor 1 lost thrust
     assert "toy" not in doc["motors"][0]["llr_by_source"]
     header = csv.read_text().splitlines()[0].split(",")
     assert "toy_heat_m3" in header

@@ -44,8 +44,9 @@ def test_weak_motor_is_named_as_a_motor_or_esc_fault(model):
     assert info["diagnosable"] and v.status == "damaged" and v.motor == 1, v.reason
     assert v.cause == "motor_or_esc" and v.cause_evidence["llr"] > 20
     assert v.cause_evidence["rpm_per_command"] < -15
-    assert "inspect motor 1 and ESC 1" in v.reason and "before the propeller" in v.reason
-    assert "inspect propeller 1" not in v.reason
-    assert verdict_sentence(d).startswith("Motor 1 (right) or its ESC is weak")
+    assert [a.text.split(":")[0] for a in v.advice if a.kind == "inspect"][:2] == [
+        "inspect motor 1 and its ESC", "then propeller 1 (right)"]  # the motor before the propeller
+    assert verdict_sentence(d).startswith("Rotor 1 (right) lost") and verdict_sentence(d).endswith(
+        ": inspect motor 1 and its ESC")
     # the ESC relations now count for "rotor 1 lost thrust" (they weighed -6.1 nats against a propeller)
     assert next(m for m in d.decision.motors if m.motor == 1).llr_by_source["esc"] > 6

@@ -46,13 +46,16 @@ def test_weak_motor_is_named_with_its_motor_or_esc(logs, reports):
 
     doc = reports["weak_motor2"]
     v = doc["verdict"]
-    assert validate(doc) == [] and doc["schema"] == 7
+    assert validate(doc) == [] and doc["schema"] == 8
     assert (v["status"], v["motor"], v["cause"]) == ("damaged", 2, "motor_or_esc"), v["reason"]
     ev = v["cause_evidence"]
     assert ev["motor"] == 2 and ev["llr"] > 20 and ev["rpm_per_command"] < -8
-    assert "inspect motor 2 and ESC 2" in v["reason"] and "inspect propeller 2" not in v["reason"]
+    assert v["headline"].endswith(": inspect motor 2 and its ESC")  # the motor first, then the propeller
+    assert [a["text"].split(":")[0] for a in v["advice"] if a["kind"] == "inspect"][:2] == [
+        "inspect motor 2 and its ESC", "then propeller 2 (rear-left)"]
     text = runner.invoke(app, ["diagnose", str(logs["weak_motor2"])]).stdout
-    assert "Motor 2 (rear-left) or its ESC is weak (not the propeller)" in text
+    flat = " ".join(text.split())
+    assert flat.startswith(v["headline"]) and "cause: the motor or its ESC is weak" in flat
 
 
 def test_damaged_propeller_is_named_with_its_propeller(reports):
@@ -60,7 +63,7 @@ def test_damaged_propeller_is_named_with_its_propeller(reports):
     assert (v["status"], v["motor"], v["cause"]) == ("damaged", 3, "propeller"), v["reason"]
     ev = v["cause_evidence"]
     assert ev["llr"] < -20 and ev["current_per_rpm2"] < -15  # a cut propeller draws less current per rpm²
-    assert v["reason"].endswith("inspect propeller 3")
+    assert v["headline"].endswith("inspect propeller 3") and v["advice"][0]["text"].startswith("inspect propeller 3")
 
 
 def test_healthy_flight_gets_no_cause(reports):
@@ -74,11 +77,13 @@ def test_without_esc_rpm_the_cause_is_unknown_and_said_so(logs):
 
     model = resolve_model()
     v = diagnose_flight(replace(load_flight(logs["weak_motor2"]), esc=None), model, keep_flight=False).verdict
-    # the commands alone: a rotor lost thrust, or a load sits at its corner
-    assert (v.status, v.motor) == ("uncertain", 2) and "or a load sits at its corner" in v.reason, v.reason
+    # the commands alone: rotor 2 lost thrust, why unknown
+    assert v.motor == 2 and v.status in ("damaged", "uncertain"), v.reason
     assert v.cause is None and v.cause_evidence["llr"] is None
-    assert "the log has no ESC telemetry, so a damaged propeller cannot be told from a weak motor or ESC" in v.reason
-    assert "inspect propeller 2, then motor 2 and its ESC" in v.reason
+    assert "the log has no ESC telemetry, so a damaged propeller cannot be told from a weak motor or ESC" in \
+        v.cause_evidence["reason"]
+    assert [a.text.split(":")[0] for a in v.advice if a.kind == "inspect"] == [
+        "inspect propeller 2 (rear-left)", "then motor 2 and its ESC", "then what sits under rotor 2"]
     # the damaged propeller (its rotor turns 5 % faster per command, which makes up part of the
     # lost thrust): whatever the commands alone say, no cause without ESC rpm
     v = diagnose_flight(replace(load_flight(logs["propeller3"]), esc=None), model, keep_flight=False).verdict
@@ -112,7 +117,7 @@ def test_html_store_history_and_web_page_carry_the_cause(logs, tmp_path):
                               "--db", str(db)])
     assert res.exit_code == 1, res.output
     page = html.read_text()
-    assert "likely cause" in page and "the motor or its ESC" in page and "2 (rear-left): motor or ESC" in page
+    assert '<p class="cause">cause' in page and "the motor or its ESC is weak" in page
     ((key, records),) = load_history(db).items()
     assert {r.log_path.rsplit("/", 1)[-1]: r.cause for r in records} == {"weak_motor2.bin": "motor_or_esc",
                                                                          "healthy.bin": None}
@@ -125,7 +130,7 @@ def test_html_store_history_and_web_page_carry_the_cause(logs, tmp_path):
     with serve_client(data, workers=0) as c:
         flight_page = c.get(f"/flights/{fid}").text
         airframe_page = c.get("/airframe", params={"key": key}).text
-    assert "Likely cause:</b> the motor or its ESC" in flight_page
+    assert '<p id="cause">cause' in flight_page and "the motor or its ESC is weak" in flight_page
     assert "motor 2 (motor or ESC)" in airframe_page
 
 

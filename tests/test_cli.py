@@ -168,7 +168,7 @@ def test_diagnose_json_has_per_motor_evidence_valid_against_schema():
     res = runner.invoke(app, ["diagnose", "--json", str(SAMPLES / "px4_motor2_damaged.ulg")])
     assert res.exit_code == 1, res.output
     doc = json.loads(res.stdout)
-    assert validate(doc) == [] and doc["schema"] == 7
+    assert validate(doc) == [] and doc["schema"] == 8
     motors = doc["motors"]
     assert [m["motor"] for m in motors] == [1, 2, 3, 4]
     assert motors[1]["position"] == "rear-left"

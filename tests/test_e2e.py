@@ -97,7 +97,7 @@ def test_sample_log_verdict(sample_reports, name):
         assert v["headline"].startswith((f"Rotor {truth} ({v['position']}) lost", f"Propeller {truth} ({v['position']})"))
         assert f"inspect propeller {truth}" in v["headline"] and len(v["headline"]) <= 100
     assert validate(d) == []
-    assert len(d["windows"]) >= 8
+    assert d["schema"] == 8 and len(d["windows"]) >= 8
     w = d["windows"][0]
     assert w["t_end"] > w["t_start"] and len(w["probabilities"]) == 5
     assert sum(w["probabilities"]) == pytest.approx(1.0, abs=1e-3)

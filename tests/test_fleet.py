@@ -179,7 +179,7 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
     by_name = {Path(r[0]).name: r for r in rows}
     assert set(by_name) == {"px4_healthy.ulg", "px4_motor1_damaged.ulg", "ardupilot_healthy.bin", "corrupt.ulg"}
     assert by_name["px4_healthy.ulg"][1:4] == ("sim-11-0", "sys_uuid", "healthy")
-    assert by_name["px4_motor1_damaged.ulg"][3:] == ("uncertain", 1)  # the command pattern alone
+    assert by_name["px4_motor1_damaged.ulg"][3:] == ("damaged", 1)  # rotor 1 lost thrust
     assert by_name["corrupt.ulg"][3] == "not_diagnosable"
     assert n_motor_rows == 12  # 4 per diagnosed log, none for the corrupt one
 
@@ -190,11 +190,12 @@ def test_cli_scheduler_local_with_db_then_history(tmp_path, monkeypatch):
         assert c.execute("SELECT COUNT(*) FROM motor_figure").fetchone()[0] == 12
 
     res = runner.invoke(app, ["history", "--db", str(db)])
-    # sim-12-0's latest (only) flight is uncertain naming motor 1 (the command pattern alone: rotor 1 or
-    # a load at its corner): history flags it as diagnose's exit 1 does, asking to inspect propeller 1
+    # sim-12-0's latest (only) flight: rotor 1 lost thrust, its cause unknown (no ESC rpm): history
+    # flags it as diagnose's exit 1 does, never calling it a damaged propeller
     assert res.exit_code == 1, res.output
-    assert "sim-12-0" in res.stdout and "uncertain m1" in res.stdout
-    assert "FLAG: latest flight uncertain: inspect propeller 1 (px4_motor1_damaged.ulg)" in res.stdout
+    assert "sim-12-0" in res.stdout and "damaged m1" in res.stdout
+    assert "FLAG: latest flight: rotor 1 lost thrust (propeller, motor or ESC, or something in its wash) " \
+           "(px4_motor1_damaged.ulg)" in res.stdout
     res = runner.invoke(app, ["history", "--db", str(db), "--vehicle", "sim-11-0", "--json"])
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)

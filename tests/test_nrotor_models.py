@@ -83,7 +83,7 @@ def test_n_rotor_sample_diagnosis():
     # neither names a wrong motor
     v = hexa["verdict"]
     assert (v["status"] == "damaged" and v["motor"] == 5) or (v["status"] == "uncertain"
-                                                                and "inspect propeller 5" in v["reason"])
+                                                                and v["headline"].endswith("inspect propeller 5"))
     assert octo["verdict"]["status"] != "not_diagnosable" and octo["verdict"]["motor"] in (None, 2)
 
 

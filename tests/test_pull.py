@@ -204,8 +204,8 @@ def test_pull_newest_over_a_lossy_link_is_byte_identical_and_diagnosed(double, t
     assert files[0].name.startswith("nodate_" if flavour == "ardupilot" else "2024-05-01_11-00-00_")
     expected = runner.invoke(app, ["diagnose", str(logs[-1])])
     assert res.exit_code == expected.exit_code == 1, res.output
-    # the motor-2 samples: uncertain naming motor 2 (the command pattern alone)
-    assert "motor 2 (rear-left) lost thrust" in res.output and f"pulled log {2 if flavour == 'ardupilot' else 0}" in res.output
+    # the motor-2 samples: rotor 2 lost thrust, its headline the diagnosis' first line
+    assert "Rotor 2 (rear-left) lost" in res.output and f"pulled log {2 if flavour == 'ardupilot' else 0}" in res.output
 
 
 def test_since_last_pulls_only_new_logs_and_a_second_pull_is_recognised(double, tmp_path):

@@ -112,38 +112,62 @@ def _situation(**kw) -> Situation:
 def test_an_uncertain_verdict_says_what_to_inspect_and_how_to_resolve_it():
     out = advise(_situation())
     kinds = [a.kind for a in out]
-    assert kinds == ["inspect", "add_session", "logging", "esc_telemetry"]
-    assert out[0].motors == (3,) and "propeller 3 (front-left)" in out[0].text
-    assert out[1].command == "fdlog calibrate --add /p/x500.json '/logs/my flight.ulg'"  # quoted as a shell needs
-    assert out[2].setting == "SDLOG_PROFILE" and "10 / 50 Hz" in out[2].text
-    assert out[3].setting == "DSHOT_TEL_CFG"
+    assert kinds == ["inspect", "inspect", "inspect", "add_session", "logging", "esc_telemetry"]
+    assert [a.text.split(":")[0] for a in out[:3]] == [
+        "inspect propeller 3 (front-left)", "then motor 3 and its ESC", "then what sits under rotor 3"]
+    assert all(a.motors == (3,) for a in out[:3])
+    assert out[3].command == "fdlog calibrate --add /p/x500.json '/logs/my flight.ulg'"  # quoted as a shell needs
+    assert out[4].setting == "SDLOG_PROFILE" and "10 / 50 Hz" in out[4].text
+    assert out[5].setting == "DSHOT_TEL_CFG"
     ap = advise(_situation(autopilot="ardupilot", profile=None, has_esc=True, kind=kind(10.0, "none", n=6)))
-    assert [a.kind for a in ap] == ["inspect", "calibrate", "logging"]
-    assert ap[1].command.startswith("fdlog calibrate --no-adapt ") and ap[2].setting == "LOG_BITMASK"
+    assert [a.kind for a in ap] == ["inspect", "inspect", "inspect", "calibrate", "logging"]
+    assert ap[3].command.startswith("fdlog calibrate --no-adapt ") and ap[4].setting == "LOG_BITMASK"
     assert all(a.kind in ADVICE_KINDS for a in out + ap)
 
 
-def test_a_flight_only_the_command_pattern_points_at_is_not_offered_as_a_calibration():
-    """Uncertain because only the sources that read the commands point at rotor 3 (it, or a load at
-    its corner): calibration and ``--add`` refuse such a flight, so the advice is to fly once without
-    the payload, never to calibrate on it or add it as a session."""
-    for profile in ("/p/x500.json", None):
-        out = advise(_situation(pattern_held=3, profile=profile))
-        kinds = [a.kind for a in out]
-        assert kinds == ["inspect", "without_payload", "logging", "esc_telemetry"], kinds
-        assert out[1].motors == (3,) and "fly once without it" in out[1].text and out[1].command is None
-        assert not {"add_session", "calibrate"} & set(kinds)
+def test_the_inspection_follows_the_cause():
+    """Propeller k, then motor k and its ESC, then what sits under rotor k; the likely part first."""
+    def order(**kw):
+        return [a.text.split(" ")[1] for a in advise(_situation(**kw)) if a.kind == "inspect"]
+
+    assert order(cause=None) == ["propeller", "motor", "what"]
+    assert order(cause="propeller") == ["propeller", "motor", "what"]
+    assert order(cause="motor_or_esc") == ["motor", "propeller", "what"]
+    assert order(cause="wash") == ["what", "propeller", "motor"]
+    pair = advise(_situation(inspect=(1, 4), pair=True, cause="motor_or_esc", positions={1: "front-right"}))
+    assert pair[0].text.startswith("inspect propellers 1 (front-right) and 4:") and pair[0].motors == (1, 4)
+    assert pair[1].text.startswith("then motors 1 and 4 and their ESCs:")  # no cause is stated for two
+    none = advise(_situation(inspect=()))
+    assert none[0].text.startswith("inspect every propeller") and none[0].motors == ()
+
+
+def test_a_damaged_verdict_says_what_to_inspect_and_asks_for_esc_telemetry_when_the_cause_is_unknown():
+    out = advise(_situation(status="damaged"))
+    assert [a.kind for a in out] == ["inspect", "inspect", "inspect", "esc_telemetry"]
+    assert not {"add_session", "calibrate"} & {a.kind for a in out}  # never calibrate on a damaged flight
+    known = advise(_situation(status="damaged", cause="propeller", has_esc=True))
+    assert [a.kind for a in known] == ["inspect"] * 3
+
+
+def test_a_healthy_verdict_naming_a_load_says_re_balance_or_re_calibrate():
+    load = {"motor": 1, "position": "front-right", "words": "the load sits toward motor 1 (front-right)"}
+    for profile, then in (("/p/x500.json", "add_session"), (None, "calibrate")):
+        out = advise(_situation(status="healthy", inspect=(), cause="load", load=load, profile=profile,
+                                kind=kind(250.0, "profile" if profile else "none"), positions={1: "front-right"}))
+        assert [a.kind for a in out] == ["without_payload", then]
+        assert out[0].motors == (1,) and "motor 1 (front-right)" in out[0].text and "re-balance" in out[0].text
+        assert out[1].command and "from now on" in out[1].text
 
 
 def test_nothing_to_resolve_on_a_clear_verdict_and_why_on_a_thin_one():
     assert advise(_situation(status="healthy")) == []
-    assert advise(_situation(status="damaged")) == []
+    assert advise(_situation(status="stopped")) == [] and advise(_situation(status="not_diagnosable")) == []
     thin = advise(_situation(status="healthy", profile=None, timeline_uncertain=0.9, kind=kind(250.0, "none", 8)))
     assert [a.kind for a in thin] == ["calibrate"] and "could not tell" in thin[0].text
     # it calibrates on this very flight, which may carry what the model missed: inspect first
     assert "inspect the propellers, and if they are sound" in thin[0].text
     fast = advise(_situation(kind=kind(250.0, "profile"), little_manoeuvring=True, has_esc=True))
-    assert [a.kind for a in fast] == ["inspect", "add_session", "manoeuvre"]
+    assert [a.kind for a in fast] == ["inspect", "inspect", "inspect", "add_session", "manoeuvre"]
 
 
 def test_octo_without_a_profile_weighs_its_command_pattern_and_says_why_when_the_timeline_is_thin():
@@ -162,6 +186,7 @@ def test_octo_without_a_profile_weighs_its_command_pattern_and_says_why_when_the
     assert top.motor == 2 and top.llr_by_source["commands"] == pytest.approx(D.TRUST_CAPS["discounted"])
     if d.verdict.status == "healthy":
         assert "rotor 2" in d.verdict.reason and "uncertain ('?')" in d.verdict.reason
+        assert verdict_sentence(d) == d.verdict.headline and len(verdict_sentence(d)) <= D.HEADLINE_MAX
         assert [a.kind for a in d.verdict.advice] == ["calibrate"]
     else:
         assert 2 in d.verdict.inspect
@@ -171,7 +196,7 @@ def test_octo_without_a_profile_weighs_its_command_pattern_and_says_why_when_the
     assert h.verdict.status == "healthy" and max(m.llr for m in h.decision.motors) < 0.0
 
 
-def test_the_cli_prints_how_to_resolve_an_uncertain_verdict(tmp_path):
+def test_the_octo_calibrated_on_its_healthy_twin_names_rotor_2(tmp_path):
     """`make demo`'s second part: the octo calibrated on its healthy flight, then its damaged one:
     rotor 2 lost about 30 % of its thrust, the cause unknown (only the commands see it). Every
     report carries what to inspect."""
@@ -193,3 +218,29 @@ def test_the_cli_prints_how_to_resolve_an_uncertain_verdict(tmp_path):
     html = tmp_path / "r.html"
     res = runner.invoke(app, ["diagnose", "--profile", str(prof), "--html", str(html), str(log)])
     assert v["headline"] in res.stdout and "inspect propeller 2" in html.read_text()
+
+
+def test_the_cli_prints_what_to_do_in_every_report(tmp_path):
+    """Every report carries the advice under the verdict: the terminal a command on a line of its own
+    (to copy whole), the JSON's ``verdict.advice`` and the HTML page the same commands. The samples
+    the shipped model cannot tell apart (the octo's 100 % uncertain windows) and the hexa give one."""
+    from typer.testing import CliRunner
+
+    from flightlog_fd.cli import app
+
+    runner = CliRunner()
+    commands = []
+    for log in (SAMPLES / "px4_octo_healthy.ulg", SAMPLES / "ardupilot_hexa_motor5_damaged.bin"):
+        res = runner.invoke(app, ["diagnose", "--json", str(log)])
+        v = json.loads(res.stdout)["verdict"]
+        html = tmp_path / f"{log.stem}.html"
+        res = runner.invoke(app, ["diagnose", "--html", str(html), str(log)])
+        if v["advice"]:
+            assert "to do:" in res.stdout
+        page = html.read_text()
+        for a in v["advice"]:
+            if a["command"]:
+                commands.append(a["command"])
+                assert f"      {a['command']}" in res.stdout.splitlines()
+                assert a["command"].replace("'", "&#x27;") in page
+    assert commands and all(c.startswith("fdlog calibrate") for c in commands)

@@ -25,7 +25,7 @@ from flightlog_fd.report.words import CAUSE_WORDS, UNKNOWN_CAUSE, cause_words
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = ROOT / "sample_logs"
 PROPELLER = "propeller damaged"
-UNKNOWN = "rotor lost thrust (propeller, motor or ESC)"
+UNKNOWN = "rotor lost thrust (propeller, motor or ESC, or something in its wash)"
 WEAK = "motor or ESC weak"
 
 
@@ -41,28 +41,40 @@ def _terminal(d) -> str:
 
 
 def _legend(text: str) -> str:
-    return next(ln for ln in text.splitlines() if ln.startswith("  . healthy"))
+    """The timeline legend, its wrapped lines joined."""
+    lines = text.splitlines()
+    i = next(i for i, ln in enumerate(lines) if ln.startswith("  . healthy"))
+    return " ".join(ln.strip() for ln in lines[i:i + 2] if ln.startswith("  ") and not ln.startswith("  *"))
 
 
 def test_every_cause_a_verdict_can_state_has_its_words():
-    """A cause added to cause.CAUSES (or the JSON schema) without words fails here: one entry in
-    CAUSE_WORDS is all a new cause needs."""
-    assert set(CAUSE_WORDS) == set(CAUSES)
+    """A cause added to cause.VERDICT_CAUSES (or the JSON schema) without words fails here: one entry
+    in CAUSE_WORDS is all a new cause needs."""
+    assert set(CAUSES) <= set(CAUSE_WORDS)
     schema_causes = set(JSON_SCHEMA["properties"]["verdict"]["properties"]["cause"]["enum"]) - {None}
-    assert schema_causes == set(CAUSE_WORDS)
+    assert schema_causes == set(CAUSE_WORDS) and "wash" in schema_causes
     assert cause_words(None) is UNKNOWN_CAUSE and cause_words("a cause from a newer version") is UNKNOWN_CAUSE
-    for c in (None, *CAUSES):  # no cause known: honest words, never "propeller"
+    for c in (None, *CAUSE_WORDS):  # no cause known: honest words, never "propeller damaged"
         w = cause_words(c)
         assert ("propeller damaged" in w.lost) == (c == "propeller")
         assert str(7) in w.named(7)
     assert cause_words("motor_or_esc").named(1) == "motor 1 or its ESC weak"
+    assert cause_words(None).named(2) == "rotor 2 lost thrust (propeller, motor or ESC, or something in its wash)"
+    assert cause_words("wash").likely == "something in its wash or under it"
 
 
 def test_legends_without_a_known_cause_do_not_say_propeller(model):
-    """No ESC telemetry: the windows see rotor 1 lose thrust, not which part lost it."""
+    """No ESC telemetry: the windows see rotor 1 lose thrust, not which part lost it; the headline
+    asks to inspect the propeller first but never calls it damaged."""
     d = diagnose_path(SAMPLES / "px4_motor1_damaged.ulg", model)
-    assert (d.verdict.status, d.verdict.motor) == ("uncertain", 1) and d.verdict.cause is None
-    assert _legend(_terminal(d)).split("1-4 ")[1].startswith(UNKNOWN)
+    assert d.verdict.status in ("damaged", "uncertain") and d.verdict.motor == 1 and d.verdict.cause is None
+    assert "damaged" not in d.verdict.headline.lower() and d.verdict.headline.endswith("inspect propeller 1")
+    text = _terminal(d)
+    assert _legend(text).split("1-4 ")[1].startswith(UNKNOWN)
+    assert "cause: unknown: the log has no ESC telemetry" in " ".join(text.split())
+    assert [a.kind for a in d.verdict.advice][:3] == ["inspect"] * 3  # propeller, motor and ESC, under it
+    assert [a.text.split(":")[0] for a in d.verdict.advice[:3]] == [
+        "inspect propeller 1 (front-right)", "then motor 1 and its ESC", "then what sits under rotor 1"]
     page = render_html(d)
     assert f"red {UNKNOWN}," in page and f"red {PROPELLER}" not in page
     rows = list(csv.DictReader(io.StringIO(render_csv(d))))
@@ -72,7 +84,7 @@ def test_legends_without_a_known_cause_do_not_say_propeller(model):
 def test_legends_of_a_propeller_cause_say_propeller(model):
     d = diagnose_path(SAMPLES / "px4_esc_motor2_damaged.ulg", model)
     assert d.verdict.cause == "propeller"
-    assert f"1-4 {PROPELLER}   ?" in _legend(_terminal(d))
+    assert _legend(_terminal(d)).endswith(f"1-4 {PROPELLER}")
     assert f"red {PROPELLER}," in render_html(d)
     assert {r["verdict_cause"] for r in csv.DictReader(io.StringIO(render_csv(d)))} == {"propeller"}
 
@@ -91,12 +103,17 @@ def test_the_weak_motor_log_names_the_motor_or_esc_in_every_legend(model, shared
     assert (d.verdict.status, d.verdict.motor, d.verdict.cause) == ("damaged", 1, "motor_or_esc")
     legend = _legend(_terminal(d))
     assert f"1-4 {WEAK}" in legend and "propeller" not in legend
+    # the motor and its ESC first, then the propeller, then what sits under it
+    assert [a.text.split(":")[0] for a in d.verdict.advice if a.kind == "inspect"] == [
+        "inspect motor 1 and its ESC", "then propeller 1 (right)", "then what sits under rotor 1"]
+    assert "inspect motor 1 and its ESC" in d.verdict.headline
     con = Console(file=io.StringIO(), width=80, color_system=None)
-    con.print(terminal.summary_table([d, d]))  # several logs: the summary's rotor cell tags the cause
-    assert "1 (right), motor or ESC" in con.file.getvalue() and "propeller" not in con.file.getvalue()
+    con.print(terminal.summary_table([d, d]))  # several logs: the summary's cause cell tags the cause
+    assert re.search(r"damaged 1 right +motor or ESC", con.file.getvalue())
+    assert "propeller" not in con.file.getvalue()
     page = render_html(d)
     assert f"red {WEAK}," in page and PROPELLER not in page
-    assert "<th>likely cause</th><td>the motor or its ESC:" in page
+    assert '<p class="cause">cause' in page and "the motor or its ESC is weak" in page
     assert {r["verdict_cause"] for r in csv.DictReader(io.StringIO(render_csv(d)))} == {"motor_or_esc"}
     pages = FlightPages(tmp_path / "serve")
     try:
@@ -105,7 +122,7 @@ def test_the_weak_motor_log_names_the_motor_or_esc_in_every_legend(model, shared
         web = pages.client.get(f"/flights/{fid}").text
         assert f"red {WEAK}," in web and PROPELLER not in web
         assert re.search(r'"rotor_word": "motor/ESC"', web)  # the class traces: P(motor/ESC k)
-        assert "Likely cause:</b> the motor or its ESC" in web
+        assert re.search(r'<p id="cause">cause[^<]*: the motor or its ESC is weak', web)
     finally:
         pages.close()
 
@@ -115,7 +132,8 @@ def test_the_history_flag_follows_the_cause():
 
     assert _latest_words({"motor": 3, "cause": "motor_or_esc"}) == "motor 3 or its ESC weak"
     assert _latest_words({"motor": 3, "cause": "propeller"}) == "propeller 3 damaged"
-    assert _latest_words({"motor": 3, "cause": None}) == "rotor 3 lost thrust (propeller, motor or ESC)"
+    assert _latest_words({"motor": 3, "cause": None}) == UNKNOWN.replace("rotor", "rotor 3", 1)
+    assert _latest_words({"motors": [1, 4], "cause": None}) == "rotors 1 and 4 lost thrust"
 
 
 # ----------------------------------------------------------------------------- missing streams

@@ -17,7 +17,7 @@ from flightlog_fd.report.csv_report import csv_columns, render_csv, write_csv
 from flightlog_fd.report.html_report import decimate, nice_ticks, render_html, write_html
 from flightlog_fd.report.json_report import JSON_SCHEMA, render_json, to_dict, validate
 from flightlog_fd.report.terminal import render, summary_table, timeline_strip, verdict_sentence
-from flightlog_fd.decision import CONFIDENCE_MEANING, Verdict, not_diagnosable
+from flightlog_fd.decision import CONFIDENCE_MEANING, HEADLINE_MAX, Verdict, headline, not_diagnosable
 from flightlog_fd.timeline import build as build_timeline
 
 HOSTILE = '<script>alert("x")</script>'
@@ -37,8 +37,11 @@ def make_diagnosis(onset_s=34.5, motor=3, path="flight.ulg", firmware="v1.14.0")
     timeline = build_timeline(ts, te, probs)
     run = timeline.run if timeline.run is not None and timeline.run.confirmed else None
     verdict = (Verdict("damaged", run.motor, frame.position(run.motor), 0.91, run.first_seen,
-                       f"motor {run.motor} ({frame.position(run.motor)}) lost thrust from t={run.first_seen:.1f} s")
-               if run else Verdict("healthy", confidence=0.88, reason="no rotor lost thrust"))
+                       f"rotor {run.motor} gives about 70 % of its normal thrust [60-80 %]; evidence for rotor "
+                       f"{run.motor} (nats): model +4.0, commands +3.1; P(damage) 0.97 with a prior of 0.10",
+                       thrust=[{"motor": run.motor, "eta_hat": 0.7, "eta_ci": (0.6, 0.8)}], p_damage=0.97)
+               if run else Verdict("healthy", confidence=0.88, reason="no rotor lost thrust", p_damage=0.12))
+    verdict.headline = headline(verdict, f"since t={run.first_seen:.1f} s" if run else "", frame)
     t = np.arange(0.0, 100.0, 0.02)
     flight = Flight(path=path, autopilot="px4", firmware=firmware, vehicle_type="quadrotor", frame=frame,
                     rates=Series(t, 0.1 * np.sin(np.outer(t, [1.0, 1.3, 0.7])), "rates"),
@@ -62,8 +65,11 @@ def test_json_validates_and_holds_the_verdict():
     d = make_diagnosis()
     doc = json.loads(render_json(d))
     assert validate(doc) == []
-    assert doc["schema"] == 7 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
+    assert doc["schema"] == 8 and doc["log"] == "flight.ulg" and doc["frame"] == "quad_x"
     assert doc["verdict"]["status"] == "damaged" and doc["verdict"]["motor"] == 3
+    assert doc["verdict"]["headline"].startswith("Rotor 3 (front-left) lost ~30 % thrust since t=34.")
+    assert doc["verdict"]["thrust"] == [{"motor": 3, "eta_hat": 0.7, "eta_ci": [0.6, 0.8]}]
+    assert doc["verdict"]["p_damage"] == 0.97 and doc["verdict"]["prior_damage"] == 0.1
     assert doc["verdict"]["position"] == "front-left"
     assert abs(doc["verdict"]["first_seen"] - 34.8) < 1.0
     assert doc["exit_code"] == 1
@@ -87,12 +93,15 @@ def test_validator_catches_schema_violations():
     doc = to_dict(make_diagnosis())
     doc["verdict"]["status"] = "broken"
     doc["windows"][0]["probabilities"] = [1.0]  # no motor class
+    doc["verdict"]["headline"] = "x" * (HEADLINE_MAX + 1)  # longer than a glance
+    doc["verdict"]["cause"] = "gremlins"
     del doc["warnings"]
     errors = validate(doc)
     assert any("verdict.status" in e for e in errors)
+    assert any("verdict.headline" in e for e in errors) and any("verdict.cause" in e for e in errors)
     assert any("windows[0].probabilities" in e for e in errors)
     assert any("missing 'warnings'" in e for e in errors)
-    assert JSON_SCHEMA["properties"]["schema"]["const"] == 7
+    assert JSON_SCHEMA["properties"]["schema"]["const"] == 8
 
 
 # ---------------------------------------------------------------- CSV
@@ -106,6 +115,7 @@ def test_csv_columns_and_rows(tmp_path):
     assert len(rows) == len(d.windows)  # the bad file adds no rows
     first, last = rows[0], rows[-1]
     assert first["class"] == "0" and last["class"] == "3" and last["smoothed_class"] == "3"
+    assert {r["verdict_headline"] for r in rows} == {d.verdict.headline}
     assert float(first["t_start"]) == pytest.approx(10.0)
     assert float(first["p_healthy"]) > 0.8 and last["verdict"] == "damaged"
     out = tmp_path / "w.csv"
@@ -146,8 +156,11 @@ def test_html_has_verdict_plots_and_no_scripts(tmp_path):
     page = out.read_text(encoding="utf-8")
     p = parse(page)
     text = " ".join(p.text)
-    assert verdict_sentence(d) in text
-    assert "Propeller 3 (front-left) damaged" in text
+    first = page[page.index("<body>"):]
+    assert first.startswith(f"<body><h1 class=\"verdict\"") and verdict_sentence(d) in first[:400]  # the headline first
+    assert "Propeller 3 (front-left) damaged" not in text  # no source but the commands and the model
+    assert text.count(CONFIDENCE_MEANING) == 1  # its meaning once, in the legend
+    assert "rotor 3 gives about 70 % of its normal thrust [60-80 %]" in text
     assert p.tags.count("svg") == 3  # rates, motor commands, class probabilities
     assert p.tags.count("polyline") == 3 + 4 + 5
     assert "rect" in p.tags  # window shading
@@ -180,30 +193,59 @@ def test_html_helpers():
 
 def test_terminal_words_timeline_and_summary():
     d = make_diagnosis()
-    assert verdict_sentence(d).startswith("Propeller 3 (front-left) damaged, confidence 0.")
-    assert "first seen at t=34." in verdict_sentence(d)
+    assert verdict_sentence(d) == d.verdict.headline
+    assert verdict_sentence(d).startswith("Rotor 3 (front-left) lost ~30 % thrust since t=34.")
+    assert verdict_sentence(d).endswith(": inspect propeller 3")
     strip = timeline_strip(d, width=40).plain
     body = strip.split(" ")[2]  # "t=10.0 s <strip> t=... s"
     assert len(body) == 40 and body.startswith("....") and body.endswith("3333")
-    assert CONFIDENCE_MEANING in verdict_sentence(d)  # the one meaning, as the JSON reference and the guide say it
     healthy = make_diagnosis(onset_s=None)
-    assert verdict_sentence(healthy).startswith("No sign of propeller damage in ")
-    assert "s of usable flight" in verdict_sentence(healthy)
+    assert verdict_sentence(healthy) == "Healthy: no rotor lost thrust"
     unseen = make_diagnosis(onset_s=None)
     unseen.verdict = dataclasses.replace(unseen.verdict, seen=False)
-    line = verdict_sentence(unseen)
-    assert line.startswith("Not seen: this log could not show damage") and "not a clearance" in line
-    assert "what would make the next log decisive" in line
+    unseen.verdict.headline = headline(unseen.verdict)
+    assert verdict_sentence(unseen).startswith("Healthy as far as this log shows") and "not a clearance" in \
+        verdict_sentence(unseen)
     assert verdict_sentence(bad_file_diagnosis()).startswith("Not diagnosable: not a PX4 ULog")
 
     console = Console(record=True, width=120, color_system=None)
     render(d, console, show_windows=True)
     console.print(summary_table([d, healthy, bad_file_diagnosis()]))
     out = console.export_text()
-    assert "Propeller 3 (front-left) damaged" in out
+    lines = out.splitlines()
+    assert lines[0] == d.verdict.headline  # the first line
+    assert lines[1] == "  damaged, confidence 0.91 | flight.ulg"
+    assert "  - rotor 3 gives about 70 % of its normal thrust [60-80 %]" in lines  # a clause a line
     assert "warning: no calibration profile" in out
     assert "Windows" in out and "hover" in out
-    assert "not_diagnosable" in out and "3 (front-left)" in out
+    assert "not_diagnosable" in out and "damaged 3 FL" in out
+    assert " ".join(out.split()).count(CONFIDENCE_MEANING) == 1  # said once, in the legend
+    assert "P(damage) 0.97 with a prior of 0.10" in out
+
+
+def test_the_reason_is_said_once_and_the_cause_line_apart():
+    """The reason's clauses, one a line (a bracket's ";" is no split), the cause clause on the
+    cause line only; an analyzer's note already among them is not repeated under the table."""
+    from flightlog_fd.report.words import cause_line, evidence_clauses, split_clauses
+
+    assert split_clauses("a (x; y); b;c; ") == ["a (x; y)", "b;c"]
+    v = Verdict("uncertain", 2, "rear-left", 0.4, reason="rotor 2 gives about 70 % of its normal thrust; cause: "
+                "the log has no ESC telemetry, so (a; b); P(damage) 0.4 with a prior of 0.10; vibration low",
+                cause_evidence={"motor": 2, "llr": None, "rpm_per_command": None, "current_per_rpm2": None,
+                                "reason": "the log has no ESC telemetry, so (a; b)"})
+    assert evidence_clauses(v) == ["rotor 2 gives about 70 % of its normal thrust",
+                                   "P(damage) 0.4 with a prior of 0.10", "vibration low"]
+    assert cause_line(v) == "cause: unknown: the log has no ESC telemetry, so (a; b)"
+    v.cause, v.cause_probability = "motor_or_esc", 0.97
+    v.cause_evidence = dict(v.cause_evidence, reason="the motor or its ESC is weak, not the propeller: 25 % slower")
+    assert cause_line(v) == "cause (probability 0.97): the motor or its ESC is weak, not the propeller: 25 % slower"
+    assert cause_line(Verdict("healthy", reason="x")) == "" and evidence_clauses(not_diagnosable("no log")) == []
+    d = make_diagnosis()
+    d.verdict.reason += "; vibration: a note an analyzer also made"
+    from flightlog_fd.report.motor_view import MotorView
+    view = MotorView(rows=[], columns=[], n_motors=4, notes=["vibration: vibration: a note an analyzer also made",
+                                                             "esc: no ESC telemetry in this log"])
+    assert view.notes_beside(evidence_clauses(d.verdict)) == ["esc: no ESC telemetry in this log"]
 
 
 def test_decimate_keeps_each_buckets_first_minimum_and_maximum():
@@ -246,4 +288,7 @@ def test_confidence_has_one_meaning_in_the_reference_the_guide_and_the_reports()
     assert JSON_SCHEMA["properties"]["verdict"]["properties"]["confidence"]["description"] == CONFIDENCE_MEANING
     guide = Path(__file__).resolve().parent.parent / "docs" / "verdicts.md"
     assert f"**Confidence**: {CONFIDENCE_MEANING}." in flat(guide.read_text())
-    assert f"({CONFIDENCE_MEANING})" in verdict_sentence(make_diagnosis())
+    console = Console(record=True, width=80, color_system=None)
+    render(make_diagnosis(), console)  # the report's legend, not every line
+    assert flat(console.export_text()).count(CONFIDENCE_MEANING) == 1
+    assert CONFIDENCE_MEANING not in verdict_sentence(make_diagnosis())

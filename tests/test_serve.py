@@ -49,8 +49,9 @@ def test_upload_and_result_with_a_token(live):
     j = wait_done(live, fid)
     assert j["state"] == "done"
     assert validate(j["diagnosis"]) == []  # the same schema as `fdlog diagnose --json`
-    # the command pattern alone: uncertain naming rotor 1 (or a load at its corner)
-    assert (j["diagnosis"]["verdict"]["status"], j["diagnosis"]["verdict"]["motor"]) == ("uncertain", 1)
+    # rotor 1 lost thrust (issue 37: "damaged" says that, its cause apart)
+    assert (j["diagnosis"]["verdict"]["status"], j["diagnosis"]["verdict"]["motor"]) == ("damaged", 1)
+    assert j["diagnosis"]["verdict"]["headline"].startswith("Rotor 1 (front-right) lost")
     assert j["name"] == "evil.ulg"  # the last part of the client's name, for display only
     # stored by content hash, never under the client's name
     data = Path(live.app_.state.data.root)
@@ -246,8 +247,8 @@ def test_fleet_page_filters_and_sorts(live):
         return re.findall(r'<a href="/airframe\?key=([^"]+)">', body)
 
     assert "sim-11-0" in rows(status="healthy") and "sim-15-0" not in rows(status="healthy")
-    # px4_motor4_damaged: uncertain naming rotor 4 (the command pattern alone)
-    assert "sim-15-0" in rows(status="uncertain") and "sim-11-0" not in rows(status="uncertain")
+    # px4_motor4_damaged: rotor 4 lost thrust
+    assert "sim-15-0" in rows(status="damaged") and "sim-11-0" not in rows(status="damaged")
     assert rows(q="sim-15") == ["sim-15-0"]
     assert rows(q="px4_healthy") == ["sim-11-0"]  # a file name finds its airframe
     by_name = rows(sort="name")

@@ -166,7 +166,7 @@ def test_calibrate_add_adds_a_session_and_keeps_the_previous_profile(tmp_path, x
     # the reports say how many sessions the profile holds
     r = runner.invoke(app, ["diagnose", "--json", "--profile", str(prof), str(SAMPLES / "px4_healthy.ulg")])
     doc = json.loads(r.output)
-    assert doc["schema"] == 7 and doc["profile"]["sessions"] == 2
+    assert doc["schema"] == 8 and doc["profile"]["sessions"] == 2
     r = runner.invoke(app, ["diagnose", "--profile", str(prof), str(SAMPLES / "px4_healthy.ulg")])
     assert "profile x500.json (2 calibration sessions)" in " ".join(r.output.split())
     html = tmp_path / "r.html"

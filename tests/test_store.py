@@ -64,7 +64,8 @@ def test_a_results_store_of_the_current_release_is_upgraded_in_place(tmp_path, v
             assert all(f["direction"] in ("up", "down", "") for f in finds)
         assert {a["key"] for a in store.fleet()} == {"sim-12-0", "unknown"}  # the web fleet page reads it too
     res = runner.invoke(app, ["history", "--db", str(db)])
-    assert res.exit_code == 1 and "rotor 1 lost thrust (propeller, motor or ESC)" in res.stdout  # no ESC rpm: no cause
+    assert res.exit_code == 1 and "rotor 1 lost thrust (propeller, motor or ESC, or something in its wash)" in \
+        res.stdout  # no ESC rpm: no cause
     # the new code writes into it: the same log again replaces its diagnosis, now with every figure
     res = runner.invoke(app, ["diagnose", str(SAMPLES / "px4_motor1_damaged.ulg"), "--db", str(db)])
     assert res.exit_code == 1, res.output
@@ -177,19 +178,19 @@ def test_run_info_names_the_vehicle_of_a_log_without_id_after_the_profile(tmp_pa
     assert vehicle_identity(None, None, RunInfo(model_sha256="m")) == ("unknown", "unknown")
 
 
-def test_history_flags_a_latest_flight_that_lost_a_rotor(tmp_path):
-    """A latest flight whose rotor 1 lost thrust (px4_motor1_damaged, the cause unknown: only the
-    commands and the model see it) is flagged as diagnose's exit 1 is, naming rotor 1; a healthy
-    latest flight is not."""
+def test_history_flags_a_latest_flight_that_asks_to_inspect_a_propeller(tmp_path):
+    """A latest flight that is uncertain naming a propeller (the hexa sample without a profile: rotor
+    5, or a load toward it) is flagged as diagnose's exit 1 is: 'inspect propeller 5', exit 1; a
+    healthy latest flight is not."""
     db = str(tmp_path / "h.sqlite")
-    res = runner.invoke(app, ["diagnose", str(SAMPLES / "px4_motor1_damaged.ulg"), str(SAMPLES / "px4_healthy.ulg"),
-                              "--db", db])
+    hexa = "ardupilot_hexa_motor5_damaged.bin"
+    res = runner.invoke(app, ["diagnose", str(SAMPLES / hexa), str(SAMPLES / "px4_healthy.ulg"), "--db", db])
     assert res.exit_code == 1, res.output
     res = runner.invoke(app, ["history", "--db", db, "--json"])
     assert res.exit_code == 1, res.output
     out = {Path(v["latest"]["log"]).name: v for v in json.loads(res.stdout)["vehicles"]}
-    dmg, ok = out["px4_motor1_damaged.ulg"], out["px4_healthy.ulg"]
+    dmg, ok = out[hexa], out["px4_healthy.ulg"]
     assert not ok["latest_inspect"] and not ok["latest_damaged"]
-    assert dmg["latest_damaged"] and dmg["latest"]["motors"] == [1], dmg
+    assert dmg["latest_inspect"] and not dmg["latest_damaged"] and dmg["latest"]["motors"] == [5], dmg
     text = runner.invoke(app, ["history", "--db", db]).stdout
-    assert "FLAG: latest flight" in text and "rotor 1" in text and "(px4_motor1_damaged.ulg)" in text
+    assert f"FLAG: latest flight uncertain: inspect propeller 5 ({hexa})" in text

@@ -304,9 +304,9 @@ def test_an_uncertain_pairs_advice_is_to_inspect_both():
     where = {1: "front-right", 4: "rear-right"}
     (first, *_) = advise(Situation("uncertain", inspect=(1, 4), pair=True, positions=where, profile="p.json"))
     assert first.kind == "inspect" and first.motors == (1, 4)
-    assert first.text.startswith("inspect both propellers, 1 (front-right) and 4 (rear-right)")
+    assert first.text.startswith("inspect propellers 1 (front-right) and 4 (rear-right):")
     (two, *_) = advise(Situation("uncertain", inspect=(1, 4), positions=where))  # two it cannot tell apart
-    assert two.text.startswith("inspect propellers 1 (front-right) and 4 (rear-right) first")
+    assert two.text.startswith("inspect propellers 1 (front-right) and 4 (rear-right):") and two.motors == (1, 4)
 
 
 def test_no_pair_on_other_rotor_counts():
@@ -344,10 +344,12 @@ def pair_run(tmp_path_factory):
 def test_terminal_and_json_name_both(pair_run):
     from flightlog_fd.report.json_report import validate
 
-    assert "Propellers 1 (front-right) and 4 (rear-right) damaged: inspect both" in pair_run.text
-    assert "1 (FR) + 4 (RR)" in pair_run.text  # the summary table
+    flat = " ".join(pair_run.text.split())
+    assert "Rotors 1 (front-right) and 4 (rear-right) lost thrust since take-off: inspect propellers 1 and 4" in flat
+    assert "damaged 1 FR+4 RR" in pair_run.text  # the summary table
     doc = pair_run.doc
-    assert validate(doc) == [] and doc["schema"] == 7
+    assert validate(doc) == [] and doc["schema"] == 8
+    assert doc["verdict"]["headline"].startswith("Rotors 1 (front-right) and 4 (rear-right) lost thrust")
     v = doc["verdict"]
     assert (v["status"], v["motor"], v["motors"], v["pair"]) == ("damaged", 1, [1, 4], True)
     assert v["positions"] == ["front-right", "rear-right"]
@@ -359,8 +361,8 @@ def test_csv_and_html_name_both(pair_run):
     rows = list(csv.DictReader(io.StringIO((pair_run.dir / "w.csv").read_text())))
     assert rows and {r["verdict_motors"] for r in rows} == {"1;4"} and {r["verdict"] for r in rows} == {"damaged"}
     page = (pair_run.dir / "r.html").read_text()
-    assert "Propellers 1 (front-right) and 4 (rear-right) damaged" in page
-    assert "1 (front-right) and 4 (rear-right)" in page.split("<h2>Summary</h2>")[1]
+    assert "Rotors 1 (front-right) and 4 (rear-right) lost thrust" in page
+    assert "Rotors 1 (front-right) and 4 (rear-right)" in page.split("<h2>Summary</h2>")[1]
     assert page.count('<tr class="top">') >= 2  # both rows of the per-motor table highlighted
 
 
@@ -375,13 +377,13 @@ def test_store_history_and_web_pages_name_both(pair_run, tmp_path):
     assert records[-1].verdict_motors == [1, 4] and records[-1].pair
     text = runner.invoke(app, ["history", "--db", str(pair_run.db)])
     assert text.exit_code == 1 and "damaged m1+m4" in text.output
-    assert "FLAG: latest flight has propellers 1 and 4 damaged" in text.output
+    assert "FLAG: latest flight: rotors 1 and 4 lost thrust" in text.output
     out = json.loads(runner.invoke(app, ["history", "--db", str(pair_run.db), "--json"]).stdout)
     (veh,) = out["vehicles"]
     assert veh["latest"]["motors"] == [1, 4] and veh["flights"][-1]["verdict_motors"] == [1, 4]
     res = runner.invoke(app, ["history", "--db", str(pair_run.db), "--html", str(tmp_path / "h.html")])
     page = (tmp_path / "h.html").read_text()
-    assert res.exit_code == 1 and "damaged (motors 1 and 4)" in page and "propellers 1 and 4 damaged" in page
+    assert res.exit_code == 1 and "damaged (motors 1 and 4)" in page and "rotors 1 and 4 lost thrust" in page
     pytest.importorskip("fastapi")
     from serve_helpers import serve_client
 

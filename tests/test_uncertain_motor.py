@@ -41,8 +41,8 @@ def test_every_report_names_the_propeller_an_uncertain_verdict_asks_to_inspect()
     console = Console(record=True, width=120, color_system=None)
     console.print(summary_table([one, two]))
     line = next(x for x in console.export_text().splitlines() if x.strip().startswith("a.ulg"))
-    assert "uncertain" in line and "2 (rear-left)" in line
-    assert "<td>2 (rear-left)</td>" in render_html([one, two])
+    assert "uncertain 2 RL" in line
+    assert "<td>Uncertain: rotor 2 (rear-left) may have lost thrust: inspect propeller 2</td>" in render_html([one, two])
 
 
 def test_the_store_and_history_keep_it(tmp_path):

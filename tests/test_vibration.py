@@ -184,7 +184,7 @@ def test_calibrate_and_diagnose_through_the_cli_without_motor_outputs(tmp_path):
                                   str(OCTO / "air_octo_10.BIN"), str(OCTO / "air_octo_14.BIN")])
         assert res.exit_code == 1, res.output
         d03, d10, d14 = json.loads(res.output)
-        assert all(validate(d) == [] for d in (d03, d10, d14)) and d03["schema"] == 7
+        assert all(validate(d) == [] for d in (d03, d10, d14)) and d03["schema"] == 8
         assert [f["part"].split(",")[0] for f in d03["flights"]] == ["flight 1 of 2", "flight 2 of 2"]
         assert [f["verdict"]["status"] for f in d03["flights"]] == ["healthy", "damaged"]
         assert d03["verdict"]["status"] == d10["verdict"]["status"] == "damaged"

@@ -5,13 +5,15 @@ given), ``t_start``, ``t_end`` (seconds on the log's clock, 3 decimals), ``class
 most probable class, 0 healthy, k motor k), ``p_healthy``, ``p_motor1`` .. ``p_motor<n>`` (0..1,
 4 decimals; empty past a log's own rotor count), ``phase`` (hover, climb, descent, manoeuvre,
 unknown), ``smoothed_class`` (the verdict's label: -1 uncertain, 0..n), ``verdict`` (the flight's
-status, repeated on every row so one file of many logs can be filtered), ``verdict_motor`` (the
+status, repeated on every row so one file of many logs can be filtered), ``verdict_headline`` (the
+first line every report prints: the status, the rotor, how much, what to do), ``verdict_motor`` (the
 damaged or stopped motor, or the one propeller an uncertain verdict asks to inspect first; empty
 when it names none or two), ``verdict_motors`` (every propeller the verdict names, "1;4" when two
 lost thrust together; empty when none), ``flight`` (which take-off
 to landing of a log holding several the window lies in, "flight 2 of 5"; empty for a log's only
 one), ``flight_verdict`` (that flight's own status, else the log's), ``verdict_cause``
-(``propeller``, ``motor_or_esc``, ``load``: healthy propellers, a moved load; empty when unknown)
+(why the named rotor lost thrust: ``propeller``, ``motor_or_esc``, ``wash``: something in its
+wash or under it; ``load``: healthy propellers, a moved load; empty when unknown)
 and ``load_motor`` (with cause ``load``: the motor nearest the load), then the per-motor view's
 (:mod:`flightlog_fd.report.motor_view`) findings, also repeated on every row, one column per
 analyzer, finding and motor: ``<analyzer>_<name>_m<k>`` (e.g. ``commands_share_m1``,
@@ -29,11 +31,12 @@ from typing import Sequence, TextIO, Union
 
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
+from .terminal import verdict_sentence
 
 #: The window columns before the class probabilities, and after them.
 LEAD_COLUMNS = ("log", "t_start", "t_end", "class", "p_healthy")
-TAIL_COLUMNS = ("phase", "smoothed_class", "verdict", "verdict_motor", "verdict_motors", "flight", "flight_verdict",
-                "verdict_cause", "load_motor")
+TAIL_COLUMNS = ("phase", "smoothed_class", "verdict", "verdict_headline", "verdict_motor", "verdict_motors", "flight",
+                "flight_verdict", "verdict_cause", "load_motor")
 
 
 def _finding_keys(views: Sequence[MotorView]) -> list[tuple[str, str, int]]:
@@ -96,13 +99,14 @@ def _write(diagnoses: Sequence[Diagnosis], fh: TextIO) -> None:
         values = {(c.analyzer, c.name, r.motor): r.values.get(c.key) for r in view.rows for c in view.columns}
         found = ["" if values.get(k) is None else f"{values[k]:.4f}" for k in keys]
         weight = ["" if r.weight is None else f"{r.weight:.4f}" for r in view.rows] + [""] * (n - len(view.rows))
+        headline = verdict_sentence(d)
         parts = [(f.facts.t_start, f.facts.t_end, f.part.split(",")[0], f.verdict.status)
                  for f in d.flights if f.facts is not None]
         for w in d.windows:
             probs = [f"{p:.4f}" for p in w.probabilities[1:]]
             part = next((p for p in parts if p[0] - 1e-6 <= w.t_start and w.t_end <= p[1] + 1e-6), None)
             writer.writerow([d.log, f"{w.t_start:.3f}", f"{w.t_end:.3f}", w.cls, f"{w.probabilities[0]:.4f}",
-                             *probs, *[""] * (n - len(probs)), w.phase, w.label, d.verdict.status,
+                             *probs, *[""] * (n - len(probs)), w.phase, w.label, d.verdict.status, headline,
                              d.verdict.motor or "", ";".join(str(k) for k in d.verdict.motors),
                              part[2] if part else "", part[3] if part else d.verdict.status, d.verdict.cause or "",
                              (d.verdict.load or {}).get("motor", ""), *found, *weight])

@@ -1,8 +1,10 @@
 """HTML report (``fdlog diagnose --html F``): ONE self-contained page, no scripts, no CDN.
 
 Inputs: one or more :class:`~flightlog_fd.diagnose.Diagnosis` (with their ``flight`` for the
-plots). For each log the page shows the verdict sentence first, the log's facts (autopilot,
-firmware, frame, durations, model, profile, warnings) and three inline SVG plots drawn here:
+plots). For each log the page shows the verdict's headline first (the page's title line for one
+log), then as every report does: the status and confidence, the cause line, the evidence clauses,
+what to do; then the log's facts (autopilot, firmware, frame, durations, model, profile, warnings)
+and three inline SVG plots drawn here:
 
 - angular rates p, q, r in deg/s,
 - motor commands 1-n (0..1, autopilot numbering, labelled with their positions),
@@ -14,8 +16,9 @@ firmware, frame, durations, model, profile, warnings) and three inline SVG plots
 all over the same time axis (seconds on the log's clock), with the background shaded by the
 verdict's smoothed window labels (green healthy, red damaged, amber uncertain, white no window).
 Beside the facts, the per-motor table of :mod:`flightlog_fd.report.motor_view` (a dash's reason is
-its tooltip and a note under the table). Several logs get a summary table at the top. A window
-table sits in a closed ``<details>``.
+its tooltip and a note under the table). Several logs get a summary table at the top (each log's
+headline). A window table sits in a closed ``<details>``. What confidence means is said once, in
+the page's legend at its foot.
 
 Every text that comes from the log or the user (file names, firmware strings, frame sources,
 warnings, reasons) is HTML-escaped; nothing is ever inserted raw. Lines are decimated to at most
@@ -31,15 +34,14 @@ from typing import Optional, Sequence, Union
 import numpy as np
 
 from .. import __version__
-from ..advice import advice_line
 from ..diagnose import Diagnosis
 from ..flight import Series
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names
 from .panels import missing_line, missing_panels
-from .terminal import verdict_sentence
+from .terminal import status_words, verdict_sentence
 from .vibration_view import VibrationPlot, vibration_and_gaps, vibration_plot
-from .words import cause_words
+from .words import cause_line, cause_words, confidence_legend, evidence_clauses
 
 #: Points kept per plotted line: ~2 per horizontal pixel of the plot area.
 MAX_POINTS_PER_LINE = 1600
@@ -68,6 +70,8 @@ th{background:#f5f5f5} .warn{color:#8a5a00} .muted{color:#777;font-size:.85em}
 svg{display:block;margin:6px 0 14px 0} svg text{font-size:11px;fill:#333}
 .row{display:flex;flex-wrap:wrap;gap:18px;align-items:flex-start} .motors h3{font-size:1em;margin:0 0 4px 0}
 .motors{max-width:520px} tr.top td{background:#ffebee;font-weight:600}
+.status{margin:2px 0 8px 20px} .cause{margin:4px 0} ul.evidence,ol.advice{margin:2px 0 10px 0}
+.advice code{white-space:pre-wrap;word-break:break-all}
 """
 
 
@@ -237,14 +241,6 @@ def _facts_table(d: Diagnosis) -> str:
     words = d.share_fit.configuration_words() if d.profile is not None and d.share_fit is not None else None
     if words:
         rows.append(("configuration", words))
-    v = d.verdict
-    rows.append(("reason", v.reason))
-    if v.cause_evidence:
-        rows.append(("likely cause", f"{cause_words(v.cause).likely}: {v.cause_evidence['reason']}"))
-    elif v.cause == "load" and v.load:
-        rows.append(("likely cause", f"{cause_words('load').likely}: {v.load['words']}"))
-    for i, a in enumerate(v.advice):
-        rows.append(("to resolve it" if i == 0 else "", advice_line(a)))
     if d.timeline is not None and d.timeline.shortfall is None:
         ev = d.timeline
         names = class_names(len(ev.smoothed_share) - 1)
@@ -254,6 +250,25 @@ def _facts_table(d: Diagnosis) -> str:
     rows.append(("exit code", str(d.exit_code)))
     body = "".join(f"<tr><th>{esc(k)}</th><td>{esc(val)}</td></tr>" for k, val in rows)
     return f"<table class=\"facts\">{body}</table>"
+
+
+def verdict_block(d: Diagnosis) -> str:
+    """What follows the headline, in every report's order: the status and confidence, the cause
+    line, the evidence clauses (each once) and what to do (a command in ``<code>``)."""
+    v = d.verdict
+    out = [f'<p class="status muted">{esc(status_words(d))} | {esc(d.log)}</p>']
+    cause = cause_line(v)
+    if cause:
+        out.append(f'<p class="cause">{esc(cause)}</p>')
+    clauses = evidence_clauses(v)
+    if clauses:
+        out.append('<p class="cause"><b>Evidence</b></p><ul class="evidence">'
+                   + "".join(f"<li>{esc(c)}</li>" for c in clauses) + "</ul>")
+    if v.advice:
+        out.append('<p class="cause"><b>To do</b></p><ol class="advice">' + "".join(
+            f'<li class="advice-{esc(a.kind)}">{esc(a.text)}'
+            + (f": <code>{esc(a.command)}</code>" if a.command else "") + "</li>" for a in v.advice) + "</ol>")
+    return "".join(out)
 
 
 def _window_table(d: Diagnosis) -> str:
@@ -296,18 +311,23 @@ def motor_panel(d: Diagnosis) -> str:
         return ""
     legend = "; ".join(f"{esc(label)}: {esc(text)}" for label, text in view.legend())
     sources = ", ".join(view.sources)
-    notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in view.notes)
+    notes = "".join(f'<p class="muted">{esc(n)}</p>' for n in view.notes_beside(evidence_clauses(d.verdict)))
     return (f'<div class="motors"><h3>Per-motor evidence</h3>{table}'
             f'<p class="muted">Commands against {esc(view.against)}. {legend}. The weight comes from '
             f'{esc(sources)}; the shaded windows are the model\'s alone.</p>{notes}</div>')
 
 
-def log_section(d: Diagnosis) -> str:
-    """The verdict, facts, plots and window table of one log."""
+def headline_html(d: Diagnosis, tag: str = "h2") -> str:
+    """The verdict's headline as the page's (``h1``, one log) or its section's (``h2``) first line."""
+    colour = STATUS_COLOURS.get(d.verdict.status, "#333")
+    return f'<{tag} class="verdict" style="border-color:{colour};color:{colour}">{esc(verdict_sentence(d))}</{tag}>'
+
+
+def log_section(d: Diagnosis, headline: bool = True) -> str:
+    """The headline (``headline``; the page's title line says it for a page of one log), the verdict
+    block, facts, plots and window table of one log."""
     v = d.verdict
-    colour = STATUS_COLOURS.get(v.status, "#333")
-    out = [f"<section><h2>{esc(d.log)}</h2>",
-           f'<p class="verdict" style="border-color:{colour};color:{colour}">{esc(verdict_sentence(d))}</p>']
+    out = ["<section>", headline_html(d) if headline else "", verdict_block(d)]
     if d.warnings:
         out.append("<ul>" + "".join(f'<li class="warn">{esc(w)}</li>' for w in d.warnings) + "</ul>")
     out.append(f'<div class="row">{_facts_table(d)}{motor_panel(d)}</div>')
@@ -382,19 +402,12 @@ def vibration_svgs(d: Diagnosis, vp: Optional[VibrationPlot] = None) -> str:
 
 
 def _summary(diagnoses: Sequence[Diagnosis]) -> str:
-    head = "".join(f"<th>{c}</th>" for c in ("log", "verdict", "rotor", "confidence", "first seen", "exit"))
+    head = "".join(f"<th>{c}</th>" for c in ("log", "verdict", "status", "confidence", "exit"))
     rows = []
     for d in diagnoses:
         v = d.verdict
-        if v.pair and len(v.motors) > 1:
-            prop = " and ".join(f"{k} ({p})" if p else str(k) for k, p in zip(v.motors, v.positions))
-        else:
-            prop = f"{v.motor} ({v.position})" if v.motor and v.position else (str(v.motor) if v.motor else "")
-            tag = cause_words(v.cause).tag
-            if prop and tag:
-                prop += f": {tag}"
-        cells = [d.log, v.status, prop, f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "",
-                 f"t={v.first_seen:.1f} s" if v.first_seen is not None else "", str(d.exit_code)]
+        cells = [d.log, verdict_sentence(d), v.status, f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "",
+                 str(d.exit_code)]
         rows.append("<tr>" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
     return f"<h2>Summary</h2><table><tr>{head}</tr>{''.join(rows)}</table>"
 
@@ -403,11 +416,12 @@ def render_html(diagnoses: Union[Diagnosis, Sequence[Diagnosis]]) -> str:
     """The complete page for one or more diagnoses."""
     if isinstance(diagnoses, Diagnosis):
         diagnoses = [diagnoses]
-    title = ("fdlog diagnosis: " + diagnoses[0].log) if len(diagnoses) == 1 else f"fdlog diagnosis: {len(diagnoses)} logs"
-    body = [f"<h1>{esc(title)}</h1>"]
-    if len(diagnoses) > 1:
-        body.append(_summary(diagnoses))
-    body += [log_section(d) for d in diagnoses]
+    one = len(diagnoses) == 1
+    title = ("fdlog diagnosis: " + diagnoses[0].log) if one else f"fdlog diagnosis: {len(diagnoses)} logs"
+    # one log: its headline is the page's first line; several: the summary of their headlines
+    body = [headline_html(diagnoses[0], "h1")] if one else [f"<h1>{esc(title)}</h1>", _summary(diagnoses)]
+    body += [log_section(d, headline=not one) for d in diagnoses]
+    body.append(f'<p class="muted legend">{esc(confidence_legend().capitalize())}.</p>')
     body.append(f'<p class="muted">flightlog-fd {esc(__version__)}. Motor numbering is the autopilot\'s own; '
                 "times are seconds on the log's clock.</p>")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"

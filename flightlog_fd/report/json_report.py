@@ -1,4 +1,4 @@
-"""JSON report, schema version 7 (``fdlog diagnose --json``).
+"""JSON report, schema version 8 (``fdlog diagnose --json``).
 
 One log gives one object; several logs give an array of such objects (in the order given).
 Times are seconds on the log's own clock; probabilities are 0..1 rounded to 4 decimals; n is the
@@ -7,7 +7,7 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
 .. code-block:: text
 
     {
-      "schema": 7,
+      "schema": 8,
       "tool": {"name": "flightlog-fd", "version": "0.1.0"},
       "log": "flight.ulg",                       # the path as given
       "autopilot": "px4" | "ardupilot" | "sim" | null,   # null when the file could not be read
@@ -22,21 +22,36 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                                     "load": {"motor": 1-n, "direction_deg": float, "size": float} | null}
                                     | null} | null,  #   commands were weighed against (null: one configuration)
       "verdict": {"status": "healthy" | "damaged" | "stopped" | "uncertain" | "not_diagnosable",
-                  "motor": 1-n | null,               # the damaged (stopped) propeller, the first of two, or
+                                                     #   damaged: a rotor lost thrust (why: "cause")
+                  "headline": "Rotor 2 (rear-left) lost ~30 % thrust since take-off: inspect propeller 2",
+                                                     # the first line every report prints, at most 100
+                                                     #   characters: the status, the rotor, how much, what to do
+                  "motor": 1-n | null,               # the rotor that lost thrust (stopped), the first of two, or
                                                      #   the one an uncertain verdict asks to inspect first
-                  "motors": [1-n],                   # every propeller it names: damaged, stopped, an uncertain
+                  "motors": [1-n],                   # every rotor it names: damaged, stopped, an uncertain
                                                      #   pair's two, or the one to inspect; [] when none
                   "positions": [str|null],           # the frame's words for each of "motors"
-                  "pair": bool,                      # two propellers lost thrust together
+                  "pair": bool,                      # two rotors lost thrust together
                   "position": "front-right" | ... | null,   # the frame's words for "motor"
-                  "confidence": 0.5-1,      # the probability that this verdict is right, measured on real
-                                             #   and simulated flights (0 for not_diagnosable: no verdict)
+                  "thrust": [{"motor": 1-n,          # per named rotor, how much of its normal thrust it
+                              "eta_hat": 0-1 | null, #   gives (1 = healthy; the joint evidence's peak)
+                              "eta_ci": [lo, hi] | null}],  #   90 % interval (null: a pair's fit gives none)
+                  "confidence": 0-1,        # the probability that this verdict is right, given the stated
+                                             #   prior of damage, measured on real and simulated flights
+                                             #   (0 for not_diagnosable: no verdict)
+                  "p_damage": 0-1 | null,    # P(some rotor lost thrust) after the log (null: not weighed)
+                  "prior_damage": 0-1,       # the prior of damage it was decided under (--prior-damage)
                   "seen": bool | null,       # healthy: true when the evidence saw the flight, false when
                                              #   this log could not show damage (not a clearance); else null
                   "first_seen": seconds | null,   # start of the first window of the damaged run
-                  "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
-                  "cause": "propeller" | "motor_or_esc" | "load" | null,   # the named rotor's likely cause,
-                                                     #   or "load": propellers healthy, a load explains it
+                  "reason": "rotor 2 gives about 70 % of its normal thrust [61-79 %]; ...",
+                                             # the evidence, clauses joined by "; "
+                  "cause": "propeller" | "motor_or_esc" | "wash" | "load" | null,
+                                             # why the named rotor lost thrust, as far as the log shows:
+                                             #   "wash": something in its wash or under it; "load": the
+                                             #   propellers are healthy, a moved load explains the commands;
+                                             #   null: the log cannot tell, or no rotor is named
+                  "cause_probability": 0-1 | null,   # P(cause | the rotor lost thrust); null: none stated
                   "cause_evidence": {"motor": 1-n,                # null when no rotor is named
                                      "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
                                      "rpm_per_command": % | null, "current_per_rpm2": % | null,
@@ -49,8 +64,8 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                            "words": str} | null,
                   "advice": [{"kind": "inspect" | "add_session" | "calibrate" | "without_payload" |
                                       "logging" | "esc_telemetry" | "manoeuvre",
-                              "text": str,              # what to do, in words
-                              "motors": [1-n],          # inspect: the propellers, first first; without_payload: the motor
+                              "text": str,              # what to do, in words, in the order to do it
+                              "motors": [1-n],          # inspect: the rotors; without_payload: the load's motor
                               "command": str | null,    # add_session / calibrate: the fdlog command
                               "setting": str | null}]}, # logging / esc_telemetry: the autopilot parameter
       "evidence": {"n_windows": int, "covered_s": float,
@@ -140,7 +155,15 @@ verdict's is the probability that one of the propellers it names lost thrust, at
 load explains the command pattern) and ``verdict.load`` (where the load sits and how much more the
 motor toward it carries; null otherwise); within schema 7, the optional ``profile.configuration``: the
 profile's load configuration the commands were weighed against (the nearest of two or more; null
-for a profile of one configuration).
+for a profile of one configuration). Schema 8 decides from one posterior under a stated prior:
+``confidence`` is the probability that this verdict is right, given the stated prior of damage,
+measured on real and simulated flights; ``damaged`` now means "a rotor lost thrust" (why is
+``cause``, a judgement of its own, with
+``cause_probability``; ``"wash"`` added: something in the rotor's wash or under it), and adds
+``verdict.headline`` (the first line every report prints), ``verdict.thrust`` (how much thrust each
+named rotor gives, with its interval), ``verdict.p_damage`` and ``verdict.prior_damage``; the
+``inspect`` advice now lists propeller, motor and ESC, and what sits under the rotor, one item each
+in the order the cause makes likely.
 :func:`flightlog_fd.report.motor_view.MotorView.from_doc` reads schema 3 and 4 documents too.
 """
 from __future__ import annotations
@@ -152,11 +175,11 @@ import numpy as np
 
 from .. import __version__
 from ..advice import ADVICE_KINDS
-from ..decision import CONFIDENCE_MEANING
+from ..decision import CONFIDENCE_MEANING, HEADLINE_MAX, headline
 from ..diagnose import Diagnosis
 from .motor_view import MotorView
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 #: The most rotors a frame the readers place can have (ArduPilot dodecahexa: 12).
 MAX_ROTORS = 12
 #: Decimals kept for probabilities and confidences (more is noise), and for times (1 ms).
@@ -203,10 +226,21 @@ JSON_SCHEMA: dict = {
                                                                               "size": {"type": "number"}}}}}}},
         "verdict": {
             "type": "object",
-            "required": ["status", "motor", "motors", "positions", "pair", "position", "confidence", "first_seen",
-                         "reason", "advice", "cause", "cause_evidence", "seen", "load"],
+            "required": ["status", "headline", "motor", "motors", "positions", "pair", "position", "thrust",
+                         "confidence", "p_damage", "prior_damage", "first_seen", "reason", "advice", "cause",
+                         "cause_probability", "cause_evidence", "seen", "load"],
             "properties": {
                 "status": {"enum": ["healthy", "damaged", "stopped", "uncertain", "not_diagnosable"]},
+                "headline": {"type": "string", "maxLength": HEADLINE_MAX},
+                "thrust": {"type": "array", "maxItems": MAX_ROTORS, "items": {
+                    "type": "object", "required": ["motor", "eta_hat", "eta_ci"],
+                    "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
+                                   "eta_hat": {"type": ["number", "null"], "minimum": 0},
+                                   "eta_ci": {"type": ["array", "null"], "items": _PROB, "minItems": 2,
+                                              "maxItems": 2}}}},
+                "p_damage": {"type": ["number", "null"], "minimum": 0, "maximum": 1},
+                "prior_damage": {"type": "number", "minimum": 0, "maximum": 1},
+                "cause_probability": {"type": ["number", "null"], "minimum": 0, "maximum": 1},
                 "motor": {"type": ["integer", "null"], "minimum": 1, "maximum": MAX_ROTORS},
                 "motors": {"type": "array", "maxItems": MAX_ROTORS,
                            "items": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS}},
@@ -217,7 +251,7 @@ JSON_SCHEMA: dict = {
                 "seen": {"type": ["boolean", "null"]},
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
-                "cause": {"enum": ["propeller", "motor_or_esc", "load", None]},
+                "cause": {"enum": ["propeller", "motor_or_esc", "wash", "load", None]},
                 "load": {"type": ["object", "null"],
                          "required": ["motor", "position", "side", "direction_deg", "size", "llr", "words"],
                          "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
@@ -382,7 +416,7 @@ def _configuration(d: Diagnosis) -> Optional[dict]:
 
 
 def to_dict(d: Diagnosis) -> dict:
-    """The schema-6 object for one diagnosis (and, in ``flights``, each flight of its log)."""
+    """The schema-8 object for one diagnosis (and, in ``flights``, each flight of its log)."""
     f, m, p, v = d.facts, d.model, d.profile, d.verdict
     ev = d.timeline if d.timeline is not None and d.timeline.shortfall is None else None
     return {
@@ -400,7 +434,7 @@ def to_dict(d: Diagnosis) -> dict:
         "profile": None if p is None else {"path": p.path, "model_path": p.model_path,
                                            "model_sha256": p.model_sha256, "sessions": p.sessions,
                                            "configuration": _configuration(d)},
-        "verdict": v.as_dict(),
+        "verdict": {**v.as_dict(), "headline": v.headline or headline(v)},  # (a verdict made without one)
         "evidence": None if ev is None or ev.n_windows == 0 else {
             "n_windows": ev.n_windows, "covered_s": round(ev.covered_s, TIME_DECIMALS),
             "share": [round(x, PROB_DECIMALS) for x in ev.smoothed_share],
@@ -444,7 +478,7 @@ def _type_ok(value: Any, name: str) -> bool:
 def validate(doc: Any, schema: dict = JSON_SCHEMA, where: str = "$") -> list[str]:
     """Errors of ``doc`` against ``schema`` (empty when valid). Supports the keywords used in
     :data:`JSON_SCHEMA`: type, const, enum, required, properties, items, minItems, maxItems,
-    minimum, maximum."""
+    minimum, maximum, maxLength."""
     errors: list[str] = []
     if "const" in schema and doc != schema["const"]:
         errors.append(f"{where}: expected {schema['const']!r}, got {doc!r}")
@@ -459,6 +493,8 @@ def validate(doc: Any, schema: dict = JSON_SCHEMA, where: str = "$") -> list[str
             errors.append(f"{where}: {doc} < minimum {schema['minimum']}")
         if "maximum" in schema and doc > schema["maximum"]:
             errors.append(f"{where}: {doc} > maximum {schema['maximum']}")
+    if isinstance(doc, str) and "maxLength" in schema and len(doc) > schema["maxLength"]:
+        errors.append(f"{where}: {len(doc)} characters > maxLength {schema['maxLength']}")
     if isinstance(doc, dict):
         errors += [f"{where}: missing {k!r}" for k in schema.get("required", []) if k not in doc]
         for k, sub in schema.get("properties", {}).items():

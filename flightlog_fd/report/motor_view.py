@@ -78,8 +78,12 @@ def summary_cell(figures: Any) -> str:
 
 
 def short_position(position: str) -> str:
-    """"front-right" -> "FR", "rear" -> "R": an 80-column table's position column."""
-    return "".join(w[0].upper() for w in position.replace(" ", "-").split("-") if w) or position
+    """"front-right" -> "FR", "front-right-mid" -> "FRM": an 80-column table's position column. A
+    one-word position stays whole ("rear", "right"): their initials are the same letter."""
+    main, _, rest = position.partition(" (")  # "rear-left (-162 deg)": the bracket is kept
+    words = [w for w in main.replace(" ", "-").split("-") if w]
+    short = main if len(words) < 2 else "".join(w[0].upper() for w in words)
+    return f"{short} ({rest}" if rest else short
 
 
 def _fmt(x: Any, decimals: int = 3) -> str:
@@ -297,6 +301,16 @@ class MotorView:
             cells.append(Cell(DASH if r.weight is None else f"{r.weight:.2f}"))
             out.append(cells)
         return header, out
+
+    def notes_beside(self, said: Sequence[str]) -> list[str]:
+        """The notes to print under the table: :attr:`notes` without those the verdict's evidence
+        clauses ``said`` already (a note is "analyzer: text"; either form counts), each once."""
+        out: list[str] = []
+        for note in self.notes:
+            text = note.split(": ", 1)[1] if ": " in note else note
+            if text not in said and note not in said and note not in out:
+                out.append(note)
+        return out
 
     def legend(self) -> list[tuple[str, str]]:
         """(label, meaning) of every column shown, for a report's legend."""

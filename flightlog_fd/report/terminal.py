@@ -1,12 +1,13 @@
-"""Terminal report (rich): the verdict first, in plain words, then a timeline strip over the flight.
+"""Terminal report (rich): the verdict's headline first, then its cause, its evidence, what to do,
+the flight, a timeline strip and the per-motor table; every line fits an 80-column terminal.
 
 Inputs: :class:`~flightlog_fd.diagnose.Diagnosis` objects. Nothing here decides anything; it
 only words and draws what the verdict says.
 
-- :func:`verdict_sentence`: "Propeller 3 (front-left) damaged, confidence 0.93 (the probability
-  that this verdict is right, ...), first seen at t=34.5 s" / "No sign of propeller damage in 38 s
-  of usable flight, ..." / "Not seen: this log could not show damage ..." / "Uncertain, ...: ..." /
-  "Not diagnosable: ...".
+- :func:`verdict_sentence`: the verdict's headline (``Verdict.headline``, at most 100 characters:
+  the status, the rotor, how much and what to do), the first line of every report.
+- :func:`report_lines`: what follows it, in every report's order: the status and confidence, the
+  cause line, the evidence clauses (each once), what to do (:mod:`flightlog_fd.advice`).
 - :func:`timeline_strip`: ``TIMELINE_WIDTH`` characters spanning the first window's start to the
   last window's end (seconds on the log's clock), one per equal time slot: ``.`` healthy, ``1``-``9``
   then ``a``-``c`` the rotor judged to have lost thrust (any rotor count up to 12), ``?``
@@ -17,9 +18,13 @@ only words and draws what the verdict says.
 - :func:`window_table` (``--windows``): every window with its times, class, the probabilities of
   healthy and of each motor, phase.
 - :func:`facts_line`: the log's facts, the model and the profile with its calibration sessions.
-- :func:`summary_table`: one row per log when several logs are diagnosed (file names; the full
-  path where two logs share a name), and one indented row per flight of a log holding several.
+- :func:`summary_table`: one row per log when several logs are diagnosed (file names whole; the
+  full path where two logs share a name), and one indented row per flight of a log holding several.
+- :func:`confidence_legend`: what every confidence figure means, said once per run.
 - :func:`render`: all of the above for one log onto a rich Console.
+
+Prose is laid out with hanging indents (:func:`item`), so it wraps at the console's width even on
+the CLI's soft-wrapping console; a command to copy stays one line (the terminal wraps it).
 """
 from __future__ import annotations
 
@@ -27,16 +32,15 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from rich import box
-from rich.console import Console, Group
+from rich.console import Console, Group, RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from ..advice import advice_line
-from ..decision import CONFIDENCE_MEANING, THIN_TIMELINE_SHARE, not_seen_words
+from ..decision import headline as verdict_headline
 from ..diagnose import Diagnosis
 from ..timeline import UNCERTAIN_LABEL, timeline_labels
 from .motor_view import MotorView, class_names, short_position
-from .words import cause_words
+from .words import cause_line, cause_words, confidence_legend, evidence_clauses
 
 #: Characters in the timeline strip (fits an 80-column terminal with its time labels).
 TIMELINE_WIDTH = 60
@@ -47,61 +51,84 @@ STATUS_STYLES = {"healthy": "bold green", "damaged": "bold red", "stopped": "bol
                  "not_diagnosable": "bold magenta"}
 
 
+class Hanging:
+    """``text`` after ``prefix`` with a hanging indent: wrapped at the console's width, its wrapped
+    lines start under the text (a word longer than the line, a path, is folded); no trailing blanks."""
+
+    def __init__(self, prefix: str, text, style: str = ""):
+        self.prefix, self.style = prefix, style
+        self.text = text if isinstance(text, Text) else Text(text, style=style)
+
+    def __rich_console__(self, console: Console, options):
+        width = max(options.max_width - len(self.prefix), 8)
+        for i, line in enumerate(self.text.wrap(console, width, overflow="fold")):
+            line.rstrip()
+            yield Text(self.prefix if i == 0 else " " * len(self.prefix), style=self.style) + line
+
+    def __rich_measure__(self, console: Console, options):
+        from rich.measure import Measurement
+
+        return Measurement(len(self.prefix) + 1, min(options.max_width, len(self.prefix) + self.text.cell_len))
+
+
+def item(prefix: str, text, style: str = "") -> Hanging:
+    """One report line: ``text`` after ``prefix``, wrapped with a hanging indent (:class:`Hanging`)."""
+    return Hanging(prefix, text, style)
+
+
+def verdict_sentence(diagnosis: Diagnosis) -> str:
+    """The verdict's headline (``Verdict.headline``; made by :func:`flightlog_fd.decision.headline`
+    for a verdict that carries none): the first line of every report, at most 100 characters. Also
+    the HTML page's first line, the web flight page's and the watcher's."""
+    v = diagnosis.verdict
+    return v.headline or verdict_headline(v)
+
+
+def status_words(diagnosis: Diagnosis) -> str:
+    """The status name and its confidence, "damaged, confidence 0.97" ("not_diagnosable" alone):
+    the line under the headline (what the figure means is in the legend, :func:`confidence_legend`)."""
+    v = diagnosis.verdict
+    return v.status if v.status == "not_diagnosable" else f"{v.status}, confidence {v.confidence:.2f}"
+
+
+def verdict_details(v) -> list[RenderableType]:
+    """The lines under the headline and status, in every report's order: the cause line, the
+    evidence clauses (each once), what to do (a command on a line of its own, to copy whole)."""
+    out: list[RenderableType] = []
+    cause = cause_line(v)
+    if cause:
+        out.append(item("  ", cause))
+    clauses = evidence_clauses(v)
+    if clauses:
+        out.append(Text("  evidence:", style="bold"))
+        out += [item("  - ", c) for c in clauses]
+    if v.advice:
+        out.append(Text("  to do:", style="bold"))
+        for a in v.advice:
+            out.append(item("  - ", a.text + (":" if a.command else "")))
+            if a.command:
+                out.append(Text(f"      {a.command}"))
+    return out
+
+
 def _motor_words(motor: int, position: Optional[str]) -> str:
     return f"{motor} ({position})" if position else f"{motor}"
 
 
-def _propeller_cell(v) -> str:
-    """The summary table's rotor cell: the damaged (stopped) motor, with its cause's tag where it
-    is not the propeller ("1 (right), motor or ESC"), both of a pair (damaged or uncertain), else
-    empty."""
-    if v.pair and len(v.motors) > 1:
-        return " + ".join(_motor_words(k, short_position(p) if p else None) for k, p in zip(v.motors, v.positions))
-    tag = cause_words(v.cause).tag
-    return (_motor_words(v.motor, v.position) + (f", {tag}" if tag else "")) if v.motor else ""
+def verdict_cell(v) -> str:
+    """The summary table's verdict cell: the status and the rotors it names with short positions,
+    "damaged 3 FL", "uncertain 1 FR+4 RR" (a pair), "healthy"."""
+    named = list(v.motors) if v.pair and len(v.motors) > 1 else ([v.motor] if v.motor else [])
+    pos = {k: p for k, p in zip(v.motors, v.positions) if p}
+    if v.motor and v.position:
+        pos.setdefault(v.motor, v.position)
+    rotors = "+".join(f"{k} {short_position(pos[k])}" if pos.get(k) else f"{k}" for k in named)
+    return f"{v.status} {rotors}".rstrip()
 
 
-def confidence_words(confidence: float) -> str:
-    """"confidence 0.93 (the probability that this verdict is right, ...)": the figure with its one
-    meaning (:data:`~flightlog_fd.decision.CONFIDENCE_MEANING`), as every report states it."""
-    return f"confidence {confidence:.2f} ({CONFIDENCE_MEANING})"
-
-
-def verdict_sentence(diagnosis: Diagnosis) -> str:
-    """The verdict in one plain sentence (also used as the HTML page's headline). A healthy verdict
-    says whether the evidence saw the flight ("no sign of damage in N s of usable flight") or this
-    log could not show damage (``Verdict.seen`` False: not a clearance, and what would make the next
-    log decisive)."""
-    v = diagnosis.verdict
-    conf = confidence_words(v.confidence)
-    if v.status == "damaged":
-        first = f", first seen at t={v.first_seen:.1f} s" if v.first_seen is not None else ""
-        if v.motor is None:
-            return f"A propeller is damaged (no rotor named: inspect all), {conf}{first}"
-        if v.pair and len(v.motors) > 1:
-            return f"{v.propellers().capitalize()} damaged: inspect both, {conf}{first}"
-        if v.cause == "motor_or_esc":
-            return f"Motor {_motor_words(v.motor, v.position)} or its ESC is weak (not the propeller), {conf}{first}"
-        return f"Propeller {_motor_words(v.motor, v.position)} damaged, {conf}{first}"
-    if v.status == "healthy":
-        tl = diagnosis.timeline
-        n = tl.n_windows if tl else len(diagnosis.windows)
-        if v.seen is False:
-            covered = tl.covered_s if tl else None
-            load = f"; {v.load['words']}" if v.cause == "load" and v.load else ""
-            return f"Not seen: {not_seen_words(covered, diagnosis.log_kind)}{load}; {conf}"
-        seen = f"in {tl.covered_s:.0f} s of usable flight" if tl else "in the vibration (the only evidence this log has)"
-        thin = ""
-        if tl is not None and n and tl.abstained_share >= THIN_TIMELINE_SHARE:
-            thin = f" ({100 * tl.abstained_share:.0f} % of the model's windows uncertain: the other sources saw it, see below)"
-        if v.cause == "load" and v.load:
-            return f"No sign of propeller damage {seen}{thin}: {v.load['words']}, {conf}"
-        return f"No sign of propeller damage {seen}{thin}, {conf}"
-    if v.status == "uncertain":
-        return f"Uncertain, {conf}: {v.reason}"
-    if v.status == "stopped":
-        return f"Motor {_motor_words(v.motor, v.position)} stopped in flight at t={v.first_seen:.1f} s"
-    return f"Not diagnosable: {v.reason}"
+def cause_cell(v) -> str:
+    """The summary table's cause cell: "propeller", "motor or ESC", "in its wash", "load"; "" unknown."""
+    return cause_words(v.cause).tag if v.cause else ""
 
 
 def timeline_strip(diagnosis: Diagnosis, width: int = TIMELINE_WIDTH) -> Text:
@@ -123,8 +150,8 @@ def timeline_strip(diagnosis: Diagnosis, width: int = TIMELINE_WIDTH) -> Text:
 
 def timeline_legend(n_motors: int, cause) -> str:
     """The strip's legend; a rotor's characters in the verdict's cause's words
-    (:func:`~flightlog_fd.report.words.cause_words`): "  . healthy   1-4 motor or ESC weak   ? uncertain"."""
-    return f"  . healthy   1-{LABEL_CHARS[n_motors]} {cause_words(cause).lost}   ? uncertain"
+    (:func:`~flightlog_fd.report.words.cause_words`): ". healthy   ? uncertain   1-4 motor or ESC weak"."""
+    return f". healthy   ? uncertain   1-{LABEL_CHARS[n_motors]} {cause_words(cause).lost}"
 
 
 def window_table(diagnosis: Diagnosis) -> Table:
@@ -152,31 +179,28 @@ def _prob(p: float) -> str:
 
 
 def summary_table(diagnoses: Sequence[Diagnosis]) -> Table:
-    """One row per log: status, motor and position, confidence, first seen, exit code."""
-    # A light box and short headers keep a row on one line in an 80-column terminal or a CI log.
+    """One row per log: file name, verdict (status and rotors), cause, confidence, exit code; one
+    indented row per flight of a log holding several. The file name is never cut: the other
+    columns are narrow enough for names of 35 characters in 80 columns (a longer one folds)."""
     table = Table(title="Diagnosis summary", box=box.SIMPLE_HEAD, pad_edge=False)
     table.add_column("log", overflow="fold")
-    for name in ("verdict", "rotor", "conf.", "first seen", "exit"):
-        table.add_column(name, no_wrap=True, min_width={"verdict": 9, "rotor": 15, "conf.": 5,
-                                                        "first seen": 9, "exit": 4}[name],
-                         justify="right" if name in ("conf.", "first seen", "exit") else "left")
+    for name in ("verdict", "cause", "conf.", "exit"):
+        table.add_column(name, no_wrap=True, justify="right" if name in ("conf.", "exit") else "left")
     names = [Path(d.log).name for d in diagnoses]
     for d, name in zip(diagnoses, names):
         # The file name is enough unless two logs share it (same name in different folders).
         shown = name if names.count(name) == 1 else d.log
-        v = d.verdict
-        prop = _propeller_cell(v)
-        conf = f"{v.confidence:.2f}" if v.status != "not_diagnosable" else ""
-        first = f"t={v.first_seen:.1f} s" if v.first_seen is not None else ""
-        table.add_row(Text(shown), Text(v.status, style=STATUS_STYLES.get(v.status, "")), Text(prop),
-                      conf, first, str(d.exit_code))
-        for sub in d.flights:  # each take-off to landing of a log holding several
-            sv = sub.verdict
-            table.add_row(Text(f"  {sub.part.split(',')[0]}"), Text(sv.status, style=STATUS_STYLES.get(sv.status, "")),
-                          Text(_propeller_cell(sv)),
-                          f"{sv.confidence:.2f}" if sv.status != "not_diagnosable" else "",
-                          f"t={sv.first_seen:.1f} s" if sv.first_seen is not None else "", str(sub.exit_code))
+        rows = [(Text(shown), d)] + [(Text(f"  {sub.part.split(',')[0]}"), sub) for sub in d.flights]
+        for label, x in rows:  # each take-off to landing of a log holding several, under it
+            v = x.verdict
+            table.add_row(label, Text(verdict_cell(v), style=STATUS_STYLES.get(v.status, "")), cause_cell(v),
+                          f"{v.confidence:.2f}" if v.status != "not_diagnosable" else "", str(x.exit_code))
     return table
+
+
+def legend(text: Optional[str] = None) -> Table:
+    """The confidence legend line (:func:`~flightlog_fd.report.words.confidence_legend`), dim."""
+    return item("", text or confidence_legend(), "dim")
 
 
 def several_flights_words(diagnosis: Diagnosis) -> str:
@@ -218,8 +242,9 @@ def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table
     """Per-motor findings table: what the verdict rests on, in numbers a pilot can check. A dash's
     reason is among the notes under it."""
     view = view or MotorView.of(diagnosis)
-    t = Table(title=f"per-motor findings (commands against {view.against})", title_justify="left", box=None,
-              padding=(0, 0, 0, 1), pad_edge=False, title_style="dim")
+    title = "per-motor findings" + (f" (commands against {view.against})" if view.against else "")
+    t = Table(title=title, title_justify="left", box=None, padding=(0, 0, 0, 1), pad_edge=False, title_style="dim",
+              min_width=len(title))  # a narrow table (weights only) would fold its title
     header, rows = view.table(narrow=True)
     for h in header:
         t.add_column(h, justify="left" if h in ("pos", "share", "thrust %", "effect.") else "right", no_wrap=True)
@@ -228,41 +253,42 @@ def motor_panel(diagnosis: Diagnosis, view: Optional[MotorView] = None) -> Table
     return t
 
 
-def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_windows: bool = False) -> Group:
-    """Print (when ``console`` is given) and return the report for one log."""
+def render(diagnosis: Diagnosis, console: Optional[Console] = None, *, show_windows: bool = False,
+           with_legend: bool = True) -> Group:
+    """Print (when ``console`` is given) and return the report for one log: the headline, the status
+    and confidence with the log's path, the cause, the evidence, what to do, the log's facts, the
+    timeline, its flights, the per-motor table, the windows (``show_windows``), warnings, and
+    (``with_legend``; the CLI says it once under the summary of several logs) the confidence legend."""
     v = diagnosis.verdict
-    parts: list = [Text(diagnosis.log, style="bold"),
-                   Text(verdict_sentence(diagnosis), style=STATUS_STYLES.get(v.status, ""))]
-    if v.status in ("damaged", "healthy", "uncertain", "stopped") and v.reason:
-        parts.append(Text(f"  {v.reason}", style="dim"))
-    if v.advice:
-        parts.append(Text("  to resolve it:", style="bold"))
-        for a in v.advice:
-            parts.append(Text(f"  - {advice_line(a)}"))
+    parts: list = [item("", verdict_sentence(diagnosis), STATUS_STYLES.get(v.status, "bold")),
+                   item("  ", f"{status_words(diagnosis)} | {diagnosis.log}", "dim"), *verdict_details(v)]
     line = facts_line(diagnosis)
     if line:
-        parts.append(Text(f"  {line}", style="dim"))
+        parts.append(item("  ", line, "dim"))
     if diagnosis.windows:
         parts.append(timeline_strip(diagnosis))
         n = len(diagnosis.windows[0].probabilities) - 1
-        parts.append(Text(timeline_legend(n, v.cause), style="dim"))
+        parts.append(item("  ", timeline_legend(n, v.cause), "dim"))
     if diagnosis.flights:
-        parts.append(Text(f"  {len(diagnosis.flights)} flights in this log, {several_flights_words(diagnosis)}:",
-                          style="bold"))
+        parts.append(item("  ", f"{len(diagnosis.flights)} flights in this log, {several_flights_words(diagnosis)}:",
+                          "bold"))
         for sub in diagnosis.flights:
-            parts.append(Text(f"  {sub.part}: {verdict_sentence(sub)}", style=STATUS_STYLES.get(sub.verdict.status, "")))
-        parts.append(Text("  details of the whole log:" if diagnosis.windows else
-                          f"  details of {diagnosis.verdict.reason.split(':')[0]}:", style="dim"))
+            parts.append(item("  - ", f"{sub.part}: {verdict_sentence(sub)} ({status_words(sub)})",
+                              STATUS_STYLES.get(sub.verdict.status, "")))
+        parts.append(item("  ", "details of the whole log:" if diagnosis.windows else
+                          f"details of {diagnosis.verdict.reason.split(':')[0]}:", "dim"))
     if diagnosis.decision is not None:
         view = MotorView.of(diagnosis)
         if view.rows:
             parts.append(motor_panel(diagnosis, view))
-        for note in view.notes:
-            parts.append(Text(f"  * {note}", style="dim"))
+        for note in view.notes_beside(evidence_clauses(v)):
+            parts.append(item("  * ", note, "dim"))
     if show_windows and diagnosis.windows:
         parts.append(window_table(diagnosis))
     for w in diagnosis.warnings:
-        parts.append(Text(f"warning: {w}", style="yellow"))
+        parts.append(item("warning: ", w, "yellow"))
+    if with_legend and v.status != "not_diagnosable":
+        parts.append(legend())
     group = Group(*parts)
     if console is not None:
         console.print(group)

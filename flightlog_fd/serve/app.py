@@ -44,7 +44,7 @@ from ..database import StoreUnavailable
 from ..errors import FlightLogError
 from ..report.motor_view import MotorView, summary_cell, summary_header
 from ..report.panels import missing_line
-from ..report.words import cause_words
+from ..report.words import cause_line, cause_words, confidence_legend, evidence_clauses
 from ..store import TREND_FIGURES, Store, parse_verdict_motors
 from .security import SESSION_COOKIE, Sessions, TokenSet, bearer
 from .worker import DataDir, JobRunner, diagnose_task
@@ -203,6 +203,9 @@ def create_app(cfg: ServeConfig):
     env.globals.update(summary_header=summary_header, summary_cell=summary_cell)  # the per-motor summary names
     env.globals["named_motors"] = named_motors
     env.globals["cause_words"] = cause_words  # legends and labels in the verdict's cause's words
+    # the verdict's lines in every report's order and words (report/words.py)
+    env.globals.update(cause_line=cause_line, evidence_clauses=evidence_clauses, confidence_legend=confidence_legend)
+    env.filters["capitalize_first"] = lambda s: s[:1].upper() + s[1:] if s else s
     env.globals["missing_line"] = missing_line  # the streams a flight's plots lack, in one line
 
     watcher = None
@@ -580,6 +583,8 @@ def create_app(cfg: ServeConfig):
                     plotdata={"plot": plot, "windows": windows,
                               "rotor_word": cause_words(((doc or {}).get("verdict") or {}).get("cause")).short},
                     airframe=airframe, parts=store.flight_parts(fid),
+                    part_headlines=[((x.get("verdict") or {}).get("headline") if isinstance(x, dict) else None)
+                                    for x in (doc or {}).get("flights") or []],
                     has_html=data.report_path(f["sha256"], "html").exists(),
                     has_csv=data.report_path(f["sha256"], "csv").exists())
 
