@@ -780,6 +780,9 @@ def weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame], tim
             pair = len(named) == 2
             confidence = p_top if pair else float(marginal[named[0] - 1])
             inspect = tuple(named)
+        elif marginal[order[0] - 1] >= 0.5 * p_dmg > marginal[order[1] - 1]:  # one rotor in most of it
+            named, inspect = [order[0]], (order[0],)
+            confidence = float(marginal[order[0] - 1])
         else:  # damage, but two or more rotors share it: name them for inspection
             inspect = tuple(_covering(order, marginal, p_dmg))
             confidence = float(sum(marginal[k - 1] for k in inspect)) if inspect else p_dmg
@@ -1020,8 +1023,13 @@ def decide_log(parts: Sequence[tuple[str, Verdict]], whole: Optional[Verdict] = 
 
 def log_verdict(parts: Sequence[tuple[str, Verdict]]) -> Verdict:
     """The verdict of a log holding several flights: its worst flight's (:func:`worst_flight`),
-    the reason naming that flight and listing every other one."""
-    label, worst = parts[worst_flight([v for _, v in parts])]
+    the headline and reason naming that flight ("Flight 2 of 2: ...") and listing every other one."""
+    i = worst_flight([v for _, v in parts])
+    label, worst = parts[i]
     others = "".join(f"; {lab}: {v.status_words()}" for lab, v in parts if v is not worst)
+    head = f"Flight {i + 1} of {len(parts)}: {worst.headline}" if worst.headline else ""
+    if len(head) > HEADLINE_MAX:
+        head = head[:HEADLINE_MAX - 1].rstrip() + "…"
     return replace(worst, reason=f"{label}: {worst.reason}{others}", advice=list(worst.advice),
-                   motors=list(worst.motors), positions=list(worst.positions), thrust=list(worst.thrust))
+                   motors=list(worst.motors), positions=list(worst.positions), thrust=list(worst.thrust),
+                   headline=head or worst.headline)

@@ -177,6 +177,7 @@ def test_octo_without_a_profile_weighs_its_command_pattern_and_says_why_when_the
     and a healthy verdict over the 92 % uncertain timeline says what it rests on and how to do better."""
     from flightlog_fd.diagnose import diagnose_path, resolve_model
     from flightlog_fd.report.json_report import render_json, validate
+    from flightlog_fd.report.terminal import verdict_sentence
 
     model = resolve_model()
     d = diagnose_path(SAMPLES / "px4_octo_motor2_damaged.ulg", model)
