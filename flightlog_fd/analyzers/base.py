@@ -15,6 +15,19 @@ SOURCE_LLR_CAP = 8.0
 #: quads, where it is measured (benchmarks/bench_two_props.py). A hexa's or octo's allocator has
 #: more freedom than the four force rows, so a pair there is a hypothesis nobody has measured.
 PAIR_ROTOR_COUNTS = (4,)
+#: Why a rotor lost thrust (:mod:`flightlog_fd.cause`): its propeller (cut, chipped, cracked), its
+#: motor or ESC (it turns slower for its command), or something in its wash or under it (a payload,
+#: a strap, a guard, a load toward it: the rotor turns as its command asks and loads its motor as a
+#: healthy propeller would, yet the airframe gets less lift from it). "propeller" and
+#: "motor_or_esc" are stored in the results store and the JSON report; "wash" is new.
+CAUSES = ("propeller", "motor_or_esc", "wash")
+#: The stated prior over CAUSES for a rotor that lost thrust, before the log is read. No measured
+#: base rate exists: propellers are the commonest wear part (they strike the ground and things) and
+#: the part the tool is for, hence half; motor and ESC faults (heat, age, a bad joint) next; something
+#: in the wash the rarest (most loads sit under the centre, not under one rotor). Every cause keeps
+#: at least a fifth, so the evidence, not the prior, states a cause (cause.CAUSE_PROBABILITY_BAR is
+#: well above any prior share). A fleet with its own base rates may set its own.
+CAUSE_PRIOR = {"propeller": 0.5, "motor_or_esc": 0.3, "wash": 0.2}
 
 
 @dataclass
@@ -73,6 +86,11 @@ class AnalyzerResult:
     #: a < b), before the cap, for a source whose per-motor figures are not independent of each
     #: other; empty: :meth:`pair_llr` sums the two motors' findings
     pair_llrs: dict = field(default_factory=dict)
+    #: {motor (1-based): (len(command_shares.ETA_GRID),) nats} this source's own evidence for "rotor
+    #: k gives eta of its thrust" against healthy at each eta of the shared grid, before the cap, for
+    #: a source that can tell how much (the decision integrates eta once over every source that
+    #: gives it); empty: the source says nothing about eta (its findings' llr is all it gives)
+    eta_llr: dict = field(default_factory=dict)
 
     def finding(self, name: str, motor: int) -> Optional[Finding]:
         """Its finding ``name`` about ``motor`` (1-based), or None."""
