@@ -127,6 +127,12 @@ def advise(s: Situation) -> list[Advice]:
             out.append(Advice("inspect", f"inspect motor {name} and its ESC first (bearings, windings, wiring and "
                                          f"solder joints, the ESC): ESC rpm shows it turning slower for its command; "
                                          f"then propeller {k}", motors))
+        elif len(motors) == 1 and s.cause == "wash":
+            k = motors[0]
+            name = f"{k}" + (f" ({s.positions[k]})" if s.positions.get(k) else "")
+            out.append(Advice("inspect", f"inspect what sits under rotor {name} first (a payload, a strap, a guard, "
+                                         f"anything in its wash): ESC rpm shows its propeller and motor turning as "
+                                         f"sound ones do; then propeller {k} and motor {k}", motors))
         elif motors:
             names = " and ".join(f"{m}" + (f" ({s.positions[m]})" if s.positions.get(m) else "") for m in motors)
             if s.pair and len(motors) == 2:

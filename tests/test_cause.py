@@ -60,7 +60,8 @@ def test_damaged_propeller_is_named_with_its_propeller(reports):
     assert (v["status"], v["motor"], v["cause"]) == ("damaged", 3, "propeller"), v["reason"]
     ev = v["cause_evidence"]
     assert ev["llr"] < -20 and ev["current_per_rpm2"] < -15  # a cut propeller draws less current per rpm²
-    assert v["reason"].endswith("inspect propeller 3")
+    assert ev["probs"]["propeller"] >= 0.9 and ev["sources"][0] == "esc"
+    assert "inspect propeller 3, then" in v["reason"] and "what sits under rotor 3" in v["reason"]
 
 
 def test_healthy_flight_gets_no_cause(reports):
@@ -77,28 +78,73 @@ def test_without_esc_rpm_the_cause_is_unknown_and_said_so(logs):
     # the commands alone: a rotor lost thrust, or a load sits at its corner
     assert (v.status, v.motor) == ("uncertain", 2) and "or a load sits at its corner" in v.reason, v.reason
     assert v.cause is None and v.cause_evidence["llr"] is None
-    assert "the log has no ESC telemetry, so a damaged propeller cannot be told from a weak motor or ESC" in v.reason
-    assert "inspect propeller 2, then motor 2 and its ESC" in v.reason
+    assert "the log cannot tell a propeller from a motor or something in its wash: no ESC rpm" in v.reason
+    assert "inspect propeller 2, then motor 2 and its ESC, then what sits under rotor 2" in v.reason
     # the damaged propeller (its rotor turns 5 % faster per command, which makes up part of the
     # lost thrust): whatever the commands alone say, no cause without ESC rpm
     v = diagnose_flight(replace(load_flight(logs["propeller3"]), esc=None), model, keep_flight=False).verdict
     assert v.cause is None
 
 
-def test_undecided_relations_state_no_cause():
-    from flightlog_fd.analyzers.esc import EscResult
+def _esc_result(k, by_cause, rpm=-1.0):
+    """An ESC result whose motor ``k`` has these log Bayes factors against healthy, flat over eta."""
+    import numpy as np
+
     from flightlog_fd.analyzers.base import Finding
-    from flightlog_fd.cause import CAUSE_LLR, judge_cause
+    from flightlog_fd.analyzers.command_shares import ETA_GRID
+    from flightlog_fd.analyzers.esc import EscResult
 
-    def esc(llr):
-        return EscResult("esc", [Finding("esc", 1, "rpm_per_command", -1.0, "%")], cause_llr={1: llr})
+    eta = {c: np.full(len(ETA_GRID), float(v)) for c, v in by_cause.items()}
+    return EscResult("esc", [Finding("esc", k, "rpm_per_command", rpm, "%")], cause_ll={k: dict(by_cause)},
+                     cause_ll_eta={k: eta})
 
-    assert judge_cause([esc(CAUSE_LLR + 0.1)], 1).cause == "motor_or_esc"
-    assert judge_cause([esc(-CAUSE_LLR - 0.1)], 1).cause == "propeller"
-    mid = judge_cause([esc(1.0)], 1)
-    assert mid.cause is None and "cannot be told" in mid.words and mid.llr == 1.0
+
+def test_the_cause_is_stated_only_past_its_bar():
+    from flightlog_fd.analyzers.esc import EscResult
+    from flightlog_fd.cause import CAUSE_PRIOR, CAUSE_PROBABILITY_BAR, judge_cause
+
+    motor = judge_cause([_esc_result(1, {"propeller": -5, "motor_or_esc": 20, "wash": 0}, rpm=-20.0)], 1)
+    assert motor.cause == "motor_or_esc" and motor.probs["motor_or_esc"] > 0.99 and motor.llr == 25
+    assert "20 % slower" in motor.words and motor.advice.startswith("inspect motor 1 and ESC 1")
+    wash = judge_cause([_esc_result(2, {"propeller": -8, "motor_or_esc": -8, "wash": 0}, rpm=0.3)], 2)
+    assert wash.cause == "wash" and "something in its wash" in wash.words
+    assert wash.advice.startswith("inspect what sits under rotor 2")
+    # even evidence: the prior's probabilities, no cause, and the words say it is not clear
+    mid = judge_cause([_esc_result(1, {"propeller": 0, "motor_or_esc": 0, "wash": 0})], 1)
+    assert mid.cause is None and max(mid.probs.values()) < CAUSE_PROBABILITY_BAR
+    assert mid.probs == pytest.approx(CAUSE_PRIOR) and "the cause is not clear" in mid.words
+    assert mid.advice == "inspect propeller 1, then motor 1 and its ESC, then what sits under rotor 1"
     gone = judge_cause([EscResult("esc", abstained="ESC telemetry too slow (motor 1: 1.0 Hz < 2 Hz)")], 1)
-    assert gone.cause is None and "could not be used (ESC telemetry too slow" in gone.words
+    assert gone.cause is None and "no usable ESC rpm (ESC telemetry too slow" in gone.words
+    assert gone.probs == pytest.approx(CAUSE_PRIOR) and gone.sources == ()
+    ev = motor.evidence()
+    assert set(ev["probs"]) == {"propeller", "motor_or_esc", "wash"} and ev["sources"] == ["esc"]
+
+
+def test_a_vibration_line_tied_to_the_rotor_says_propeller_and_nothing_more():
+    """A line certainly on rotor 1 is worth at most log(UNBALANCED_SHARE·n/INCIDENTAL_UNBALANCE)
+    for its propeller; a line on another rotor, or no line, counts a little against it."""
+    import numpy as np
+
+    from flightlog_fd.analyzers.vibration import VibrationResult
+    from flightlog_fd.cause import INCIDENTAL_UNBALANCE, UNBALANCED_SHARE, judge_cause
+
+    def vib(tie, llr):
+        r = VibrationResult("vibration", flight_llr=llr)
+        r.tie_probs = tie  # the vibration branch's field (read with getattr)
+        return r
+
+    on1 = judge_cause([vib([0.97, 0.01, 0.01, 0.01], 30.0)], 1)
+    assert on1.cause == "propeller" and on1.sources == ("vibration",)
+    bound = np.log(UNBALANCED_SHARE * 4 / INCIDENTAL_UNBALANCE)
+    odds = on1.probs["propeller"] / (1 - on1.probs["propeller"])
+    assert np.log(odds) <= bound + 1e-6  # prior odds of the propeller against the rest: 0.5 / 0.5
+    assert "follows rotor 1" in on1.words
+    on3 = judge_cause([vib([0.01, 0.01, 0.97, 0.01], 30.0)], 1)
+    assert on3.cause is None and on3.probs["propeller"] < 0.5
+    quiet = judge_cause([vib([0.25] * 4, -5.0)], 1)
+    assert quiet.probs["propeller"] < 0.5 and quiet.cause is None
+    assert "the vibration ties no line to it" in quiet.words
 
 
 def test_html_store_history_and_web_page_carry_the_cause(logs, tmp_path):

@@ -154,6 +154,14 @@ DECISION_LLR = 6.0
 #: the run-to-run spread. ArduCopter 4.7 SITL, SIM_ENGINE_MUL=0.75 (motor1_weak_esc.BIN): a =
 #: -0.285 at ℓ = 0.575 against a curve of exponent 1, -0.50 per unit.
 MOTOR_DIRECTION = (-0.46, 0.0)
+#: A damaged propeller's drag-torque coefficient falls as its thrust coefficient to these powers
+#: (the points of command_shares.M_GRID from 1): blade-element theory gives D^5 against D^4 for a
+#: shortened blade (1.25), chips and tape up to 1.6 (sim/damage.py TORQUE_EXPONENT_RANGE). The
+#: commands' lower exponents (0.25-0.75) come from the motor spinning faster at the same command,
+#: which the ESC measures apart (rpm per command), not from the propeller's torque per rpm²: with
+#: them a propeller at eta 0.7 could explain a current per rpm² 7 % low (a healthy spread of 2),
+#: and a moved load whose commands read eta 0.7 drew P(propeller) 0.78 (bench_esc.py --loads).
+MIN_DRAG_EXPONENT = 1.0
 
 
 @dataclass(frozen=True)
@@ -322,13 +330,38 @@ def _airborne(t: np.ndarray, airborne: list[tuple[float, float]]) -> np.ndarray:
     return out
 
 
-def _curve_fit(y: np.ndarray, x: np.ndarray, piece: np.ndarray, t: np.ndarray) -> tuple[float, float]:
+def _bin_noise(t: np.ndarray, v: np.ndarray, edges_list: list[np.ndarray]) -> np.ndarray:
+    """Sampling variance of each bin's mean of ``v`` in log units: half the mean squared successive
+    difference of its samples (the fast part of the signal, which a few samples per bin catch at
+    random: PX4's default log has the commands at 10 Hz), over the count and the mean squared."""
+    out = []
+    for edges in edges_list:
+        i = np.searchsorted(edges, t, side="right") - 1
+        ok = (i >= 0) & (i < edges.size - 1) & np.isfinite(v)
+        nb = edges.size - 1
+        n = np.bincount(i[ok], minlength=nb).astype(float)
+        s = np.bincount(i[ok], weights=v[ok], minlength=nb)
+        same = ok[1:] & ok[:-1] & (i[1:] == i[:-1])
+        d2 = np.diff(v)[same] ** 2
+        nd = np.bincount(i[1:][same], minlength=nb).astype(float)
+        sd2 = np.bincount(i[1:][same], weights=d2, minlength=nb)
+        mean = np.divide(s, n, out=np.full(nb, np.nan), where=n > 0)
+        var = np.divide(sd2, 2.0 * nd, out=np.zeros(nb), where=nd > 0)
+        out.append(np.divide(var, n * mean * mean, out=np.full(nb, np.nan), where=(n > 0) & (mean > 0)))
+    return np.concatenate(out)
+
+
+def _curve_fit(y: np.ndarray, x: np.ndarray, piece: np.ndarray, t: np.ndarray,
+               noise: Optional[np.ndarray] = None) -> tuple[float, float]:
     """Common slope of ``y`` on ``x`` ((B, M) bin means) with a level per motor and a level and
     linear trend per piece of time (``piece``, ``t`` (B,)), least squares: (slope, residual sum of
-    squares). Every motor's own changes over time fit the slope; what moves all motors alike at
-    once within a piece's trend does not."""
+    squares of the plain fit). Every motor's own changes over time fit the slope; what moves all
+    motors alike at once within a piece's trend does not. ``noise`` (B, M): the sampling variance of
+    each ``x``, taken out of its spread (errors in variables: a bin mean of 10 command samples
+    scatters about the mean the rotor follows, which flattens the plain slope, 0.83-0.87 for a true
+    1 on a 45 s simulated PX4 default log), at most halving it."""
     b_, m = x.shape
-    cols = [x.reshape(-1, 1), np.tile(np.eye(m), (b_, 1))]
+    cols = [np.tile(np.eye(m), (b_, 1))]
     pieces = np.unique(piece)
     for j, p in enumerate(pieces):
         sel = piece == p
@@ -337,23 +370,31 @@ def _curve_fit(y: np.ndarray, x: np.ndarray, piece: np.ndarray, t: np.ndarray) -
         tt = np.where(sel, t - t[sel].mean(), 0.0)
         if np.any(tt):
             cols.append(np.repeat(tt, m)[:, None])
-    design = np.hstack(cols)
-    coef, *_ = np.linalg.lstsq(design, y.reshape(-1), rcond=None)
-    resid = y.reshape(-1) - design @ coef
-    return float(coef[0]), float(resid @ resid)
+    nuisance = np.hstack(cols)
+    both = np.column_stack([x.reshape(-1), y.reshape(-1)])
+    coef, *_ = np.linalg.lstsq(nuisance, both, rcond=None)
+    xr, yr = (both - nuisance @ coef).T  # x and y with every nuisance term taken out (Frisch-Waugh)
+    sxx, sxy = float(xr @ xr), float(xr @ yr)
+    if sxx <= 0:
+        return 0.0, float(yr @ yr)
+    plain = sxy / sxx
+    ss = float(np.sum((yr - plain * xr) ** 2))
+    if noise is not None:
+        sxx = max(sxx - float(np.nansum(noise)), 0.5 * sxx)
+    return sxy / sxx, ss
 
 
 def _slope(y: np.ndarray, x: np.ndarray, piece: np.ndarray, t: np.ndarray, prior: float,
-           prior_sd: float) -> tuple[float, float]:
+           prior_sd: float, noise: Optional[np.ndarray] = None) -> tuple[float, float]:
     """(slope, sd): :func:`_curve_fit`'s slope with its jackknife sd over N_BLOCKS contiguous time
     blocks, combined with the physics prior (``prior`` ± ``prior_sd``)."""
-    full, _ = _curve_fit(y, x, piece, t)
+    full, _ = _curve_fit(y, x, piece, t, noise)
     blocks = np.array_split(np.arange(x.shape[0]), N_BLOCKS)
     loo = []
     for blk in blocks:
         keep = np.ones(x.shape[0], dtype=bool)
         keep[blk] = False
-        loo.append(_curve_fit(y[keep], x[keep], piece[keep], t[keep])[0])
+        loo.append(_curve_fit(y[keep], x[keep], piece[keep], t[keep], None if noise is None else noise[keep])[0])
     loo = np.array(loo)
     var = (N_BLOCKS - 1) / N_BLOCKS * float(np.sum((loo - loo.mean()) ** 2))
     var = max(var, 1e-8)
@@ -476,7 +517,8 @@ def measure_esc(flight: Flight) -> tuple[Optional[_Measurement], Optional[str]]:
     fits = [_curve_fit(lrpm, np.log(lu[ok]), piece, mid) for lu in lu_lag]
     best = int(np.argmin([ss for _, ss in fits]))
     lu = np.log(lu_lag[best][ok])
-    beta, beta_sd = _slope(lrpm, lu, piece, mid, RPM_SLOPE_PRIOR, RPM_SLOPE_PRIOR_STD)
+    noise = np.column_stack([_bin_noise(motors.t + LAG_GRID_S[best], w_cmd[:, k], edges) for k in range(n)])[ok]
+    beta, beta_sd = _slope(lrpm, lu, piece, mid, RPM_SLOPE_PRIOR, RPM_SLOPE_PRIOR_STD, noise)
     slopes = {"log_rpm_per_log_sqrt_command": beta, "command_lag_s": float(LAG_GRID_S[best])}
     r = np.full((n, 2), np.nan)
     lever = np.zeros((n, 2))
@@ -514,12 +556,12 @@ def _glr(r: np.ndarray, cov: np.ndarray, mu: np.ndarray) -> tuple[float, float]:
 
 
 def damage_prior_losses() -> np.ndarray:
-    """Torque losses ℓ = -m·log η of the damage hypothesis, (len(ETA_GRID), len(M_GRID)): one per
-    point of the command-share analyzer's uniform (η, m) prior grid (thrust η, torque η^m), so that
-    both sources weigh "rotor k lost thrust" against the same prior."""
+    """Torque losses ℓ = -m·log η of the damage hypothesis, (len(ETA_GRID), drag exponents): one per
+    point of the command-share analyzer's uniform (η, m) prior grid (thrust η, torque η^m) with m at
+    least MIN_DRAG_EXPONENT, so that both sources weigh "rotor k lost thrust" over the same η."""
     from .command_shares import ETA_GRID, M_GRID
 
-    eta, m = np.meshgrid(ETA_GRID, M_GRID, indexing="ij")
+    eta, m = np.meshgrid(ETA_GRID, M_GRID[M_GRID >= MIN_DRAG_EXPONENT], indexing="ij")
     return -m * np.log(eta)
 
 

@@ -35,12 +35,14 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                                              #   this log could not show damage (not a clearance); else null
                   "first_seen": seconds | null,   # start of the first window of the damaged run
                   "reason": "motor 3 (front-left) lost thrust from t=34.5 s: ...",
-                  "cause": "propeller" | "motor_or_esc" | "load" | null,   # the named rotor's likely cause,
+                  "cause": "propeller" | "motor_or_esc" | "wash" | "load" | null,   # the named rotor's likely cause,
                                                      #   or "load": propellers healthy, a load explains it
                   "cause_evidence": {"motor": 1-n,                # null when no rotor is named
                                      "llr": nats | null,          # motor / ESC against propeller; null: no ESC rpm
                                      "rpm_per_command": % | null, "current_per_rpm2": % | null,
-                                     "reason": str} | null,       # why that cause, or why none
+                                     "reason": str,               # why that cause, or why none
+                                     "probs": {cause: p},         # P(propeller / motor_or_esc / wash)
+                                     "sources": [str]} | null,    # the sources that spoke: esc, vibration
                   "load": {"motor": 1-n,                          # cause "load": the motor nearest the load
                            "position": str | null, "side": str,   # that motor's and the load's side in words
                            "direction_deg": deg,                   # body frame: 0 forward, +90 right
@@ -217,7 +219,7 @@ JSON_SCHEMA: dict = {
                 "seen": {"type": ["boolean", "null"]},
                 "first_seen": _NUM_OR_NULL,
                 "reason": {"type": "string"},
-                "cause": {"enum": ["propeller", "motor_or_esc", "load", None]},
+                "cause": {"enum": ["propeller", "motor_or_esc", "wash", "load", None]},
                 "load": {"type": ["object", "null"],
                          "required": ["motor", "position", "side", "direction_deg", "size", "llr", "words"],
                          "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
@@ -228,7 +230,9 @@ JSON_SCHEMA: dict = {
                                    "required": ["motor", "llr", "rpm_per_command", "current_per_rpm2", "reason"],
                                    "properties": {"motor": {"type": "integer", "minimum": 1, "maximum": MAX_ROTORS},
                                                   "llr": _NUM_OR_NULL, "rpm_per_command": _NUM_OR_NULL,
-                                                  "current_per_rpm2": _NUM_OR_NULL, "reason": {"type": "string"}}},
+                                                  "current_per_rpm2": _NUM_OR_NULL, "reason": {"type": "string"},
+                                                  "probs": {"type": "object", "additionalProperties": _PROB},
+                                                  "sources": {"type": "array", "items": {"type": "string"}}}},
                 "advice": {"type": "array", "items": {
                     "type": "object", "required": ["kind", "text", "motors", "command", "setting"],
                     "properties": {"kind": {"enum": list(ADVICE_KINDS)}, "text": {"type": "string"},

@@ -82,6 +82,9 @@ def verdict_sentence(diagnosis: Diagnosis) -> str:
             return f"{v.propellers().capitalize()} damaged: inspect both, {conf}{first}"
         if v.cause == "motor_or_esc":
             return f"Motor {_motor_words(v.motor, v.position)} or its ESC is weak (not the propeller), {conf}{first}"
+        if v.cause == "wash":
+            return (f"Rotor {_motor_words(v.motor, v.position)} lost thrust to something in its wash (propeller and "
+                    f"motor sound), {conf}{first}")
         return f"Propeller {_motor_words(v.motor, v.position)} damaged, {conf}{first}"
     if v.status == "healthy":
         tl = diagnosis.timeline

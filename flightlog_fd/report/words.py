@@ -40,6 +40,10 @@ CAUSE_WORDS: dict[str, CauseWords] = {
                             short="prop", tag=""),
     "motor_or_esc": CauseWords(lost="motor or ESC weak", one="motor {k} or its ESC weak", likely="the motor or its ESC",
                                short="motor/ESC", tag="motor or ESC"),
+    # the rotor turns as its command asks (ESC rpm), yet needs more command: something under it
+    "wash": CauseWords(lost="rotor lost thrust (something in its wash)", one="rotor {k} lost thrust (something in its wash)",
+                       likely="something in the rotor's wash or under it (its propeller and motor look sound)",
+                       short="rotor", tag="wash"),
     # a healthy verdict whose commands a moved load explains: the rotors' classes keep the unknown
     # cause's words (the model's classes are rotors); the likely-cause row and tag name the load
     "load": CauseWords(lost="rotor lost thrust (propeller, motor or ESC)",
