@@ -524,6 +524,105 @@ def run_loads(per_cell: int, seed: int) -> None:
     print(f"({time.time() - t0:.0f} s)")
 
 
+def reliability_set(rate: float, n: int, seed: int):
+    """Per airframe (n random ones, rpm curves cycling through SPEED_EXPONENTS, the same motors,
+    ESCs and imbalance on every flight): the twin a profile is calibrated on, a second healthy
+    flight, a point load toward one rotor (LOAD_FRACTION at LOAD_ARM_FRACTION), a damaged propeller
+    and a weak motor (η 0.6-0.9, each its rotor). Returns dicts with the flight, its role, the
+    rotor concerned (0 healthy) and the twin."""
+    from flightlog_fd.sim.loads import Load, make_flyable
+
+    rng = np.random.default_rng([seed, int(rate), 11])
+    afs = airframes_for(n, 0.6, rng)
+    imbs = random_imbalances(afs, rng)
+    escs = [random_esc_params(af, rng, rate, SPEED_EXPONENTS[i % len(SPEED_EXPONENTS)]) for i, af in enumerate(afs)]
+    roles = ("twin", "healthy", "load", "propeller", "motor")
+    fly_afs, fly_imbs, fly_escs, dmg, loads, meta = [], [], [], [], [], []
+    for af, imb, esc in zip(afs, imbs, escs):
+        for role in roles:
+            k = int(rng.integers(1, 5))
+            eta = float(rng.uniform(0.6, 0.9))
+            ld = ()
+            if role == "load":
+                ld = (make_flyable(af, Load("point", mass_fraction=float(rng.uniform(*LOAD_FRACTION)), toward_motor=k,
+                                            arm_fraction=float(rng.uniform(*LOAD_ARM_FRACTION))), None, imb),)
+                k = nearest_motor(af, ld[0])
+            d = (Damage(k, eta, None, float(eta ** rng.uniform(*TORQUE_EXPONENT_RANGE))) if role == "propeller"
+                 else Damage(k, eta, None, None, cause="motor") if role == "motor" else Damage())
+            fly_afs.append(af)
+            fly_imbs.append(imb)
+            fly_escs.append(esc)
+            dmg.append(d)
+            loads.append(ld)
+            meta.append((role, k if role in ("load", "propeller", "motor") else 0, esc.speed_exponent))
+    flights = simulate_flights(len(fly_afs), airframes=fly_afs, damages=dmg, duration_s=DURATION_S,
+                               profile=LOAD_RATES[rate], seed=seed + int(rate), esc=fly_escs, imbalance=fly_imbs,
+                               loads=loads, healthy_fraction=0.0)
+    out = []
+    for i in range(0, len(flights), len(roles)):
+        twin = flights[i]
+        for j in range(1, len(roles)):
+            role, k, b = meta[i + j]
+            out.append({"flight": flights[i + j], "role": role, "motor": k, "b": b, "twin": twin})
+    return out
+
+
+def run_reliability(per_cell: int, seed: int) -> None:
+    """--reliability: the ESC and effectiveness sources alone, per ESC rate (and its logging profile)
+    and profile kind: how often each speaks on healthy and loaded flights, how strong it is on a
+    damaged propeller's and a weak motor's rotor; the level reliability.trust_level gives."""
+    from collections import defaultdict
+
+    from flightlog_fd.analyzers.reliability import trust_level
+    from flightlog_fd.calibration import calibrate
+    from flightlog_fd.diagnose import diagnose_flight, resolve_model
+
+    t0 = time.time()
+    model = resolve_model()
+    rows = defaultdict(list)  # (source, Hz, profile kind, role) -> [(leading llr, true rotor's llr)]
+    for rate in LOAD_RATES:
+        for case in reliability_set(rate, per_cell, seed):
+            f, role, k = case["flight"], case["role"], case["motor"]
+            for tag, prof in (("no profile", None), ("profile", calibrate([case["twin"]]))):
+                d = diagnose_flight(f, model, prof, keep_flight=False)
+                for r in (d.decision.results if d.decision else []):
+                    if r.analyzer not in ("esc", "effectiveness") or r.abstained:
+                        continue
+                    raw = r.raw_llr(4)
+                    if raw is None:
+                        continue
+                    rows[(r.analyzer, rate, tag, role)].append((float(raw.max()), float(raw[k - 1]) if k else np.nan))
+    print(f"ESC and effectiveness as sources of their own: simulated {DURATION_S:.0f} s waypoint flights, "
+          f"{per_cell} random airframes per ESC rate (rpm curves b {', '.join(map(str, SPEED_EXPONENTS))} in turn), "
+          f"seed {seed}; LLR per motor before any cap; bars {SPEAK_BARS[0]:g} / {SPEAK_BARS[1]:g} nats")
+    print(f"{'source':>13} {'ESC Hz':>6} {'log':>11} {'profile':>10} | {'healthy: lead med/max':>21} {'>=3.5':>5} "
+          f"{'>=6':>3} | {'loaded: lead max':>16} {'>=3.5':>5} {'>=6':>3} | {'prop: rotor p10/med':>19} {'>=6':>4} | "
+          f"{'motor: rotor p10/med':>20} {'>=6':>4} | {'level':>13}")
+    for src in ("esc", "effectiveness"):
+        for rate in LOAD_RATES:
+            for tag in ("no profile", "profile"):
+                h = np.array([x[0] for x in rows[(src, rate, tag, "healthy")]])
+                ld = np.array([x[0] for x in rows[(src, rate, tag, "load")]])
+                pr = np.array([x[1] for x in rows[(src, rate, tag, "propeller")]])
+                mo = np.array([x[1] for x in rows[(src, rate, tag, "motor")]])
+                quiet = np.concatenate([h, ld])
+                if not quiet.size:
+                    continue
+                level = trust_level(quiet.size, int(np.sum(quiet >= SPEAK_BARS[0])), int(np.sum(quiet >= SPEAK_BARS[1])))
+
+                def pm(x):
+                    return f"{np.percentile(x, 10):+.1f}/{np.median(x):+.1f}" if x.size else "-"
+                print(f"{src:>13} {rate:6.0f} {LOAD_RATES[rate]:>11} {tag:>10} | "
+                      f"{np.median(h) if h.size else np.nan:+10.1f}/{h.max() if h.size else np.nan:+10.1f} "
+                      f"{int(np.sum(h >= SPEAK_BARS[0])):5d} {int(np.sum(h >= SPEAK_BARS[1])):3d} | "
+                      f"{ld.max() if ld.size else np.nan:+16.1f} {int(np.sum(ld >= SPEAK_BARS[0])):5d} "
+                      f"{int(np.sum(ld >= SPEAK_BARS[1])):3d} | {pm(pr):>19} {int(np.sum(pr >= SPEAK_BARS[1])):4d} | "
+                      f"{pm(mo):>20} {int(np.sum(mo >= SPEAK_BARS[1])):4d} | {str(level):>13}", flush=True)
+    print(f"({time.time() - t0:.0f} s; n per row: {per_cell} healthy, {per_cell} loaded, {per_cell} each damaged; "
+          f"level: reliability.trust_level on the healthy and loaded flights, None below "
+          f"reliability.MIN_MEASURED)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-cell", type=int, default=12)
@@ -534,8 +633,12 @@ def main() -> None:
                     help="healthy flights per ESC rate for --verdicts (default 2 x --per-cell)")
     ap.add_argument("--causes", action="store_true", help="how well the cause (propeller or motor / ESC) is told apart")
     ap.add_argument("--loads", action="store_true", help="moved loads with ESC telemetry: the ESC source and the cause")
+    ap.add_argument("--reliability", action="store_true",
+                    help="ESC and effectiveness as sources of their own, per ESC rate and profile kind")
     args = ap.parse_args()
-    if args.loads:
+    if args.reliability:
+        run_reliability(args.per_cell, args.seed)
+    elif args.loads:
         run_loads(args.per_cell, args.seed)
     elif args.causes:
         run_causes(args.per_cell, args.seed)

@@ -125,26 +125,26 @@ def _figure(result: AnalyzerResult, name: str, motor: int) -> Optional[float]:
 
 
 def eta_weights(results: Sequence[AnalyzerResult], motor: int) -> np.ndarray:
-    """(len(ETA_GRID),) weights over η for ``motor``, summing to 1: the sources other than the ESC
-    that say how much thrust it lost (their ``eta_llr``, summed; else the command shares' ``thrust``
-    finding, a normal on its eta-hat with its 90 % interval), ETA_PRIOR_FLOOR of the uniform prior
-    kept; uniform when none says."""
+    """(len(ETA_GRID),) weights over η for ``motor``, summing to 1: what the sources other than the
+    ESC say of how much thrust it lost, multiplied (each its ``eta_llr``; the command shares without
+    one: a normal on their ``thrust`` eta-hat with its 90 % interval), ETA_PRIOR_FLOOR of the uniform
+    prior kept; uniform when none says."""
     from .analyzers.command_shares import ETA_GRID
 
     total, said = np.zeros(len(ETA_GRID)), False
     for r in results:
-        v = (getattr(r, "eta_llr", None) or {}).get(motor)
-        if r.analyzer == ESC_ID or r.abstained or v is None or len(v) != len(ETA_GRID):
+        if r.analyzer == ESC_ID or r.abstained:
             continue
-        total += np.asarray(v, float)
-        said = True
-    if not said:
-        cmd = next((r for r in results if r.analyzer == "commands" and not r.abstained), None)
-        f = None if cmd is None else cmd.finding("thrust", motor)
+        v = (getattr(r, "eta_llr", None) or {}).get(motor)
+        if v is not None and len(v) == len(ETA_GRID):
+            total += np.asarray(v, float)
+            said = True
+            continue
+        f = r.finding("thrust", motor) if r.analyzer == "commands" else None
         if f is not None and f.value is not None and np.isfinite(f.value):
             lo, hi = f.interval if f.interval is not None else (f.value - 0.1, f.value + 0.1)
             sd = max((hi - lo) / (2 * 1.645), 0.01)
-            total = -0.5 * ((ETA_GRID - min(float(f.value), float(ETA_GRID[-1]))) / sd) ** 2
+            total += -0.5 * ((ETA_GRID - min(float(f.value), float(ETA_GRID[-1]))) / sd) ** 2
             said = True
     uniform = np.full(len(ETA_GRID), 1.0 / len(ETA_GRID))
     if not said:

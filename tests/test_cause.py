@@ -9,6 +9,7 @@ from dataclasses import replace
 import pytest
 from typer.testing import CliRunner
 
+from flightlog_fd.cause import judge_cause
 from flightlog_fd.cli import app
 
 runner = CliRunner()
@@ -144,7 +145,7 @@ def test_a_vibration_line_tied_to_the_rotor_says_propeller_and_nothing_more():
     assert on3.cause is None and on3.probs["propeller"] < 0.5
     quiet = judge_cause([vib([0.25] * 4, -5.0)], 1)
     assert quiet.probs["propeller"] < 0.5 and quiet.cause is None
-    assert "the vibration ties no line to it" in quiet.words
+    assert "no vibration line tied to it" in quiet.words
 
 
 def test_html_store_history_and_web_page_carry_the_cause(logs, tmp_path):
@@ -219,3 +220,27 @@ def test_a_store_at_migration_6_gets_the_cause_from_its_stored_reports(logs, tmp
         assert store.db.schema_version() == SCHEMA_VERSION >= 7
         (f,) = store.logs()
         assert store.flight(f["id"])["cause"] == "motor_or_esc"
+
+
+def test_the_commands_eta_weighs_the_causes():
+    """A propeller that lost 40 % of its thrust must show it in its current per rpm²: the same ESC
+    relations (a propeller at eta 0.95 would explain them) read as the wash when the commands say
+    eta 0.6, and stay open when they say nothing."""
+    import numpy as np
+
+    from flightlog_fd.analyzers.base import AnalyzerResult, Finding
+    from flightlog_fd.analyzers.command_shares import ETA_GRID
+    from flightlog_fd.analyzers.esc import EscResult, cause_log_ratios
+    from flightlog_fd.cause import ETA_PRIOR_FLOOR, eta_weights
+
+    by_eta = cause_log_ratios(np.array([0.004, -0.05]), np.diag([0.012, 0.033]) ** 2, [0, 1])
+    esc = EscResult("esc", [Finding("esc", 1, "rpm_per_command", 0.4, "%")], cause_ll_eta={1: by_eta})
+    cmds = AnalyzerResult("commands", [Finding("commands", 1, "thrust", 0.6, "of normal", (0.55, 0.66))])
+    w = eta_weights([esc, cmds], 1)
+    assert w.sum() == pytest.approx(1.0) and abs(float(w @ ETA_GRID) - 0.6) < 0.1
+    assert w.min() == pytest.approx(ETA_PRIOR_FLOOR / len(ETA_GRID))
+    told, open_ = judge_cause([esc, cmds], 1), judge_cause([esc], 1)
+    assert told.probs["wash"] > open_.probs["wash"] and told.probs["propeller"] < open_.probs["propeller"]
+    # a source's own eta_llr counts as well (the effectiveness fit gives one)
+    eff = AnalyzerResult("effectiveness", eta_llr={1: -0.5 * ((ETA_GRID - 0.6) / 0.05) ** 2})
+    assert abs(float(eta_weights([eff], 1) @ ETA_GRID) - 0.6) < 0.1

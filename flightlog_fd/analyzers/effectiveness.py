@@ -39,11 +39,12 @@ def _log_mean_exp_half_neg(chi: np.ndarray) -> float:
     return top + float(np.log(np.mean(np.exp(-0.5 * chi - top))))
 
 
-def effectiveness_llr(eff, frame=None) -> Optional[np.ndarray]:
-    """(n,) LLR per motor from an informative effectiveness fit, or None when it says nothing:
-    "rotor k at eta" (uniform on ETA_GRID) against healthy, every motor's value predicted through
-    the estimator's own normalisation (:func:`.effectiveness_fit.relative_to_others`): on a quad X
-    the others read 1 either way; on a quad + the weak rotor's partner on its axis reads 1/eta."""
+def effectiveness_eta_llr(eff, frame=None) -> Optional[np.ndarray]:
+    """(n, len(ETA_GRID)) per motor and per eta of the shared grid: the log-likelihood ratio of
+    "rotor k gives eta of its thrust" against healthy from an informative effectiveness fit (None
+    when it says nothing); every motor's value predicted through the estimator's own normalisation
+    (:func:`.effectiveness_fit.relative_to_others`): on a quad X the others read 1 either way; on a
+    quad + the weak rotor's partner on its axis reads 1/eta."""
     if not effectiveness_usable(eff):
         return None
     v = np.asarray(eff.values, float)
@@ -56,8 +57,23 @@ def effectiveness_llr(eff, frame=None) -> Optional[np.ndarray]:
         e = np.ones((len(ETA_GRID), n))
         e[:, k] = ETA_GRID
         chi = np.sum(((v - relative_to_others(e, frame)) / sd) ** 2, axis=-1)
-        out.append(_log_mean_exp_half_neg(chi) + 0.5 * healthy_chi)
+        out.append(-0.5 * chi + 0.5 * healthy_chi)
     return np.array(out)
+
+
+def effectiveness_llr(eff, frame=None) -> Optional[np.ndarray]:
+    """(n,) LLR per motor from an informative effectiveness fit, or None when it says nothing:
+    "rotor k at eta" (uniform on ETA_GRID) against healthy (:func:`effectiveness_eta_llr` averaged
+    over the grid)."""
+    per_eta = effectiveness_eta_llr(eff, frame)
+    if per_eta is None:
+        return None
+    return np.array([_log_mean_exp(row) for row in per_eta])
+
+
+def _log_mean_exp(a: np.ndarray) -> float:
+    top = float(np.max(a))
+    return top + float(np.log(np.mean(np.exp(a - top))))
 
 
 def effectiveness_pair_llrs(eff, frame=None) -> dict:
@@ -101,7 +117,8 @@ class Effectiveness(Analyzer):
             return AnalyzerResult(self.id, abstained=self.missing(ctx.flight) or why or "no effectiveness fit")
         if not eff.informative:
             return AnalyzerResult(self.id, abstained=eff.reason)
-        llr = effectiveness_llr(eff, ctx.frame)
+        per_eta = effectiveness_eta_llr(eff, ctx.frame)
+        llr = None if per_eta is None else np.array([_log_mean_exp(row) for row in per_eta])
         if llr is None:
             return AnalyzerResult(self.id, abstained=f"the fit is physically inconsistent (a motor below "
                                                      f"{EFFECTIVENESS_SANE_MIN})")
@@ -109,7 +126,8 @@ class Effectiveness(Analyzer):
             Finding(self.id, k + 1, "effectiveness", float(m.effectiveness), "of neighbours",
                     (float(m.ci[0]), float(m.ci[1])), 1.0, "down", float(llr[k]),
                     f"{m.effectiveness:.2f} {_short(m.ci[0])}-{_short(m.ci[1])}")
-            for k, m in enumerate(eff.motors)], pair_llrs=effectiveness_pair_llrs(eff, ctx.frame))
+            for k, m in enumerate(eff.motors)], pair_llrs=effectiveness_pair_llrs(eff, ctx.frame),
+            eta_llr={k + 1: per_eta[k] for k in range(len(eff.motors))})
 
 
 def _short(x: float) -> str:
