@@ -122,6 +122,7 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict
     print(f"{'eta':>5} {'ESC Hz':>7} {'right motor':>12} {'wrong motor':>12} {'nothing':>8} {'abstained':>9}"
           f"   {'with profile: right':>20}")
     damaged_llr_ratio, total_ok, total_n, profile_ok = [], 0, 0, {}
+    before, before_right, fa_h_before, fa_t_before = _before_module(), 0, 0, 0
     sweep_damaged: dict[float, list[float]] = {}  # per eta: the right motor's llr when it is the largest, else 0
     for eta in ETAS:
         for rate in RATES:
@@ -130,6 +131,8 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict
             right = wrong = none = abst = right_p = 0
             for calib, f in pairs:
                 right_p += analyze_esc(f, fit_esc_baseline([calib])).motor_named() == f.truth["motor"]
+                if before is not None:
+                    before_right += before.analyze_esc(f).motor_named() == f.truth["motor"]
                 a = analyze_esc(f)
                 if a.abstain:
                     abst += 1
@@ -152,7 +155,8 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict
             profile_ok[eta] = profile_ok.get(eta, 0) + right_p
             print(f"{eta:5.2f} {rate:7.0f} {right / len(fl):11.0%} {wrong:12d} {none:8d} {abst:9d}"
                   f"   {right_p / len(fl):20.0%}")
-    print(f"damaged flights, right motor named without a profile: {total_ok}/{total_n} = {total_ok / total_n:.1%}")
+    print(f"damaged flights, right motor named without a profile: {total_ok}/{total_n} = {total_ok / total_n:.1%}"
+          f" (before, main a2a0145: {before_right}/{total_n})")
     print("with a profile fitted on one healthy flight of the same airframe: "
           + ", ".join(f"eta {e:g} {profile_ok[e] / (len(RATES) * per_cell):.0%}" for e in ETAS))
 
@@ -165,6 +169,7 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict
                 continue
             n_h += 1
             fa_h += a.motor_named() is not None
+            fa_h_before += before is not None and before.analyze_esc(f).motor_named() is not None
             healthy_llr.append(max(a.llr.values()))
             if measure:
                 m, _ = measure_esc(f)
@@ -183,6 +188,7 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict
                 continue
             n_t += 1
             fa_t += a.motor_named() is not None
+            fa_t_before += before is not None and before.analyze_esc(after).motor_named() is not None
             fa_tp += ap.motor_named() is not None
             trim_llr.append(max(a.llr.values()))
             trim_llr_p.append(max(ap.llr.values()))
@@ -190,8 +196,9 @@ def run(per_cell: int, seed: int, measure: bool, verdicts: bool = False, verdict
                 mc, _ = measure_esc(calib)
                 ma, _ = measure_esc(after)
                 trim_dev.append(ma.r - mc.r)
-    print(f"healthy flights, false alarms: {fa_h}/{n_h} (largest llr {max(healthy_llr):.1f} nats)")
+    print(f"healthy flights, false alarms: {fa_h}/{n_h} (largest llr {max(healthy_llr):.1f} nats; before {fa_h_before})")
     print(f"trim changed after calibration (CoG / yaw trim), false alarms without profile: {fa_t}/{n_t} "
+          f"(before {fa_t_before}) "
           f"(largest llr {max(trim_llr):.1f}), against the calibration flight's baseline: {fa_tp}/{n_t} "
           f"(largest llr {max(trim_llr_p):.1f})")
     thresholds = (4.0, 6.0, 8.0, 10.0, 12.0, 15.0)
