@@ -252,19 +252,18 @@ def _words(k: int, cause: Optional[str], probs: dict, esc, esc_spoke: bool, rpm,
         return (f"something in its wash or under it, or a load toward it: the rotor turns as its command asks "
                 f"({_esc_figures(rpm, cur)} against the rotors' curve), so neither its propeller nor its motor "
                 f"shows a fault (ESC; P {probs['wash']:.2f})")
-    if not esc_spoke and not line:
-        if esc is None or esc.abstained in (None, NO_ESC):
-            no_esc = "no ESC rpm"
-        else:
-            no_esc = f"no usable ESC rpm ({esc.abstained})"
-        return (f"the log cannot tell a propeller from a motor or something in its wash: {no_esc}, no vibration "
-                f"line tied to it")
-    said = []
     if esc_spoke:
-        said.append(f"ESC {_esc_figures(rpm, cur)} against the rotors' curve")
-    if vib_ll is not None:
-        said.append(line_words if line else "the vibration ties no line to it")
-    return (f"the cause is not clear: {'; '.join(said)} (P {_probs_words(probs)}; a cause needs "
+        esc_part = f"ESC {_esc_figures(rpm, cur)} against the rotors' curve"
+    elif esc is None or esc.abstained in (None, NO_ESC):
+        esc_part = "no ESC rpm"
+    else:
+        esc_part = f"no usable ESC rpm ({esc.abstained})"
+    shakes = vib_ll is not None and vib_ll > 1.0 and not line
+    vib_part = (line_words if line else "a propeller shakes, but the vibration ties its line to no rotor" if shakes
+                else "no vibration line tied to it")
+    if not esc_spoke and not line and not shakes:
+        return f"the log cannot tell a propeller from a motor or something in its wash: {esc_part}, {vib_part}"
+    return (f"the cause is not clear: {esc_part}; {vib_part} (P {_probs_words(probs)}; a cause needs "
             f"{CAUSE_PROBABILITY_BAR:.1f})")
 
 
