@@ -93,6 +93,10 @@ MIN_RATE_HZ = 2.0
 MIN_BINS = 15
 #: Bins in which a motor's thrust command is below this (idle, spin-up) are skipped.
 MIN_COMMAND = 0.05
+#: Bins in which any motor's command reaches this (of full thrust) are skipped: a saturated motor
+#: cannot turn faster, so it sits below the rotors' curve there (simulated x500 with 15 % of its
+#: mass toward rotor 1: that rotor at full command 2 % of the time read -2.5 % rpm per command).
+SATURATED_COMMAND = 0.98
 #: Time blocks for the measurement uncertainty of each offset and the jackknife of each slope.
 N_BLOCKS = 6
 #: Delays (s) of the rotor speed behind the command searched when fitting the rpm curve: the ESC
@@ -499,6 +503,9 @@ def measure_esc(flight: Flight) -> tuple[Optional[_Measurement], Optional[str]]:
     lu_lag = [np.column_stack([_bin_means(motors.t + lag, w_cmd[:, k], edges)[0] for k in range(n)])
               for lag in LAG_GRID_S]
     ok = np.all(np.isfinite(lrpm), axis=1)
+    for k in range(n):  # a bin with any saturated command sample of any motor
+        sat = (w_cmd[:, k] >= np.sqrt(SATURATED_COMMAND)).astype(float)
+        ok &= ~(_bin_means(motors.t, sat, edges)[0] > 0)
     for lu in lu_lag:
         ok &= np.all(np.isfinite(lu), axis=1) & np.all(lu > np.sqrt(MIN_COMMAND), axis=1)
     if has_current:

@@ -75,6 +75,10 @@ VOLTAGE_STEP_V = 0.01
 TEMP_AMBIENT_C = 25.0
 TEMP_RISE_C_PER_HOVER_CURRENT = 15.0
 TEMP_TAU_S = 60.0
+#: Speed-law exponents the simulator accepts (module docstring): 1 a thrust model that fits the
+#: rotor; ~2 PX4's THR_MDL_FAC 0 over a motor whose speed is linear in its signal; beyond, none
+#: seen.
+SPEED_EXPONENT_RANGE = (0.8, 2.2)
 #: Largest recording rate of the ESC streams (the simulation records at sim_rate / k, k integer).
 MAX_RECORD_HZ = 100.0
 
@@ -99,7 +103,7 @@ class EscParams:
         return asdict(self)
 
 
-EscSpec = Union[None, str, float, EscParams, Sequence[Optional[EscParams]]]
+EscSpec = Union[None, str, float, tuple[float, float], EscParams, Sequence[Optional[EscParams]]]
 
 
 def cells_for(af: Airframe) -> int:
@@ -131,10 +135,19 @@ def random_esc_params(af: Airframe, rng: np.random.Generator, rate_hz: Optional[
 
 
 def resolve_esc(spec: EscSpec, airframes: Sequence[Airframe], rng: np.random.Generator) -> Optional[list[EscParams]]:
-    """None (no ESC telemetry, ideal speed-controlled motors) / "random" / a rate in Hz / one
-    EscParams for all / a list of n."""
+    """None (no ESC telemetry, ideal speed-controlled motors) / "random" / a rate in Hz / (rate in
+    Hz, speed exponent): random motors at that rate whose rotors turn as omega_max·u^(b/2) (the same
+    draws as the rate alone) / one EscParams for all / a list of n."""
     if spec is None:
         return None
+    if isinstance(spec, tuple) and len(spec) == 2 and all(isinstance(x, (int, float)) for x in spec):
+        rate, b = float(spec[0]), float(spec[1])
+        if not RATE_RANGE_HZ[0] <= rate <= MAX_RECORD_HZ:
+            raise ValueError(f"ESC rate must be {RATE_RANGE_HZ[0]:g}..{MAX_RECORD_HZ:g} Hz, got {rate}")
+        if not SPEED_EXPONENT_RANGE[0] <= b <= SPEED_EXPONENT_RANGE[1]:
+            raise ValueError(f"the rotors' rpm curve exponent must be {SPEED_EXPONENT_RANGE[0]:g}.."
+                             f"{SPEED_EXPONENT_RANGE[1]:g}, got {b:g}")
+        return [random_esc_params(af, rng, rate, b) for af in airframes]
     if isinstance(spec, str):
         if spec != "random":
             raise ValueError(f"esc must be None, 'random', a rate in Hz, EscParams or a list, got {spec!r}")
