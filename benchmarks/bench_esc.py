@@ -32,8 +32,27 @@ verdict (diagnose_flight, shipped model, no profile): right rotor named, with th
 the wrong one / none; the same flights without ESC telemetry (the cause must stay unknown); healthy
 flights (no cause may be given); and a sweep of the cause threshold.
 
+``--causes`` also flies rotors that lost thrust in their wash (thrust η, the propeller's drag
+torque and speed unchanged) and airframes whose rotors turn as command^(b/2) with b 1, 1.33
+(ArduCopter SITL) and 1.8 (PX4 THR_MDL_FAC 0) in turn (sim/esc.py speed law), and judges the cause
+with :func:`flightlog_fd.cause.judge_cause` (three causes, a probability bar; its sweep printed).
+
+``--loads``: point loads (10-25 % of the take-off mass, 0.5-1 arm toward one rotor, shrunk until
+the airframe hovers) at ESC 10 / 50 / 100 Hz (ArduPilot, PX4 default, PX4 high-rate logging) and
+b 1 / 1.33 / 1.8, each with its no-load twin (same airframe, imbalance, motors and ESCs): the ESC
+source alone (lost-rotor llr, a rotor named) before (main a2a0145, loaded beside this one from
+git) and after, without and against the twin's profile; the cause judged on the loaded rotor; the
+current decision's verdicts.
+
+``--reliability``: the ESC and effectiveness sources alone per ESC rate (and its logging profile)
+and profile kind, on healthy, loaded, damaged-propeller and weak-motor flights: how often each
+reaches the decision's bars, how strong on the damaged rotor, and the level
+``reliability.trust_level`` gives.
+
     python benchmarks/bench_esc.py [--per-cell N] [--seed S] [--measure] [--verdicts [--verdict-healthy N]]
     python benchmarks/bench_esc.py --causes [--per-cell N] [--seed S]
+    python benchmarks/bench_esc.py --loads [--per-cell N] [--seed S]
+    python benchmarks/bench_esc.py --reliability [--per-cell N] [--seed S]
 """
 from __future__ import annotations
 

@@ -124,7 +124,11 @@ CURRENT_SLOPE_PRIOR_STD = 0.1
 #: propeller moves them apart like damage, and is the floor of what a flight alone can tell).
 #: Against the robust level of the others (ROBUST_LEVEL_K) the same run gives std a 1.20 %, d
 #: 3.34 %, +0.32; trim change 0.38 % / 0.59 %; damage direction +0.074 / -0.973; largest healthy
-#: llr 4.4 (p99 4.0): every constant here holds within its last digit.
+#: llr 4.4 (p99 4.0): every constant here holds within its last digit. With the rpm curve's
+#: exponent fitted on each flight (`--measure --per-cell 8 --seed 99`, results/cause.md): std a
+#: 1.43 %, d 3.33 %, +0.35; the rpm offsets now carry the fitted exponent's error, which the
+#: analyzer adds per motor from its lever and the slope's sd, so the constant stays the spread at a
+#: known curve; largest healthy llr 4.1 (p99 3.8), 0/48 healthy and trim-changed flights named.
 HEALTHY_SPREAD_STD = (0.0119, 0.0330)
 HEALTHY_SPREAD_CORR = 0.31
 HEALTHY_SPREAD_COV = ((HEALTHY_SPREAD_STD[0] ** 2, HEALTHY_SPREAD_CORR * HEALTHY_SPREAD_STD[0] * HEALTHY_SPREAD_STD[1]),
@@ -138,7 +142,9 @@ ROBUST_LEVEL_ITERATIONS = 50
 #: A profile's flight-to-flight spread is never taken below this std (a, d). Measured (same
 #: `--measure` run): 16 airframes flown twice with the same motors and ESCs, the second time
 #: with the CoG moved 4-10 % of the arm or the yaw trim changed by 0.5-1 deg of motor tilt:
-#: std of the change a 0.35 %, d 0.59 %.
+#: std of the change a 0.35 %, d 0.59 %. (With the exponent fitted on each flight the change of a is
+#: 1.24 %: the exponent's error times the command's move; against a profile both flights are taken
+#: at one pooled exponent and that term is added from the levers, 0/16 named, largest llr 1.3.)
 PROFILE_SPREAD_FLOOR = (0.0035, 0.0059)
 #: Offset per unit of lost torque ℓ = -log η_torque, (a, d). Measured (same run, 64 damaged
 #: flights, η 0.6-0.9): median a/ℓ +0.073 (the motor's load droop at hover), d/ℓ -0.968 (d
