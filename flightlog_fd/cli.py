@@ -806,6 +806,9 @@ def simulate(
     esc_rate: Optional[float] = typer.Option(None, "--esc-rate", help="Add ESC telemetry (rpm, current, voltage, "
                                              "temperature per motor) at this rate, 10-100 Hz, on a realistically "
                                              "unbalanced airframe."),
+    esc_curve: Optional[float] = typer.Option(None, "--esc-curve", help="With --esc-rate: the rotors turn as "
+                                              "command^(B/2) (default 1: the autopilot's thrust model fits them; "
+                                              "ArduCopter SITL measures 1.33, PX4 THR_MDL_FAC 0 about 2)."),
     vehicle_id: Optional[str] = typer.Option(None, "--vehicle-id", help="The vehicle id written into the log "
                                              "(default sim-SEED-i): give two flights of one simulated airframe the "
                                              "same id, as a real vehicle's logs have."),
@@ -838,7 +841,8 @@ def simulate(
         written = simulate_to_files(out, count=count, fmt=fmt, airframe=airframe, frame=frame, motor=motor or 0,
                                     eta=eta or 0.8, onset=onset or None, duration=duration, mission=mission, log_profile=log_profile,
                                     rho=rho_list, seed=seed, force=force, esc_rate=esc_rate, vehicle_id=vehicle_id,
-                                    imbalance=imbalance, imu_rate=imu_rate, cause=cause, loads=load)
+                                    imbalance=imbalance, imu_rate=imu_rate, cause=cause, loads=load,
+                                    esc_curve=esc_curve)
     except FlightLogError as e:
         _fail(e)
         raise typer.Exit(EXIT_INVALID)

@@ -820,7 +820,7 @@ def weigh(results: Sequence[AnalyzerResult], n: int, frame: Optional[Frame], tim
     if cause is not None:
         verdict.cause = cause.cause
         verdict.cause_evidence = cause.evidence()
-        verdict.cause_probability = getattr(cause, "probability", None)
+        verdict.cause_probability = float(cause.probs[cause.cause]) if cause.cause and cause.probs else None
     # a healthy verdict: a moved load, and whether the log saw the flight
     if status == "healthy":
         covered = timeline.covered_s if timeline is not None else None

@@ -50,3 +50,20 @@ def test_weak_motor_is_named_as_a_motor_or_esc_fault(model):
         ": inspect motor 1 and its ESC")
     # the ESC relations now count for "rotor 1 lost thrust" (they weighed -6.1 nats against a propeller)
     assert next(m for m in d.decision.motors if m.motor == 1).llr_by_source["esc"] > 6
+
+
+def test_the_rotors_rpm_curve_is_fitted_on_the_flight():
+    """ArduCopter 4.7 SITL's rpm follows its RCOU signal, not sqrt(thrust): against the thrust the
+    log's MOT_THST_EXPO 0.65 gives, rpm ∝ command^(b/2) with b 1.31-1.34 per motor (results/cause.md).
+    The analyzer fits b on the flight, so the weak motor reads against that curve; at b = 1 a load
+    raising one rotor's command read as a cut propeller."""
+    from flightlog_fd import load_flight
+    from flightlog_fd.analyzers.esc import analyze_esc, measure_esc
+
+    f = load_flight(shared_path("ardupilot_sitl_quad", "motor1_weak_esc.BIN"))
+    m, why = measure_esc(f)
+    assert why is None and abs(m.slopes["log_rpm_per_log_sqrt_command"] - 1.33) < 0.05, m.slopes
+    a = analyze_esc(f)
+    rpm = {x.motor: x.value for x in a.findings if x.name == "rpm_per_command"}
+    assert rpm[1] < -25 and all(abs(rpm[k]) < 2 for k in (2, 3, 4)), rpm
+    assert a.cause_ll[1]["motor_or_esc"] > 100 > a.cause_ll[1]["propeller"]

@@ -9,6 +9,7 @@ from dataclasses import replace
 import pytest
 from typer.testing import CliRunner
 
+from flightlog_fd.cause import judge_cause
 from flightlog_fd.cli import app
 
 runner = CliRunner()
@@ -64,6 +65,7 @@ def test_damaged_propeller_is_named_with_its_propeller(reports):
     ev = v["cause_evidence"]
     assert ev["llr"] < -20 and ev["current_per_rpm2"] < -15  # a cut propeller draws less current per rpm²
     assert v["headline"].endswith("inspect propeller 3") and v["advice"][0]["text"].startswith("inspect propeller 3")
+    assert ev["probs"]["propeller"] >= 0.9 and ev["sources"][0] == "esc"
 
 
 def test_healthy_flight_gets_no_cause(reports):
@@ -80,7 +82,7 @@ def test_without_esc_rpm_the_cause_is_unknown_and_said_so(logs):
     # the commands alone: rotor 2 lost thrust, why unknown
     assert v.motor == 2 and v.status in ("damaged", "uncertain"), v.reason
     assert v.cause is None and v.cause_evidence["llr"] is None
-    assert "the log has no ESC telemetry, so a damaged propeller cannot be told from a weak motor or ESC" in \
+    assert "the log cannot tell a propeller from a motor or something in its wash: no ESC rpm" in \
         v.cause_evidence["reason"]
     assert [a.text.split(":")[0] for a in v.advice if a.kind == "inspect"] == [
         "inspect propeller 2 (rear-left)", "then motor 2 and its ESC", "then what sits under rotor 2"]
@@ -90,20 +92,65 @@ def test_without_esc_rpm_the_cause_is_unknown_and_said_so(logs):
     assert v.cause is None
 
 
-def test_undecided_relations_state_no_cause():
-    from flightlog_fd.analyzers.esc import EscResult
+def _esc_result(k, by_cause, rpm=-1.0):
+    """An ESC result whose motor ``k`` has these log Bayes factors against healthy, flat over eta."""
+    import numpy as np
+
     from flightlog_fd.analyzers.base import Finding
-    from flightlog_fd.cause import CAUSE_LLR, judge_cause
+    from flightlog_fd.analyzers.command_shares import ETA_GRID
+    from flightlog_fd.analyzers.esc import EscResult
 
-    def esc(llr):
-        return EscResult("esc", [Finding("esc", 1, "rpm_per_command", -1.0, "%")], cause_llr={1: llr})
+    eta = {c: np.full(len(ETA_GRID), float(v)) for c, v in by_cause.items()}
+    return EscResult("esc", [Finding("esc", k, "rpm_per_command", rpm, "%")], cause_ll={k: dict(by_cause)},
+                     cause_ll_eta={k: eta})
 
-    assert judge_cause([esc(CAUSE_LLR + 0.1)], 1).cause == "motor_or_esc"
-    assert judge_cause([esc(-CAUSE_LLR - 0.1)], 1).cause == "propeller"
-    mid = judge_cause([esc(1.0)], 1)
-    assert mid.cause is None and "cannot be told" in mid.words and mid.llr == 1.0
+
+def test_the_cause_is_stated_only_past_its_bar():
+    from flightlog_fd.analyzers.esc import EscResult
+    from flightlog_fd.cause import CAUSE_PRIOR, CAUSE_PROBABILITY_BAR, judge_cause
+
+    motor = judge_cause([_esc_result(1, {"propeller": -5, "motor_or_esc": 20, "wash": 0}, rpm=-20.0)], 1)
+    assert motor.cause == "motor_or_esc" and motor.probs["motor_or_esc"] > 0.99 and motor.llr == 25
+    assert "20 % slower" in motor.words and motor.advice.startswith("inspect motor 1 and ESC 1")
+    wash = judge_cause([_esc_result(2, {"propeller": -8, "motor_or_esc": -8, "wash": 0}, rpm=0.3)], 2)
+    assert wash.cause == "wash" and "something in its wash" in wash.words
+    assert wash.advice.startswith("inspect what sits under rotor 2")
+    # even evidence: the prior's probabilities, no cause, and the words say it is not clear
+    mid = judge_cause([_esc_result(1, {"propeller": 0, "motor_or_esc": 0, "wash": 0})], 1)
+    assert mid.cause is None and max(mid.probs.values()) < CAUSE_PROBABILITY_BAR
+    assert mid.probs == pytest.approx(CAUSE_PRIOR) and "the cause is not clear" in mid.words
+    assert mid.advice == "inspect propeller 1, then motor 1 and its ESC, then what sits under rotor 1"
     gone = judge_cause([EscResult("esc", abstained="ESC telemetry too slow (motor 1: 1.0 Hz < 2 Hz)")], 1)
-    assert gone.cause is None and "could not be used (ESC telemetry too slow" in gone.words
+    assert gone.cause is None and "no usable ESC rpm (ESC telemetry too slow" in gone.words
+    assert gone.probs == pytest.approx(CAUSE_PRIOR) and gone.sources == ()
+    ev = motor.evidence()
+    assert set(ev["probs"]) == {"propeller", "motor_or_esc", "wash"} and ev["sources"] == ["esc"]
+
+
+def test_a_vibration_line_tied_to_the_rotor_says_propeller_and_nothing_more():
+    """A line certainly on rotor 1 is worth at most log(UNBALANCED_SHARE·n/INCIDENTAL_UNBALANCE)
+    for its propeller; a line on another rotor, or no line, counts a little against it."""
+    import numpy as np
+
+    from flightlog_fd.analyzers.vibration import VibrationResult
+    from flightlog_fd.cause import INCIDENTAL_UNBALANCE, UNBALANCED_SHARE, judge_cause
+
+    def vib(tie, llr):
+        r = VibrationResult("vibration", flight_llr=llr)
+        r.tie_probs = tie  # the vibration branch's field (read with getattr)
+        return r
+
+    on1 = judge_cause([vib([0.97, 0.01, 0.01, 0.01], 30.0)], 1)
+    assert on1.cause == "propeller" and on1.sources == ("vibration",)
+    bound = np.log(UNBALANCED_SHARE * 4 / INCIDENTAL_UNBALANCE)
+    odds = on1.probs["propeller"] / (1 - on1.probs["propeller"])
+    assert np.log(odds) <= bound + 1e-6  # prior odds of the propeller against the rest: 0.5 / 0.5
+    assert "follows rotor 1" in on1.words
+    on3 = judge_cause([vib([0.01, 0.01, 0.97, 0.01], 30.0)], 1)
+    assert on3.cause is None and on3.probs["propeller"] < 0.5
+    quiet = judge_cause([vib([0.25] * 4, -5.0)], 1)
+    assert quiet.probs["propeller"] < 0.5 and quiet.cause is None
+    assert "no vibration line tied to it" in quiet.words
 
 
 def test_html_store_history_and_web_page_carry_the_cause(logs, tmp_path):
@@ -178,3 +225,27 @@ def test_a_store_at_migration_6_gets_the_cause_from_its_stored_reports(logs, tmp
         assert store.db.schema_version() == SCHEMA_VERSION >= 7
         (f,) = store.logs()
         assert store.flight(f["id"])["cause"] == "motor_or_esc"
+
+
+def test_the_commands_eta_weighs_the_causes():
+    """A propeller that lost 40 % of its thrust must show it in its current per rpm²: the same ESC
+    relations (a propeller at eta 0.95 would explain them) read as the wash when the commands say
+    eta 0.6, and stay open when they say nothing."""
+    import numpy as np
+
+    from flightlog_fd.analyzers.base import AnalyzerResult, Finding
+    from flightlog_fd.analyzers.command_shares import ETA_GRID
+    from flightlog_fd.analyzers.esc import EscResult, cause_log_ratios
+    from flightlog_fd.cause import ETA_PRIOR_FLOOR, eta_weights
+
+    by_eta = cause_log_ratios(np.array([0.004, -0.05]), np.diag([0.012, 0.033]) ** 2, [0, 1])
+    esc = EscResult("esc", [Finding("esc", 1, "rpm_per_command", 0.4, "%")], cause_ll_eta={1: by_eta})
+    cmds = AnalyzerResult("commands", [Finding("commands", 1, "thrust", 0.6, "of normal", (0.55, 0.66))])
+    w = eta_weights([esc, cmds], 1)
+    assert w.sum() == pytest.approx(1.0) and abs(float(w @ ETA_GRID) - 0.6) < 0.1
+    assert w.min() == pytest.approx(ETA_PRIOR_FLOOR / len(ETA_GRID))
+    told, open_ = judge_cause([esc, cmds], 1), judge_cause([esc], 1)
+    assert told.probs["wash"] > open_.probs["wash"] and told.probs["propeller"] < open_.probs["propeller"]
+    # a source's own eta_llr counts as well (the effectiveness fit gives one)
+    eff = AnalyzerResult("effectiveness", eta_llr={1: -0.5 * ((ETA_GRID - 0.6) / 0.05) ** 2})
+    assert abs(float(eta_weights([eff], 1) @ ETA_GRID) - 0.6) < 0.1

@@ -29,6 +29,19 @@ def log_mean_exp(x: np.ndarray, axis=None) -> np.ndarray:
     top = np.max(x, axis=axis, keepdims=True)
     out = top + np.log(np.mean(np.exp(x - top), axis=axis, keepdims=True))
     return np.squeeze(out, axis=axis) if axis is not None else float(out.squeeze())
+#: Why a rotor lost thrust (:mod:`flightlog_fd.cause`): its propeller (cut, chipped, cracked), its
+#: motor or ESC (it turns slower for its command), or something in its wash or under it (a payload,
+#: a strap, a guard, a load toward it: the rotor turns as its command asks and loads its motor as a
+#: healthy propeller would, yet the airframe gets less lift from it). "propeller" and
+#: "motor_or_esc" are stored in the results store and the JSON report; "wash" is new.
+CAUSES = ("propeller", "motor_or_esc", "wash")
+#: The stated prior over CAUSES for a rotor that lost thrust, before the log is read. No measured
+#: base rate exists: propellers are the commonest wear part (they strike the ground and things) and
+#: the part the tool is for, hence half; motor and ESC faults (heat, age, a bad joint) next; something
+#: in the wash the rarest (most loads sit under the centre, not under one rotor). Every cause keeps
+#: at least a fifth, so the evidence, not the prior, states a cause (cause.CAUSE_PROBABILITY_BAR is
+#: well above any prior share). A fleet with its own base rates may set its own.
+CAUSE_PRIOR = {"propeller": 0.5, "motor_or_esc": 0.3, "wash": 0.2}
 
 
 @dataclass

@@ -229,6 +229,7 @@ class QuadDynamics:
         #: Load-dependent motor speed (sim/esc.py): None = the rotor reaches its commanded speed.
         self.motor_a0: Optional[np.ndarray] = None
         self.motor_kv: Optional[np.ndarray] = None
+        self.motor_exp: Optional[np.ndarray] = None
         self.torque_rel = np.ones_like(self.k_tau_rotor) if params.torque_scale is None else params.torque_scale
         #: Loads (loads.py, :meth:`set_loads`): full inertia, the IMU's offset from the loaded CoM
         #: (3, N) body m, and a payload on a line (None: none).
@@ -238,10 +239,13 @@ class QuadDynamics:
         self.imu_offset: Optional[np.ndarray] = None
         self.line_mass: Optional[np.ndarray] = None
 
-    def set_motor_model(self, a0: np.ndarray, kv_scale: np.ndarray) -> None:
-        """Use the load-dependent motor model of sim/esc.py (``a0`` (N,) s/rad, ``kv_scale`` (R, N))."""
+    def set_motor_model(self, a0: np.ndarray, kv_scale: np.ndarray, speed_exponent: Optional[np.ndarray] = None) -> None:
+        """Use the load-dependent motor model of sim/esc.py (``a0`` (N,) s/rad, ``kv_scale`` (R, N);
+        ``speed_exponent`` (N,) the drive's speed law, None: all 1, :func:`~flightlog_fd.sim.esc.loaded_speed`)."""
         self.motor_a0 = np.asarray(a0, dtype=np.float64)
         self.motor_kv = np.asarray(kv_scale, dtype=np.float64)
+        self.motor_exp = None if speed_exponent is None or np.all(np.asarray(speed_exponent) == 1.0) else \
+            np.asarray(speed_exponent, dtype=np.float64)
 
     def rotor_drag_torque(self, w: np.ndarray, effectiveness: np.ndarray,
                           drag_ratio: Optional[np.ndarray] = None) -> np.ndarray:
@@ -267,7 +271,7 @@ class QuadDynamics:
         w = s.w
         if self.motor_a0 is not None:
             load = self.torque_rel * effectiveness * (1.0 if drag_ratio is None else drag_ratio)
-            w_com = loaded_speed(w_com, load, self.motor_a0, self.motor_kv, drive)
+            w_com = loaded_speed(w_com, load, self.motor_a0, self.motor_kv, drive, self.motor_exp, self.omega_max)
         elif drive is not None:
             w_com = w_com * drive
         w += self.motor_alpha * (w_com - w)

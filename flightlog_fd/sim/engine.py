@@ -92,7 +92,7 @@ def run_batch(airframes: Sequence[Airframe], plan: MissionPlan, damage: DamageAr
         raise ValueError("the 'swing' stream needs a payload on a line")
     dyn.track_specific_force = "accel" in decimation or "sforce" in decimation
     if motor_model is not None:
-        dyn.set_motor_model(motor_model.a0, motor_model.kv_scale)
+        dyn.set_motor_model(motor_model.a0, motor_model.kv_scale, motor_model.speed_exponent)
     ctrl = CascadeController(airframes, vp, dt)
     sens = Sensors(sensor_params, vp, dt, ctrl.dt_outer, rng)
     runner = MissionRunner(plan)

@@ -14,6 +14,13 @@ unbalance) and a motor of ``kv`` times the nominal Kv turns at the root of
 command, a trim change (CoG offset, motor tilt) only moves the motor along its own curve. A weak
 motor or ESC (sim/damage.py, cause "motor") delivers a fraction of the no-load speed: it turns
 slower at the same command, with its propeller's current per rpm².
+
+Speed law (``EscParams.speed_exponent`` b, default 1): the nominal rotor turns at
+``omega_max·u^(b/2)`` for the autopilot's thrust command ``u``. b = 1 when the autopilot's thrust
+model matches the rotor (thrust linear in ``u``); a real airframe's seldom does: ArduCopter 4.7
+SITL (``MOT_THST_EXPO`` 0.65 over a motor whose speed is linear in its signal) measures b 1.31-1.34
+(``motor1_weak_esc.BIN``, results/cause.md), and PX4's ``THR_MDL_FAC`` 0 over such a motor gives
+about 2. The controller sees the same law (its integrators absorb it), as on a real airframe.
 Battery sag is left to the autopilot's voltage compensation (ArduPilot ``MOT_BAT_VOLT_*``, PX4
 ``THR_MDL_FAC`` with battery scaling): the pack voltage is reported, not fed back.
 
@@ -68,6 +75,10 @@ VOLTAGE_STEP_V = 0.01
 TEMP_AMBIENT_C = 25.0
 TEMP_RISE_C_PER_HOVER_CURRENT = 15.0
 TEMP_TAU_S = 60.0
+#: Speed-law exponents the simulator accepts (module docstring): 1 a thrust model that fits the
+#: rotor; ~2 PX4's THR_MDL_FAC 0 over a motor whose speed is linear in its signal; beyond, none
+#: seen.
+SPEED_EXPONENT_RANGE = (0.8, 2.2)
 #: Largest recording rate of the ESC streams (the simulation records at sim_rate / k, k integer).
 MAX_RECORD_HZ = 100.0
 
@@ -86,12 +97,13 @@ class EscParams:
     current_gain: tuple[float, ...]
     current_offset_a: tuple[float, ...]
     latency_frac: tuple[float, ...]  # each ESC's report latency, fraction of an interval
+    speed_exponent: float = 1.0  # the drive's speed law b: omega_max·u^(b/2) (module docstring)
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
-EscSpec = Union[None, str, float, EscParams, Sequence[Optional[EscParams]]]
+EscSpec = Union[None, str, float, tuple[float, float], EscParams, Sequence[Optional[EscParams]]]
 
 
 def cells_for(af: Airframe) -> int:
@@ -99,8 +111,10 @@ def cells_for(af: Airframe) -> int:
     return int(np.clip(round(3.9 + 1.7 * np.log10(af.mass)), 1, 6))
 
 
-def random_esc_params(af: Airframe, rng: np.random.Generator, rate_hz: Optional[float] = None) -> EscParams:
-    """Random motors/ESCs for ``af`` (see module docstring); ``rate_hz`` None draws one in RATE_RANGE_HZ."""
+def random_esc_params(af: Airframe, rng: np.random.Generator, rate_hz: Optional[float] = None,
+                      speed_exponent: float = 1.0) -> EscParams:
+    """Random motors/ESCs for ``af`` (see module docstring); ``rate_hz`` None draws one in RATE_RANGE_HZ;
+    ``speed_exponent`` the speed law (given, never drawn: the draws stay those of older versions)."""
     rate = float(rng.uniform(*RATE_RANGE_HZ)) if rate_hz is None else float(rate_hz)
     droop = float(rng.uniform(*DROOP_FULL_RANGE))
     r = int(getattr(af, "rotor_count", 4))
@@ -116,14 +130,24 @@ def random_esc_params(af: Airframe, rng: np.random.Generator, rate_hz: Optional[
                      current_gain=tuple(float(x) for x in 1.0 + rng.normal(0.0, CURRENT_GAIN_STD, r)),
                      current_offset_a=tuple(float(x) for x in rng.normal(0.0, CURRENT_OFFSET_FRAC, r)
                                             * max(hover_current, 0.05)),
-                     latency_frac=tuple(float(x) for x in rng.uniform(0.0, 1.0, r)))
+                     latency_frac=tuple(float(x) for x in rng.uniform(0.0, 1.0, r)),
+                     speed_exponent=float(speed_exponent))
 
 
 def resolve_esc(spec: EscSpec, airframes: Sequence[Airframe], rng: np.random.Generator) -> Optional[list[EscParams]]:
-    """None (no ESC telemetry, ideal speed-controlled motors) / "random" / a rate in Hz / one
-    EscParams for all / a list of n."""
+    """None (no ESC telemetry, ideal speed-controlled motors) / "random" / a rate in Hz / (rate in
+    Hz, speed exponent): random motors at that rate whose rotors turn as omega_max·u^(b/2) (the same
+    draws as the rate alone) / one EscParams for all / a list of n."""
     if spec is None:
         return None
+    if isinstance(spec, tuple) and len(spec) == 2 and all(isinstance(x, (int, float)) for x in spec):
+        rate, b = float(spec[0]), float(spec[1])
+        if not RATE_RANGE_HZ[0] <= rate <= MAX_RECORD_HZ:
+            raise ValueError(f"ESC rate must be {RATE_RANGE_HZ[0]:g}..{MAX_RECORD_HZ:g} Hz, got {rate}")
+        if not SPEED_EXPONENT_RANGE[0] <= b <= SPEED_EXPONENT_RANGE[1]:
+            raise ValueError(f"the rotors' rpm curve exponent must be {SPEED_EXPONENT_RANGE[0]:g}.."
+                             f"{SPEED_EXPONENT_RANGE[1]:g}, got {b:g}")
+        return [random_esc_params(af, rng, rate, b) for af in airframes]
     if isinstance(spec, str):
         if spec != "random":
             raise ValueError(f"esc must be None, 'random', a rate in Hz, EscParams or a list, got {spec!r}")
@@ -142,24 +166,30 @@ def resolve_esc(spec: EscSpec, airframes: Sequence[Airframe], rng: np.random.Gen
 
 @dataclass
 class MotorArrays:
-    """What the dynamics needs of the ESC model, component-major: droop coefficient a0 (N,) s/rad
-    and KV scale (R, N)."""
+    """What the dynamics needs of the ESC model, component-major: droop coefficient a0 (N,) s/rad,
+    KV scale (R, N) and the speed law's exponent (N,)."""
 
     a0: np.ndarray
     kv_scale: np.ndarray
+    speed_exponent: Optional[np.ndarray] = None
 
     @classmethod
     def build(cls, params: Sequence[EscParams], airframes: Sequence[Airframe]) -> "MotorArrays":
         a0 = np.array([p.droop_full / ((1.0 - p.droop_full) * af.omega_max) for p, af in zip(params, airframes)])
-        return cls(a0=a0, kv_scale=np.array([p.kv_scale for p in params], dtype=np.float64).T.copy())
+        return cls(a0=a0, kv_scale=np.array([p.kv_scale for p in params], dtype=np.float64).T.copy(),
+                   speed_exponent=np.array([p.speed_exponent for p in params], dtype=np.float64))
 
 
 def loaded_speed(w_com: np.ndarray, load: np.ndarray, a0: np.ndarray, kv: np.ndarray,
-                 drive: Optional[np.ndarray] = None) -> np.ndarray:
+                 drive: Optional[np.ndarray] = None, exponent: Optional[np.ndarray] = None,
+                 omega_max: Optional[np.ndarray] = None) -> np.ndarray:
     """Steady rotor speed (R, N) for commanded speeds ``w_com`` of the nominal motor, relative
     torque coefficients ``load`` and KV scales ``kv`` (see module docstring); ``drive`` (R, N) the
     fraction of its no-load speed a weak motor or ESC delivers (sim/damage.py cause "motor": less
-    voltage reaches the windings), None for all 1."""
+    voltage reaches the windings), None for all 1; ``exponent`` (N,) the speed law b with
+    ``omega_max`` (N,): the nominal rotor turns at omega_max·(w_com/omega_max)^b (None: b = 1)."""
+    if exponent is not None:
+        w_com = omega_max * np.power(np.clip(w_com / omega_max, 0.0, None), exponent)
     w_nl = kv * (w_com + a0 * w_com * w_com)
     if drive is not None:
         w_nl = w_nl * drive

@@ -19,7 +19,8 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
                       rho: Optional[list[float]] = None, seed: int = 0, force: bool = False,
                       esc_rate: Optional[float] = None, vehicle_id: Optional[str] = None,
                       imbalance: Optional[list[str]] = None, imu_rate: Optional[float] = None,
-                      cause: str = "propeller", loads: Optional[list[str]] = None) -> list[tuple[Path, dict]]:
+                      cause: str = "propeller", loads: Optional[list[str]] = None,
+                      esc_curve: Optional[float] = None) -> list[tuple[Path, dict]]:
     """Simulate flights and write them as real log files; returns [(path, truth)].
 
     ``imbalance``: ["MOTOR:G_MM"] propeller mass imbalance m·r in g·mm on that motor, or
@@ -29,7 +30,9 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
 
     ``esc_rate`` (Hz): add ESC telemetry (rpm, current, voltage, temperature per motor) at that
     rate (PX4 ``esc_status``, ArduPilot ``ESC`` with RawRPM); the damaged propeller then also
-    loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py).
+    loses torque: ``eta_torque = eta ** 1.3`` (blade-element cut, sim/damage.py). ``esc_curve``: the
+    rotors turn as omega_max·u^(b/2) for thrust command u (sim/esc.py speed law; default 1, the
+    autopilot's thrust model fits the rotor; ArduCopter 4.7 SITL measures 1.33).
 
     ``motor``: one damaged propeller (0: healthy) or several (e.g. [1, 4]), each with its own
     ``eta`` (one value for all, or one per motor) and ``onset`` (seconds after arming; None or 0:
@@ -90,6 +93,14 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
         raise FlightLogError(None, str(e)) from None
     if esc_rate is not None and not 10.0 <= esc_rate <= 100.0:
         raise FlightLogError(out, f"--esc-rate must be 10..100 Hz, got {esc_rate:g}")
+    if esc_curve is not None:
+        from .esc import SPEED_EXPONENT_RANGE
+
+        if esc_rate is None:
+            raise FlightLogError(out, "--esc-curve needs --esc-rate (it shapes the ESC telemetry's motors)")
+        if not SPEED_EXPONENT_RANGE[0] <= esc_curve <= SPEED_EXPONENT_RANGE[1]:
+            raise FlightLogError(out, f"--esc-curve must be {SPEED_EXPONENT_RANGE[0]:g}..{SPEED_EXPONENT_RANGE[1]:g}, "
+                                      f"got {esc_curve:g}")
     # With ESC telemetry the torque loss shows in the motor current: a cut propeller loses more
     # torque than thrust (R^5 vs R^4: eta_torque = eta^1.25); 1.3 is inside damage.py's 1.0-1.6.
     torque_exp = ESC_SAMPLE_TORQUE_EXPONENT if (esc_rate and cause == "propeller") else None
@@ -100,7 +111,8 @@ def simulate_to_files(out: Path, *, count: int = 1, fmt: str = "ulog", airframe:
     try:
         flights = simulate_flights(count, airframes=af, damages=[damage] * count, mission=mission,
                                    duration_s=duration, profile=profile_name, rho=rho, seed=seed,
-                                   esc=esc_rate, imbalance="random" if esc_rate else None,
+                                   esc=esc_rate if esc_curve is None else (esc_rate, esc_curve),
+                                   imbalance="random" if esc_rate else None,
                                    prop_imbalance=props, imu_rate_hz=imu_rate,
                                    loads=None if load_list is None else tuple(load_list))
     except ValueError as e:
