@@ -56,7 +56,7 @@ def test_weak_motor_is_named_with_its_motor_or_esc(logs, reports):
         "inspect motor 2 and its ESC", "then propeller 2 (rear-left)"]
     text = runner.invoke(app, ["diagnose", str(logs["weak_motor2"])]).stdout
     flat = " ".join(text.split())
-    assert flat.startswith(v["headline"]) and "cause: the motor or its ESC is weak" in flat
+    assert flat.startswith(v["headline"]) and "the motor or its ESC is weak" in flat and "cause (probability 1.00)" in flat
 
 
 def test_damaged_propeller_is_named_with_its_propeller(reports):
@@ -247,5 +247,5 @@ def test_the_commands_eta_weighs_the_causes():
     told, open_ = judge_cause([esc, cmds], 1), judge_cause([esc], 1)
     assert told.probs["wash"] > open_.probs["wash"] and told.probs["propeller"] < open_.probs["propeller"]
     # a source's own eta_llr counts as well (the effectiveness fit gives one)
-    eff = AnalyzerResult("effectiveness", eta_llr={1: -0.5 * ((ETA_GRID - 0.6) / 0.05) ** 2})
+    eff = AnalyzerResult("effectiveness", eta_llrs={1: -0.5 * ((ETA_GRID - 0.6) / 0.05) ** 2})
     assert abs(float(eta_weights([eff], 1) @ ETA_GRID) - 0.6) < 0.1

@@ -129,7 +129,7 @@ def test_branch_damaged_names_the_rotor_how_much_since_when_and_what_to_do():
     assert "about 74 % of its normal thrust" in d.reason or "about 75 % of its normal thrust" in d.reason
     assert d.thrust[0]["motor"] == 3 and d.thrust[0]["eta_hat"] == pytest.approx(0.75, abs=0.03)
     assert d.airframe_changed is None and d.motors[2].weight > 0.9 and d.confidence == pytest.approx(d.motors[2].weight)
-    assert d.cause is None and "cannot be told" in d.reason  # no source that sees why: the cause stays unknown
+    assert d.cause is None and "cannot tell" in d.reason  # no source that sees why: the cause stays unknown
 
 
 def test_branch_uncertain_names_the_rotor_when_inspecting_is_worth_it_but_damage_is_not_likelier():

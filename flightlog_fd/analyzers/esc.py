@@ -260,6 +260,9 @@ class EscAnalysis:
     #: Per motor, {cause: (len(ETA_GRID),) the same at each η}: the cause judgement weighs it by
     #: what the commands say of η (:mod:`flightlog_fd.cause`).
     cause_ll_eta: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)
+    #: Per motor, (len(ETA_GRID),) "rotor k gives η of its thrust" against healthy, the causes
+    #: weighed by CAUSE_PRIOR (the result's ``eta_llrs``, which the decision integrates over η).
+    eta_llr: dict[int, np.ndarray] = field(default_factory=dict)
 
     def motor_named(self, threshold: float = DECISION_LLR) -> Optional[int]:
         """The motor whose llr is largest and above ``threshold`` (None: nothing named)."""
