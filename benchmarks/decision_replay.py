@@ -60,11 +60,17 @@ def truth_table() -> dict[str, object]:
         if name.startswith("sim "):
             for p, t in rows:
                 out[str(p.resolve())] = t
+    for r in twin_rows():  # sound propellers with or without a load are "load"; damage names its rotor
+        out[str((TWINS_FOLDER / r["file"]).resolve())] = (
+            (int(r["damaged_motor"]),) if int(r["damaged_motor"] or 0) else ("load" if r["load_kind"] else None))
     return out
 
 
 def set_of(path: str) -> str:
     p = Path(path)
+    if TWINS_FOLDER.resolve() in p.parents:
+        row = next((r for r in twin_rows() if r["file"] == p.name), None)
+        return f"twins {row['role'] if row else '?'}"
     if SIM_FOLDER.resolve() in p.parents:
         return next((name for name, *_ in sorted(bc.SIM_SETS, key=lambda x: -len(x[0]))
                      if p.name.startswith(name.replace(" ", "_") + "_")), "sim")
@@ -90,6 +96,35 @@ def cases() -> list[tuple[str, list[Path], bool, list[Path]]]:
             if logs:
                 extra.append((name, cal, adapt, logs))
     return out + [(n, c, a, ls) for n, c, a, ls in extra]
+
+
+#: Load twins with ESC telemetry (benchmarks/load_twins.py --frames quad_x --per-cell 2 --esc, written
+#: there once): per airframe and logging profile a healthy twin, a healthy flight, a damaged rotor, a
+#: fixed load, a line or a moved battery, and damage under a load; weighed without a profile and
+#: against the twin's --no-adapt profile.
+TWINS_FOLDER = ROOT / "build" / "load_twins_esc"
+
+
+def twin_rows() -> list[dict]:
+    if not (TWINS_FOLDER / "manifest.csv").exists():
+        return []
+    with open(TWINS_FOLDER / "manifest.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def twin_cases() -> list[tuple[str, list[Path], bool, list[Path]]]:
+    """The load twins without a profile, and each airframe's flights against its twin's profile."""
+    rows = twin_rows()
+    if not rows:
+        return []
+    out = [("", [], False, [TWINS_FOLDER / r["file"] for r in rows])]
+    by_twin: dict[str, list[Path]] = {}
+    for r in rows:
+        if r["role"] != "twin":
+            by_twin.setdefault(r["twin_file"], []).append(TWINS_FOLDER / r["file"])
+    for twin, logs in sorted(by_twin.items()):
+        out.append((f"twin_{Path(twin).stem}_noadapt", [TWINS_FOLDER / twin], False, logs))
+    return out
 
 
 #: The simulated batch of benchmarks/bench_confidence.py (random quads at three logging profiles,
@@ -126,10 +161,11 @@ def capture(folder: Path, profiles: Path) -> None:
 
     dg.decide_flight = hooked
     t0 = time.perf_counter()
-    todo = cases() + [(n or "sim", c, a, ls) if n else ("", c, a, ls) for n, c, a, ls in sim_cases()]
+    todo = cases() + sim_cases() + twin_cases()
     for i, (name, cal, adapt, logs) in enumerate(todo, 1):
         tag = "+load" if logs and "_load" in logs[0].parent.as_posix().split("shared/")[-1] else ""
         tag = "+sim" if logs and SIM_FOLDER.resolve() in logs[0].resolve().parents else tag
+        tag = "+twins" if logs and TWINS_FOLDER.resolve() in logs[0].resolve().parents else tag
         out = folder / f"{name or 'no_profile'}{tag}.pkl"
         if out.exists():
             continue
