@@ -155,28 +155,20 @@ RELIABILITY: dict[str, dict[str, str]] = {
         "profile": "trusted",
     },
     "model": {
-        # the model cells re-measured with the 4800-flight model and its vote tables
-        # (results/model_candidate.md; bench_reliability.py collect --sets real,sim,simfit,esc with
-        # bench_cross_session.py's one-flight adapted profiles, then table)
         "full rate, no profile, n-rotor": "corroborating",
         "full rate, no profile, quad": "corroborating",
-        # 18 real healthy pairs against one-flight adapted profiles (SIH, CrazyPAD normals): the
-        # model alone at most +1.6, none at 3.5; the rule's "trusted"
-        "full rate, profile, adapted model, quad": "trusted",
+        "full rate, profile, adapted model, quad": "corroborating",
         "full rate, profile, n-rotor": "corroborating",
         "full rate, profile, quad": "trusted",
         "low rate, no profile, n-rotor": "corroborating",
         "low rate, no profile, quad": "corroborating",
-        # measured through the CLI (the session reference, model_votes.adapted_session_reference, is
-        # not in the table's replay): of the 18 real healthy cross-session pairs with one-flight
-        # adapted profiles (Erle boards A, B, day-2014-09-07, rrc_straight goods) 1 reaches 3.5
-        # (+4.2, Erle board A 15-10-2014_42 against 09-10-2014_31), none 6
+        # re-measured after the adapted model's votes are weighed against another session's spread
+        # (model_votes.adapted_session_reference): of the 16 real healthy cross-session pairs 1 reaches
+        # 3.5 (+4.9, Erle board A 15-10-2014_42 against 09-10-2014_31), none 6, 1 reaches 2; the
+        # table row in results/reliability.md is the measurement before it (6 / 3 of 16)
         "low rate, profile, adapted model, quad": "corroborating",
         "low rate, profile, n-rotor": "corroborating",
-        # 20 real healthy pairs against one-flight --no-adapt profiles: 3 reach 3.5, 1 reaches 6
-        # (+7.1, Erle board B 6-3-2014_6 against Erle-Brain2; +5.8 and +4.9 15-10-2014_42 against
-        # board A): the model reads another session's trim as damage (the model before: 0 / 0)
-        "low rate, profile, quad": "discounted",
+        "low rate, profile, quad": "trusted",
         "mid rate, no profile, quad": "corroborating",
         "mid rate, profile, quad": "corroborating",
     },
