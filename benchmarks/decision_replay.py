@@ -393,9 +393,10 @@ def main() -> None:
     print("| target | measured | goal |\n|---|---|---|")
     for t, m, g in targets(recs):
         print(f"| {t} | {m} | {g} |")
-    from flightlog_fd.decision import PRIOR_DAMAGE
+    import flightlog_fd.decision as decision
 
-    per_set(recs, args.prior if args.prior is not None else PRIOR_DAMAGE)
+    # a decision older than the stated prior is reweighted to today's, so the two compare
+    per_set(recs, args.prior if args.prior is not None else getattr(decision, "PRIOR_DAMAGE", 0.10))
     if args.v:
         for r in recs:
             print(f"{r['profile']:>32} {r['set']:>18} {r['name'][:40]:40} truth={str(r['truth']):8} "
