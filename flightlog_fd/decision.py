@@ -1448,7 +1448,8 @@ def _vibration_advice(vib: VibrationResult, status: str, frame: Optional[Frame],
     rpm; a tie by commanded speed only as a hint in an uncertain verdict; else all propellers."""
     k = vib.line_motor
     if k is not None and vib.tie_trusted:
-        return f"the line follows {_words(frame, k)} (ESC rpm): inspect propeller {k} first, then the others"
+        how = "ESC rpm" if vib.tie_source == "esc_rpm" else "its commanded speed"
+        return f"the line follows {_words(frame, k)} ({how}): inspect propeller {k} first, then the others"
     head = ("this log has no motor outputs, so it cannot say which: inspect all propellers" if no_outputs
             else "no rotor can be named from it: inspect all propellers")
     if k is not None and status == "uncertain":

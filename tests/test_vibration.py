@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from flightlog_fd.analyzers.vibration import (ANALYZER_ID, HEALTHY_LEVEL_REF, VibrationBaseline, VibrationResult,
-                                              analyze_vibration, fit_vibration_baseline, result_from)
+                                              analyze_vibration, fit_vibration_baseline, result_from, tie_motor)
 from flightlog_fd.decision import DAMAGED_LLR, decide
 from flightlog_fd.flight import Flight, Frame, ImuStream, Series, Vibration
 from flightlog_fd.flights import split_flights
@@ -58,7 +58,7 @@ def test_level_against_reference_and_profile():
 def test_line_tied_to_the_rotor_whose_speed_it_follows(motor):
     a = analyze_vibration(_synthetic(line_motor=motor))
     assert a.line is not None and 80.0 < a.line.freq_hz < 100.0  # the sweep of 90 Hz·sqrt(u/0.4)
-    assert a.line.motor == motor and a.line.tie_posterior[motor] > 0.9
+    assert tie_motor(a.line) == motor and a.line.tie_probs[motor - 1] > 0.9 and a.line.tie_source == "command"
     assert any("once-per-revolution" in n for n in a.notes)
 
 
@@ -126,12 +126,13 @@ def test_udesa_line_near_87_hz():
     f = load_flight(UDESA)
     assert f.motors is not None and f.motors.source.startswith("actuator_controls_0")
     a = analyze_vibration(f)
-    assert a.line is not None and 84.0 < a.line.freq_hz < 90.0 and a.line.motor is not None
+    assert a.line is not None and 84.0 < a.line.freq_hz < 90.0 and tie_motor(a.line) == 1
     assert any("once-per-revolution" in n and "Hz" in n for n in a.notes)
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
 
-    v = diagnose_flight(f, resolve_model(), keep_flight=False).verdict  # the tied line keeps the level's weight
-    assert v.status == "uncertain" and "87." in v.reason
+    v = diagnose_flight(f, resolve_model(), keep_flight=False).verdict
+    assert v.status == "damaged" and "86." in v.reason and "inspect propeller 1 first" in v.reason
+    assert v.inspect and v.inspect[0] == 1
 
 
 def test_tied_line_keeps_the_flight_level_finding():
@@ -139,7 +140,7 @@ def test_tied_line_keeps_the_flight_level_finding():
 
     a = analyze_vibration(_synthetic(5 * HEALTHY_LEVEL_REF, line_motor=2))
     r = result_from(a, 4)
-    assert isinstance(r, VibrationResult) and a.line.motor == 2 and r.line_motor == 2
+    assert isinstance(r, VibrationResult) and tie_motor(a.line) == 2 and r.line_motor == 2
     assert r.flight_llr == a.flight_llr > 3.5
 
 
@@ -157,7 +158,7 @@ def test_no_false_alarm_on_real_healthy_flights():
         for f in split_flights(load_flight(p)):
             a = analyze_vibration(f)
             assert a.flight_llr is None or a.flight_llr < DAMAGED_LLR, (p.name, f.part, a.flight_llr)
-            if a.line is not None and a.line.motor is not None:
+            if a.line is not None and tie_motor(a.line) is not None:
                 pytest.fail(f"{p.name}: a rotor line on a healthy flight ({a.notes})")
 
 

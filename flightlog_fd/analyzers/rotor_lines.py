@@ -438,5 +438,23 @@ def find_rotor_line(flight: Flight, intervals, curve: Optional[tuple] = None) ->
     return line, None
 
 
-__all__ = ["RotorLine", "Spectra", "find_rotor_line", "fold", "rotor_speeds", "spectra", "tie", "track",
+def strongest_accel_line(flight: Flight, intervals) -> Optional[tuple[float, str, float]]:
+    """(horizontal RMS in m/s/s of the accelerometer's strongest bin ±1 in the line band, the
+    stream, its rate) whatever its prominence: a healthy flight's largest line (a profile's
+    reference for a later line); None without an accelerometer fast enough."""
+    v = flight.vibration
+    s = v.fastest("accel", batch=False) if v is not None else None
+    if s is None or s.accel.rate_hz < MIN_SPECTRUM_HZ:
+        return None
+    sp = spectra(s.accel, intervals, "accel", s.accel.source)
+    if sp is None:
+        return None
+    f0, _ = _peak(sp)
+    if not np.isfinite(f0):
+        return None
+    _, lp = track(sp, f0)
+    return float(sp.rms(np.mean(lp))), sp.source, float(sp.fs)
+
+
+__all__ = ["RotorLine", "strongest_accel_line", "Spectra", "find_rotor_line", "fold", "rotor_speeds", "spectra", "tie", "track",
            "why_untied", "LINE_MIN_HZ", "LINE_PROMINENCE", "MIN_SPECTRUM_HZ", "TRACK_WINDOW_S"]

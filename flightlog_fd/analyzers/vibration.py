@@ -68,7 +68,8 @@ import numpy as np
 
 from ..flight import Flight, Series
 from .base import Analyzer, AnalyzerResult, Context, Finding
-from .rotor_lines import LINE_MIN_HZ, LINE_PROMINENCE, MIN_SPECTRUM_HZ, RotorLine, find_rotor_line  # noqa: F401
+from .rotor_lines import (LINE_MIN_HZ, LINE_PROMINENCE, MIN_SPECTRUM_HZ, RotorLine, find_rotor_line,  # noqa: F401
+                          strongest_accel_line)
 
 ANALYZER_ID = "vibration"
 #: Seconds dropped after take-off and before landing (spin-up, ground contact).
@@ -133,6 +134,13 @@ LINE_RISE_PRIOR = np.log(np.geomspace(3.0, 300.0, 60))
 #: reference is physics, not measured on real flights) makes a flight at most uncertain; with a
 #: raised level (>= 1 nat) it can make it damaged.
 LINE_LLR_CAP = 5.0
+#: Against a profile whose calibration measured its accelerometer's strongest line (same stream,
+#: RAW_RATE_MATCH), the line is weighed against this airframe's own: flight-to-flight spread of a
+#: healthy line (natural log). A residual line goes as w², so a 20 % faster rotor (a payload)
+#: moves it 0.36 in ln; one standard deviation of 0.5 keeps that within one.
+LINE_PROFILE_SPREAD_LOG = 0.5
+#: The line's LLR against the airframe's own line is capped here (its reference is measured).
+LINE_PROFILE_LLR_CAP = 8.0
 #: A rotor is named (``line_motor``) when its tie probability reaches this: measured on the
 #: simulated imbalance sets, no wrong rotor at or above it (benchmarks/bench_vibration.py).
 TIE_NAME_P = 0.9
@@ -324,11 +332,16 @@ def _log_bayes_factor(x: float, sigma: float, prior: np.ndarray = IMBALANCE_PRIO
     return top + float(np.log(np.mean(np.exp(terms - top))))
 
 
-def line_llr(line: Optional[RotorLine]) -> float:
+def line_llr(line: Optional[RotorLine], baseline: Optional["VibrationBaseline"] = None) -> float:
     """The line's evidence (module docstring): 0 unless it follows the rotors' speed and its
-    accelerometer amplitude is known; between 0 and LINE_LLR_CAP."""
+    accelerometer amplitude is known; against the profile's own healthy line where the
+    calibration measured one on the same stream (between 0 and LINE_PROFILE_LLR_CAP), else
+    against a healthy propeller's (between 0 and LINE_LLR_CAP)."""
     if line is None or not line.follows or line.amplitude is None or line.amplitude <= 0:
         return 0.0
+    if baseline is not None and baseline.line_reference(line) is not None:
+        x = float(np.log(line.amplitude / baseline.line_reference(line)))
+        return float(np.clip(_log_bayes_factor(x, LINE_PROFILE_SPREAD_LOG, LINE_RISE_PRIOR), 0.0, LINE_PROFILE_LLR_CAP))
     x = float(np.log(line.amplitude / HEALTHY_LINE_REF))
     return float(np.clip(_log_bayes_factor(x, HEALTHY_LINE_SPREAD_LOG, LINE_RISE_PRIOR), 0.0, LINE_LLR_CAP))
 
@@ -349,12 +362,14 @@ class VibrationBaseline:
     sessions: list = field(default_factory=list)
     speed_source: str = ""
     curve: Optional[list] = None
+    line: Optional[dict] = None  # {"ms2", "source", "rate_hz"}: the calibration's strongest accelerometer line
 
     def to_dict(self) -> dict:
         return {"analyzer": ANALYZER_ID, "level": self.level, "kind": self.kind, "source": self.source,
                 "spread_log": self.spread_log, "flights": list(self.flights), "rate_hz": self.rate_hz,
                 "sessions": [dict(s) for s in self.sessions], "speed_source": self.speed_source,
-                "curve": None if self.curve is None else [float(x) for x in self.curve]}
+                "curve": None if self.curve is None else [float(x) for x in self.curve],
+                "line": None if self.line is None else dict(self.line)}
 
     @classmethod
     def from_dict(cls, d: dict) -> "VibrationBaseline":
@@ -363,7 +378,19 @@ class VibrationBaseline:
         return cls(float(d["level"]), str(d["kind"]), str(d.get("source", "")),
                    float(d.get("spread_log", PROFILE_SPREAD_LOG)), list(d.get("flights", [])),
                    None if rate is None else float(rate), [dict(s) for s in d.get("sessions") or []],
-                   str(d.get("speed_source") or ""), None if not curve else [float(x) for x in curve])
+                   str(d.get("speed_source") or ""), None if not curve else [float(x) for x in curve],
+                   dict(d["line"]) if d.get("line") else None)
+
+    def line_reference(self, line: RotorLine) -> Optional[float]:
+        """The calibration's strongest accelerometer line (m/s/s) when it was measured on the
+        stream the line's amplitude comes from, at nearly its rate (RAW_RATE_MATCH); else None."""
+        ref = self.line
+        if not ref or not ref.get("ms2") or line.amplitude is None:
+            return None
+        rate = float(ref.get("rate_hz") or 0.0)
+        if rate <= 0 or abs(line.sample_hz / rate - 1.0) > RAW_RATE_MATCH:
+            return None
+        return float(ref["ms2"])
 
     def measures(self, level: "Level") -> bool:
         """True when ``level`` is the metric this baseline holds: the same kind, and for a raw
@@ -426,6 +453,11 @@ def fit_vibration_baseline(flights: Sequence[Flight]) -> Optional[VibrationBasel
             resid = logs - SPEED_EXPONENT * np.log(spd)
         spread = max(PROFILE_SPREAD_LOG, float(np.std(resid, ddof=1)))
     rates = [m[0].rate_hz for m in same if m[0].rate_hz is not None]
+    lines = [x for x in (strongest_accel_line(m[3], _intervals(m[3])) for m in same) if x is not None]
+    line_ref = None
+    if lines:
+        top = max(lines, key=lambda x: x[0])  # the largest healthy line: a later one is weighed against it
+        line_ref = {"ms2": top[0], "source": top[1], "rate_hz": top[2]}
     curve = None
     for _, _, src, f, _ in same:
         if src != "command":
@@ -437,7 +469,7 @@ def fit_vibration_baseline(flights: Sequence[Flight]) -> Optional[VibrationBasel
             break
     return VibrationBaseline(float(np.exp(logs.mean())), kind, same[0][0].source, spread,
                              [s["flight"] for s in sessions], float(np.median(rates)) if rates else None,
-                             sessions, speed_source, curve)
+                             sessions, speed_source, curve, line_ref)
 
 
 def add_sessions(baseline: Optional[dict], flights: Sequence[Flight]) -> Optional[dict]:
@@ -464,10 +496,27 @@ def add_sessions(baseline: Optional[dict], flights: Sequence[Flight]) -> Optiona
         spd = [s["speed"] for s in sessions]
         resid = logs - SPEED_EXPONENT * np.log(spd) if all(s is not None for s in spd) else logs
         spread = max(PROFILE_SPREAD_LOG, float(np.std(resid, ddof=1)))
+    line = old.line
+    if new.line and (not line or (new.line.get("source") == line.get("source") and new.line["ms2"] > line["ms2"])):
+        line = new.line
     out = VibrationBaseline(float(np.exp(logs.mean())), old.kind, old.source, spread,
                             list(old.flights) + list(new.flights), old.rate_hz, sessions, speed_source,
-                            old.curve or new.curve)
+                            old.curve or new.curve, line)
     return out.to_dict()
+
+
+def log_reference(parts: Sequence[Flight], index: int) -> Optional[VibrationBaseline]:
+    """The quietest of a log's other flights as a one-flight baseline for flight ``index`` (the
+    parts of :func:`~flightlog_fd.flights.split_flights`), or None with one flight or no level."""
+    best = None
+    for j, p in enumerate(parts):
+        if j == index:
+            continue
+        b = fit_vibration_baseline([p])
+        if b is not None and (best is None or b.level < best.level):
+            best = b
+            best.flights = [p.part or f"flight {j + 1}"]
+    return best
 
 
 @dataclass
@@ -485,8 +534,12 @@ class VibrationAnalysis:
     why_no_line: str = ""
 
 
-def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = None) -> VibrationAnalysis:
-    """Level, rotor speed, rotor line and their evidence for one flight (module docstring)."""
+def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = None,
+                      log_reference: Optional[VibrationBaseline] = None) -> VibrationAnalysis:
+    """Level, rotor speed, rotor line and their evidence for one flight (module docstring).
+    ``log_reference``: without a profile, the quietest other flight of the same log (same
+    airframe, same day; :func:`log_reference`): a flight louder than it is also weighed against
+    it as against a one-flight profile, and the stronger of the two comparisons counts."""
     level = measure_level(flight)
     iv = _intervals(flight)
     curve = tuple(baseline.curve) if baseline is not None and baseline.curve else None
@@ -513,11 +566,19 @@ def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = No
             ratio = level.value / HEALTHY_LEVEL_REF
             lvl_llr = min(_log_bayes_factor(float(np.log(ratio)), HEALTHY_SPREAD_LOG), NO_PROFILE_LLR_CAP)
             against = "healthy airframes"
+            if log_reference is not None and log_reference.measures(level) and level.value > log_reference.level:
+                speed, src = flight_speed(flight, iv)
+                ln_ref, sd, sr = log_reference.expected(speed, src)
+                r = level.value / float(np.exp(ln_ref))
+                own = _log_bayes_factor(float(np.log(r)), sd)
+                if own > lvl_llr:
+                    lvl_llr, ratio, speed_ratio = own, r, sr
+                    against = "log:" + (log_reference.flights[0] if log_reference.flights else "another flight")
         if lvl_llr is not None:
             lvl_llr = max(lvl_llr, LLR_FLOOR)
             if level.kind == "raw":
                 lvl_llr = max(lvl_llr, 0.0)  # a lower bound cannot clear
-    l_llr = line_llr(line)
+    l_llr = line_llr(line, baseline)
     flight_llr = None
     if lvl_llr is not None or (line is not None and line.follows and line.amplitude is not None):
         flight_llr = (lvl_llr or 0.0) + l_llr
@@ -556,7 +617,10 @@ def level_words(a: VibrationAnalysis) -> str:
     """Plain words for the level: "vibration 5.9x this airframe's healthy level (28.9 against 4.9 m/s/s)"."""
     if a.level is None or a.ratio is None:
         return ""
-    ref = "this airframe's healthy level" if a.against == "profile" else "the healthy airframes' typical level"
+    if a.against.startswith("log:"):
+        ref = f"this log's quietest other flight ({a.against[4:].split(',')[0]})"
+    else:
+        ref = "this airframe's healthy level" if a.against == "profile" else "the healthy airframes' typical level"
     if a.speed_ratio is not None and abs(a.speed_ratio - 1.0) >= 0.02:
         ref += f" at its rotor speed ({100 * (a.speed_ratio - 1):+.0f} %)"
     base = a.level.value / a.ratio
@@ -584,6 +648,11 @@ class VibrationResult(AnalyzerResult):
     line_llr: float = 0.0
 
 
+#: Context.memo key of a log's quietest other flight's baseline (dict), set by the diagnosis of a
+#: log holding several flights (:func:`log_reference`).
+LOG_REFERENCE_KEY = "vibration.log_reference"
+
+
 class Vibration(Analyzer):
     """The registry's vibration analyzer: the flight-level finding (:class:`VibrationResult`) the
     decision weighs, and per motor an LLR when its rotor line names a rotor."""
@@ -604,7 +673,9 @@ class Vibration(Analyzer):
         if flight is None or getattr(flight, "vibration", None) is None:
             return VibrationResult(self.id, abstained="no vibration data in this log")
         b = ctx.baseline_for(self.id)
-        a = analyze_vibration(flight, VibrationBaseline.from_dict(b) if b else None)
+        ref = ctx.memo.get(LOG_REFERENCE_KEY)
+        a = analyze_vibration(flight, VibrationBaseline.from_dict(b) if b else None,
+                              VibrationBaseline.from_dict(ref) if ref else None)
         return result_from(a, ctx.n_motors)
 
 
@@ -660,6 +731,6 @@ def vibration_can_judge(reasons: Sequence[str]) -> bool:
 
 
 __all__ = ["ANALYZER_ID", "Vibration", "VibrationAnalysis", "VibrationBaseline", "VibrationResult", "analyze_vibration",
-           "add_sessions", "fit_vibration_baseline", "flight_speed", "measure_level", "find_rotor_line", "spectrum",
+           "add_sessions", "fit_vibration_baseline", "log_reference", "LOG_REFERENCE_KEY", "flight_speed", "measure_level", "find_rotor_line", "spectrum",
            "level_words", "line_words", "line_llr", "result_from", "tie_motor", "tie_trusted", "vibration_can_judge",
            "VIBRATION_ONLY_REASONS"]
