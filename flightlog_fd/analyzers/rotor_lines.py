@@ -50,17 +50,20 @@ MIN_SPECTRUM_HZ = 100.0
 #: Hz) and airframe modes. 20 Hz keeps folded lines of fast rotors (a Crazyflie's 270 Hz at 250 Hz
 #: logging folds to 20 Hz) in reach.
 LINE_MIN_HZ = 20.0
-#: A line is reported when it stands this far above the median of the band (power ratio, the
-#: flight's mean of TRACK_WINDOW_S periodograms): healthy flights measured 1.6-4.0 (CrazyPAD
-#: 100 Hz; RflyMAD SIL 250 Hz), the noise maximum of ~200 bins of a 0.5 s window is ~6;
-#: udesa propeller 13: ~500 (976 on 1 s windows).
+#: A line is reported when it stands this far above the band (:func:`tracked_prominence`: the
+#: median over TRACK_WINDOW_S windows of its peak over the window's band median): without a line
+#: the peak of noise measured 2.7-11.4 (simulated healthy twins, PX4 SIH 7.7-8.2, RflyMAD SIL
+#: 3.7-11.4); udesa propeller 13: 2800 (gyro); a simulated 4.6 m/s/s line folded to 31 Hz: 32.
 LINE_PROMINENCE = 20.0
 #: Window (s) of the line's frequency track; windows overlap by half. 0.5 s resolves 2 Hz
 #: (zero-padded ``PAD_FACTOR`` times for the peak), short against the speed changes of a manoeuvre.
 TRACK_WINDOW_S = 0.5
 PAD_FACTOR = 8
-#: The track searches each window within this fraction of the line's frequency.
+#: The track searches each window within this fraction of the line's frequency, and at least
+#: TRACK_BAND_MIN_HZ either side (a folded line near 0 Hz moves by its rotor's swing, not by a
+#: fraction of where it folded to).
 TRACK_BAND = 0.25
+TRACK_BAND_MIN_HZ = 10.0
 #: A window where another line or the noise won gives a residual of up to TRACK_BAND x the line:
 #: residuals are clipped here (two 0.5 s bins) so such windows weigh alike for every rotor.
 RESIDUAL_CLIP_HZ = 4.0
@@ -203,23 +206,42 @@ def spectra(s: Series, intervals, kind: str, source: str) -> Optional[Spectra]:
 
 
 def _peak(sp: Spectra) -> tuple[float, float]:
-    """(frequency, prominence) of the strongest bin of the mean spectrum in the line band."""
+    """(frequency, prominence) of the strongest bin of the flight's mean spectrum in the line
+    band, each window first divided by its own band median (so a few loud windows, a manoeuvre,
+    do not choose the line): prominence = that bin's normalised power (noise: ~1)."""
     band = sp.band()
     if band.sum() < 10:
         return float("nan"), 0.0
-    m = sp.mean
-    med = float(np.median(m[band]))
-    if med <= 0:
+    med = np.median(sp.power[:, band], axis=1, keepdims=True)
+    ok = med[:, 0] > 0
+    if not ok.any():
         return float("nan"), 0.0
-    i = np.flatnonzero(band)[int(np.argmax(m[band]))]
-    return float(sp.freqs[i]), float(m[i] / med)
+    m = (sp.power[ok][:, band] / med[ok]).mean(axis=0)
+    i = int(np.argmax(m))
+    return float(sp.freqs[band][i]), float(m[i])
+
+
+def tracked_prominence(sp: Spectra, f0: float) -> float:
+    """Median over windows of the line's peak (its track within TRACK_BAND of ``f0``) over the
+    window's band median: a line that moves with the rotors stays prominent window by window
+    where the flight's mean spectrum smears it."""
+    band = sp.band()
+    half = max(f0 * TRACK_BAND, TRACK_BAND_MIN_HZ)
+    lo, hi = f0 - half, min(f0 + half, 0.995 * sp.fs / 2)
+    near = (sp.freqs >= max(lo, 1.0)) & (sp.freqs <= hi)
+    med = np.median(sp.power[:, band], axis=1)
+    ok = med > 0
+    if not ok.any() or not near.any():
+        return 0.0
+    return float(np.median(sp.power[ok][:, near].max(axis=1) / med[ok]))
 
 
 def track(sp: Spectra, f0: float) -> tuple[np.ndarray, np.ndarray]:
     """(frequency (windows,), band-limited power of the line (windows,)): each window's peak
     within TRACK_BAND of ``f0`` (within 0..Nyquist), refined by a parabola on the log power; the
     power summed over ±1 unpadded bin around it."""
-    lo, hi = f0 * (1 - TRACK_BAND), min(f0 * (1 + TRACK_BAND), 0.995 * sp.fs / 2)
+    half = max(f0 * TRACK_BAND, TRACK_BAND_MIN_HZ)
+    lo, hi = f0 - half, min(f0 + half, 0.995 * sp.fs / 2)
     band = np.flatnonzero((sp.freqs >= max(lo, 1.0)) & (sp.freqs <= hi))
     p = sp.power[:, band]
     j = np.argmax(p, axis=1)
@@ -353,6 +375,15 @@ def tie(y: np.ndarray, speeds: np.ndarray, fs: float, source: str, curve: Option
             "spread": spread, "rotor_hz": float(c_best * np.exp(b_best * np.median(lx[best]))), "best": best}
 
 
+def rotors_parted(line: Optional[RotorLine]) -> bool:
+    """True when the rotors' predicted lines parted (at SPREAD_QUANTILE of the windows) by more
+    than twice the track's scatter: a rotor can be singled out in this flight."""
+    if line is None or not line.tie_source or line.spread_hz is None:
+        return False
+    sig = max(line.track_sigma_hz or 0.0, float(np.sqrt(RESIDUAL_FLOOR_HZ2)))
+    return line.spread_hz >= 2.0 * sig
+
+
 def why_untied(line: RotorLine, n: int) -> str:
     """Plain words: why the line names no rotor (module docstring), with the measure."""
     if not line.tie_source:
@@ -361,7 +392,7 @@ def why_untied(line: RotorLine, n: int) -> str:
         return (f"the line at {line.freq_hz:.1f} Hz does not follow the rotors' speed (a fixed frequency "
                 f"explains it as well, {line.follows_llr:+.1f} nats): a frame or mount resonance, not a rotor")
     sig = line.track_sigma_hz or 0.0
-    if line.spread_hz is not None and line.spread_hz < 2.0 * max(sig, np.sqrt(RESIDUAL_FLOOR_HZ2)):
+    if not rotors_parted(line):
         return (f"the rotors turned within {line.spread_hz:.1f} Hz of each other in {SPREAD_QUANTILE:.0%} of "
                 f"the flight, closer than the line's track is known (±{sig:.1f} Hz): no rotor can be singled out")
     order = np.argsort(line.tie_probs)[::-1]
@@ -398,11 +429,14 @@ def find_rotor_line(flight: Flight, intervals, curve: Optional[tuple] = None) ->
             return None, (f"IMU logged at {', '.join(slow)}: too slow for rotor lines (needs "
                           f"{MIN_SPECTRUM_HZ:.0f} Hz)")
         return None, "too little airborne IMU data for a spectrum"
-    peaks = [(_peak(sp), sp) for sp in cands]
+    peaks = []
+    for sp in cands:
+        f, _ = _peak(sp)
+        peaks.append(((f, tracked_prominence(sp, f) if np.isfinite(f) else 0.0), sp))
     (f0, prom), sp = max(peaks, key=lambda x: x[0][1])
     if not np.isfinite(f0) or prom < LINE_PROMINENCE:
         return None, (f"no line in the gyro or accelerometer spectrum (strongest {f0:.1f} Hz at "
-                      f"{prom:.1f}x the band median, {sp.kind})")
+                      f"{prom:.1f}x the band median window by window, {sp.kind})")
     line = RotorLine(f0, prom, sp.source, sp.kind, sp.fs)
     y, _ = track(sp, f0)
     line.windows = int(y.size)
@@ -456,5 +490,5 @@ def strongest_accel_line(flight: Flight, intervals) -> Optional[tuple[float, str
     return float(sp.rms(np.mean(lp))), sp.source, float(sp.fs)
 
 
-__all__ = ["RotorLine", "strongest_accel_line", "Spectra", "find_rotor_line", "fold", "rotor_speeds", "spectra", "tie", "track",
+__all__ = ["RotorLine", "rotors_parted", "strongest_accel_line", "Spectra", "find_rotor_line", "fold", "rotor_speeds", "spectra", "tie", "track",
            "why_untied", "LINE_MIN_HZ", "LINE_PROMINENCE", "MIN_SPECTRUM_HZ", "TRACK_WINDOW_S"]

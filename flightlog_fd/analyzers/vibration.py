@@ -31,9 +31,15 @@ propeller is out of balance" against healthy:
   capped at ``NO_PROFILE_LLR_CAP`` (airframes differ 10x: a level alone is never "damaged"
   without the airframe's own baseline); floored at ``LLR_FLOOR`` (a raw lower bound at 0).
 - ``line_llr``: a line that follows the rotors' speed (a once-per-revolution line, not a
-  resonance) with amplitude A in the accelerometer, against a healthy propeller's line
-  (``HEALTHY_LINE_REF``, ``HEALTHY_LINE_SPREAD_LOG``), between 0 (A is a lower bound where the
-  logged accelerometer is filtered: a small line never clears) and ``LINE_LLR_CAP``.
+  resonance) with amplitude A in the accelerometer, against the profile's own strongest healthy
+  line where its calibration measured one on the same stream (``LINE_PROFILE_SPREAD_LOG``, cap
+  ``LINE_PROFILE_LLR_CAP``), else against a healthy propeller's line (``HEALTHY_LINE_REF``,
+  ``HEALTHY_LINE_SPREAD_LOG``, cap ``LINE_LLR_CAP``); never below 0 (A is a lower bound where the
+  logged accelerometer is filtered: a small line never clears). Where the line speaks, a level
+  near the healthy one does not take it back (the level is floored at 0: the broadband floor
+  dilutes a line in the level, and PX4's differencing metric is mostly noise). The two parts
+  measure one shaking, so their sum over-counts where both are raised; the caps bound it, and
+  the healthy sets measure what it costs (results/vibration.md).
 
 The interface the decision reads (:class:`VibrationResult`, a subclass of AnalyzerResult):
 
@@ -581,7 +587,9 @@ def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = No
     l_llr = line_llr(line, baseline)
     flight_llr = None
     if lvl_llr is not None or (line is not None and line.follows and line.amplitude is not None):
-        flight_llr = (lvl_llr or 0.0) + l_llr
+        # a level near the healthy one does not clear a raised line: the broadband floor hides a
+        # line in the level (PX4's metric differences consecutive samples: noise dominates it)
+        flight_llr = (lvl_llr or 0.0 if l_llr <= 0.0 else max(lvl_llr or 0.0, 0.0)) + l_llr
     notes = [line_words(line)] if line is not None else []
     return VibrationAnalysis(level, line, flight_llr, ratio, against, notes=notes, level_llr=lvl_llr,
                              line_llr=l_llr, speed_ratio=speed_ratio, why_no_line=why_no_line or "")
