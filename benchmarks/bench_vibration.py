@@ -231,7 +231,7 @@ REAL = {
     "real_healthy/logs": "healthy", "real_logs/ardupilot": "healthy", "real_logs/px4": "healthy (samples)",
     "real_damaged/rrc_straight": "rrc: good props healthy, symmetric cuts (no imbalance)",
     "crazypad_e9/ulog": "CrazyPAD: normals healthy, cuts / tape on motor 2 or 4",
-    "px4_sih_dev/logs": "PX4 SIH (simulator) healthy",
+    "px4_sih_dev/logs": "PX4 SIH (simulator): healthy and damaged, by its manifest",
 }
 DAMAGED_FLIGHTS = {("air_octo_03.BIN", 2), ("air_octo_10.BIN", 1), ("udesa_f450_prop13.ulg", 1)}
 
@@ -240,10 +240,20 @@ def _group(sub: str, name: str, flight: int) -> str:
     """The truth of one real flight: an out-of-balance propeller, healthy, or other damage."""
     if (name, flight) in DAMAGED_FLIGHTS:
         return "damaged (imbalance)"
+    if sub.startswith("px4_sih_dev"):
+        return "healthy" if _sih_labels().get(name.rsplit(".", 1)[0]) == "healthy" else \
+            "other damage (rrc symmetric cuts, CrazyPAD cuts and tape, SIH thrust loss)"
     if REAL[sub].startswith("healthy") or "good_prop" in name or "normal_flight" in name or \
             name == "air_octo_14.BIN" or (name == "air_octo_03.BIN" and flight == 1):
         return "healthy"
-    return "other damage (rrc symmetric cuts, CrazyPAD cuts and tape)"
+    return "other damage (rrc symmetric cuts, CrazyPAD cuts and tape, SIH thrust loss)"
+
+
+def _sih_labels() -> dict:
+    import csv
+
+    m = SHARED / "px4_sih_dev" / "manifest.csv"
+    return {r["name"]: r["label"] for r in csv.DictReader(m.open())} if m.exists() else {}
 
 
 def _files():

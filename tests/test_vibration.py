@@ -318,6 +318,8 @@ def test_the_interface_the_decision_reads():
     assert r.line_llr > 0 and r.line_hz is not None
     by = {f.motor: f.llr for f in r.findings if f.name == "rotor_line"}
     assert by[1] == pytest.approx(r.flight_llr + np.log(4 * r.tie_probs[0]))
+    from flightlog_fd.analyzers.vibration import TIE_P_FLOOR
+    assert min(by.values()) >= r.flight_llr + np.log(4 * TIE_P_FLOOR) - 1e-9
     assert by[1] > max(by[k] for k in (2, 3, 4))
 
 

@@ -55,8 +55,8 @@ The interface the decision reads (:class:`VibrationResult`, a subclass of Analyz
 - ``line_hz`` (as logged, folded), ``line_rotor_hz`` (unfolded, when the fold is known),
   ``ratio`` (level / reference), ``against`` ("profile" / "healthy airframes" / ""),
   ``level_words``; ``level_llr`` and ``line_llr`` (the two parts of ``flight_llr``).
-- Per-motor ``rotor_line`` findings: ``llr = flight_llr + log(n·p_k)`` when a rotor is named (the
-  tie adds at most log n), None (shown, not weighed) otherwise.
+- Per-motor ``rotor_line`` findings: ``llr = flight_llr + log(n·max(p_k, TIE_P_FLOOR))`` when a
+  rotor is named (the tie adds at most log n), None (shown, not weighed) otherwise.
 
 Limits: needs ``MIN_AIRBORNE_S`` of airborne samples; a symmetric cut (both blades shortened)
 loses thrust without imbalance and does not raise vibration (rrc quad: 3.6-6.6 m/s/s against
@@ -150,6 +150,10 @@ LINE_PROFILE_LLR_CAP = 8.0
 #: A rotor is named (``line_motor``) when its tie probability reaches this: measured on the
 #: simulated imbalance sets, no wrong rotor at or above it (benchmarks/bench_vibration.py).
 TIE_NAME_P = 0.9
+#: Per-motor LLRs read a tie probability no lower than this: the simulated sets state lower ones
+#: for rotors that were never the truth, but too few to vouch for smaller numbers (a rotor at
+#: P 1e-6 keeps flight_llr + log(n·0.001), not minus infinity).
+TIE_P_FLOOR = 0.001
 
 
 @dataclass
@@ -694,7 +698,8 @@ def tie_trusted(line: Optional[RotorLine]) -> bool:
 
 def result_from(a: VibrationAnalysis, n: int) -> VibrationResult:
     """The :class:`VibrationResult` of one analysis. The per-motor LLR of a named rotor's tie is
-    ``flight_llr + log(n·p_k)`` (the tie adds at most log n); an unnamed tie is shown, not weighed."""
+    ``flight_llr + log(n·max(p_k, TIE_P_FLOOR))`` (the tie adds at most log n); an unnamed tie is
+    shown, not weighed."""
     if a.abstain:
         return VibrationResult(ANALYZER_ID, abstained=a.abstain)
     out = []
@@ -709,7 +714,7 @@ def result_from(a: VibrationAnalysis, n: int) -> VibrationResult:
     if line is not None and line.tie_source and n >= 1:
         for k in range(1, n + 1):
             p = probs[k - 1]
-            llr = (base_llr + float(np.clip(np.log(max(n * p, 1e-12)), -np.log(n), np.log(n)))) if named else None
+            llr = (base_llr + float(min(np.log(n * max(p, TIE_P_FLOOR)), np.log(n)))) if named else None
             out.append(Finding(ANALYZER_ID, k, "rotor_line", line.freq_hz if k == named else None, "Hz",
                                None, None, "up", llr,
                                f"{line.freq_hz:.0f}Hz {p:.2f}" if k == named else f"{p:.2f}"))
