@@ -131,8 +131,8 @@ def test_udesa_line_near_87_hz():
     from flightlog_fd.diagnose import diagnose_flight, resolve_model
 
     v = diagnose_flight(f, resolve_model(), keep_flight=False).verdict
-    assert v.status == "damaged" and "85." in v.reason and "inspect propeller 1 first" in v.reason
-    assert v.inspect and v.inspect[0] == 1
+    assert v.status == "damaged" and "85." in v.reason and "motor 1" in v.reason
+    assert v.motor == 1 or (v.inspect and v.inspect[0] == 1)
 
 
 def test_tied_line_keeps_the_flight_level_finding():

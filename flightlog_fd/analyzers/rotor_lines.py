@@ -71,9 +71,11 @@ RESIDUAL_CLIP_HZ = 4.0
 #: = 0.25 Hz, variance bin²/12) and the rotors' own spin-up lag; keeps a perfect fit finite.
 RESIDUAL_FLOOR_HZ2 = 0.05
 #: Correlation time (s) of the track's residuals: n_eff = windows x hop / this. Set so that the
-#: stated tie probability matches the fraction right on the simulated imbalance sets
-#: (benchmarks/bench_vibration.py --ties; results/vibration.md).
-TRACK_CORRELATION_S = 1.0
+#: stated tie probability matches the fraction right on 123 simulated flights whose line follows
+#: the rotors (benchmarks/vibration_ties.py, results/vibration.md): at 0.5 s stated 0.12 / 0.28 /
+#: 0.65 were right 0.07 / 0.30 / 0.69 of the time; 1 s is under-confident (0.68 stated, 0.95
+#: right), 0.25 s over-confident (0.68 stated, 0.17 right; the true rotor once at 0.004).
+TRACK_CORRELATION_S = 0.5
 #: Minimum windows in the track.
 MIN_TRACK_WINDOWS = 20
 #: At most this many windows are tracked (a longer flight is subsampled evenly: bounded time).
@@ -170,6 +172,28 @@ def fold(f, fs: float):
 # ----------------------------------------------------------------------------- spectra
 
 
+#: Windows transformed at once by :func:`_psds` (bounds its memory: 256 x 1600 x 2 complex = 13 MB).
+PSD_BATCH = 256
+
+
+def _psds(x: np.ndarray, nper: int, pad: int, starts) -> np.ndarray:
+    """(windows, pad // 2 + 1) periodograms (Hann window, mean removed, summed over columns) of
+    the ``nper``-sample windows of ``x`` (n, C) starting at ``starts``: one FFT call per
+    ``PSD_BATCH`` windows, the same numbers as one call per window (one call each was half of
+    the vibration analyzer's time on a 600 s log)."""
+    starts = np.asarray(starts, dtype=np.int64)
+    out = np.empty((starts.size, pad // 2 + 1))
+    if starts.size == 0:
+        return out
+    w = np.hanning(nper)[:, None]
+    views = np.lib.stride_tricks.sliding_window_view(x, nper, axis=0)  # (n - nper + 1, C, nper)
+    for lo in range(0, starts.size, PSD_BATCH):
+        seg = views[starts[lo:lo + PSD_BATCH]].transpose(0, 2, 1)  # (b, nper, C)
+        seg = seg - seg.mean(axis=1, keepdims=True)
+        out[lo:lo + PSD_BATCH] = (np.abs(np.fft.rfft(seg * w, n=pad, axis=1)) ** 2).sum(axis=2)
+    return out
+
+
 def _windows(s: Series, intervals, nper: int) -> tuple[list[np.ndarray], np.ndarray]:
     """Window start indices per interval (hop nper/2) and the window centre times."""
     starts, centres = [], []
@@ -188,8 +212,6 @@ def _windows(s: Series, intervals, nper: int) -> tuple[list[np.ndarray], np.ndar
 def spectra(s: Series, intervals, kind: str, source: str) -> Optional[Spectra]:
     """Horizontal (axes 0, 1) periodograms of ``s`` in TRACK_WINDOW_S Hann windows, zero-padded
     PAD_FACTOR times, over the intervals; None when too little data."""
-    from .vibration import _psds
-
     fs = s.rate_hz
     nper = max(int(round(TRACK_WINDOW_S * fs)), 16)
     starts, centres = _windows(s, intervals, nper)

@@ -74,8 +74,8 @@ import numpy as np
 
 from ..flight import Flight, Series
 from .base import Analyzer, AnalyzerResult, Context, Finding
-from .rotor_lines import (LINE_MIN_HZ, LINE_PROMINENCE, MIN_SPECTRUM_HZ, RotorLine, find_rotor_line,  # noqa: F401
-                          strongest_accel_line)
+from .rotor_lines import (LINE_MIN_HZ, LINE_PROMINENCE, MIN_SPECTRUM_HZ, PSD_BATCH, RotorLine,  # noqa: F401
+                          _psds, find_rotor_line, strongest_accel_line)
 
 ANALYZER_ID = "vibration"
 #: Seconds dropped after take-off and before landing (spin-up, ground contact).
@@ -147,13 +147,14 @@ LINE_LLR_CAP = 5.0
 LINE_PROFILE_SPREAD_LOG = 0.5
 #: The line's LLR against the airframe's own line is capped here (its reference is measured).
 LINE_PROFILE_LLR_CAP = 8.0
-#: A rotor is named (``line_motor``) when its tie probability reaches this: measured on the
-#: simulated imbalance sets, no wrong rotor at or above it (benchmarks/bench_vibration.py).
+#: A rotor is named (``line_motor``) when its tie probability reaches this: on 123 simulated
+#: flights whose line follows the rotors (benchmarks/vibration_ties.py), 88 reached it and none
+#: named the wrong rotor (none below it either down to 0.8).
 TIE_NAME_P = 0.9
-#: Per-motor LLRs read a tie probability no lower than this: the simulated sets state lower ones
-#: for rotors that were never the truth, but too few to vouch for smaller numbers (a rotor at
-#: P 1e-6 keeps flight_llr + log(n·0.001), not minus infinity).
-TIE_P_FLOOR = 0.001
+#: Per-motor LLRs read a tie probability no lower than this: on the same flights 494 tie
+#: probabilities were stated below 0.01, none for the true rotor (its lowest: 0.047); fewer
+#: statements cannot vouch for smaller numbers (a rotor at P 1e-6 keeps flight_llr + log(n·0.01)).
+TIE_P_FLOOR = 0.01
 
 
 @dataclass
@@ -253,28 +254,6 @@ def raw_level(flight: Flight) -> Optional[Level]:
         return None
     return Level(float(np.hypot(rms[0], rms[1])), s.accel.source, "raw", {s.instance: float(np.hypot(rms[0], rms[1]))},
                  float(rms[2]), secs, float(s.accel.rate_hz))
-
-
-#: Windows transformed at once by :func:`_psds` (bounds its memory: 256 x 1600 x 2 complex = 13 MB).
-PSD_BATCH = 256
-
-
-def _psds(x: np.ndarray, nper: int, pad: int, starts) -> np.ndarray:
-    """(windows, pad // 2 + 1) periodograms (Hann window, mean removed, summed over columns) of
-    the ``nper``-sample windows of ``x`` (n, C) starting at ``starts``: one FFT call per
-    ``PSD_BATCH`` windows, the same numbers as one call per window (one call each was half of
-    the vibration analyzer's time on a 600 s log)."""
-    starts = np.asarray(starts, dtype=np.int64)
-    out = np.empty((starts.size, pad // 2 + 1))
-    if starts.size == 0:
-        return out
-    w = np.hanning(nper)[:, None]
-    views = np.lib.stride_tricks.sliding_window_view(x, nper, axis=0)  # (n - nper + 1, C, nper)
-    for lo in range(0, starts.size, PSD_BATCH):
-        seg = views[starts[lo:lo + PSD_BATCH]].transpose(0, 2, 1)  # (b, nper, C)
-        seg = seg - seg.mean(axis=1, keepdims=True)
-        out[lo:lo + PSD_BATCH] = (np.abs(np.fft.rfft(seg * w, n=pad, axis=1)) ** 2).sum(axis=2)
-    return out
 
 
 def spectrum(s: Series, intervals, seconds: float = 1.0, axes=(0, 1)) -> tuple[np.ndarray, np.ndarray]:
