@@ -91,6 +91,10 @@ SCALE_STEP_LOG = 0.002
 #: mixer-reconstructed commands: the line moves as s^0.33), so β is free over this range (log grid).
 BETA_RANGE = (0.2, 2.0)
 BETA_STEPS = 11
+#: Prior on β: log-normal around 1 with this sd (natural log; 0.4-2.5 within 1.3 sd): where aliases
+#: of a folded line fit alike (410 Hz as s^0.4 folds like 160 Hz as s^1), the physical map wins;
+#: udesa's 0.4 costs under 1 nat against a track worth dozens.
+BETA_PRIOR_SD_LOG = 0.7
 #: ESC rpm gives the rotor's speed itself: the line sits at once per revolution within this
 #: fraction (ESC rpm averaging, clock); a mis-set pole count is a whole factor off and does not tie.
 ESC_SCALE_TOLERANCE = 0.05
@@ -371,6 +375,8 @@ def tie(y: np.ndarray, speeds: np.ndarray, fs: float, source: str, curve: Option
         pred = fold(c[:, None, None] * np.exp(b[:, None, None] * lx[None, :, :]), fs)  # (grid, n + 1, N)
         s2[lo:lo + chunk] = _mean_sq(y[None, None, :], pred)
     ll = -0.5 * n_eff * np.log(s2 + RESIDUAL_FLOOR_HZ2)  # (grid, n + 1)
+    if not known:  # the thrust model makes sqrt(command) ∝ speed: β near 1 unless the track says otherwise
+        ll = ll - 0.5 * (np.log(bs) / BETA_PRIOR_SD_LOG)[:, None] ** 2
     logl = _logsumexp(ll, axis=0) - np.log(cs.size)
     # a fixed frequency (a resonance): the best constant, scored alike
     const = -0.5 * n_eff * np.log(_mean_sq(y, np.full_like(y, np.median(y))) + RESIDUAL_FLOOR_HZ2)

@@ -581,7 +581,8 @@ def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = No
 def line_words(line: RotorLine) -> str:
     """Plain words for the rotor line and its tie."""
     words = (f"a line at {line.freq_hz:.1f} Hz in the {line.kind} spectrum ({line.prominence:.0f}x the band"
-             + (f"; {line.amplitude:.1f} m/s/s RMS in the horizontal accelerometer" if line.amplitude else "") + ")")
+             + (f"; {line.amplitude:.1f} m/s/s RMS in the horizontal accelerometer" if line.amplitude else "")
+             + ")")
     if line.folded and line.rotor_hz is not None:
         words += f", folded from {line.rotor_hz:.0f} Hz (above the {line.sample_hz / 2:.0f} Hz Nyquist frequency)"
     named = tie_motor(line)
