@@ -74,8 +74,8 @@ import numpy as np
 
 from ..flight import Flight, Series
 from .base import Analyzer, AnalyzerResult, Context, Finding
-from .rotor_lines import (LINE_MIN_HZ, LINE_PROMINENCE, MIN_SPECTRUM_HZ, PSD_BATCH, RotorLine,  # noqa: F401
-                          _psds, find_rotor_line, strongest_accel_line)
+from .rotor_lines import (LINE_MIN_HZ, LINE_PROMINENCE, MIN_SPECTRUM_HZ, PSD_BATCH, TIE_NAME_P,  # noqa: F401
+                          RotorLine, _psds, find_rotor_line, strongest_accel_line, tie_motor)
 
 ANALYZER_ID = "vibration"
 #: Seconds dropped after take-off and before landing (spin-up, ground contact).
@@ -147,10 +147,6 @@ LINE_LLR_CAP = 5.0
 LINE_PROFILE_SPREAD_LOG = 0.5
 #: The line's LLR against the airframe's own line is capped here (its reference is measured).
 LINE_PROFILE_LLR_CAP = 8.0
-#: A rotor is named (``line_motor``) when its tie probability reaches this: on 123 simulated
-#: flights whose line follows the rotors (benchmarks/vibration_ties.py), 88 reached it and none
-#: named the wrong rotor (none below it either down to 0.8).
-TIE_NAME_P = 0.9
 #: Per-motor LLRs read a tie probability no lower than this: on the same flights 494 tie
 #: probabilities were stated below 0.01, none for the true rotor (its lowest: 0.047); fewer
 #: statements cannot vouch for smaller numbers (a rotor at P 1e-6 keeps flight_llr + log(n·0.01)).
@@ -595,14 +591,6 @@ def line_words(line: RotorLine) -> str:
     else:
         words += f": {line.why_untied}" if line.why_untied else " that no rotor's speed explains"
     return words
-
-
-def tie_motor(line: Optional[RotorLine]) -> Optional[int]:
-    """The rotor a line names: its tie probability reaches TIE_NAME_P, the line following the rotors."""
-    if line is None or not line.follows or not line.tie_probs:
-        return None
-    k = line.best_motor
-    return k if line.tie_probs[k - 1] >= TIE_NAME_P else None
 
 
 def level_words(a: VibrationAnalysis) -> str:
