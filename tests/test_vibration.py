@@ -410,3 +410,28 @@ def test_a_log_of_sensor_combined_alone_is_judged_from_vibration(tmp_path):
     assert d.verdict.status in ("uncertain", "damaged") and d.exit_code == 1
     assert "only vibration was judged" in d.verdict.reason and "no motor outputs" in d.verdict.reason
     assert "cannot be tied to a rotor" in d.verdict.reason
+
+
+def test_calibrate_add_gives_the_vibration_baseline_a_session_at_the_payloads_rotor_speed(tmp_path):
+    """`fdlog calibrate --add` with a flight carrying a payload: the vibration baseline gains a
+    session at that flight's (faster) rotor speed, and the payload flight is not damaged by vibration."""
+    from flightlog_fd import load_flight
+    from flightlog_fd.calibration import add_sessions, calibrate
+    from flightlog_fd.sim.files import simulate_to_files
+
+    base, loaded = tmp_path / "base.ulg", tmp_path / "loaded.ulg"
+    simulate_to_files(base, airframe="f450", imbalance=["1:0"], seed=7, duration=45.0, vehicle_id="v")
+    simulate_to_files(loaded, airframe="f450", imbalance=["1:0"], seed=8, duration=45.0, vehicle_id="v",
+                      loads=["point:30%@0,0,0.03"])
+    prof = tmp_path / "p.json"
+    calibrate([base], output=prof)
+    b0 = VibrationBaseline.from_dict(__import__("json").loads(prof.read_text())["analyzers"][ANALYZER_ID])
+    assert len(b0.sessions) == 1 and b0.speed_source == "command" and b0.sessions[0]["speed"] > 0
+    f = load_flight(loaded)
+    a = analyze_vibration(f, b0)
+    assert a.speed_ratio is not None and a.speed_ratio > 1.05  # the payload turns the rotors faster
+    assert a.flight_llr < DAMAGED_LLR
+    res = add_sessions(prof, [loaded], name="payload")
+    b1 = VibrationBaseline.from_dict(res.profile.analyzers[ANALYZER_ID])
+    assert len(b1.sessions) == 2 and b1.sessions[1]["speed"] > b1.sessions[0]["speed"]
+    assert any("vibration:" in c for c in res.changes)
