@@ -564,8 +564,9 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
                                    "not added, the profile is unchanged", named=name not in (None, AS_CALIBRATED))
     targets = [_target_configuration(profile, fl, d, name) for fl, d in zip(flights, diagnoses)]
     configured = [(fl, t) for fl, t in zip(flights, targets) if t != AS_CALIBRATED]
-    flights = [fl for fl, t in zip(flights, targets) if t == AS_CALIBRATED]
     config_changes = _add_configurations(profile, configured, one_session, model)
+    config_changes += _add_vibration_sessions(profile, flights)
+    flights = [fl for fl, t in zip(flights, targets) if t == AS_CALIBRATED]
     if not flights:
         previous = _keep_previous(src, n_before) if keep_previous else None
         profile.save(src, overwrite=True)
@@ -596,6 +597,24 @@ def add_sessions(profile_path: PathLike, flights_or_paths: Iterable[Union[PathLi
     if previous is not None:
         changes.append(f"the previous profile is kept as {previous.name}")
     return AddedSessions(profile=profile, path=src, previous=previous, changes=changes)
+
+
+def _add_vibration_sessions(profile: Profile, flights: Sequence[Flight]) -> list[str]:
+    """Every added flight (a session or a load configuration alike) becomes a session of the
+    profile's vibration baseline at its rotor speed (:func:`~flightlog_fd.analyzers.vibration.add_sessions`:
+    a payload turns the rotors faster and shakes more, and diagnose compares at matching speed).
+    Returns what changed, in plain words."""
+    from .analyzers.vibration import ANALYZER_ID, add_sessions as add_vibration
+    from .flights import split_flights
+
+    old = profile.analyzers.get(ANALYZER_ID)
+    new = add_vibration(old, [part for fl in flights for part in split_flights(fl)])
+    if new is None or new == old:
+        return []
+    profile.analyzers = {**profile.analyzers, ANALYZER_ID: new}
+    n = len(new.get("sessions") or [])
+    return [f"vibration: {n} session{'s' if n != 1 else ''} of the healthy level at its rotor speed "
+            f"(level {new['level']:.2f}, {new.get('source', '')})"]
 
 
 def _target_configuration(profile: Profile, fl: Flight, d, name: Optional[str]) -> str:

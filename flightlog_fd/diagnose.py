@@ -47,7 +47,7 @@ from .analyzers.reliability import log_kind
 from .analyzers.command_shares import nearest_configuration
 from .analyzers.share_fit import fit_shares
 from .checks import diagnosability
-from .analyzers.vibration import vibration_can_judge
+from .analyzers.vibration import LOG_REFERENCE_KEY, log_reference, vibration_can_judge
 from .decision import PRIOR_DAMAGE, Decision, DecisionInputs, Verdict, decide_flight, decide_log, worst_flight
 from .errors import FlightLogError, ModelError
 from .flight import Flight
@@ -298,7 +298,10 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
     if diagnosability(prepared, spec).ok:
         return _diagnose_one(flight, model, profile, keep_flight=keep_flight, parts=parts, prepared=prepared,
                              prior=prior)
-    subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight, prior=prior) for p in parts]
+    # judged each on its own from vibration: without a profile, each against the log's quietest other flight too
+    refs = [None] * len(parts) if profile is not None else [log_reference(parts, i) for i in range(len(parts))]
+    subs = [_diagnose_one(p, model, profile, keep_flight=keep_flight, prior=prior,
+                          vibration_reference=None if r is None else r.to_dict()) for p, r in zip(parts, refs)]
     for p, d in zip(parts, subs):
         d.part = p.part
     w = subs[worst_flight([d.verdict for d in subs])]
@@ -310,7 +313,7 @@ def _diagnose_flight(flight: Flight, model: Any, profile: Any, *, keep_flight: b
 
 def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool,
                   parts: Optional[list] = None, prepared: Optional[PreparedFlight] = None,
-                  prior: float = PRIOR_DAMAGE) -> Diagnosis:
+                  prior: float = PRIOR_DAMAGE, vibration_reference: Optional[dict] = None) -> Diagnosis:
     from .model import model_for_flight
 
     model = model_for_flight(model, flight)  # the shipped quad model -> the one for the flight's rotor count
@@ -337,7 +340,8 @@ def _diagnose_one(flight: Flight, model: Any, profile: Any, *, keep_flight: bool
         if flight.frame is not None and flight.frame.rotor_count > 4 and not flight.frame.unplaced:
             reason += "; no motor stopped while airborne"
         if flight.vibration is not None and flight.airborne and vibration_can_judge(check.reasons):
-            return _vibration_only(flight, profile, n_motors, reason, log, facts_kw, keep_flight, prior)
+            return _vibration_only(flight, profile, n_motors, reason, log, facts_kw, keep_flight, prior,
+                                   vibration_reference)
         return cannot_judge(reason)
     if profile is None:  # only worth saying when a verdict follows
         warnings.append(NO_PROFILE_WARNING if is_shipped_model(model) else NO_PROFILE_OWN_MODEL_WARNING)
@@ -464,9 +468,11 @@ def _per_flight(whole: Diagnosis, parts: list, prepared: PreparedFlight, win: An
 
 
 def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, log: str, facts_kw: dict,
-                    keep_flight: bool, prior: float) -> Diagnosis:
+                    keep_flight: bool, prior: float, vibration_reference: Optional[dict] = None) -> Diagnosis:
     """A flight the full diagnosis cannot take (no motor outputs, no damage model), judged by
-    :func:`~flightlog_fd.decision.decide_flight` from the analyzers that need no motor outputs (vibration)."""
+    :func:`~flightlog_fd.decision.decide_flight` from the analyzers that need no motor outputs
+    (vibration); ``vibration_reference``: one of several flights of a log without a profile, the
+    log's quietest other flight (:func:`~flightlog_fd.analyzers.vibration.log_reference`)."""
     if profile is not None:
         try:  # another airframe's baseline would judge nothing; softer mismatches are warnings
             facts_kw["warnings"].extend(profile.check_compatible(flight) or [])
@@ -475,7 +481,8 @@ def _vibration_only(flight: Flight, profile: Any, n_motors: int, reason: str, lo
                                                       not_diagnosable_reason=e.message, prior=prior))
             return Diagnosis(log=log, verdict=verdict, **facts_kw)
     ctx = Context(flight=flight, frame=flight.frame, n_motors=n_motors, probs=np.zeros((0, n_motors + 1)),
-                  covered_s=0.0, profile=profile)
+                  covered_s=0.0, profile=profile,
+                  memo={LOG_REFERENCE_KEY: vibration_reference} if vibration_reference else {})
     results = run_analyzers(ctx, [a for a in REGISTRY if not a.needs_motor_outputs])
     verdict, decision = decide_flight(DecisionInputs(n_motors, flight.frame, results=results,
                                                      stopped=facts_kw["stopped"], not_diagnosable_reason=reason,

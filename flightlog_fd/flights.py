@@ -99,4 +99,99 @@ def split_flights(flight: Flight) -> list[Flight]:
     return [part_of(flight, a, b, f"flight {i + 1} of {n}, {a:.1f}-{b:.1f} s") for i, (a, b) in enumerate(bounds)]
 
 
-__all__ = ["split_flights", "flight_bounds", "part_of", "SPLIT_GROUND_S", "PART_MARGIN_S"]
+
+
+
+# ----------------------------------------------------------------------------- airborne from the IMU
+
+#: Window (s) of the IMU's airborne test.
+IMU_WINDOW_S = 2.0
+#: Low-pass (Hz) separating the vehicle's motion (below: attitude and body-rate changes, gravity)
+#: from the motors' vibration (above: ArduPilot's VIBE floor filter, 5 Hz).
+IMU_FLOOR_HZ = 5.0
+#: Motors running: the accelerometer's vibration above IMU_FLOOR_HZ (RMS, all axes) reaches this
+#: many times the log's resting level (its quietest IMU_REST_QUANTILE of windows, at most
+#: IMU_REST_MAX: a resting MEMS accelerometer reads 0.01-0.05 m/s/s). A log that never rests (it
+#: starts in flight) counts every window as running.
+IMU_RUNNING_FACTOR = 2.0
+IMU_REST_QUANTILE = 0.1
+IMU_REST_MAX = 0.1
+#: Flying: the body rates (the gyro below IMU_FLOOR_HZ) move by this much (std within a window,
+#: deg/s): a vehicle on the ground, motors running or not, is held still by it. Measured on the 45
+#: real logs whose land detector is known (results/vibration.md, "airborne from the IMU"): 5 % of
+#: airborne windows below 3.1 deg/s, half the running-on-the-ground windows below 0.65.
+IMU_MIN_MOTION_DPS = 2.0
+#: Flying windows closer than this (s) join; a stretch shorter than this is not a flight.
+IMU_MERGE_S = 4.0
+IMU_MIN_FLIGHT_S = 5.0
+#: Stream rate (Hz) the test needs: above twice IMU_FLOOR_HZ, with margin.
+IMU_MIN_RATE_HZ = 20.0
+
+
+def _window_stats(s: Series, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(window start times, RMS above IMU_FLOOR_HZ per window (all axes), std of the part below it
+    per window (all axes))."""
+    fs = s.rate_hz
+    k = max(int(round(fs / IMU_FLOOR_HZ)), 1)
+    x = s.values[:, :3]
+    c = np.cumsum(np.vstack([np.zeros((1, 3)), x]), axis=0)
+    lp = (c[k:] - c[:-k]) / k
+    hp = x[k // 2:k // 2 + lp.shape[0]] - lp
+    n = hp.shape[0] // w
+    if n == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    hf = np.sqrt((hp[:n * w] ** 2).reshape(n, w, 3).mean(axis=1).sum(axis=1))
+    low = lp[:n * w].reshape(n, w, 3)
+    motion = np.sqrt(low.var(axis=1).sum(axis=1))
+    return s.t[k // 2:k // 2 + n * w:w], hf, motion
+
+
+def imu_airborne(flight: Flight) -> list[tuple[float, float]]:
+    """Airborne intervals from the fastest continuous IMU alone (a log with no land detector,
+    arming or motor outputs): windows where the motors run (the accelerometer's vibration,
+    IMU_RUNNING_FACTOR over the log's rest) and the vehicle moves (its body rates, gravity's
+    direction, IMU_MIN_MOTION_DPS), joined across IMU_MERGE_S, at least IMU_MIN_FLIGHT_S long.
+    [] when the log has no gyro fit for it."""
+    v = flight.vibration
+    if v is None:
+        return []
+    imu = v.fastest("gyro", batch=False)
+    if imu is None or imu.gyro.rate_hz < IMU_MIN_RATE_HZ or len(imu.gyro) < 4 * IMU_WINDOW_S * imu.gyro.rate_hz:
+        return []
+    g = imu.gyro
+    w = max(int(round(IMU_WINDOW_S * g.rate_hz)), 4)
+    t0, _, motion = _window_stats(g, w)
+    flying = np.degrees(motion) >= IMU_MIN_MOTION_DPS
+    a = imu.accel if imu.accel is not None else None
+    if a is not None and a.rate_hz >= IMU_MIN_RATE_HZ and len(a) >= 4 * w:
+        ta, hf, _ = _window_stats(a, max(int(round(IMU_WINDOW_S * a.rate_hz)), 4))
+        if hf.size >= 4:
+            rest = float(np.quantile(hf, IMU_REST_QUANTILE))
+            running = hf >= IMU_RUNNING_FACTOR * rest if rest <= IMU_REST_MAX else np.ones(hf.size, bool)
+            flying &= np.interp(t0, ta, running.astype(float), left=0.0, right=0.0) > 0.5
+    dt = w / g.rate_hz
+    spans: list[list[float]] = []
+    for s0 in t0[flying]:
+        if spans and s0 - spans[-1][1] <= IMU_MERGE_S:
+            spans[-1][1] = s0 + dt
+        else:
+            spans.append([s0, s0 + dt])
+    return [(float(x), float(y)) for x, y in spans if y - x >= IMU_MIN_FLIGHT_S]
+
+
+def with_imu_airborne(flight: Flight) -> Flight:
+    """The flight with its airborne time from the IMU (:func:`imu_airborne`) when the log gave
+    none and has nothing better to find it from (no motor outputs); the source says so."""
+    if flight.airborne or flight.motors is not None:
+        return flight
+    air = imu_airborne(flight)
+    if air:
+        flight.warnings = [w for w in flight.warnings if "airborne time estimated from throttle" not in w]
+        flight.airborne = air
+        flight.airborne_source = "IMU: the motors running (vibration) and the vehicle moving (gyro)"
+        flight.warnings.append(f"no land detector, arming state or motor outputs: airborne time ({sum(b - a for a, b in air):.0f} s) "
+                               "estimated from the IMU (the motors' vibration, gravity and motion)")
+    return flight
+
+__all__ = ["split_flights", "flight_bounds", "part_of", "imu_airborne", "with_imu_airborne", "SPLIT_GROUND_S",
+           "PART_MARGIN_S"]

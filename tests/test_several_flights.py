@@ -105,9 +105,9 @@ def test_the_web_flight_page_lists_each_flight(tmp_path):
         fid = c.get("/api/logs").json()["logs"][0]["id"]
         page = c.get(f"/flights/{fid}").text
     assert 'id="parts"' in page and "flight 1 of 2, 57.0-137.0 s" in page and "flight 2 of 2, 376.8-464.9 s" in page
-    assert page.index("healthy", page.index('id="parts"')) < page.index("damaged", page.index("flight 2 of 2"))
     parts = page[page.index('id="parts"'):page.index("</table>", page.index('id="parts"'))]
-    assert "Healthy" in parts and ("lost" in parts or "Damage" in parts)  # each flight's headline
+    assert parts.index("healthy") < parts.index("damaged", parts.index("flight 2 of 2"))
+    assert "Healthy" in parts and ("lost" in parts or "Damage" in parts or "damaged" in parts)  # each flight's headline
 
 
 def test_calibrate_on_one_flight_of_a_log(tmp_path):

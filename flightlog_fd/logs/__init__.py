@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from ..errors import CorruptLogError, FlightLogError
 from ..flight import Flight, sanitise_flight
+from ..flights import with_imu_airborne
 from .sniff import (DATAFLASH_FMT_ID, DATAFLASH_HEAD, ULOG_MAGIC, collect_logs, read_head,  # noqa: F401  (the package's API)
                     sniff_format)
 
@@ -15,14 +16,16 @@ def load_flight(path) -> Flight:
     """Read a log into a :class:`Flight`, choosing the parser by content, not extension.
 
     Whatever reader made it, the Flight then passes the timestamp checks of
-    :func:`flightlog_fd.flight.sanitise_flight` (implausible samples dropped, with a warning)."""
+    :func:`flightlog_fd.flight.sanitise_flight` (implausible samples dropped, with a warning); a
+    log with no airborne time and nothing to find it from but its IMU (no land detector, arming
+    state or motor outputs) gets it from the IMU (:func:`flightlog_fd.flights.with_imu_airborne`)."""
     kind = sniff_format(path)
     if kind == "ulog":
         from .ulog import read_ulog as reader
     else:
         from .dataflash import read_dataflash as reader
     try:
-        return sanitise_flight(reader(path))
+        return with_imu_airborne(sanitise_flight(reader(path)))
     except FlightLogError:
         raise
     except MemoryError:

@@ -25,7 +25,8 @@ Topics written (PX4 field names; float32 as PX4 logs them):
   ``system_type``) at ``STATUS_RATE_HZ`` plus one message at every arming change;
 - ``vehicle_land_detected`` (``landed`` = not airborne) at ``LAND_DETECTED_RATE_HZ`` plus one at
   every change;
-- ``sensor_combined`` (``accelerometer_m_s2`` and ``gyro_rad`` interpolated to its times) if ``accel``;
+- ``sensor_combined`` (``accelerometer_m_s2`` and ``gyro_rad`` interpolated to its times: the
+  vibration's ``sensor_combined`` gyro where it has one, the integrated raw gyro, else ``rates``) if ``accel``;
 - from ``vibration``: ``vehicle_imu_status`` per IMU (multi_id = instance; accel / gyro vibration
   metrics, coning, the clipping count in ``accel_clipping[0]``) when its metrics are PX4's (VIBE
   has another definition and is not written), ``sensor_accel`` / ``sensor_gyro`` (x, y, z,
@@ -373,8 +374,13 @@ def _topics(flight: Flight, esc_layout: str = "current") -> list[_TopicData]:
     if flight.accel is not None and len(flight.accel):
         acc = flight.accel
         us = _us(acc.t)
-        gyro = (np.column_stack([np.interp(acc.t, flight.rates.t, flight.rates.values[:, i]) for i in range(3)])
-                if flight.rates is not None and len(flight.rates) else np.zeros((len(acc), 3)))
+        # PX4's sensor_combined gyro is the integrated raw gyro, not vehicle_angular_velocity's
+        # low-passed one: the vibration's sensor_combined stream holds it where the Flight has one
+        own = next((s.gyro for s in (flight.vibration.imus if flight.vibration is not None else [])
+                    if s.source == "sensor_combined" and s.gyro is not None and len(s.gyro)), None)
+        src = own if own is not None else flight.rates
+        gyro = (np.column_stack([np.interp(acc.t, src.t, src.values[:, i]) for i in range(3)])
+                if src is not None and len(src) else np.zeros((len(acc), 3)))
         out.append(_TopicData("sensor_combined", us, {
             **{f"gyro_rad[{i}]": gyro[:, i] for i in range(3)},
             **{f"accelerometer_m_s2[{i}]": acc.values[:, i] for i in range(3)}}))

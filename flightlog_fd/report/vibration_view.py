@@ -118,8 +118,9 @@ def _marks(flight, result: Optional[VibrationResult]) -> list[tuple[float, str]]
                 marks.append((float(np.median(c.rpm[ok])) / 60.0, f"motor {k} rotor rate (ESC rpm)"))
     if not marks and result is not None and result.line_hz is not None:
         if result.line_motor is not None:
+            how = "ESC rpm" if result.tie_source == "esc_rpm" else "commanded speed"
             marks.append((result.line_hz, f"line {result.line_hz:.1f} Hz: follows motor {result.line_motor} "
-                                          f"({result.tie_source})"))
+                                          f"({how})"))
         else:
             marks.append((result.line_hz, f"line {result.line_hz:.1f} Hz (no rotor tied)"))
     return marks

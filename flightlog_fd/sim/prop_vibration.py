@@ -103,6 +103,13 @@ RESIDUAL_AERO_RANGE = (0.0, 0.02)
 FLOOR_LEVEL_RANGE = (0.7, 8.0)
 #: Flight-to-flight spread (std of ln) of one airframe's floor: measured 0.03-0.20 (results/vibration.md).
 FLOOR_FLIGHT_SPREAD_LOG = 0.10
+#: The floor grows with the rotors' speed as (w / w_hover)^this, w the rotors' mean speed and
+#: w_hover the airframe's balanced hover speed: the forces that shake a frame (imbalance, blade
+#: passage, motor magnetics) go as w². So motors at rest add no floor, and a payload that turns the
+#: rotors faster shakes more without any damage (the same exponent as the vibration analyzer's
+#: SPEED_EXPONENT prior: a simulated payload checks the comparison at matching speed, not the
+#: exponent itself, which no real log in ../shared spans enough rotor speed to measure).
+FLOOR_SPEED_EXPONENT = 2.0
 #: Raw IMU logging rates the simulator writes (divisors of SENSOR_RATE_HZ).
 IMU_RATES_HZ = (100.0, 125.0, 200.0, 250.0, 500.0, 1000.0)
 
@@ -319,12 +326,16 @@ def add_vibration(flight: Flight, af: Airframe, pv: PropVibration, res, i: int, 
     fs = SENSOR_RATE_HZ
     t_last = flight.t_end - offset
     ts = np.arange(0.0, t_last, 1.0 / fs)
-    sigma = pv.floor / np.sqrt(2.0)  # per axis: VIBE of white noise above 5 Hz is its RMS
+    w_hover = af.omega_max * np.sqrt(af.hover_command)
+    w_mean = np.interp(ts, lines.t, lines.w.mean(axis=1))
+    # per axis: VIBE of white noise above 5 Hz is its RMS; growing with the rotors' speed
+    sigma_t = pv.floor / np.sqrt(2.0) * (np.maximum(w_mean, 0.0) / w_hover) ** FLOOR_SPEED_EXPONENT
+    sigma = pv.floor / np.sqrt(2.0)  # at hover: what the logged (decimated) streams carry
     line_a, line_g = lines.signal(ts)
     t_fine = res.times["sforce"]
     sf = np.column_stack([np.interp(ts, t_fine, res.data["sforce"][:, i, c]) for c in range(3)])
     om = np.column_stack([np.interp(ts, t_fine, res.data["omega_fine"][:, i, c]) for c in range(3)])
-    acc_raw = sf + line_a + sigma * rng.standard_normal((ts.size, 3))
+    acc_raw = sf + line_a + sigma_t[:, None] * rng.standard_normal((ts.size, 3))
     gyro_raw = om + gyro_bias + line_g + gyro_density * np.sqrt(fs) * rng.standard_normal((ts.size, 3))
     every = int(round(fs / METRIC_LOG_HZ))
     idx = np.arange(every - 1, ts.size, every)
@@ -340,14 +351,20 @@ def add_vibration(flight: Flight, af: Airframe, pv: PropVibration, res, i: int, 
         bw = AP_ACCEL_FILTER_HZ * (np.pi / 4) / np.sin(np.pi / 4)  # noise bandwidth of a 2-pole Butterworth
         floor_logged = sigma * np.sqrt(min(bw / (fs / 2), 1.0))
     h_gyro = (lambda f: butterworth2(f, gyro_cutoff_hz))
+    combined_gyro = None
     if flight.rates is not None:
         t = flight.rates.t - offset
         _, g = lines.signal(t, (None, h_gyro))
+        if px4:  # sensor_combined.gyro_rad: the raw gyro integrated over PX4's interval (VehicleIMU),
+            # not the rate controller's IMU_GYRO_CUTOFF low-pass (vehicle_angular_velocity)
+            _, gi = lines.signal(t, (None, h_acc))
+            combined_gyro = Series(flight.rates.t, flight.rates.values + gi, "sensor_combined.gyro_rad")
         flight.rates = Series(flight.rates.t, flight.rates.values + g, flight.rates.source)
     if flight.accel is not None:
         t = flight.accel.t - offset
         a, _ = lines.signal(t, (h_acc, None))
-        a = a + floor_logged * rng.standard_normal(a.shape)
+        grow = (np.maximum(np.interp(t, lines.t, lines.w.mean(axis=1)), 0.0) / w_hover) ** FLOOR_SPEED_EXPONENT
+        a = a + floor_logged * grow[:, None] * rng.standard_normal(a.shape)
         flight.accel = Series(flight.accel.t, flight.accel.values + a, flight.accel.source)
 
     raw = None
@@ -370,6 +387,7 @@ def add_vibration(flight: Flight, af: Airframe, pv: PropVibration, res, i: int, 
         logged = ImuStream(0, "sensor_combined",
                            Series(flight.accel.t, flight.accel.values, "sensor_combined.accelerometer_m_s2")
                            if flight.accel is not None else None,
+                           combined_gyro if combined_gyro is not None else
                            Series(flight.rates.t, flight.rates.values, "sensor_combined.gyro_rad"))
     else:
         vib = Vibration("ardupilot_vibe", {0: Series(tm, ardupilot_vibe(acc_raw, fs)[idx], "VIBE[0].VibeX/Y/Z")},
