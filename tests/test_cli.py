@@ -199,7 +199,7 @@ def test_diagnose_with_profile_compares_against_calibration_and_html_panel(tmp_p
     doc = json.loads(res.stdout)
     assert doc["motor_evidence"]["baseline"] == "profile"
     assert all(m["command_share_baseline"] is not None for m in doc["motors"])
-    assert (doc["verdict"]["status"], doc["verdict"]["motor"]) == ("uncertain", 1)  # the command pattern alone
+    assert (doc["verdict"]["status"], doc["verdict"]["motor"]) == ("damaged", 1)  # rotor 1 lost thrust, cause unknown
     assert "against calibration" in doc["verdict"]["reason"]
     page = html.read_text(encoding="utf-8")
     assert "Per-motor evidence" in page and 'class="motor-panel"' in page

@@ -90,10 +90,10 @@ from pathlib import Path
 from flightlog_fd import batch
 from flightlog_fd.diagnose import resolve_model
 real = batch.diagnose_one
-def exit_on_motor2(index, path, model, profile=None, keep_flight=False):  # runs in a forked pool worker
+def exit_on_motor2(index, path, model, profile=None, keep_flight=False, **kw):  # runs in a forked pool worker
     if "motor2" in str(path):
         os._exit(3)
-    return real(index, path, model, profile, keep_flight)
+    return real(index, path, model, profile, keep_flight, **kw)
 batch.diagnose_one = exit_on_motor2
 files = sys.argv[1:]
 results = batch.run_batch(files, resolve_model(), None, jobs=2)

@@ -89,5 +89,7 @@ def test_wheel_in_clean_venv_diagnoses_and_renders(tmp_path):
     docs = json.loads(subprocess.run(cmds[2], capture_output=True, text=True, cwd=tmp_path).stdout)
     assert [(d["verdict"]["status"], d["verdict"]["motor"]) for d in docs][:1] == [("damaged", 1)]  # rotor 1 lost thrust
     assert (out / "r.html").stat().st_size > 10_000
-    rows = (out / "r.csv").read_text().splitlines()
-    assert len({len(row.split(",")) for row in rows}) == 1, "CSV header and rows differ in width"
+    import csv
+
+    rows = list(csv.reader((out / "r.csv").open(newline="")))
+    assert len({len(row) for row in rows}) == 1, "CSV header and rows differ in width"

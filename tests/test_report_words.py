@@ -71,7 +71,7 @@ def test_legends_without_a_known_cause_do_not_say_propeller(model):
     assert "damaged" not in d.verdict.headline.lower() and d.verdict.headline.endswith("inspect propeller 1")
     text = _terminal(d)
     assert _legend(text).split("1-4 ")[1].startswith(UNKNOWN)
-    assert "cause: unknown: the log has no ESC telemetry" in " ".join(text.split())
+    assert "cause: unknown: the log cannot tell a propeller from a motor" in " ".join(text.split())
     assert [a.kind for a in d.verdict.advice][:3] == ["inspect"] * 3  # propeller, motor and ESC, under it
     assert [a.text.split(":")[0] for a in d.verdict.advice[:3]] == [
         "inspect propeller 1 (front-right)", "then motor 1 and its ESC", "then what sits under rotor 1"]

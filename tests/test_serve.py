@@ -99,14 +99,15 @@ def test_pages_show_the_flight(live):
     assert "script-src 'self';" in csp and "frame-ancestors 'none'" in csp
 
 
-def test_an_uncertain_flight_page_says_how_to_resolve_it(live):
-    """The hexa sample without a profile is uncertain naming motor 5: the page lists the advice."""
+def test_a_damaged_flight_page_says_what_to_inspect(live):
+    """The hexa sample without a profile: rotor 5 lost thrust, cause unknown; the page lists what to
+    inspect, propeller first, and what would tell the cause (ESC telemetry)."""
     fid = upload(live, SAMPLES / "ardupilot_hexa_motor5_damaged.bin").json()["id"]
     wait_done(live, fid)
     page = live.get(f"/flights/{fid}").text
     advice = re.search(r'<div id="advice">(.*?)</div>', page, re.S).group(1)
-    assert "inspect propeller 5" in advice and 'class="advice-calibrate"' in advice
-    assert "fdlog calibrate --no-adapt" in html.unescape(advice)
+    assert "inspect propeller 5" in advice and "then motor 5 and its ESC" in advice
+    assert 'class="advice-esc_telemetry"' in advice
 
 
 def test_logs_without_an_id_are_not_one_unknown_airframe(live):

@@ -179,12 +179,13 @@ def test_run_info_names_the_vehicle_of_a_log_without_id_after_the_profile(tmp_pa
 
 
 def test_history_flags_a_latest_flight_that_asks_to_inspect_a_propeller(tmp_path):
-    """A latest flight that is uncertain naming a propeller (the hexa sample without a profile: rotor
-    5, or a load toward it) is flagged as diagnose's exit 1 is: 'inspect propeller 5', exit 1; a
-    healthy latest flight is not."""
+    """A latest flight that is uncertain naming a propeller (the hexa sample without a profile, for a
+    fleet whose prior of damage is 0.05: rotor 5 at P 0.35) is flagged as diagnose's exit 1 is:
+    'inspect propeller 5', exit 1; a healthy latest flight is not."""
     db = str(tmp_path / "h.sqlite")
     hexa = "ardupilot_hexa_motor5_damaged.bin"
-    res = runner.invoke(app, ["diagnose", str(SAMPLES / hexa), str(SAMPLES / "px4_healthy.ulg"), "--db", db])
+    res = runner.invoke(app, ["diagnose", "--prior-damage", "0.05", str(SAMPLES / hexa), str(SAMPLES / "px4_healthy.ulg"),
+                              "--db", db])
     assert res.exit_code == 1, res.output
     res = runner.invoke(app, ["history", "--db", db, "--json"])
     assert res.exit_code == 1, res.output
