@@ -23,7 +23,7 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/fdlog diagnose sample_logs/ || [ $$? -eq 1 ]
 	@echo "--- an octocopter calibrated on ONE healthy flight of the same airframe, then its damaged flight"
-	@echo "--- (expected: uncertain naming propeller 2: only the commands point at it, which a moved load can also do):"
+	@echo "--- (expected: rotor 2 lost about 30 % of its thrust, damaged; the cause unknown: only the commands see it):"
 	@mkdir -p build/demo
 	$(BIN)/fdlog calibrate --no-adapt --force sample_logs/px4_octo_healthy.ulg -o build/demo/octo_profile.json
 	$(BIN)/fdlog diagnose --profile build/demo/octo_profile.json sample_logs/px4_octo_motor2_damaged.ulg || [ $$? -eq 1 ]

@@ -884,7 +884,8 @@ def _reason(v: Verdict, hyp: Hypotheses, cmd, vib, cause: Optional[Cause], decis
             parts.append(why)
     else:  # healthy
         if v.load:
-            parts.append(f"propellers healthy: {v.load['words']} (a moved load, {hyp.load_llr:+.1f} nats against "
+            said = "propellers healthy" if v.seen else "the pattern fits a moved load better than a lost rotor"
+            parts.append(f"{said}: {v.load['words']} (a moved load, {hyp.load_llr:+.1f} nats against "
                          f"none; a rotor that lost thrust would need more)")
         k = int(np.argmax(hyp.rotor)) + 1 if hyp.n else None
         if k is not None:
