@@ -21,7 +21,7 @@ what ``fdlog calibrate`` stores), and with ``--verdicts`` by ``diagnose_flight``
 profile from ``calibrate(adapt=False)``).
 
 Printed per (profile, frame): the line shows (the fastest IMU stream >= 100 Hz), flagged
-(``flight_llr`` >= decision.UNCERTAIN_LLR) without a profile, damaged (>= DAMAGED_LLR) against the
+(``flight_llr`` at the posterior's uncertain bar for an untied line) without a profile, damaged (at its damaged bar) against the
 profile; the rotor named right / wrong / none, and whether the rotors' speeds parted (the
 analyzer's measure: the rotors' predicted lines further apart than twice the track's scatter);
 healthy twins damaged; payload twins damaged; unbalanced payload twins found. Then the tie's
@@ -42,7 +42,30 @@ import numpy as np
 from flightlog_fd import load_flight
 from flightlog_fd.analyzers.rotor_lines import rotors_parted
 from flightlog_fd.analyzers.vibration import analyze_vibration, fit_vibration_baseline, log_reference, result_from
-from flightlog_fd.decision import DAMAGED_LLR, UNCERTAIN_LLR
+from flightlog_fd.decision import hypotheses, inspect_bar
+
+
+def _untied_bars(n: int = 4) -> tuple[float, float]:
+    """(uncertain, damaged): the flight_llr at which an untied line alone (no other source) makes
+    the posterior's verdict uncertain (P(damage) at the inspection bar) and damaged (even odds)
+    under the decision's stated prior, on an n-rotor: the bars the "flagged" and "damaged" counts
+    below use, found by bisection on the decision itself."""
+    from flightlog_fd.analyzers.vibration import VibrationResult
+
+    def p_damage(f: float) -> float:
+        r = VibrationResult("vibration", flight_llr=f, tie_probs=[1.0 / n] * n)
+        return hypotheses([r], n, None).p_damage
+
+    def solve(target: float) -> float:
+        lo, hi = -10.0, 40.0
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if p_damage(mid) < target else (lo, mid)
+        return round(hi, 2)
+    return solve(inspect_bar()), solve(0.5)
+
+
+UNCERTAIN_LLR, DAMAGED_LLR = _untied_bars()
 from flightlog_fd.flights import imu_airborne, split_flights
 
 ROOT = Path(__file__).resolve().parents[1]
