@@ -29,7 +29,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .flight import Flight, Series
+from .flight import Series
 
 
 #: Roll/pitch rate RMS (rad/s) above which a window is a manoeuvre whatever else it is.

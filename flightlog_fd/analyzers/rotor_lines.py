@@ -38,7 +38,7 @@ function of its command (motors and propellers of one kind), which a weak motor 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Optional
 
 import numpy as np
 

@@ -33,7 +33,7 @@ at least ``BASELINE_MIN_THROTTLE_RANGE`` of throttle (else flat).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Iterable, Optional, Sequence
 
 import numpy as np

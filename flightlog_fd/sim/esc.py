@@ -51,7 +51,7 @@ from typing import Optional, Sequence, Union
 import numpy as np
 
 from flightlog_fd.flight import EscChannel, EscTelemetry
-from flightlog_fd.sim.airframe import GRAVITY, Airframe
+from flightlog_fd.sim.airframe import Airframe
 
 #: ESC telemetry rates drawn when none is given (Hz): DShot/BLHeli telemetry on ArduPilot and
 #: PX4 reach 10-100 Hz per ESC.

@@ -57,7 +57,7 @@ mass; one line per rotor (no harmonics, no blade-pass line); the floor is white.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Optional, Sequence, Union
 
 import numpy as np
