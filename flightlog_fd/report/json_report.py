@@ -99,6 +99,10 @@ frame's rotor count (4, 6, 8, ...; motors in the autopilot's own numbering, clas
                                       "weights": {analyzer id: {"cell": str,   # its reliability-table cell
                                                   "trust": "trusted" | "corroborating" | "discounted" | null,
                                                   "cap": float}},  # the most nats it could give
+                                      "posterior": {hypothesis: probability},  # "healthy", "load",
+                                                  # "rotor k", "rotors j+k": the one posterior the verdict
+                                                  # is read from (decision.hypotheses), under the prior
+                                      "load_llr": float | null,  # a moved load's evidence, nats
                                       "pair": {"motors": [a, b], "llr": float,     # the most likely pair of
                                                "llr_by_source": {id: nats},       # rotors and its excess over
                                                "eta_hat": [ea, eb]|null,          # the best single rotor
@@ -328,6 +332,7 @@ JSON_SCHEMA: dict = {
                              "properties": {"sources": {"type": "array", "items": {"type": "string"}},
                                             "healthy_chi2": _NUM_OR_NULL, "share_sigma": _NUM_OR_NULL,
                                             "weights": {"type": "object"},
+                                            "posterior": {"type": "object"}, "load_llr": _NUM_OR_NULL,
                                             "pair": {"type": ["object", "null"],
                                                      "required": ["motors", "llr", "llr_by_source", "eta_hat",
                                                                   "excess"],
@@ -401,6 +406,8 @@ def _motor_evidence(d: Diagnosis) -> Optional[dict]:
                 "healthy_chi2": None if d.decision.healthy_chi2 is None else round(float(d.decision.healthy_chi2), 3),
                 "share_sigma": None if d.decision.share_sigma is None else round(float(d.decision.share_sigma), 4),
                 "weights": {k: w.as_dict() for k, w in d.decision.weights.items()},
+                "posterior": {h: round(float(x), 4) for h, x in d.decision.posterior.items()},
+                "load_llr": None if d.decision.load_llr is None else round(float(d.decision.load_llr), 3),
                 "pair": d.decision.pairs[0].as_dict() if d.decision.pairs else None}}
 
 
