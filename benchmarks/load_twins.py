@@ -102,7 +102,12 @@ def _cell(frame: str, profile: str, per_cell: int, seed: int, duration_s: float,
                                imbalance=[imbs[v[0]] for v in vehicles], damages=[v[2] for v in vehicles],
                                loads=[v[3] for v in vehicles], mission=[v[4] for v in vehicles],
                                duration_s=duration_s, profile=profile, noise="real_logs", midflight_fraction=0.0,
-                               esc=esc_spec, seed=seed)
+                               esc=esc_spec, seed=seed,
+                               # every airframe shakes as a real one does (its intact propellers' residual
+                               # imbalance and broadband floor, sim/prop_vibration.py): without it a raw
+                               # accelerometer level is the manoeuvres' alone, and two healthy flights of
+                               # one airframe differed 7.6x (ardupilot_fast, seed 9300)
+                               prop_imbalance="residual")
     return flights, vehicles, afs
 
 
