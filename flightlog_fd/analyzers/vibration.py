@@ -101,8 +101,11 @@ PROFILE_SPREAD_LOG = 0.25
 #: 1.5x..10x (octo_air: 15 mm and 35 mm cuts, 5-7x its healthy level; ArduPilot calls > 30 m/s/s
 #: a problem, 6x a typical healthy frame).
 IMBALANCE_PRIOR = np.log(np.linspace(1.5, 10.0, 60))
-#: Without a profile the level's LLR is capped below decision.DAMAGED_LLR (6): healthy airframes
-#: span 0.7-8.0 m/s/s, so only the airframe's own baseline can prove damage from the level alone.
+#: Without a profile the level's LLR is capped: healthy airframes span 0.7-8.0 m/s/s, so only the
+#: airframe's own baseline can make the level alone sure. Under the decision's posterior (prior of
+#: damage 0.10, no rotor named) 5 nats is P(damage) about 0.9: a level far beyond every healthy
+#: airframe (octo_air 10: 31 m/s/s, 4.3 spreads above the reference) is damaged naming no rotor;
+#: the real healthy flights of ../shared stay at or below 0 nats (results/vibration.md).
 NO_PROFILE_LLR_CAP = 5.0
 #: The level's LLR is floored here (a quiet flight clears only so far: a mild imbalance can hide
 #: under a quiet airframe's spread).
@@ -136,9 +139,10 @@ HEALTHY_LINE_SPREAD_LOG = 1.0
 #: Prior of the line's rise over a healthy propeller's, as log-factors: 3x..300x (udesa's cut
 #: propeller: >= 18 m/s/s, 60x the reference; the simulated 10-100 g·mm imbalances 3-60x).
 LINE_RISE_PRIOR = np.log(np.geomspace(3.0, 300.0, 60))
-#: The line's LLR is capped here: below decision.DAMAGED_LLR (6), so a line alone (its healthy
-#: reference is physics, not measured on real flights) makes a flight at most uncertain; with a
-#: raised level (>= 1 nat) it can make it damaged.
+#: The line's LLR is capped here, as the level's without a profile: its healthy reference is
+#: physics, not measured on real flights, so a line alone says at most what a level far beyond
+#: every healthy airframe says; tied to a rotor it names that rotor, and with a raised level it
+#: adds to it (udesa: line +5.0, level +4.6).
 LINE_LLR_CAP = 5.0
 #: Against a profile whose calibration measured its accelerometer's strongest line (same stream,
 #: RAW_RATE_MATCH), the line is weighed against this airframe's own: flight-to-flight spread of a
