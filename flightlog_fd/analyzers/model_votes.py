@@ -435,13 +435,14 @@ class ModelVotes(Analyzer):
     id = "model"
     description = "the model's window votes (mean probability per motor), weighed as one flight"
     requires = ()
-    #: Where the reliability table has no cell for the log (or the kind of log is unknown) the model
-    #: alone never makes a damaged verdict (decision.DAMAGED_LLR 6): it was trained on simulated
+    #: Where the reliability table has no cell for the log (or the kind of log is unknown: synthetic
+    #: flights, tools) the model gives at most this, the "corroborating" cap the table was measured
+    #: with (a nat below the damaged bar of the decision of issue 22-36): it was trained on simulated
     #: airframes, and on a real one a session's trim can look like damage to it (CrazyPAD E9
     #: cut_propeller_M3_2mm logs 04-05: a calibrated model 6 sigma sure of motor 1, whose command
-    #: rose only 4 %, while the label says motor 2). Another source must add at least a nat. Where
-    #: the table trusts it (measured quiet on real flights of that kind) it may give up to
-    #: SOURCE_LLR_CAP.
+    #: rose only 4 %, while the label says motor 2). Every real log has a cell, whose trust level
+    #: sets the cap instead (decision.TRUST_CAPS: up to SOURCE_LLR_CAP where it is trusted, a nat
+    #: below the posterior's damaged bar where it corroborates).
     llr_cap = 5.0
     #: Its reliability depends on how well the streams fill its windows, on the profile (an adapted
     #: model, or the airframe's own vote baseline) and on the rotor count (another shipped model).
