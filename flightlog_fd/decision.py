@@ -150,7 +150,7 @@ def inspect_bar(miss_cost: float = MISS_COST) -> float:
 
 def evidence_bars(n: int, prior: float = PRIOR_DAMAGE) -> tuple[float, float]:
     """(uncertain, damaged): the nats one rotor alone must give to reach :func:`inspect_bar` and even
-    odds under ``prior`` on an n-rotor (no load, no pair): 1.3 and 3.6 on a quad at 0.1."""
+    odds under ``prior`` on an n-rotor (no load, no pair): 2.5 and 3.6 on a quad at 0.1."""
     base = np.log((1.0 - prior) * n / prior)
     return float(base + np.log(inspect_bar() / (1.0 - inspect_bar()))), float(base)
 

@@ -21,8 +21,7 @@ from .store import TREND_FIGURES, UNKNOWN_VEHICLE
 
 def history_summary(history: dict[str, list[FlightRecord]]) -> dict:
     """JSON-ready: per vehicle its flights, drifts and whether its latest flight is damaged, or
-    uncertain naming propellers to inspect (``latest_inspect``: exit 1 as ``fdlog diagnose`` gives it;
-    a flight only the command pattern points at is uncertain, a rotor or a load at its corner).
+    uncertain naming propellers to inspect (``latest_inspect``: exit 1 as ``fdlog diagnose`` gives it).
 
     ``unknown`` (logs with no identity, no profile) is not one airframe: no drift there, and any
     damaged flight in it counts as a latest flight."""
