@@ -211,8 +211,11 @@ def run_sim(configs, n_air: int, seed: int, verdicts: bool) -> None:
                             v = diagnose_flight(fl[tag], model, pr, keep_flight=False).verdict
                             st = v.status
                             if tag == "u" and st == "damaged":
-                                st += "+" + ("right" if (v.motor == k or (v.inspect and v.inspect[0] == k)) else
-                                             "all" if v.motor is None and not v.inspect else "wrong")
+                                # right: rotor k named; wrong: another rotor named; every: no rotor
+                                # named, every propeller (or a list holding k) to inspect; missed: a
+                                # list that leaves k out
+                                st += "+" + ("right" if v.motor == k else "wrong" if v.motor is not None else
+                                             "every" if not v.inspect or k in v.inspect else "missed")
                             vc[f"{tag}_{lab}"][st] += 1
             for key in c:
                 tot[key] += c[key]
