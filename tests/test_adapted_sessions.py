@@ -85,7 +85,11 @@ def test_full_rate_and_shipped_model_keep_the_plain_baseline():
 
 
 def test_the_adapted_low_rate_cell_follows_the_rule_without_an_exception():
-    assert trust_of("model", "low rate, profile, adapted model, quad") == "corroborating"
+    # re-measured at the posterior's bars: 10 / 8 of 20 real cross-session pairs reach 2.5 / 3.6
+    from flightlog_fd.analyzers.reliability import EXCEPTIONS
+
+    assert trust_of("model", "low rate, profile, adapted model, quad") == "discounted"
+    assert ("model", "low rate, profile, adapted model, quad") not in EXCEPTIONS
 
 
 def test_each_adaptation_keeps_its_own_session_drift():
