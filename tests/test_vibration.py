@@ -441,3 +441,36 @@ def test_calibrate_add_gives_the_vibration_baseline_a_session_at_the_payloads_ro
     b1 = VibrationBaseline.from_dict(res.profile.analyzers[ANALYZER_ID])
     assert len(b1.sessions) == 2 and b1.sessions[1]["speed"] > b1.sessions[0]["speed"]
     assert any("vibration:" in c for c in res.changes)
+
+
+def test_a_slope_into_the_band_edge_is_not_a_line():
+    """Power below LINE_MIN_HZ (manoeuvres, frame modes) rises into the band's first bins: the
+    edge bin is no line (it once was "a 20 Hz line that follows nothing"); a true line inside the
+    band is still found beside it."""
+    from flightlog_fd.analyzers.rotor_lines import LINE_MIN_HZ, Spectra, _peak
+
+    freqs = np.arange(0.0, 125.0, 0.5)
+    slope = 1.0 + 400.0 * np.exp(-(freqs - 5.0) / 4.0).clip(max=1e6)
+    power = np.tile(slope, (30, 1))
+    sp = Spectra("sensor_combined", "gyro", 250.0, 128, freqs, power, np.arange(30.0))
+    f, prom = _peak(sp)
+    assert not np.isfinite(f) or f > LINE_MIN_HZ + 1.0
+    lined = power.copy()
+    lined[:, np.argmin(np.abs(freqs - 61.0))] += 80.0
+    f, prom = _peak(Spectra("sensor_combined", "gyro", 250.0, 128, freqs, lined, np.arange(30.0)))
+    assert f == pytest.approx(61.0) and prom > 50.0
+
+
+def test_the_band_edge_of_rflymad_testcase_1_is_no_line():
+    """RflyMAD's SIL log TestCase_1 (PX4 firmware) once reported a fixed "20 Hz line" (its gyro's
+    low-frequency power at the band's edge); it has no line."""
+    log = SHARED / "real_logs" / "px4" / "rflymad_sil" / "TestCase_1_1000000000.ulg"
+    if not log.is_file():
+        pytest.skip("../shared/real_logs TestCase_1 not available")
+    from flightlog_fd import load_flight
+    from flightlog_fd.analyzers.rotor_lines import find_rotor_line
+    from flightlog_fd.analyzers.vibration import _intervals
+
+    f = load_flight(log)
+    line, _ = find_rotor_line(f, _intervals(f))
+    assert line is None or line.freq_hz > 21.0

@@ -3,8 +3,9 @@ the flight (folded back where they lie above the logged Nyquist frequency) and t
 whose speed they follow.
 
 What: :func:`find_rotor_line` takes a flight and its airborne intervals and returns the strongest
-narrow line of the horizontal gyro or accelerometer spectrum (:class:`RotorLine`), its frequency
-track in ``TRACK_WINDOW_S`` windows, its amplitude in the accelerometer, and the tie:
+narrow line (a local maximum inside the band) of the horizontal gyro or accelerometer spectrum
+(:class:`RotorLine`), its frequency track in ``TRACK_WINDOW_S`` windows, its amplitude in the
+accelerometer, and the tie:
 
 - **speeds**: each rotor's speed per window, from ESC rpm where every motor reports it
   (``tie_source`` "esc_rpm"; the line must sit at once per revolution of its rotor, within
@@ -249,7 +250,14 @@ def _peak(sp: Spectra) -> tuple[float, float]:
     if not ok.any():
         return float("nan"), 0.0
     m = (sp.power[ok][:, band] / med[ok]).mean(axis=0)
-    i = int(np.argmax(m))
+    # a line is a local maximum: the band's edge bins only carry the skirt of what lies outside
+    # it (manoeuvres and frame modes below LINE_MIN_HZ rising into the band: a "20 Hz line" that
+    # follows nothing: 3 simulated twins and RflyMAD SIL TestCase_1, results/vibration.md)
+    inner = np.zeros(m.size, bool)
+    inner[1:-1] = (m[1:-1] > m[:-2]) & (m[1:-1] >= m[2:])
+    if not inner.any():
+        return float("nan"), 0.0
+    i = int(np.argmax(np.where(inner, m, -np.inf)))
     return float(sp.freqs[band][i]), float(m[i])
 
 
