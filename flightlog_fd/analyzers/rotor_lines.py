@@ -3,9 +3,8 @@ the flight (folded back where they lie above the logged Nyquist frequency) and t
 whose speed they follow.
 
 What: :func:`find_rotor_line` takes a flight and its airborne intervals and returns the strongest
-narrow line (a local maximum inside the band) of the horizontal gyro or accelerometer spectrum
-(:class:`RotorLine`), its frequency track in ``TRACK_WINDOW_S`` windows, its amplitude in the
-accelerometer, and the tie:
+narrow line of the horizontal gyro or accelerometer spectrum (:class:`RotorLine`), its frequency
+track in ``TRACK_WINDOW_S`` windows, its amplitude in the accelerometer, and the tie:
 
 - **speeds**: each rotor's speed per window, from ESC rpm where every motor reports it
   (``tie_source`` "esc_rpm"; the line must sit at once per revolution of its rotor, within
@@ -250,14 +249,7 @@ def _peak(sp: Spectra) -> tuple[float, float]:
     if not ok.any():
         return float("nan"), 0.0
     m = (sp.power[ok][:, band] / med[ok]).mean(axis=0)
-    # a line is a local maximum: the band's edge bins only carry the skirt of what lies outside
-    # it (manoeuvres and frame modes below LINE_MIN_HZ rising into the band: a "20 Hz line" that
-    # follows nothing: 3 simulated twins and RflyMAD SIL TestCase_1, results/vibration.md)
-    inner = np.zeros(m.size, bool)
-    inner[1:-1] = (m[1:-1] > m[:-2]) & (m[1:-1] >= m[2:])
-    if not inner.any():
-        return float("nan"), 0.0
-    i = int(np.argmax(np.where(inner, m, -np.inf)))
+    i = int(np.argmax(m))
     return float(sp.freqs[band][i]), float(m[i])
 
 
@@ -439,6 +431,12 @@ def why_untied(line: RotorLine, n: int) -> str:
     if not line.tie_source:
         return "this log has no motor outputs or ESC rpm, so the line cannot be tied to a rotor"
     if not line.follows:
+        if line.freq_hz < LINE_MIN_HZ + 1.0 / TRACK_WINDOW_S:  # within one resolution of the band's edge
+            # the skirt of what lies below the band; the edge is kept as a line because a rotor's
+            # line folded just below it shows there too (results/vibration.md)
+            return (f"the strongest power sits at the band's lower edge ({line.freq_hz:.1f} Hz) and does not "
+                    f"follow the rotors' speed ({line.follows_llr:+.1f} nats against a fixed frequency): motion "
+                    f"or a frame mode below {LINE_MIN_HZ:.0f} Hz, not a rotor")
         return (f"the line at {line.freq_hz:.1f} Hz does not follow the rotors' speed (a fixed frequency "
                 f"explains it as well, {line.follows_llr:+.1f} nats): a frame or mount resonance, not a rotor")
     sig = line.track_sigma_hz or 0.0
