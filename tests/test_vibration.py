@@ -471,3 +471,6 @@ def test_the_band_edge_of_rflymad_testcase_1_is_said_to_be_the_edge():
     a = analyze_vibration(load_flight(log))
     assert a.line is not None and not a.line.follows and a.line_llr == 0.0
     assert "lower edge" in a.line.why_untied
+    from flightlog_fd.analyzers.vibration import line_words
+
+    assert line_words(a.line).startswith("the gyro spectrum's strongest power, at 20.")

@@ -426,17 +426,23 @@ def tie_motor(line: Optional[RotorLine]) -> Optional[int]:
     return k if line.tie_probs[k - 1] >= TIE_NAME_P else None
 
 
+def at_band_edge(line: RotorLine) -> bool:
+    """The line sits within one resolution (1 / TRACK_WINDOW_S) of the band's lower edge: there the
+    strongest power can be the skirt of motion below the band (it then follows nothing), or a
+    rotor's line folded just below it, which follows its rotor (results/vibration.md), so the edge
+    stays a candidate and only the words differ."""
+    return line.freq_hz < LINE_MIN_HZ + 1.0 / TRACK_WINDOW_S
+
+
 def why_untied(line: RotorLine, n: int) -> str:
     """Plain words: why the line names no rotor (module docstring), with the measure; "" when it names one."""
     if not line.tie_source:
         return "this log has no motor outputs or ESC rpm, so the line cannot be tied to a rotor"
     if not line.follows:
-        if line.freq_hz < LINE_MIN_HZ + 1.0 / TRACK_WINDOW_S:  # within one resolution of the band's edge
-            # the skirt of what lies below the band; the edge is kept as a line because a rotor's
-            # line folded just below it shows there too (results/vibration.md)
-            return (f"the strongest power sits at the band's lower edge ({line.freq_hz:.1f} Hz) and does not "
-                    f"follow the rotors' speed ({line.follows_llr:+.1f} nats against a fixed frequency): motion "
-                    f"or a frame mode below {LINE_MIN_HZ:.0f} Hz, not a rotor")
+        if at_band_edge(line):
+            return (f"it sits at the band's lower edge and does not follow the rotors' speed "
+                    f"({line.follows_llr:+.1f} nats against a fixed frequency): motion or a frame mode below "
+                    f"{LINE_MIN_HZ:.0f} Hz, not a rotor")
         return (f"the line at {line.freq_hz:.1f} Hz does not follow the rotors' speed (a fixed frequency "
                 f"explains it as well, {line.follows_llr:+.1f} nats): a frame or mount resonance, not a rotor")
     sig = line.track_sigma_hz or 0.0
@@ -540,6 +546,6 @@ def strongest_accel_line(flight: Flight, intervals) -> Optional[tuple[float, str
     return float(sp.rms(np.mean(lp))), sp.source, float(sp.fs)
 
 
-__all__ = ["RotorLine", "Spectra", "find_rotor_line", "fold", "rotor_speeds", "rotors_parted", "spectra",
+__all__ = ["RotorLine", "Spectra", "at_band_edge", "find_rotor_line", "fold", "rotor_speeds", "rotors_parted", "spectra",
            "strongest_accel_line", "tie", "tie_motor", "track", "tracked_prominence", "why_untied",
            "LINE_MIN_HZ", "LINE_PROMINENCE", "MIN_SPECTRUM_HZ", "TIE_NAME_P", "TRACK_WINDOW_S"]

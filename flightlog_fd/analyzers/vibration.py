@@ -75,7 +75,7 @@ import numpy as np
 from ..flight import Flight, Series
 from .base import Analyzer, AnalyzerResult, Context, Finding
 from .rotor_lines import (LINE_MIN_HZ, LINE_PROMINENCE, MIN_SPECTRUM_HZ, PSD_BATCH, TIE_NAME_P,  # noqa: F401
-                          RotorLine, _psds, find_rotor_line, strongest_accel_line, tie_motor)
+                          RotorLine, _psds, at_band_edge, find_rotor_line, strongest_accel_line, tie_motor)
 
 ANALYZER_ID = "vibration"
 #: Seconds dropped after take-off and before landing (spin-up, ground contact).
@@ -580,7 +580,9 @@ def analyze_vibration(flight: Flight, baseline: Optional[VibrationBaseline] = No
 
 def line_words(line: RotorLine) -> str:
     """Plain words for the rotor line and its tie."""
-    words = (f"a line at {line.freq_hz:.1f} Hz in the {line.kind} spectrum ({line.prominence:.0f}x the band"
+    edge = not line.follows and at_band_edge(line)  # the skirt of motion below the band, no line
+    words = ((f"the {line.kind} spectrum's strongest power, at {line.freq_hz:.1f} Hz" if edge else
+              f"a line at {line.freq_hz:.1f} Hz in the {line.kind} spectrum") + f" ({line.prominence:.0f}x the band"
              + (f"; {line.amplitude:.1f} m/s/s RMS in the horizontal accelerometer" if line.amplitude else "")
              + ")")
     if line.folded and line.rotor_hz is not None:
