@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import subprocess
 import sys
 import time
 from collections import Counter, defaultdict
@@ -40,43 +39,18 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_confidence as bc  # noqa: E402  (truth per set, the simulated batch, one record per verdict)
+import golden_verdicts as gv  # noqa: E402  (profiles made once, the board groups)
 
 ROOT = bc.ROOT
 SHARED = bc.SHARED
-FDLOG = bc.FDLOG
 
 
 def _calibrate(name: str, logs: list[Path], folder: Path, adapt: bool) -> Path | None:
-    """The profile (made once into ``folder``), or None when the CLI refuses it."""
-    out = folder / f"{name}_{'adapted' if adapt else 'noadapt'}.json"
-    if not out.exists():
-        t0 = time.perf_counter()
-        cmd = [FDLOG, "calibrate", *([] if adapt else ["--no-adapt"]), *map(str, logs), "-o", str(out)]
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode != 0:
-            print(f"  calibration {name} refused: {(r.stderr or r.stdout).strip()[-200:]}", file=sys.stderr)
-            return None
-        print(f"  calibrated {out.name} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+    """The profile (made once into ``folder`` by golden_verdicts._profile), or None when the CLI refuses it."""
+    out, why = gv._profile(f"{name}_{'adapted' if adapt else 'noadapt'}", logs, folder, adapt)
+    if out is None:
+        print(f"  calibration {name} refused: {why}", file=sys.stderr)
     return out
-
-
-def _diagnose(logs: list[Path], profile: Path | None) -> dict[str, dict]:
-    cmd = [FDLOG, "diagnose", "--json", *(["--profile", str(profile)] if profile else []), *map(str, logs)]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if not r.stdout.strip():
-        raise SystemExit(f"fdlog diagnose printed nothing (exit {r.returncode}): {r.stderr[-2000:]}")
-    docs = json.loads(r.stdout)
-    return {str(Path(d["log"])): d for d in (docs if isinstance(docs, list) else [docs])}
-
-
-def _board_groups() -> dict[str, list[Path]]:
-    groups: dict[str, list[Path]] = defaultdict(list)
-    man = SHARED / "real_healthy" / "manifest.csv"
-    if man.exists():
-        for row in csv.DictReader(man.open()):
-            if row.get("board_group"):
-                groups[row["board_group"]].append(SHARED / "real_healthy" / "logs" / row["file"])
-    return {g: sorted(v) for g, v in sorted(groups.items()) if len(v) >= 2}
 
 
 def _profiles(set_name: str, rows: list) -> list[tuple[str, list[Path], list]]:
@@ -86,7 +60,7 @@ def _profiles(set_name: str, rows: list) -> list[tuple[str, list[Path], list]]:
     sih004 = SHARED / "px4_sih_dev" / "logs" / "sih_004.ulg"
     if set_name == "real healthy":
         return [(f"board_{g}_{i}", [f], [(p, bc.HEALTHY) for p in files])
-                for g, files in _board_groups().items() for i, f in enumerate(files)]
+                for g, files in gv._healthy_groups().items() for i, f in enumerate(files)]
     if set_name == "rrc_straight":
         return [(f"rrc_g{i}", [g], rows) for i, g in enumerate(sorted(rrc.glob("good_prop_*.BIN")), 1)]
     if set_name in ("crazypad_e9", "crazypad_e9_load") and cp:
@@ -140,7 +114,7 @@ def run(args) -> list[dict]:
             continue
         truth = {str(p): t for p, t in rows}
         recs += [record(d, set=set_name, profile="none", truth=truth[log])
-                 for log, d in _diagnose([p for p, _ in rows], None).items()]
+                 for log, d in bc.diagnose([p for p, _ in rows], None).items()]
         for name, cal, prows in _profiles(set_name, rows):
             for adapt in (False, True) if args.adapted and name in ADAPTED else (False,):
                 prof = _calibrate(name, cal, profiles, adapt)
@@ -152,7 +126,7 @@ def run(args) -> list[dict]:
                 logs = [p for p, _ in prows if p.resolve() not in cal_r]
                 ptruth = {str(p): t for p, t in prows}
                 recs += [record(d, set=set_name, profile=prof_name(name, adapt), truth=ptruth[log])
-                         for log, d in _diagnose(logs, prof).items()]
+                         for log, d in bc.diagnose(logs, prof).items()]
         print(f"{set_name}: done ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
     return recs
 
